@@ -1,0 +1,111 @@
+"""Reading and checking TOML parameter files (robots, clearance sets, calibrations).
+
+Every problem raises :class:`~pmaccuracy.errors.ConfigError` naming the file,
+the key (``legs[2].d``) and what is wrong, so that the CLI can print one line.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigError
+
+
+def preset_names(suffix: str) -> list[str]:
+    """Names of the packaged TOML presets whose file name ends in ``suffix`` (e.g. ``"_3ppr.toml"``)."""
+    folder = resources.files("pmaccuracy") / "data"
+    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(suffix))
+
+
+def read_spec(spec: str | Path, *, kind: str, presets: list[str]) -> tuple[dict[str, Any], str]:
+    """Parse a preset name or a TOML file path.
+
+    Returns the parsed table and a short name of its source for messages.
+    """
+    text_spec = str(spec)
+    if text_spec in presets:
+        data = (resources.files("pmaccuracy") / "data" / f"{text_spec}.toml").read_text()
+        source = f"preset {text_spec}"
+    else:
+        path = Path(text_spec)
+        if not path.is_file():
+            raise ConfigError(
+                f"no {kind} preset or file of that name (presets: {', '.join(presets)})",
+                source=text_spec,
+            )
+        try:
+            data = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"cannot read file ({exc})", source=text_spec) from None
+        source = text_spec
+    return parse_text(data, source), source
+
+
+def parse_text(text: str, source: str) -> dict[str, Any]:
+    """Parse TOML text; a syntax error becomes a ConfigError with the parser's line and column."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"malformed TOML ({exc})", source=source) from None
+
+
+def number(table: dict[str, Any], key: str, *, source: str, where: str, default: float | None = None,
+           nonnegative: bool = False, positive: bool = False) -> float:
+    """A finite real number from ``table[key]`` (a missing key takes ``default`` if given)."""
+    name = f"{where}.{key}" if where else key
+    if key not in table:
+        if default is None:
+            raise ConfigError("missing", source=source, key=name)
+        return float(default)
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"must be a number, got {value!r}", source=source, key=name)
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"must be finite, got {value}", source=source, key=name)
+    if positive and value <= 0:
+        raise ConfigError(f"must be positive, got {value}", source=source, key=name)
+    if nonnegative and value < 0:
+        raise ConfigError(f"must not be negative, got {value}", source=source, key=name)
+    return value
+
+
+def interval(table: dict[str, Any], key: str, *, source: str, where: str) -> tuple[float, float]:
+    """A non-empty interval ``[lo, hi]`` of finite numbers with lo < hi."""
+    name = f"{where}.{key}" if where else key
+    if key not in table:
+        raise ConfigError("missing", source=source, key=name)
+    value = table[key]
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(f"must be a list [min, max], got {value!r}", source=source, key=name)
+    lo = number({"min": value[0]}, "min", source=source, where=name)
+    hi = number({"max": value[1]}, "max", source=source, where=name)
+    if not lo < hi:
+        raise ConfigError(f"empty range [{lo}, {hi}] (min must be below max)", source=source, key=name)
+    return lo, hi
+
+
+def legs_table(data: dict[str, Any], *, source: str) -> list[dict[str, Any]]:
+    """The ``[[legs]]`` array of tables; exactly three are required for a 3-PPR."""
+    legs = data.get("legs")
+    if legs is None:
+        raise ConfigError("missing [[legs]] tables (exactly three are needed)", source=source, key="legs")
+    if not isinstance(legs, list) or not all(isinstance(leg, dict) for leg in legs):
+        raise ConfigError("must be an array of tables [[legs]]", source=source, key="legs")
+    if len(legs) != 3:
+        raise ConfigError(f"exactly three [[legs]] are needed, found {len(legs)}", source=source, key="legs")
+    return legs
+
+
+def reject_unknown(table: dict[str, Any], allowed: set[str], *, source: str, where: str) -> None:
+    """Unknown keys are almost always typos (``alpha`` for ``alpha_deg``): refuse them."""
+    for key in table:
+        if key not in allowed:
+            name = f"{where}.{key}" if where else key
+            hint = " (angles are given in degrees as <name>_deg)" if f"{key}_deg" in allowed else ""
+            raise ConfigError(f"unknown key{hint}; expected one of {', '.join(sorted(allowed))}",
+                              source=source, key=name)

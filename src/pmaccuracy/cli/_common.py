@@ -1,0 +1,164 @@
+"""Shared argument types and output formatting of the CLI commands."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, PmAccuracyError
+from ..geometry import Manipulator
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite real number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1: {text!r}")
+    return value
+
+
+def add_robot(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robot", default="aalborg_3ppr",
+                        help="preset name (aalborg_3ppr, symmetric_3ppr) or path to a robot TOML file "
+                             "(default: aalborg_3ppr)")
+
+
+def add_format(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--format", choices=("table", "json", "csv"), default="table",
+                        help="output format on stdout (default: table)")
+
+
+def load_robot(args: argparse.Namespace) -> Manipulator:
+    return Manipulator.load(args.robot)
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars/arrays to JSON-able Python values; NaN becomes null."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in np.asarray(value, dtype=object).tolist()] if isinstance(value, np.ndarray) \
+            else [_plain(v) for v in value]
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return value if math.isfinite(value) else None
+    return value
+
+
+def _flat(record: dict[str, Any]) -> dict[str, Any]:
+    """Flatten lists and nested dicts for csv/table: ``s: [1,2,3]`` -> ``s1, s2, s3``."""
+    out: dict[str, Any] = {}
+    for key, value in record.items():
+        if isinstance(value, dict):
+            for k2, v2 in _flat(value).items():
+                out[f"{key}.{k2}"] = v2
+        elif isinstance(value, (list, tuple)):
+            for i, v in enumerate(value, start=1):
+                out[f"{key}{i}"] = v
+        else:
+            out[key] = value
+    return out
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return "nan"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def emit(data: Any, fmt: str, *, records: Sequence[dict[str, Any]] | None = None, stream=None) -> None:
+    """Write ``data`` as JSON, or ``records`` (default: ``data`` if it is a list) as CSV or an aligned table."""
+    stream = stream or sys.stdout
+    data = _plain(data)
+    if fmt == "json":
+        json.dump(data, stream, indent=2)
+        stream.write("\n")
+        return
+    rows = [_flat(r) for r in (_plain(records) if records is not None else data if isinstance(data, list)
+                              else [data])]
+    columns: list[str] = []
+    for row in rows:
+        columns.extend(k for k in row if k not in columns)
+    if fmt == "csv":
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _cell(row.get(k)) for k in columns})
+        stream.write(buf.getvalue())
+        return
+    cells = [[_cell(row.get(k, "")) for k in columns] for row in rows]
+    widths = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(columns)]
+    stream.write("  ".join(c.rjust(w) for c, w in zip(columns, widths)) + "\n")
+    for r in cells:
+        stream.write("  ".join(v.rjust(w) for v, w in zip(r, widths)) + "\n")
+
+
+def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -> np.ndarray:
+    """Poses ``(N, 3)`` [mm, mm, rad] from repeated ``--pose X Y PHI_DEG`` or a CSV ``x,y,phi_deg``."""
+    if bool(pose_args) == bool(csv_path):
+        raise PmAccuracyError("give poses with --pose X Y PHI_DEG (repeatable) or --poses-csv FILE, not both")
+    if pose_args:
+        arr = np.array(pose_args, dtype=float)
+    else:
+        arr = read_poses_csv(csv_path)
+    arr[:, 2] = np.radians(arr[:, 2])
+    return arr
+
+
+def read_poses_csv(path: str) -> np.ndarray:
+    """A CSV with header ``x,y,phi_deg`` (mm, mm, deg) -> ``(N, 3)`` in mm, mm, deg."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            header = [h.strip() for h in next(reader, [])]
+            if header != ["x", "y", "phi_deg"]:
+                raise ConfigError(f"header must be 'x,y,phi_deg', got {','.join(header)!r}", source=path)
+            rows = []
+            for lineno, row in enumerate(reader, start=2):
+                if not row or all(not c.strip() for c in row):
+                    continue
+                if len(row) != 3:
+                    raise ConfigError(f"expected 3 values, got {len(row)}", source=path, key=f"line {lineno}")
+                try:
+                    values = [float(c) for c in row]
+                except ValueError:
+                    raise ConfigError(f"non-numeric value in {row}", source=path, key=f"line {lineno}") from None
+                if not all(math.isfinite(v) for v in values):
+                    raise ConfigError(f"non-finite value in {row}", source=path, key=f"line {lineno}")
+                rows.append(values)
+    except FileNotFoundError:
+        raise ConfigError("no such file", source=path) from None
+    except UnicodeDecodeError:
+        raise ConfigError("not a text CSV file", source=path) from None
+    if not rows:
+        raise ConfigError("no poses in file", source=path)
+    return np.array(rows, dtype=float)
