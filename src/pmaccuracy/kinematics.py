@@ -16,8 +16,9 @@ from .geometry import Manipulator, perp, unit
 #: A pose computed on the workspace boundary must count as inside: joint limits get this slack (mm).
 LIMIT_TOLERANCE = 1e-9
 #: Poses whose homogenized A (Eq. 4a) has a larger condition number are refused as (near-)singular.
-#: At 1e4 the first-order error bounds are amplified 10^4 times: the linear model no longer means anything.
-DEFAULT_MAX_CONDITION = 1e4
+#: 100 (a dexterity 1/cond below 0.01) refuses aalborg_3ppr within about 1 deg of phi = +-90 deg, where the
+#: first-order bounds are already amplified ~20 times over phi = 0 and the linear model stops being meaningful.
+DEFAULT_MAX_CONDITION = 100.0
 
 
 def as_poses(poses: np.ndarray | list, *, name: str = "pose") -> np.ndarray:
@@ -217,74 +218,127 @@ def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.nda
     return A, B
 
 
+def inverse_3x3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse and determinant of a batch of 3x3 matrices ``(..., 3, 3)`` by cofactors.
+
+    Unlike ``np.linalg.inv`` it never raises: an exactly singular matrix gives
+    non-finite entries, which the callers refuse.
+    """
+    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
+    d, e, f = M[..., 1, 0], M[..., 1, 1], M[..., 1, 2]
+    g, h, i = M[..., 2, 0], M[..., 2, 1], M[..., 2, 2]
+    cof = np.stack([
+        np.stack([e * i - f * h, c * h - b * i, b * f - c * e], axis=-1),
+        np.stack([f * g - d * i, a * i - c * g, c * d - a * f], axis=-1),
+        np.stack([d * h - e * g, b * g - a * h, a * e - b * d], axis=-1),
+    ], axis=-2)
+    det = a * cof[..., 0, 0] + b * cof[..., 1, 0] + c * cof[..., 2, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return cof / det[..., None, None], det
+
+
 @dataclass(frozen=True)
 class Singularity:
     """Distance to the parallel singularity ``det A = 0``.
 
     det : ``(...)`` mm, determinant of A (its third column is a length).
-    condition : ``(...)`` 2-norm condition number of A with its third column
-        divided by :attr:`Manipulator.characteristic_length` (dimensionless, >= 1).
+    condition : ``(...)`` 1-norm condition number ``||A_h||_1 ||A_h^-1||_1`` of
+        A with its third column divided by :attr:`Manipulator.characteristic_length`
+        (dimensionless, >= 1; ``inf`` where A is exactly singular).
+
+    For a 3-PPR the first two columns of A are constant (``E w_i``) and the
+    third depends on phi only, so the singularity is a set of orientations
+    (phi = +-90 deg for both presets), whatever x and y.
     """
 
     det: np.ndarray
     condition: np.ndarray
 
 
+def _condition(robot: Manipulator, A: np.ndarray, A_inv: np.ndarray) -> np.ndarray:
+    L = robot.characteristic_length
+    scale = np.array([1.0, 1.0, 1.0 / L])
+    norm_Ah = np.max(np.sum(np.abs(A * scale), axis=-2), axis=-1)
+    norm_Ah_inv = np.max(np.sum(np.abs(A_inv / scale[:, None]), axis=-2), axis=-1)
+    cond = norm_Ah * norm_Ah_inv
+    return np.where(np.isfinite(cond), cond, np.inf)
+
+
 def singularity(robot: Manipulator, poses: np.ndarray) -> Singularity:
     """det A and the condition number of the homogenized A at each pose (Eq. 4a)."""
     A, _ = jacobians(robot, poses)
-    Ah = A.copy()
-    Ah[..., 2] /= robot.characteristic_length
-    # cond = inf when A is exactly singular (numpy returns a huge finite or inf; both refused).
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sv = np.linalg.svd(Ah, compute_uv=False)
-        cond = np.where(sv[..., -1] > 0, sv[..., 0] / sv[..., -1], np.inf)
-    return Singularity(det=np.linalg.det(A), condition=cond)
+    A_inv, det = inverse_3x3(A)
+    return Singularity(det=det, condition=_condition(robot, A, A_inv))
 
 
 def regular_mask(robot: Manipulator, poses: np.ndarray, max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
     """True where the pose is far enough from the parallel singularity (condition <= max_condition)."""
-    cond = singularity(robot, poses).condition
-    return np.isfinite(cond) & (cond <= max_condition)
+    return singularity(robot, poses).condition <= max_condition
+
+
+def _raise_singular(robot: Manipulator, poses: np.ndarray, ok: np.ndarray, cond: np.ndarray,
+                    max_condition: float) -> None:
+    idx = tuple(int(i) for i in np.argwhere(~ok)[0])
+    x, y, phi = poses[idx]
+    raise SingularPoseError(
+        f"pose (x={x:g} mm, y={y:g} mm, phi={np.degrees(phi):g} deg) is at or near a parallel "
+        f"singularity (det A ~ 0, condition number {float(cond[idx]):.3g} > {max_condition:g})")
 
 
 def require_regular(robot: Manipulator, poses: np.ndarray, max_condition: float = DEFAULT_MAX_CONDITION) -> None:
     """Raise :class:`SingularPoseError` naming the first pose at or near det A = 0."""
     poses = as_poses(poses)
-    ok = regular_mask(robot, poses, max_condition)
+    cond = singularity(robot, poses).condition
+    ok = cond <= max_condition
     if not np.all(ok):
-        idx = tuple(int(i) for i in np.argwhere(~ok)[0])
-        x, y, phi = poses[idx]
-        cond = singularity(robot, poses[idx]).condition
-        raise SingularPoseError(
-            f"pose (x={x:g} mm, y={y:g} mm, phi={np.degrees(phi):g} deg) is at or near a parallel "
-            f"singularity (det A ~ 0, condition number {float(cond):.3g} > {max_condition:g})")
+        _raise_singular(robot, poses, ok, cond, max_condition)
+
+
+def regular_inverse(robot: Manipulator, A: np.ndarray, poses: np.ndarray,
+                    max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
+    """``A^-1`` ``(..., 3, 3)``, raising :class:`SingularPoseError` where A is (nearly) singular."""
+    A_inv, _ = inverse_3x3(A)
+    cond = _condition(robot, A, A_inv)
+    ok = cond <= max_condition
+    if not np.all(ok):
+        _raise_singular(robot, poses, ok, cond, max_condition)
+    return A_inv
+
+
+def check_within_limits(robot: Manipulator, poses: np.ndarray, ik: IKSolution,
+                        tol: float = LIMIT_TOLERANCE) -> None:
+    """Raise :class:`OutsideJointLimitsError` naming the first pose outside the ranges, and its joints.
+
+    ``ik`` is anything with ``s``, ``l`` and ``within_limits`` (an :class:`IKSolution`
+    or a :class:`pmaccuracy.error_model.PoseState`).
+    """
+    if np.all(ik.within_limits):
+        return
+    idx = tuple(int(i) for i in np.argwhere(~ik.within_limits)[0])
+    x, y, phi = np.asarray(poses, float)[idx]
+    s, l = ik.s[idx], ik.l[idx]
+    parts = []
+    for i in range(3):
+        lo, hi = robot.s_range[i]
+        if not lo - tol <= s[i] <= hi + tol:
+            parts.append(f"s{i + 1}={s[i]:.4g} mm not in [{lo:g}, {hi:g}]")
+        lo, hi = robot.l_range[i]
+        if not lo - tol <= l[i] <= hi + tol:
+            parts.append(f"l{i + 1}={l[i]:.4g} mm not in [{lo:g}, {hi:g}]")
+    raise OutsideJointLimitsError(
+        f"pose (x={x:g} mm, y={y:g} mm, phi={np.degrees(phi):g} deg) is outside the joint ranges: "
+        + ", ".join(parts))
 
 
 def require_within_limits(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT_TOLERANCE) -> IKSolution:
     """Inverse kinematics, raising :class:`OutsideJointLimitsError` for the first pose outside the ranges."""
     ik = inverse_kinematics(robot, poses, tol)
-    if not np.all(ik.within_limits):
-        idx = tuple(int(i) for i in np.argwhere(~ik.within_limits)[0])
-        x, y, phi = np.asarray(poses, float)[idx]
-        s, l = ik.s[idx], ik.l[idx]
-        parts = []
-        for i in range(3):
-            lo, hi = robot.s_range[i]
-            if not lo - tol <= s[i] <= hi + tol:
-                parts.append(f"s{i + 1}={s[i]:.4g} mm not in [{lo:g}, {hi:g}]")
-            lo, hi = robot.l_range[i]
-            if not lo - tol <= l[i] <= hi + tol:
-                parts.append(f"l{i + 1}={l[i]:.4g} mm not in [{lo:g}, {hi:g}]")
-        raise OutsideJointLimitsError(
-            f"pose (x={x:g} mm, y={y:g} mm, phi={np.degrees(phi):g} deg) is outside the joint ranges: "
-            + ", ".join(parts))
+    check_within_limits(robot, poses, ik, tol)
     return ik
 
 
 def kinematic_jacobian(robot: Manipulator, poses: np.ndarray,
                        max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
     """``J = A^-1 B`` (Eq. 5), ``(..., 3, 3)``: ``[dx, dy, dphi] = J ds``. Refuses singular poses."""
-    require_regular(robot, poses, max_condition)
     A, B = jacobians(robot, poses)
-    return np.linalg.solve(A, B)
+    return regular_inverse(robot, A, poses, max_condition) @ B

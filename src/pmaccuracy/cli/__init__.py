@@ -57,6 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     except PmAccuracyError as exc:
         print(f"pmaccuracy {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into e.g. `head`: not an error of ours
+        sys.stderr.close()
+        return 0
     except OSError as exc:
         print(f"pmaccuracy {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
