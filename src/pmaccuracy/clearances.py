@@ -141,7 +141,7 @@ class ClearanceSet:
                     columns[key].append(_tomlio.number(table, key, source=source, where=where, default=default,
                                                        nonnegative=True, positive=key == "guide_block_length"))
                 except ConfigError as exc:
-                    raise ClearanceError(str(exc).split(": ")[-1], source=source, key=exc.key) from None
+                    raise ClearanceError(exc.message, source=source, key=exc.key) from None
         name = data.get("name", Path(source).stem)
         return cls(**columns, name=str(name), description=str(data.get("description", "")))
 

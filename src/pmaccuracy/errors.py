@@ -16,6 +16,7 @@ class ConfigError(PmAccuracyError, ValueError):
     """A parameter file or value is malformed: names the file, the key and the problem."""
 
     def __init__(self, message: str, *, source: str | None = None, key: str | None = None):
+        self.message = message
         self.source = source
         self.key = key
         where = ": ".join(part for part in (source, key) if part)

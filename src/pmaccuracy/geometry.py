@@ -170,7 +170,7 @@ class Manipulator:
         try:
             return cls(legs=tuple(legs), name=name, description=str(data.get("description", "")))
         except GeometryError as exc:
-            raise GeometryError(str(exc).split(": ", 1)[-1], source=source, key=exc.key) from None
+            raise GeometryError(exc.message, source=source, key=exc.key) from None
 
     def to_dict(self) -> dict[str, Any]:
         """The TOML table of this robot (degrees in ``*_deg`` keys)."""
