@@ -1,0 +1,434 @@
+"""The paper's reproduction report: ``pmaccuracy reproduce --out DIR`` (what ``make demo`` runs).
+
+Writes into ``DIR``: ``report.html`` (self-contained), ``report.md``, the PNG
+figures, the NetCDF maps and ``results.json``::
+
+    {"cases": {"case1": {"0": {"dx_max": [min, max], "dy_max": [...], "dphi_max_deg": [...],
+                               "dp_max": [...]}, "30": {...}},
+               "case2": {...}},
+     "paper_check": [...], "sources": {...}, "assembly": {...}, "design": {...}, ...}
+
+(orientation keys in degrees; values in mm and deg).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__, figures
+from .bounds import max_pose_errors
+from .clearances import ClearanceSet
+from .document import Document
+from .error_model import assembly_errors, pose_error
+from .geometry import Manipulator
+from .kinematics import inverse_kinematics
+from .maps import MAP_VARIABLES, error_map, save_map, summarize
+from .nonlinear import displaced_pose_error
+from .workspace import constant_orientation_workspace, save_workspace_figure
+
+#: Orientations of the paper's experiments (deg).
+PAPER_PHIS_DEG = (0.0, 30.0)
+#: Orientations of the workspace figure (Fig. 3 analogue, deg).
+WORKSPACE_PHIS_DEG = (0.0, 30.0, -30.0)
+_JSON_KEYS = {"dx_max": "dx_max", "dy_max": "dy_max", "dphi_max": "dphi_max_deg", "dp_max": "dp_max"}
+
+
+@dataclass(frozen=True)
+class PaperValue:
+    """A simulated value the paper reports (Sec. 6.1): a range [lo, hi] of one quantity over the workspace."""
+
+    case: str
+    phi_deg: float
+    quantity: str  # key of results.json: dx_max, dy_max, dphi_max_deg, dp_max
+    lo: float
+    hi: float
+    where: str
+
+
+#: Every simulated value the paper reports (the phi = 30 deg ranges are withheld from our copy).
+PAPER_SIMULATED = (
+    PaperValue("case1", 0.0, "dx_max", 0.196, 0.256, "Sec. 6.1, Fig. 9(a)"),
+    PaperValue("case1", 0.0, "dy_max", 0.100, 0.100, "Sec. 6.1: constant"),
+    PaperValue("case1", 0.0, "dphi_max_deg", 0.221, 0.221, "Sec. 6.1: constant"),
+)
+#: Measured figures of the paper (Sec. 6), shown for context: RMSD (dx, dy, dp in um; dphi in deg).
+PAPER_RMSD = {("case1", 0.0): (50, 30, 51, 0.057), ("case1", 30.0): (47, 34, 34, 0.103),
+              ("case2", 0.0): (77, 62, 81, 0.086), ("case2", 30.0): (26, 36, 34, 0.063)}
+TOLERANCE = 0.01  # 1 % acceptance on the reported values
+
+
+def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", grid: int = 101, *,
+              seed: int = 0, experiment: bool = True) -> dict:
+    """Build the whole reproduction report in ``out_dir`` and return ``results.json``'s content."""
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    robot = Manipulator.load(robot)
+    phis = np.radians(PAPER_PHIS_DEG)
+    doc = Document(f"pmaccuracy: accuracy of the {robot.name} 3-PPR manipulator with joint clearances")
+    results: dict = {"robot": robot.name, "version": __version__, "grid": grid}
+
+    # ---------------------------------------------------------------- maps of the two cases
+    cases = {}
+    maps = {}
+    for case in ("case1", "case2"):
+        ds = error_map(robot, case, phis, grid)
+        save_map(ds, out / f"map_{case}.nc")
+        maps[case] = ds
+        cases[case] = summarize(ds)
+    results["cases"] = cases
+    check = _paper_check(cases)
+    results["paper_check"] = check
+
+    _summary(doc, robot, cases, check)
+    _robot_section(doc, robot, out, results)
+    _maps_section(doc, maps, out)
+    _paper_section(doc, check)
+    _sources_section(doc, robot, phis, grid, out, results)
+    _assembly_section(doc, robot, phis, grid, out, results)
+    _design_section(doc, robot, phis, grid, out, results)
+    if experiment:
+        _experiment_section(doc, robot, out, results, seed)
+    results["elapsed_s"] = round(time.perf_counter() - t0, 2)
+    _method_section(doc, results)
+
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    (out / "report.md").write_text(doc.to_markdown(relative_to=out))
+    (out / "report.html").write_text(doc.to_html())
+    return results
+
+
+# ---------------------------------------------------------------------------- sections
+def _summary(doc: Document, robot: Manipulator, cases: dict, check: list[dict]) -> None:
+    n_ok = sum(c["pass"] for c in check)
+    c1, c2 = cases["case1"], cases["case2"]
+    doc.paragraph(
+        f"This report reproduces the error analysis of Wu, Bai, Kepler and Caro (ASME J. Mechanisms Robotics, "
+        f"2012) for the robot `{robot.name}` with exact worst-case bounds instead of the paper's local "
+        f"optimization. Lengths in mm, angles in degrees.")
+    doc.bullets([
+        f"**Paper check**: {n_ok} of {len(check)} simulated values the paper reports are reproduced within "
+        f"{TOLERANCE:.0%} ({'PASS' if n_ok == len(check) else 'FAIL'}).",
+        f"**Case 1** (bearings only): worst position error dp_max {c1['0']['dp_max'][0]:.3f}-"
+        f"{c1['0']['dp_max'][1]:.3f} mm at phi = 0 and {c1['30']['dp_max'][0]:.3f}-{c1['30']['dp_max'][1]:.3f} mm "
+        f"at phi = 30 deg; orientation error {c1['0']['dphi_max_deg'][1]:.3f} and "
+        f"{c1['30']['dphi_max_deg'][1]:.3f} deg.",
+        f"**Case 2** (bearings + revolute joints): dp_max up to {c2['0']['dp_max'][1]:.3f} mm (phi = 0) and "
+        f"{c2['30']['dp_max'][1]:.3f} mm (phi = 30 deg); dphi_max {c2['0']['dphi_max_deg'][1]:.3f} and "
+        f"{c2['30']['dphi_max_deg'][1]:.3f} deg.",
+        _orientation_trend(cases),
+    ])
+
+
+def _orientation_trend(cases: dict) -> str:
+    """Whether the worst errors grow from phi = 0 to 30 deg, as the paper's measurements do (Sec. 6.3)."""
+    grows = [cases[c]["30"][q][1] > cases[c]["0"][q][1] for c in cases for q in ("dp_max", "dphi_max_deg")]
+    if all(grows):
+        return ("The worst position and orientation errors are larger at phi = 30 deg than at phi = 0 in both "
+                "cases, as the paper's measurements show (Sec. 6.3).")
+    return ("Unlike the paper's measurements (Sec. 6.3), the worst errors do not all grow from phi = 0 to "
+            "30 deg for this robot.")
+
+
+def _robot_section(doc: Document, robot: Manipulator, out: Path, results: dict) -> None:
+    doc.heading("1. The manipulator and its workspace")
+    doc.paragraph(
+        "Geometry in the paper's notation (Eq. 1). The paper's Table 1 is missing from the available text: "
+        "the preset `aalborg_3ppr` is a **reconstruction** that makes the paper's error model reproduce every "
+        "simulated value the paper reports (see `shared/reference/aalborg_3ppr.md`)."
+        if robot.name == "aalborg_3ppr" else f"Geometry of `{robot.name}` in the paper's notation (Eq. 1).")
+    rows = [[i + 1, leg.a, np.degrees(leg.alpha), np.degrees(leg.beta), np.degrees(leg.gamma),
+             np.degrees(leg.theta), leg.d, leg.r, np.degrees(leg.psi), f"[{leg.s_range[0]:g}, {leg.s_range[1]:g}]",
+             f"[{leg.l_range[0]:g}, {leg.l_range[1]:g}]"] for i, leg in enumerate(robot.legs)]
+    doc.table(["leg", "a", "alpha", "beta", "gamma", "theta", "d", "r", "psi", "s range", "l range"], rows)
+    path = save_workspace_figure(robot, out / "workspace.png", phis_deg=WORKSPACE_PHIS_DEG)
+    ws_rows, ws_json = [], {}
+    for phi_deg in WORKSPACE_PHIS_DEG:
+        ws = constant_orientation_workspace(robot, np.radians(phi_deg))
+        (x0, x1), (y0, y1) = ws.bounds
+        ws_rows.append([f"{phi_deg:g}", ws.area, f"[{x0:.2f}, {x1:.2f}]", f"[{y0:.2f}, {y1:.2f}]",
+                        len(ws.vertices)])
+        ws_json[f"{phi_deg:g}"] = {"area": ws.area, "bounds": {"x": [x0, x1], "y": [y0, y1]}}
+    results["workspace"] = ws_json
+    doc.paragraph("At constant orientation every joint limit is a half-plane in (x, y), so each workspace is an "
+                  "exact convex polygon (Sec. 3):")
+    doc.table(["phi [deg]", "area [mm^2]", "x range [mm]", "y range [mm]", "vertices"], ws_rows)
+    doc.figure(path, "Constant-orientation workspaces (paper Fig. 3 analogue) with the base, the guides and the "
+                     "platform at the centre of the phi = 0 workspace.")
+
+
+def _maps_section(doc: Document, maps: dict, out: Path) -> None:
+    doc.heading("2. Maximum pose errors over the workspace (Figs. 9-12)")
+    doc.paragraph("Exact worst cases (Eq. 21-22) at every point of a regular grid. Case 1: clearance of the "
+                  "linear bearings only (eps_theta = 0.0012 rad). Case 2: plus the revolute joints "
+                  "(eps_r = 0.039, 0.036, 0.037 mm). The linear guides are neglected, as in the paper.")
+    rows = []
+    for case, ds in maps.items():
+        for phi, ranges in summarize(ds).items():
+            rows.append([case, phi] + [f"{ranges[_JSON_KEYS[v]][0]:.4f} - {ranges[_JSON_KEYS[v]][1]:.4f}"
+                                       for v in MAP_VARIABLES])
+    doc.table(["case", "phi [deg]", "dx_max [mm]", "dy_max [mm]", "dphi_max [deg]", "dp_max [mm]"], rows)
+    for case, ds in maps.items():
+        for phi in ds.phi.values:
+            fig = figures.plot_error_map(ds, float(phi), title=f"{case}: maximum pose errors at phi = {phi:g} deg")
+            path = figures.save(fig, out / f"map_{case}_phi{phi:g}.png")
+            doc.figure(path, f"{case}, phi = {phi:g} deg: dx_max, dy_max, dp_max (mm) and dphi_max (deg).")
+
+
+def _paper_check(cases: dict) -> list[dict]:
+    rows = []
+    for pv in PAPER_SIMULATED:
+        lo, hi = cases[pv.case][f"{pv.phi_deg:g}"][pv.quantity]
+        err = max(abs(lo - pv.lo) / pv.lo, abs(hi - pv.hi) / pv.hi)
+        rows.append({"case": pv.case, "phi_deg": pv.phi_deg, "quantity": pv.quantity, "paper": [pv.lo, pv.hi],
+                     "predicted": [lo, hi], "relative_error": err, "pass": bool(err <= TOLERANCE),
+                     "source": pv.where})
+    return rows
+
+
+def _paper_section(doc: Document, check: list[dict]) -> None:
+    doc.heading("3. Comparison with the values the paper reports")
+    rows = [[c["case"], f"{c['phi_deg']:g}", c["quantity"], _range(c["paper"], 3), _range(c["predicted"], 4),
+             f"{100 * c['relative_error']:.2f} %", "PASS" if c["pass"] else "FAIL", c["source"]] for c in check]
+    doc.table(["case", "phi [deg]", "quantity", "paper", "predicted", "difference", f"within {TOLERANCE:.0%}",
+               "where"], rows)
+    doc.paragraph("The paper withholds (from our copy) its simulated ranges at phi = 30 deg and for Case 2; the "
+                  "values in section 2 are this model's predictions for them. The paper's measured RMSD "
+                  "between simulation and experiment are listed in the experiment section for context.")
+
+
+def _sources_section(doc: Document, robot: Manipulator, phis: np.ndarray, grid: int, out: Path,
+                     results: dict) -> None:
+    doc.heading("4. Which clearance matters")
+    full = ClearanceSet.load("all")
+    sets = {"bearings": full.only("bearing"), "revolute joints": full.only("revolute"),
+            "linear guides": full.only("guide"), "case2 (paper)": ClearanceSet.load("case2"), "all three": full}
+    rows, src_json = [], {}
+    for label, cs in sets.items():
+        ds = error_map(robot, cs, phis, grid)
+        summ = summarize(ds)
+        src_json[label] = summ
+        for phi, ranges in summ.items():
+            rows.append([label, phi] + [ranges[_JSON_KEYS[v]][1] for v in MAP_VARIABLES])
+    results["sources"] = src_json
+    doc.paragraph("Largest value over the workspace of each bound with one clearance source at a time "
+                  "(`all` preset values: eps_theta = 0.0012 rad, eps_r = 0.039/0.036/0.037 mm, linear guides "
+                  "2 eps_g = 3 um with an assumed 50 mm block):")
+    doc.table(["clearances", "phi [deg]", "max dx_max [mm]", "max dy_max [mm]", "max dphi_max [deg]",
+               "max dp_max [mm]"], rows)
+    b, r, g = (src_json[k]["0"]["dp_max"][1] for k in ("bearings", "revolute joints", "linear guides"))
+    c2, al = src_json["case2 (paper)"], src_json["all three"]
+    change = max(abs(al[p]["dp_max"][1] - c2[p]["dp_max"][1]) / c2[p]["dp_max"][1] for p in c2)
+    change_phi = max(abs(al[p]["dphi_max_deg"][1] - c2[p]["dphi_max_deg"][1]) / c2[p]["dphi_max_deg"][1] for p in c2)
+    results["guides_neglect_change"] = {"dp_max": change, "dphi_max_deg": change_phi}
+    doc.paragraph(
+        f"At phi = 0 the bearings alone allow up to {b:.3f} mm, the revolute joints alone {r:.3f} mm and the "
+        f"guides alone {g:.4f} mm: the **bearings dominate**, as the paper concludes (Sec. 7). Because each "
+        "leg's half-width c_i is the sum of its sources' contributions, dx_max, dy_max and dphi_max are exactly "
+        "additive over sources, and dp_max is sub-additive. **Neglecting the linear guides** (paper Sec. 4.3) "
+        f"underestimates dp_max by at most {100 * change:.1f} % and dphi_max by at most {100 * change_phi:.1f} % "
+        "over these workspaces.")
+
+
+def _assembly_section(doc: Document, robot: Manipulator, phis: np.ndarray, grid: int, out: Path,
+                      results: dict) -> None:
+    doc.heading("5. Pose offset caused by the measured assembly errors (Table 2)")
+    variations = assembly_errors()
+    doc.table(["leg", "dbeta [rad]", "dgamma_a [rad]", "dtheta_a [rad]", "dd_a [mm]"],
+              [[i + 1, variations.get("beta", np.zeros(3))[i], variations.get("gamma", np.zeros(3))[i],
+                variations.get("theta", np.zeros(3))[i], variations.get("d", np.zeros(3))[i]] for i in range(3)])
+    rows, asm_json, panels = [], {}, []
+    for phi in phis:
+        ws = constant_orientation_workspace(robot, float(phi)).require_nonempty()
+        x, y, inside = ws.grid(grid)
+        X, Y = np.meshgrid(x, y)
+        poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1)[inside]
+        lin = pose_error(robot, poses, variations)
+        exact = displaced_pose_error(robot, poses, variations=variations)
+        key = f"{np.degrees(phi):g}"
+        asm_json[key] = {
+            "dx": [float(lin[:, 0].min()), float(lin[:, 0].max())],
+            "dy": [float(lin[:, 1].min()), float(lin[:, 1].max())],
+            "dphi_deg": [float(np.degrees(lin[:, 2]).min()), float(np.degrees(lin[:, 2]).max())],
+            "max_first_order_vs_exact": {"position_mm": float(np.hypot(*(lin - exact)[:, :2].T).max()),
+                                         "orientation_deg": float(np.degrees(np.abs(lin - exact)[:, 2]).max())}}
+        a = asm_json[key]
+        rows.append([key, _range(a["dx"], 3), _range(a["dy"], 3), _range(a["dphi_deg"], 3),
+                     a["max_first_order_vs_exact"]["position_mm"], a["max_first_order_vs_exact"]["orientation_deg"]])
+        if np.isclose(phi, 0.0):
+            for j, (name, units, conv) in enumerate((("dx", "mm", 1.0), ("dy", "mm", 1.0),
+                                                     ("dphi", "deg", np.degrees(1.0)))):
+                Z = np.full(X.shape, np.nan)
+                Z[inside] = lin[:, j] * conv
+                panels.append((x, y, Z, f"{name} offset at phi = 0", units))
+    results["assembly"] = asm_json
+    doc.paragraph("First-order offsets (Eq. 14) over each workspace, and the largest difference from the exact "
+                  "nonlinear loop closure with the same errors:")
+    doc.table(["phi [deg]", "dx [mm]", "dy [mm]", "dphi [deg]", "first-order vs exact, position [mm]",
+               "orientation [deg]"], rows)
+    fig = figures.plot_panels(panels, suptitle="Pose offset due to the assembly errors of Table 2 (phi = 0)")
+    doc.figure(figures.save(fig, out / "assembly_offset_phi0.png"),
+               "Offsets caused by the Table 2 assembly errors at phi = 0 (first order). They are systematic and "
+               "an order of magnitude larger than the clearance errors: calibration removes them, "
+               "clearances it cannot (Sec. 1).")
+
+
+def _design_section(doc: Document, robot: Manipulator, phis: np.ndarray, grid: int, out: Path,
+                    results: dict) -> None:
+    other_name = "symmetric_3ppr" if robot.name != "symmetric_3ppr" else "aalborg_3ppr"
+    other = Manipulator.preset(other_name)
+    doc.heading(f"6. Design comparison: {robot.name} vs {other_name}")
+    rows, design_json, panels = [], {}, []
+    for case in ("case1", "case2"):
+        cs = ClearanceSet.load(case)
+        for phi in phis:
+            key = f"{np.degrees(phi):g}"
+            stats = {}
+            grids = {}
+            for rb in (robot, other):
+                ws = constant_orientation_workspace(rb, float(phi))
+                ds = error_map(rb, cs, phi, grid)
+                layer = ds.isel(phi=0)
+                stats[rb.name] = {"area": ws.area,
+                                  "dp_max_mean": float(layer.dp_max.mean()), "dp_max_max": float(layer.dp_max.max()),
+                                  "dphi_max_mean": float(layer.dphi_max.mean()),
+                                  "dphi_max_max": float(layer.dphi_max.max())}
+                grids[rb.name] = layer
+                if case == "case2":
+                    panels.append((layer.x.values, layer.y.values, layer.dp_max.values,
+                                   f"{rb.name}, phi = {key}", "dp_max [mm]"))
+            common = _common_region(robot, other, cs, float(phi), grid)
+            stats["common_region"] = common
+            design_json.setdefault(case, {})[key] = stats
+            a, b = stats[robot.name], stats[other.name]
+            rows.append([case, key, f"{a['area']:.0f} / {b['area']:.0f}", f"{a['dp_max_mean']:.3f} / {b['dp_max_mean']:.3f}",
+                         f"{a['dp_max_max']:.3f} / {b['dp_max_max']:.3f}",
+                         f"{a['dphi_max_mean']:.3f} / {b['dphi_max_mean']:.3f}",
+                         f"{100 * common['share_first_better_dp']:.0f} %" if common["points"] else "n/a"])
+    results["design"] = design_json
+    doc.paragraph(f"Both robots with the same clearances (values `{robot.name} / {other_name}`); the last column "
+                  f"is the share of the positions reachable by both where {robot.name} has the smaller dp_max.")
+    doc.table(["case", "phi [deg]", "area [mm^2]", "mean dp_max [mm]", "max dp_max [mm]", "mean dphi_max [deg]",
+               f"{robot.name} better (common region)"], rows)
+    doc.paragraph(_design_reading(robot.name, other.name, design_json))
+    fig = figures.plot_panels(panels, suptitle="dp_max with case 2 clearances (common colour scale)",
+                              shared_scale=True, ncols=2)
+    doc.figure(figures.save(fig, out / "design_comparison.png"),
+               f"dp_max of {robot.name} (left) and {other_name} (right), case 2, at phi = 0 and 30 deg.")
+
+
+def _common_region(first: Manipulator, second: Manipulator, cs: ClearanceSet, phi: float, grid: int) -> dict:
+    """Compare two robots pointwise where both can reach (same grid, same clearances)."""
+    boxes = [constant_orientation_workspace(rb, phi).bounds for rb in (first, second)]
+    x = np.linspace(max(b[0][0] for b in boxes), min(b[0][1] for b in boxes), grid)
+    y = np.linspace(max(b[1][0] for b in boxes), min(b[1][1] for b in boxes), grid)
+    X, Y = np.meshgrid(x, y)
+    poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1).reshape(-1, 3)
+    both = inverse_kinematics(first, poses).within_limits & inverse_kinematics(second, poses).within_limits
+    if not both.any():
+        return {"points": 0}
+    pa = max_pose_errors(first, cs, poses[both])
+    pb = max_pose_errors(second, cs, poses[both])
+    return {"points": int(both.sum()),
+            "share_first_better_dp": float(np.mean(pa.dp_max < pb.dp_max)),
+            "share_first_better_dphi": float(np.mean(pa.dphi_max < pb.dphi_max)),
+            "mean_dp_ratio": float(np.mean(pa.dp_max / pb.dp_max))}
+
+
+def _design_reading(first: str, second: str, design: dict) -> str:
+    """A one-paragraph reading of the comparison, written from the numbers."""
+    cells = [(case, key, st) for case, by_phi in design.items() for key, st in by_phi.items()]
+    ratios = [st[first]["dp_max_mean"] / st[second]["dp_max_mean"] for _, _, st in cells]
+    phi_ratios = [st[first]["dphi_max_mean"] / st[second]["dphi_max_mean"] for _, _, st in cells]
+    shares = [st["common_region"]["share_first_better_dp"] for _, _, st in cells if st["common_region"]["points"]]
+    areas = {key: (st[first]["area"], st[second]["area"]) for case, key, st in cells if case == "case1"}
+    better, worse = (second, first) if np.mean(ratios) > 1 else (first, second)
+    spread = (min(ratios), max(ratios)) if better == second else (1 / max(ratios), 1 / min(ratios))
+    area_text = "; ".join(f"{a:.0f} vs {b:.0f} mm^2 at phi = {k} deg" for k, (a, b) in areas.items())
+    where = ""
+    if shares:
+        lo, hi = 100 * min(shares), 100 * max(shares)
+        span = f"{lo:.0f} %" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f} %"
+        where = f" Pointwise, where both robots reach, {first} has the smaller dp_max at {span} of the positions."
+    return (f"**Reading.** With equal clearances {better} is the more accurate design in position: its mean "
+            f"dp_max is {spread[0]:.2f}-{spread[1]:.2f} times smaller than {worse}'s in every case and "
+            f"orientation shown, and its mean dphi_max is {min(phi_ratios):.2f}-{max(phi_ratios):.2f} times "
+            f"{'smaller' if np.mean(phi_ratios) > 1 else 'larger'} ({first} / {second} ratio of "
+            f"{min(phi_ratios):.2f}-{max(phi_ratios):.2f}).{where} The workspaces differ: {first} vs {second}: "
+            f"{area_text}. The U-shaped base buys workspace (especially when rotated) at the price of accuracy: "
+            "its two parallel bearings (legs 1 and 2) alone fix y and phi, so their tilts reach x only through "
+            "the platform rotation and add to leg 3's own error, whereas the symmetric layout shares every "
+            "direction among three legs at 120 deg.")
+
+
+def _experiment_section(doc: Document, robot: Manipulator, out: Path, results: dict, seed: int) -> None:
+    from .experiment import virtual_experiment_section
+
+    doc.heading("7. Virtual experiment and comparison statistics (Sec. 5-6)")
+    doc.paragraph(
+        "A simulated rig repeats the paper's protocol: actuators locked, at each grid point the platform is pushed "
+        "both ways along x, y and in rotation; each push drives the clearances to the configuration that moves "
+        "the platform furthest that way, the pose is solved with the **exact** loop closure, and the camera adds "
+        "Gaussian noise (0.01 mm, 0.01 deg, the paper's stated accuracy). The measured errors are the ranges of "
+        "Eq. 23. The paper compares these ranges directly with the predicted one-sided maxima; since a range "
+        "spans both extremes, the width-consistent comparison is with **twice** the maxima.")
+    rows, exp_json = [], {}
+    for case in ("case1", "case2"):
+        sec = virtual_experiment_section(robot, case, np.radians(PAPER_PHIS_DEG), out / "experiment", grid=7,
+                                         seed=seed, prefix=f"{case}_")
+        exp_json[case] = sec
+        for orient in sec["orientations"]:
+            key = (case, float(orient["phi_deg"]))
+            r1, r2 = orient["rmsd"], orient["rmsd_width_consistent"]
+            paper = PAPER_RMSD.get(key)
+            rows.append([case, f"{orient['phi_deg']:g}", orient["n_points"],
+                         f"{1000 * r1['dx']:.0f} / {1000 * r1['dy']:.0f} / {1000 * r1['dp']:.0f} / {r1['dphi_deg']:.3f}",
+                         f"{1000 * r2['dx']:.0f} / {1000 * r2['dy']:.0f} / {1000 * r2['dp']:.0f} / {r2['dphi_deg']:.3f}",
+                         f"{paper[0]} / {paper[1]} / {paper[2]} / {paper[3]}" if paper else "n/a",
+                         " / ".join(f"{100 * v['share']:.0f}" for v in orient["band"]["width_consistent"].values())])
+        files = sec["files"]
+        for phi_deg in PAPER_PHIS_DEG:
+            tag = f"phi{phi_deg:g}"
+            if f"map_{tag}_x2" in files:
+                doc.figure(files[f"map_{tag}_x2"], f"{case}, phi = {phi_deg:g} deg: twice the predicted maxima "
+                                                   "with the simulated measured ranges (dots), as in Figs. 9-12.")
+        if "boxplot" in files:
+            doc.figure(files["boxplot"], f"{case}: box plots of the measured errors (Fig. 13 analogue).")
+        if f"accuracy_phi{PAPER_PHIS_DEG[-1]:g}" in files:
+            doc.figure(files[f"accuracy_phi{PAPER_PHIS_DEG[-1]:g}"],
+                       f"{case}: ISO 9283 position and orientation accuracy per point (Eq. 24, Fig. 14 analogue).")
+        if f"regression_phi{PAPER_PHIS_DEG[-1]:g}_x2" in files:
+            doc.figure(files[f"regression_phi{PAPER_PHIS_DEG[-1]:g}_x2"],
+                       f"{case}: predicted vs measured with the +-2A band (Fig. 15 analogue).")
+    doc.table(["case", "phi [deg]", "points", "RMSD vs max (paper's way): dx/dy/dp um, dphi deg",
+               "RMSD vs 2 x max: dx/dy/dp um, dphi deg", "paper's measured RMSD", "2 x max within +-2A of measured, dx/dy/dp/dphi %"], rows)
+    doc.paragraph(
+        "Compared the paper's way, the RMSD is about one whole predicted maximum (a few hundred um): a range "
+        "is twice a one-sided maximum. Compared width-consistently it falls to the camera noise level "
+        "(sqrt(2) x 0.01 mm = 14 um). The paper's real measurements (30-81 um, 0.06-0.10 deg) lie between the "
+        "two, consistent with clearances that are not always fully taken up by a push, plus random and "
+        "systematic errors the model leaves out (Sec. 6.3).")
+    results["experiment"] = exp_json
+
+
+def _method_section(doc: Document, results: dict) -> None:
+    doc.heading("Method and reproducibility")
+    doc.paragraph(
+        "Worst cases are exact for the paper's first-order model: each leg contributes one scalar "
+        "e_i to A [dp; dphi] (Eq. 8), which its clearances bound by a half-width c_i, so the reachable pose "
+        "errors form the parallelepiped A^-1 diag(c) [-1, 1]^3. dx_max, dy_max, dphi_max are its support "
+        "functions and dp_max the largest norm among its vertices (Eq. 21-22). The SLSQP baseline "
+        "(`pmaccuracy bounds --method slsqp`) solves the paper's formulation locally and never exceeds these "
+        "values.")
+    doc.paragraph(f"pmaccuracy {results['version']}; grid {results['grid']} x {results['grid']}; "
+                  f"the whole report took {results['elapsed_s']} s.")
+
+
+def _range(pair: list[float], digits: int) -> str:
+    lo, hi = pair
+    return f"{lo:.{digits}f}" if abs(hi - lo) < 0.5 * 10 ** -digits else f"{lo:.{digits}f} to {hi:.{digits}f}"
