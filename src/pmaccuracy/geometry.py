@@ -47,6 +47,20 @@ def perp(vectors: np.ndarray) -> np.ndarray:
     return np.stack([-vectors[..., 1], vectors[..., 0]], axis=-1)
 
 
+def _degrees(angle: float) -> float:
+    """Degrees for a file: the shortest rounding that converts back to exactly ``angle`` rad.
+
+    ``degrees(radians(210))`` is 209.99999999999997; writing 210.0 instead keeps
+    the TOML round trip exact.
+    """
+    deg = float(np.degrees(angle))
+    for digits in range(0, 16):
+        candidate = round(deg, digits)
+        if float(np.radians(candidate)) == float(angle):
+            return candidate
+    return deg
+
+
 @dataclass(frozen=True)
 class Leg:
     """One P-P-R leg (paper Fig. 2 and 4). Lengths in mm, angles in rad.
@@ -107,6 +121,11 @@ class Manipulator:
                     "bearing parallel to the guide (gamma + theta = 0 or 180 deg): the matrix B of Eq. 4b "
                     "is singular everywhere",
                     source=self.name, key=where)
+
+        bearing = np.array([leg.alpha + leg.beta + leg.gamma + leg.theta for leg in self.legs])
+        if np.all(np.abs(np.sin(bearing - bearing[0])) < MIN_GUIDE_BEARING_SINE):
+            raise GeometryError("all three bearings are parallel: the matrix A of Eq. 4a is singular at every "
+                                "pose (the platform can slide along them)", source=self.name, key="legs")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -178,13 +197,13 @@ class Manipulator:
         for leg in self.legs:
             legs.append({
                 "a": float(leg.a),
-                "alpha_deg": float(np.degrees(leg.alpha)),
-                "beta_deg": float(np.degrees(leg.beta)),
-                "gamma_deg": float(np.degrees(leg.gamma)),
-                "theta_deg": float(np.degrees(leg.theta)),
+                "alpha_deg": _degrees(leg.alpha),
+                "beta_deg": _degrees(leg.beta),
+                "gamma_deg": _degrees(leg.gamma),
+                "theta_deg": _degrees(leg.theta),
                 "d": float(leg.d),
                 "r": float(leg.r),
-                "psi_deg": float(np.degrees(leg.psi)),
+                "psi_deg": _degrees(leg.psi),
                 "s_range": [float(v) for v in leg.s_range],
                 "l_range": [float(v) for v in leg.l_range],
             })

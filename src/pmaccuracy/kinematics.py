@@ -170,6 +170,8 @@ def solve_loop_closure(c: np.ndarray, w: np.ndarray, r: np.ndarray, psi: np.ndar
     q = unit(phi)  # (..., 2, 2)
     rhs_p = b[..., None, :] + np.einsum("...ij,...kj->...ki", m, q)  # (..., 2, 3)
     NtN = np.einsum("...ij,...ik->...jk", n, n)  # (..., 2, 2)
+    # All bearings parallel: N has rank 1 and p is undetermined; those entries are invalid anyway.
+    NtN = np.where(valid.any(axis=-1)[..., None, None], NtN, np.eye(2))
     Ntb = np.einsum("...ij,...ki->...kj", n, rhs_p)  # (..., 2 modes, 2)
     p = np.linalg.solve(NtN[..., None, :, :], Ntb[..., None])[..., 0]
     k = unit(phi[..., None] + psi[..., None, :])  # (..., 2, 3, 2)
@@ -233,6 +235,10 @@ def inverse_3x3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         np.stack([d * h - e * g, b * g - a * h, a * e - b * d], axis=-1),
     ], axis=-2)
     det = a * cof[..., 0, 0] + b * cof[..., 1, 0] + c * cof[..., 2, 0]
+    # A determinant at rounding level relative to the rows' sizes (e.g. rank 1, where the cofactors are
+    # noise too) is an exact singularity: make it 0 so the inverse is non-finite rather than plausible.
+    row_norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    det = np.where(np.abs(det) <= 1e-13 * row_norms, 0.0, det)
     with np.errstate(divide="ignore", invalid="ignore"):
         return cof / det[..., None, None], det
 
