@@ -166,7 +166,7 @@ def save_map(ds: xr.Dataset, path: str | Path) -> Path:
         df = ds.to_dataframe().dropna(subset=list(MAP_VARIABLES)).reset_index()
         df = df.rename(columns={"phi": "phi_deg", "dphi_max": "dphi_max_deg"})
         df[["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]].to_csv(
-            path, index=False, float_format="%.10g")
+            path, index=False)  # shortest round-trip floats: boundary points stay exactly on the boundary
     else:
         raise ConfigError(f"unknown map file type {path.suffix!r}: use .nc or .csv", source=str(path))
     return path

@@ -86,11 +86,12 @@ def _flat(record: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _cell(value: Any) -> str:
+def _cell(value: Any, full: bool = False) -> str:
+    """Text of a table cell (6 significant digits) or, with ``full``, of a CSV field (exact round trip)."""
     if value is None:
         return "nan"
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return repr(value) if full else f"{value:.6g}"
     return str(value)
 
 
@@ -112,7 +113,7 @@ def emit(data: Any, fmt: str, *, records: Sequence[dict[str, Any]] | None = None
         writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: _cell(row.get(k)) for k in columns})
+            writer.writerow({k: _cell(row.get(k), full=True) for k in columns})
         stream.write(buf.getvalue())
         return
     cells = [[_cell(row.get(k, "")) for k in columns] for row in rows]
@@ -135,21 +136,29 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
 
 
 def read_poses_csv(path: str) -> np.ndarray:
-    """A CSV with header ``x,y,phi_deg`` (mm, mm, deg) -> ``(N, 3)`` in mm, mm, deg."""
+    """Poses from a CSV whose header names the columns ``x``, ``y``, ``phi_deg`` (mm, mm, deg) -> ``(N, 3)``.
+
+    Other columns are ignored, so a map written by ``pmaccuracy map --out FILE.csv``
+    can be fed back to ``pmaccuracy bounds --poses-csv``.
+    """
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh)
             header = [h.strip() for h in next(reader, [])]
-            if header != ["x", "y", "phi_deg"]:
-                raise ConfigError(f"header must be 'x,y,phi_deg', got {','.join(header)!r}", source=path)
+            missing = [c for c in ("x", "y", "phi_deg") if c not in header]
+            if missing:
+                raise ConfigError(f"header must name the columns x,y,phi_deg (missing {','.join(missing)}), "
+                                  f"got {','.join(header)!r}", source=path)
+            cols = [header.index(c) for c in ("x", "y", "phi_deg")]
             rows = []
             for lineno, row in enumerate(reader, start=2):
                 if not row or all(not c.strip() for c in row):
                     continue
-                if len(row) != 3:
-                    raise ConfigError(f"expected 3 values, got {len(row)}", source=path, key=f"line {lineno}")
+                if len(row) != len(header):
+                    raise ConfigError(f"expected {len(header)} values, got {len(row)}", source=path,
+                                      key=f"line {lineno}")
                 try:
-                    values = [float(c) for c in row]
+                    values = [float(row[j]) for j in cols]
                 except ValueError:
                     raise ConfigError(f"non-numeric value in {row}", source=path, key=f"line {lineno}") from None
                 if not all(math.isfinite(v) for v in values):
