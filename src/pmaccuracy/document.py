@@ -62,9 +62,10 @@ class Document:
                 out += [f"- {item}" for item in payload] + [""]
             elif kind == "table":
                 header, rows = payload
-                out.append("| " + " | ".join(header) + " |")
+                # A literal "|" would split the Markdown row: escape it.
+                out.append("| " + " | ".join(str(h).replace("|", "\\|") for h in header) + " |")
                 out.append("|" + "|".join("---" for _ in header) + "|")
-                out += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
+                out += ["| " + " | ".join(_cell(c).replace("|", "\\|") for c in row) + " |" for row in rows]
                 out.append("")
             elif kind == "figure":
                 path, caption = payload

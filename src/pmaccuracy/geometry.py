@@ -47,8 +47,8 @@ def perp(vectors: np.ndarray) -> np.ndarray:
     return np.stack([-vectors[..., 1], vectors[..., 0]], axis=-1)
 
 
-def _degrees(angle: float) -> float:
-    """Degrees for a file: the shortest rounding that converts back to exactly ``angle`` rad.
+def round_trip_degrees(angle: float) -> float:
+    """Degrees for a file or a coordinate: the shortest rounding that converts back to exactly ``angle`` rad.
 
     ``degrees(radians(210))`` is 209.99999999999997; writing 210.0 instead keeps
     the TOML round trip exact.
@@ -197,13 +197,13 @@ class Manipulator:
         for leg in self.legs:
             legs.append({
                 "a": float(leg.a),
-                "alpha_deg": _degrees(leg.alpha),
-                "beta_deg": _degrees(leg.beta),
-                "gamma_deg": _degrees(leg.gamma),
-                "theta_deg": _degrees(leg.theta),
+                "alpha_deg": round_trip_degrees(leg.alpha),
+                "beta_deg": round_trip_degrees(leg.beta),
+                "gamma_deg": round_trip_degrees(leg.gamma),
+                "theta_deg": round_trip_degrees(leg.theta),
                 "d": float(leg.d),
                 "r": float(leg.r),
-                "psi_deg": _degrees(leg.psi),
+                "psi_deg": round_trip_degrees(leg.psi),
                 "s_range": [float(v) for v in leg.s_range],
                 "l_range": [float(v) for v in leg.l_range],
             })

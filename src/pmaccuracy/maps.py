@@ -28,7 +28,7 @@ import xarray as xr
 from .bounds import max_pose_errors
 from .clearances import ClearanceSet
 from .errors import ConfigError, EmptyWorkspaceError
-from .geometry import Manipulator
+from .geometry import Manipulator, round_trip_degrees
 from .kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, require_regular
 from .workspace import constant_orientation_workspace
 
@@ -107,9 +107,11 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     poses = np.stack([np.broadcast_to(X, (len(phis), n, n)), np.broadcast_to(Y, (len(phis), n, n)),
                       np.broadcast_to(phis[:, None, None], (len(phis), n, n))], axis=-1)
     inside = inverse_kinematics(robot, poses).within_limits
+    for k, phi in enumerate(phis):
+        if not inside[k].any():
+            raise EmptyWorkspaceError(f"no point of the {n} x {n} grid lies inside the workspace at phi = "
+                                      f"{np.degrees(phi):g} deg: use a finer grid")
     points = poses[inside]  # (m, 3)
-    if points.shape[0] == 0:
-        raise EmptyWorkspaceError("no grid point lies inside the workspace: use a finer grid")
     values = _evaluate(points, robot, clearances, chunk_size, use_dask, progress, max_condition)
     data_vars = {}
     for j, (name, (units, long_name)) in enumerate(MAP_VARIABLES.items()):
@@ -118,7 +120,7 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
         data_vars[name] = (("phi", "y", "x"), full, {"units": units, "long_name": long_name})
     return xr.Dataset(
         data_vars,
-        coords={"phi": ("phi", np.degrees(phis), {"units": "deg", "long_name": "platform orientation"}),
+        coords={"phi": ("phi", np.array([round_trip_degrees(p) for p in phis]), {"units": "deg", "long_name": "platform orientation"}),
                 "y": ("y", y, {"units": "mm"}), "x": ("x", x, {"units": "mm"})},
         attrs={"title": f"Maximum pose errors of {robot.name} with clearances {clearances.name}",
                "robot": robot.name, "robot_toml": robot.to_toml(),
