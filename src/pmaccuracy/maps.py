@@ -59,13 +59,23 @@ def map_grid(robot: Manipulator, phis: np.ndarray, n: int) -> tuple[np.ndarray, 
     return x, y
 
 
-def _block_bounds(points: np.ndarray, robot: Manipulator, clearances: ClearanceSet,
-                  max_condition: float) -> np.ndarray:
-    """Bounds of one block of poses ``(n, 3)`` -> ``(n, 4)`` [dx mm, dy mm, dphi deg, dp mm] (picklable for Dask)."""
-    if points.shape[0] == 0:
-        return np.zeros((0, 4))
-    b = max_pose_errors(robot, clearances, points, allow_outside=True, max_condition=max_condition)
-    return np.column_stack([b.dx_max, b.dy_max, b.dphi_max_deg, b.dp_max])
+def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_rows: np.ndarray, phi: float,
+                max_condition: float) -> np.ndarray:
+    """One block of a map: grid rows ``y_rows`` at orientation ``phi`` (rad) -> ``(rows, len(x), 4)``.
+
+    Values ``[dx_max mm, dy_max mm, dphi_max deg, dp_max mm]``, NaN where the
+    pose is outside the joint ranges. The block builds its own poses from the
+    grid vectors, so a Dask task carries only two short vectors (picklable for
+    dask.distributed).
+    """
+    X, Y = np.meshgrid(x, y_rows)
+    poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1)
+    inside = inverse_kinematics(robot, poses).within_limits
+    out = np.full(X.shape + (4,), np.nan)
+    if inside.any():
+        b = max_pose_errors(robot, clearances, poses[inside], allow_outside=True, max_condition=max_condition)
+        out[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max_deg, b.dp_max])
+    return out
 
 
 def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray, n: int = 101, *,
@@ -103,24 +113,17 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
         raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
     require_regular(robot, np.column_stack([np.zeros_like(phis), np.zeros_like(phis), phis]), max_condition)
     x, y = map_grid(robot, phis, n)
-    X, Y = np.meshgrid(x, y)  # (n, n) indexed [y, x]
-    poses = np.stack([np.broadcast_to(X, (len(phis), n, n)), np.broadcast_to(Y, (len(phis), n, n)),
-                      np.broadcast_to(phis[:, None, None], (len(phis), n, n))], axis=-1)
-    inside = inverse_kinematics(robot, poses).within_limits
+    values = _evaluate(robot, clearances, x, y, phis, chunk_size, use_dask, progress, max_condition)
     for k, phi in enumerate(phis):
-        if not inside[k].any():
+        if not np.isfinite(values[k, ..., 0]).any():
             raise EmptyWorkspaceError(f"no point of the {n} x {n} grid lies inside the workspace at phi = "
                                       f"{np.degrees(phi):g} deg: use a finer grid")
-    points = poses[inside]  # (m, 3)
-    values = _evaluate(points, robot, clearances, chunk_size, use_dask, progress, max_condition)
-    data_vars = {}
-    for j, (name, (units, long_name)) in enumerate(MAP_VARIABLES.items()):
-        full = np.full(inside.shape, np.nan)
-        full[inside] = values[:, j]
-        data_vars[name] = (("phi", "y", "x"), full, {"units": units, "long_name": long_name})
+    data_vars = {name: (("phi", "y", "x"), values[..., j], {"units": units, "long_name": long_name})
+                 for j, (name, (units, long_name)) in enumerate(MAP_VARIABLES.items())}
     return xr.Dataset(
         data_vars,
-        coords={"phi": ("phi", np.array([round_trip_degrees(p) for p in phis]), {"units": "deg", "long_name": "platform orientation"}),
+        coords={"phi": ("phi", np.array([round_trip_degrees(p) for p in phis]),
+                        {"units": "deg", "long_name": "platform orientation"}),
                 "y": ("y", y, {"units": "mm"}), "x": ("x", x, {"units": "mm"})},
         attrs={"title": f"Maximum pose errors of {robot.name} with clearances {clearances.name}",
                "robot": robot.name, "robot_toml": robot.to_toml(),
@@ -130,27 +133,34 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
                "reference": "Wu, Bai, Kepler, Caro, ASME J. Mechanisms Robotics 4(4) 041011, 2012"})
 
 
-def _evaluate(points: np.ndarray, robot: Manipulator, clearances: ClearanceSet, chunk_size: int, use_dask: bool,
-              progress: bool | None, max_condition: float) -> np.ndarray:
+def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np.ndarray, phis: np.ndarray,
+              chunk_size: int, use_dask: bool, progress: bool | None, max_condition: float) -> np.ndarray:
+    """All blocks of the map -> ``(len(phis), len(y), len(x), 4)``; blocks are bands of about ``chunk_size`` points."""
     show = sys.stderr.isatty() if progress is None else progress
+    rows = max(1, chunk_size // len(x))
+    blocks = [(k, y[j:j + rows]) for k in range(len(phis)) for j in range(0, len(y), rows)]
     if use_dask:
         try:
+            import dask
             import dask.array as da
             from dask.diagnostics import ProgressBar
         except ImportError:  # pragma: no cover - depends on the installation
             raise ConfigError("use_dask needs Dask: pip install 'pmaccuracy[dask]'", key="use_dask") from None
-        arr = da.from_array(points, chunks=(chunk_size, 3))
-        out = arr.map_blocks(_block_bounds, robot, clearances, max_condition, dtype=float, chunks=(arr.chunks[0], 4))
+        task = dask.delayed(_rows_block, pure=True)
+        parts = [da.from_delayed(task(robot, clearances, x, yr, float(phis[k]), max_condition),
+                                 shape=(len(yr), len(x), 4), dtype=float) for k, yr in blocks]
+        per_phi = len(parts) // len(phis)
+        stacked = da.stack([da.concatenate(parts[k * per_phi:(k + 1) * per_phi]) for k in range(len(phis))])
         if show:
             with ProgressBar(out=sys.stderr):
-                return out.compute()
-        return out.compute()
+                return stacked.compute()
+        return stacked.compute()
     from tqdm import tqdm
 
-    starts = range(0, points.shape[0], chunk_size)
-    blocks = [_block_bounds(points[k:k + chunk_size], robot, clearances, max_condition)
-              for k in tqdm(starts, disable=not show, desc="error map", unit="block", file=sys.stderr)]
-    return np.concatenate(blocks)
+    out = [_rows_block(robot, clearances, x, yr, float(phis[k]), max_condition)
+           for k, yr in tqdm(blocks, disable=not show, desc="error map", unit="block", file=sys.stderr)]
+    per_phi = len(out) // len(phis)
+    return np.stack([np.concatenate(out[k * per_phi:(k + 1) * per_phi]) for k in range(len(phis))])
 
 
 def save_map(ds: xr.Dataset, path: str | Path) -> Path:
