@@ -15,28 +15,27 @@ from typing import Any
 from .errors import ConfigError
 
 
-def preset_names(suffix: str) -> list[str]:
-    """Names of the packaged TOML presets whose file name ends in ``suffix`` (e.g. ``"_3ppr.toml"``)."""
-    folder = resources.files("pmaccuracy") / "data"
-    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(suffix))
+def preset_names(folder: str) -> list[str]:
+    """Names of the packaged presets ``data/<folder>/<name>.toml`` (folders: robots, clearances, variations)."""
+    return sorted(p.name[: -len(".toml")] for p in (resources.files("pmaccuracy") / "data" / folder).iterdir()
+                  if p.name.endswith(".toml"))
 
 
-def read_spec(spec: str | Path, *, kind: str, presets: list[str]) -> tuple[dict[str, Any], str]:
-    """Parse a preset name or a TOML file path.
+def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[str, Any], str]:
+    """Parse a preset name (``data/<folder>/<name>.toml``) or a TOML file path; ``folder=None``: files only.
 
     Returns the parsed table and a short name of its source for messages.
     """
     text_spec = str(spec)
+    presets = preset_names(folder) if folder is not None else []
     if text_spec in presets:
-        data = (resources.files("pmaccuracy") / "data" / f"{text_spec}.toml").read_text()
+        data = (resources.files("pmaccuracy") / "data" / folder / f"{text_spec}.toml").read_text()
         source = f"preset {text_spec}"
     else:
         path = Path(text_spec)
         if not path.is_file():
-            raise ConfigError(
-                f"no {kind} preset or file of that name (presets: {', '.join(presets)})",
-                source=text_spec,
-            )
+            known = f" (presets: {', '.join(presets)})" if presets else ""
+            raise ConfigError(f"no {kind} preset or file of that name{known}", source=text_spec)
         try:
             data = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:

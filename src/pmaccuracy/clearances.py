@@ -96,7 +96,7 @@ class ClearanceSet:
     @classmethod
     def preset_names(cls) -> list[str]:
         """Built-in sets: ``case1`` (bearings), ``case2`` (bearings + revolutes), ``all`` (+ guides)."""
-        return [n[: -len("_clearances")] for n in _tomlio.preset_names("_clearances.toml")]
+        return _tomlio.preset_names("clearances")
 
     @classmethod
     def preset(cls, name: str) -> "ClearanceSet":
@@ -110,21 +110,13 @@ class ClearanceSet:
         """A preset name, a path to a clearance TOML file, or a ClearanceSet (returned as is)."""
         if isinstance(spec, ClearanceSet):
             return spec
-        presets = cls.preset_names()
-        if str(spec) in presets:
-            spec = f"{spec}_clearances"
-            data, _ = _tomlio.read_spec(spec, kind="clearance", presets=[f"{p}_clearances" for p in presets])
-            return cls.from_dict(data, source=f"preset {spec}")
-        if not Path(str(spec)).is_file():
-            raise ConfigError(f"no clearance preset or file of that name (presets: {', '.join(presets)})",
-                              source=str(spec))
-        data, source = _tomlio.read_spec(spec, kind="clearance", presets=[])
+        data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
         return cls.from_dict(data, source=source)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "ClearanceSet":
         """Read a clearance file (format in the module docstring)."""
-        data, source = _tomlio.read_spec(path, kind="clearance", presets=[])
+        data, source = _tomlio.read_spec(path, kind="clearance", folder=None)
         return cls.from_dict(data, source=source)
 
     @classmethod

@@ -256,9 +256,7 @@ def load_variations(spec: str | Path) -> dict[str, np.ndarray]:
     d_mm, gamma_rad, theta_rad, r_mm, psi_rad; missing keys are 0).
     Returns ``{name: (3,) array}`` in mm and rad.
     """
-    presets = _tomlio.preset_names("_errors.toml")
-    name = f"{spec}_errors" if f"{spec}_errors" in presets else spec
-    data, source = _tomlio.read_spec(name, kind="variations", presets=presets)
+    data, source = _tomlio.read_spec(spec, kind="variations", folder="variations")
     _tomlio.reject_unknown(data, {"name", "description", "legs"}, source=source, where="")
     out = {q: np.zeros(3) for q in _VARIATION_KEYS.values()}
     for i, table in enumerate(_tomlio.legs_table(data, source=source)):

@@ -131,7 +131,7 @@ class Manipulator:
     @classmethod
     def preset_names(cls) -> list[str]:
         """Names of the built-in robots (``aalborg_3ppr``, ``symmetric_3ppr``)."""
-        return _tomlio.preset_names("_3ppr.toml")
+        return _tomlio.preset_names("robots")
 
     @classmethod
     def preset(cls, name: str = "aalborg_3ppr") -> "Manipulator":
@@ -145,13 +145,13 @@ class Manipulator:
         """A preset name, a path to a robot TOML file, or a Manipulator (returned as is)."""
         if isinstance(spec, Manipulator):
             return spec
-        data, source = _tomlio.read_spec(spec, kind="robot", presets=cls.preset_names())
+        data, source = _tomlio.read_spec(spec, kind="robot", folder="robots")
         return cls.from_dict(data, source=source)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Manipulator":
         """Read a robot file (format in the README; lengths mm, angles deg)."""
-        data, source = _tomlio.read_spec(path, kind="robot", presets=[])
+        data, source = _tomlio.read_spec(path, kind="robot", folder=None)
         return cls.from_dict(data, source=source)
 
     @classmethod
