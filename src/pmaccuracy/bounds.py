@@ -33,13 +33,16 @@ maximizing clearance configurations follow from the signs ``t``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
 
 from .clearances import ClearanceDisplacement, ClearanceSet
-from .error_model import H_diagonals, PoseState, pose_state
+from .error_model import LINK_VARIATIONS, H_diagonals, PoseState, load_variations, pose_state
+from .errors import ConfigError
 from .geometry import Manipulator, perp
 from .kinematics import DEFAULT_MAX_CONDITION, as_poses, check_within_limits
 
@@ -66,6 +69,8 @@ class PoseErrorBounds:
     generators : ``(..., 3, 3)`` columns ``g_i = c_i A^-1[:, i]`` of the error zonotope
     dp_signs : ``(..., 3)`` the vertex ``t`` attaining ``dp_max``
     method : ``"exact"`` or ``"slsqp"``
+    worst, worst_variations : maximizing clearance displacements and parameter
+        variations per quantity (with ``details=True``)
     """
 
     poses: np.ndarray
@@ -78,6 +83,7 @@ class PoseErrorBounds:
     dp_signs: np.ndarray | None = None
     method: str = "exact"
     worst: dict[str, ClearanceDisplacement] = field(default_factory=dict)
+    worst_variations: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     @property
     def dphi_max_deg(self) -> np.ndarray:
@@ -102,6 +108,54 @@ def leg_half_widths(robot: Manipulator, clearances: ClearanceSet, state: PoseSta
     return eps_b * np.abs(H["theta"]) + guide + eps_r
 
 
+def tolerance_half_widths(robot: Manipulator, tolerances: Mapping[str, Any], state: PoseState) -> np.ndarray:
+    """``c_i`` (mm), shape ``(..., 3)``, of tolerance intervals ``|dq_i| <= t_q,i`` on link parameters.
+
+    By Eq. 9 a variation ``dq_i`` adds ``H_q,i dq_i`` to leg i's row of
+    ``A [dp; dphi]``, so intervals add ``sum_q t_q,i |H_q,i|`` to the leg's
+    half-width: the error set stays the parallelepiped ``A^-1 diag(c) [-1, 1]^3``.
+    ``tolerances`` maps names of :data:`pmaccuracy.error_model.LINK_VARIATIONS`
+    (``rho``: a radius, any direction) to half-widths ``(3,)`` in mm or rad.
+    """
+    H = H_diagonals(robot, state)
+    c = np.zeros(state.s.shape)
+    for q, t in _check_tolerances(tolerances).items():
+        c = c + t * np.abs(H[q])
+    return c
+
+
+def load_tolerances(spec: str) -> dict[str, np.ndarray]:
+    """Tolerance half-widths from a variations TOML file or preset (see
+    :func:`pmaccuracy.error_model.load_variations`); negative or non-finite values are refused."""
+    try:
+        return _check_tolerances(load_variations(spec))
+    except ConfigError as exc:
+        if exc.source:
+            raise
+        raise ConfigError(exc.message, source=str(spec), key=exc.key) from None
+
+
+def _check_tolerances(tolerances: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    out = {}
+    for q, t in tolerances.items():
+        if q not in LINK_VARIATIONS:
+            raise ConfigError(f"unknown parameter {q!r}; tolerances apply to {', '.join(LINK_VARIATIONS)}",
+                              key="tolerances")
+        arr = np.broadcast_to(np.asarray(t, dtype=float), (3,))
+        if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+            raise ConfigError(f"tolerance half-widths must be finite and >= 0, got {arr.tolist()}",
+                              key=f"tolerances.{q}")
+        out[q] = arr
+    return out
+
+
+def _worst_variations(robot: Manipulator, tolerances: Mapping[str, Any], state: PoseState,
+                      t: np.ndarray) -> dict[str, np.ndarray]:
+    """Parameter variations at the vertex of the tolerance box making leg i's term ``t_i`` times its maximum."""
+    H = H_diagonals(robot, state)
+    return {q: t * tol * _sign(H[q]) for q, tol in _check_tolerances(tolerances).items()}
+
+
 def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, state: PoseState,
                          t: np.ndarray) -> ClearanceDisplacement:
     """Joint displacements making ``e_i = t_i c_i`` for signs ``t`` ``(..., 3)`` (the argmax of Eq. 21-22)."""
@@ -124,18 +178,24 @@ CHUNK = 8192
 
 
 def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndarray, *,
-                    allow_outside: bool = False, details: bool = False,
-                    max_condition: float = DEFAULT_MAX_CONDITION) -> PoseErrorBounds:
+                    tolerances: Mapping[str, Any] | None = None, allow_outside: bool = False,
+                    details: bool = False, max_condition: float = DEFAULT_MAX_CONDITION) -> PoseErrorBounds:
     """Exact ``dx_max, dy_max, dphi_max, dp_max`` at every pose (Eq. 21, 22), vectorized.
 
     Parameters
     ----------
     poses : ``(..., 3)`` [x mm, y mm, phi rad]
+    tolerances : optional tolerance intervals on link parameters (manufacturing
+        or assembly), ``{name: half-widths (3,)}`` in mm/rad, e.g. ``{"theta":
+        [1e-3] * 3, "d": [0.05] * 3}``: worst case over clearances and tolerances
+        together (:func:`tolerance_half_widths`); ``ClearanceSet()`` for
+        tolerances alone
     allow_outside : evaluate poses outside the joint ranges too (otherwise
         :class:`~pmaccuracy.errors.OutsideJointLimitsError`)
     details : also return the maximizing clearance configurations in ``.worst``
         (keys ``"dx", "dy", "dphi", "dp"``; each moves the platform by
-        ``+dzeta_max`` in its quantity, its negative by ``-dzeta_max``)
+        ``+dzeta_max`` in its quantity, its negative by ``-dzeta_max``) and, with
+        ``tolerances``, the maximizing parameter variations in ``.worst_variations``
 
     Raises
     ------
@@ -143,7 +203,8 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     """
     poses = as_poses(poses)
     flat = poses.reshape(-1, 3)
-    parts = [_exact_block(robot, clearances, flat[k:k + CHUNK], allow_outside, details, max_condition)
+    tolerances = _check_tolerances(tolerances or {})
+    parts = [_exact_block(robot, clearances, tolerances, flat[k:k + CHUNK], allow_outside, details, max_condition)
              for k in range(0, max(flat.shape[0], 1), CHUNK)]
     lead = poses.shape[:-1]
 
@@ -156,18 +217,25 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
             fields = [np.concatenate([getattr(p["worst"][q], f) for p in parts]).reshape(lead + (3,))
                       for f in ("tau_b", "sigma_g", "tau_g", "rho", "varphi")]
             worst[q] = ClearanceDisplacement(*fields)
+    worst_variations = {}
+    if details and tolerances:
+        worst_variations = {q: {name: np.concatenate([p["worst_variations"][q][name] for p in parts]).reshape(lead + (3,))
+                                for name in tolerances} for q in QUANTITIES}
     return PoseErrorBounds(poses=poses, dx_max=joined("dx"), dy_max=joined("dy"), dphi_max=joined("dphi"),
                            dp_max=joined("dp"), half_widths=joined("c", (3,)), generators=joined("G", (3, 3)),
-                           dp_signs=joined("t", (3,)), method="exact", worst=worst)
+                           dp_signs=joined("t", (3,)), method="exact", worst=worst,
+                           worst_variations=worst_variations)
 
 
-def _exact_block(robot: Manipulator, clearances: ClearanceSet, poses: np.ndarray, allow_outside: bool,
-                 details: bool, max_condition: float) -> dict:
+def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[str, np.ndarray], poses: np.ndarray,
+                 allow_outside: bool, details: bool, max_condition: float) -> dict:
     """:func:`max_pose_errors` on one block of poses ``(n, 3)``."""
     state = pose_state(robot, poses, max_condition)
     if not allow_outside:
         check_within_limits(robot, poses, state)
     c = leg_half_widths(robot, clearances, state)
+    if tolerances:
+        c = c + tolerance_half_widths(robot, tolerances, state)
     G = state.A_inv * c[:, None, :]
     extents = np.sum(np.abs(G), axis=-1)  # (n, 3): support functions along x, y, phi
     vertices = np.einsum("nij,vj->nvi", G[:, :2, :], _VERTEX_SIGNS)  # (n, 4, 2)
@@ -179,6 +247,10 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, poses: np.ndarray
         out["worst"] = {q: _worst_configuration(robot, clearances, state, _sign(state.A_inv[:, row, :]))
                         for row, q in enumerate(("dx", "dy", "dphi"))}
         out["worst"]["dp"] = _worst_configuration(robot, clearances, state, out["t"])
+        if tolerances:
+            signs = {q: _sign(state.A_inv[:, row, :]) for row, q in enumerate(("dx", "dy", "dphi"))}
+            signs["dp"] = out["t"]
+            out["worst_variations"] = {q: _worst_variations(robot, tolerances, state, t) for q, t in signs.items()}
     return out
 
 

@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from ..bounds import max_pose_errors, slsqp_max_pose_errors
+from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
 from ..clearances import ClearanceSet
 from ..errors import PmAccuracyError
 from . import _common
@@ -28,6 +28,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
                    help="a pose: x mm, y mm, phi deg (repeatable)")
     p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    p.add_argument("--tolerances", metavar="FILE",
+                   help="tolerance half-widths on link parameters (TOML with keys like d_mm, theta_rad per leg, "
+                        "or preset example_tolerances): worst case over clearances and tolerances together; "
+                        "use --clearances none for tolerances alone (exact method only)")
     p.add_argument("--method", choices=("exact", "slsqp"), default="exact",
                    help="exact closed form (default) or the paper-style SLSQP baseline (slow, local)")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
@@ -46,17 +50,22 @@ def run(args: argparse.Namespace) -> int:
     robot = _common.load_robot(args)
     clearances = ClearanceSet.load(args.clearances)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
+    tolerances = load_tolerances(args.tolerances) if args.tolerances else None
     if args.method == "slsqp":
-        if args.details:
-            raise PmAccuracyError("--details needs --method exact")
+        if args.details or tolerances:
+            raise PmAccuracyError("--details and --tolerances need --method exact")
         result = slsqp_max_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
     else:
-        result = max_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside, details=args.details)
+        result = max_pose_errors(robot, clearances, poses, tolerances=tolerances, allow_outside=args.allow_outside,
+                                 details=args.details)
     records = result.records()
     if args.details:
         for k, rec in enumerate(records):
             rec["worst"] = {q: _configuration(type(d)(*(np.asarray(f)[k] for f in
                                                        (d.tau_b, d.sigma_g, d.tau_g, d.rho, d.varphi))))
                             for q, d in result.worst.items()}
+            if result.worst_variations:
+                rec["worst_variations"] = {q: {name: np.asarray(v)[k] for name, v in var.items()}
+                                           for q, var in result.worst_variations.items()}
     _common.emit(records, args.format)
     return 0

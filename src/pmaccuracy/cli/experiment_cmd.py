@@ -80,6 +80,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="position accuracy of the measurement system, mm (Fig. 15 band +-2A; default: 0.01)")
     cp.add_argument("--accuracy-deg", type=_common.finite_float, default=experiment.DEFAULT_ACCURACY_DEG,
                     metavar="A", help="orientation accuracy of the measurement system, deg (default: 0.01)")
+    cp.add_argument("--limit-tolerance-mm", type=_common.finite_float,
+                    default=experiment.NOMINAL_LIMIT_TOLERANCE_MM, metavar="T",
+                    help="accept nominal poses up to T mm outside the joint ranges (default: 0.005, the encoder "
+                         "accuracy)")
     cp.add_argument("--map-grid", type=int, default=41, metavar="N",
                     help="grid of the background error maps with --out (default: 41)")
     _common.add_format(cp)
@@ -108,7 +112,7 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
-                                    accuracy_deg=args.accuracy_deg)
+                                    accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm)
     summary = comparison.summary()
     if args.out:
         files = experiment.write_report(robot, clearances, comparison, args.out, map_grid=args.map_grid)
