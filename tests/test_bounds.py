@@ -1,16 +1,18 @@
 """Independent checks of the exact worst-case pose errors (paper Sec. 4.3, Eq. 16-22).
 
-Reference computations written in this file (nothing is taken from the library's
-internals; only ``ClearanceSet``/``ClearanceDisplacement`` are used as containers):
+Reference computations written in this file and in ``reference_model`` (nothing
+is taken from the library's internals; only ``ClearanceSet``/``ClearanceDisplacement``
+are used as containers):
 
 * ``FirstOrder``: the first-order map from the clearance variables of Eq. 20b
   (plus the revolute directions varphi_i) to ``[dx, dy, dphi]``, built from Eq. 8
   and Appendix A as the paper states them: ``A [dp; dphi] = e`` with rows
   ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` (Eq. 4a) and
   ``e_i = l_i dtau_b + (w^T E^T v) dsigma_g + (d w^T v + l) dtau_g + (w^T E^T n) drho``
-  (H_theta, H_d, H_gamma, H_rho of A-1). ``l_i`` comes from a 2x2 solve of Eq. 1.
-  It is itself validated against finite differences of an independent Newton
-  loop-closure solver (``test_reference_first_order_map``).
+  (H_theta, H_d, H_gamma, H_rho of A-1). ``l_i`` comes from a 2x2 solve of Eq. 1
+  (``reference_model.own_ik``). It is itself validated against finite differences
+  of the independent Newton loop-closure solver ``reference_model.solve_loop_closure``
+  (``test_reference_first_order_map``).
 * ``brute_force``: maximization by enumeration. The feasible set of each leg
   is the product of the bearing segment (2 vertices, Eq. 17), the guide rhombus
   (4 vertices, computed here by intersecting the lines of Eq. 16a/16b) and the
@@ -36,45 +38,23 @@ from scipy.optimize import minimize_scalar
 from pmaccuracy import bounds
 from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
 from pmaccuracy.errors import ClearanceError, OutsideJointLimitsError, SingularPoseError
-from pmaccuracy.geometry import Leg, Manipulator
+from pmaccuracy.geometry import Manipulator
+from reference_model import (directions, displace, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
+                             solve_loop_closure, vec)
 
-PARAMS = ("a", "alpha", "beta", "gamma", "theta", "d", "r", "psi")
 AALBORG = Manipulator.preset("aalborg_3ppr")
 
 
-# ------------------------------------------------------------------------------------ independent model
-def vec(t):
-    t = np.asarray(t, float)
-    return np.stack([np.cos(t), np.sin(t)], axis=-1)
-
-
-def rot90(x):
-    x = np.asarray(x, float)
-    return np.stack([-x[..., 1], x[..., 0]], axis=-1)
-
-
-def leg_params(robot):
-    return {k: np.array([getattr(leg, k) for leg in robot.legs], float) for k in PARAMS}
-
-
-def directions(p):
-    return (vec(p["alpha"]), vec(p["alpha"] + p["beta"]), vec(p["alpha"] + p["beta"] + p["gamma"]),
-            vec(p["alpha"] + p["beta"] + p["gamma"] + p["theta"]))
-
-
+# ------------------------------------------------------------------------------------ first-order reference map
 class FirstOrder:
     """First-order clearance -> pose-error map at one pose, from Eq. 4a, 8 and Appendix A."""
 
     def __init__(self, robot, pose):
         p = leg_params(robot)
-        h, u, v, w = directions(p)
-        k = vec(pose[2] + p["psi"])
-        self.s, self.l = np.zeros(3), np.zeros(3)
-        for i in range(3):
-            q = pose[:2] - p["a"][i] * h[i] - p["d"][i] * v[i] - p["r"][i] * k[i]
-            self.s[i], self.l[i] = np.linalg.solve(np.column_stack([u[i], w[i]]), q)
+        _, _, v, w = directions(p)
+        self.s, self.l = own_ik(p, pose)
         self.Ew = rot90(w)
-        self.A = np.column_stack([self.Ew, -p["r"] * np.sum(w * k, axis=1)])
+        self.A = own_A(p, pose)
         self.A_inv = np.linalg.inv(self.A)
         self.H_theta = self.l
         self.H_d = np.sum(self.Ew * v, axis=1)
@@ -171,28 +151,6 @@ def brute_force(robot, clear, pose):
                               method="bounded", options={"xatol": 1e-11})
         best = max(best, -float(res.fun))
     out.append(best)
-    return np.array(out)
-
-
-def random_robot(rng):
-    legs = []
-    for _ in range(3):
-        gamma = rng.uniform(-np.pi, np.pi)
-        gt = rng.choice([-1, 1]) * rng.uniform(np.arcsin(0.3), np.pi - np.arcsin(0.3))
-        legs.append(Leg(a=rng.uniform(80, 250), alpha=rng.uniform(-np.pi, np.pi), beta=rng.uniform(-np.pi, np.pi),
-                        gamma=gamma, theta=gt - gamma, d=rng.uniform(0, 100), r=rng.uniform(10, 60),
-                        psi=rng.uniform(-np.pi, np.pi), s_range=(-1e4, 1e4), l_range=(-1e4, 1e4)))
-    return Manipulator(legs=tuple(legs), name="random")
-
-
-def random_poses(robot, rng, n):
-    out = []
-    while len(out) < n:
-        pose = np.array([rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-np.pi, np.pi)])
-        A = FirstOrder(robot, pose).A.copy()
-        A[:, 2] /= np.mean(robot.r)
-        if np.linalg.cond(A) < 30:  # 1-norm condition < 90: well inside the library's limit of 100
-            out.append(pose)
     return np.array(out)
 
 
@@ -310,24 +268,8 @@ def test_reference_first_order_map():
                 rho=rng.uniform(0, 1, 3), varphi=rng.uniform(-np.pi, np.pi, 3))
 
     def exact(t):
-        q = {k: v.copy() for k, v in p.items()}
-        q["d"] = q["d"] + t * disp["sigma_g"]
-        q["gamma"] = q["gamma"] + t * disp["tau_g"]
-        q["theta"] = q["theta"] + t * disp["tau_b"]
-        h, u, v, w = directions(q)
-        c = (q["a"][:, None] * h + fo.s[:, None] * u + q["d"][:, None] * v
-             + t * disp["rho"][:, None] * vec(disp["varphi"]))
-        z = np.concatenate([pose, fo.l])
-        for _ in range(50):
-            k = vec(z[2] + q["psi"])
-            F = (c + z[3:, None] * w + q["r"][:, None] * k - z[None, :2]).reshape(6)
-            J = np.zeros((6, 6))
-            for i in range(3):
-                J[2 * i:2 * i + 2, :2] = -np.eye(2)
-                J[2 * i:2 * i + 2, 2] = q["r"][i] * rot90(k[i])
-                J[2 * i:2 * i + 2, 3 + i] = w[i]
-            z = z - np.linalg.solve(J, F)
-        return z[:3]
+        q, offsets = displace(p, {f: (x if f == "varphi" else t * x) for f, x in disp.items()})
+        return solve_loop_closure(q, fo.s, pose, offsets, l0=fo.l, tol=0.0, max_iter=50)
 
     fd = (exact(1e-6) - exact(-1e-6)) / 2e-6
     lin = fo.pose_error(ClearanceDisplacement(**disp))

@@ -1,15 +1,16 @@
 """Independent checks of the first-order error model (paper Sec. 4.1, Eq. 6-15, Appendix A).
 
-Reference computation used here (written in this file, not taken from the library):
+Reference computation used here (written in this file and in ``reference_model``,
+not taken from the library):
 
-* ``exact_pose`` closes the six loop equations of Eq. 1,
+* ``solve_loop_closure`` (``reference_model``) closes the six loop equations of Eq. 1,
   ``p = a_i h_i + s_i u_i + d_i v_i + l_i w_i + rho_i n_i + r_i k_i`` (i = 1..3),
   for the unknowns ``x, y, phi, l_1, l_2, l_3`` by Newton's method (analytic 6x6
   Jacobian, started at the nominal pose), with the actuators ``s_i`` locked at
   their nominal values. The nominal ``s_i, l_i`` come from ``own_ik``, a 2x2 solve
   of ``s u + l w = p - a h - d v - r k``.
 * Every column of every ``J_q`` is compared with a central finite difference
-  (step 1e-6) of ``exact_pose`` after perturbing that one parameter of that one
+  (step 1e-6) of ``solve_loop_closure`` after perturbing that one parameter of that one
   leg (``robot.perturbed``), or the actuator (``s``), or adding the revolute
   offset ``t n_i`` (``rho``; ``n_i = E w_i`` by default, random ``varphi`` too).
 * The Cartesian blocks ``J_A..J_D`` are checked by moving the joint points
@@ -31,106 +32,12 @@ import numpy as np
 import pytest
 
 from pmaccuracy import error_model
-from pmaccuracy.geometry import Leg, Manipulator
+from pmaccuracy.geometry import Manipulator
+from reference_model import (PARAMS, directions, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
+                             solve_loop_closure, vec)
 
-PARAMS = ("a", "alpha", "beta", "gamma", "theta", "d", "r", "psi")
 STEP = 1e-6
 RTOL = 2e-6
-
-
-# ------------------------------------------------------------------------------------ independent model
-def vec(t):
-    t = np.asarray(t, float)
-    return np.stack([np.cos(t), np.sin(t)], axis=-1)
-
-
-def rot90(x):
-    """E x with E = [[0, -1], [1, 0]]."""
-    x = np.asarray(x, float)
-    return np.stack([-x[..., 1], x[..., 0]], axis=-1)
-
-
-def leg_params(robot: Manipulator) -> dict[str, np.ndarray]:
-    return {k: np.array([getattr(leg, k) for leg in robot.legs], float) for k in PARAMS}
-
-
-def directions(p):
-    h = vec(p["alpha"])
-    u = vec(p["alpha"] + p["beta"])
-    v = vec(p["alpha"] + p["beta"] + p["gamma"])
-    w = vec(p["alpha"] + p["beta"] + p["gamma"] + p["theta"])
-    return h, u, v, w
-
-
-def own_ik(p, pose):
-    """s_i, l_i of a pose from Eq. 1 (2x2 linear solve per leg)."""
-    h, u, v, w = directions(p)
-    k = vec(pose[2] + p["psi"])
-    s, l = np.zeros(3), np.zeros(3)
-    for i in range(3):
-        q = pose[:2] - p["a"][i] * h[i] - p["d"][i] * v[i] - p["r"][i] * k[i]
-        s[i], l[i] = np.linalg.solve(np.column_stack([u[i], w[i]]), q)
-    return s, l
-
-
-def exact_pose(p, s, pose0, offsets=None):
-    """Solve Eq. 1 (plus revolute offsets ``offsets`` (3, 2) in the base frame) for the pose, actuators locked."""
-    h, u, v, w = directions(p)
-    c = p["a"][:, None] * h + s[:, None] * u + p["d"][:, None] * v
-    if offsets is not None:
-        c = c + offsets
-    z = np.concatenate([pose0, own_ik(p, pose0)[1]])
-    for _ in range(60):
-        k = vec(z[2] + p["psi"])
-        F = (c + z[3:, None] * w + p["r"][:, None] * k - z[None, :2]).reshape(6)
-        J = np.zeros((6, 6))
-        for i in range(3):
-            J[2 * i:2 * i + 2, 0:2] = -np.eye(2)
-            J[2 * i:2 * i + 2, 2] = p["r"][i] * rot90(k[i])
-            J[2 * i:2 * i + 2, 3 + i] = w[i]
-        dz = np.linalg.solve(J, -F)
-        z = z + dz
-        if np.max(np.abs(dz)) < 1e-14 * (1 + np.max(np.abs(z))):
-            break
-    k = vec(z[2] + p["psi"])
-    F = c + z[3:, None] * w + p["r"][:, None] * k - z[None, :2]
-    assert np.max(np.abs(F)) < 1e-10, "independent loop-closure solver did not converge"
-    return z[:3]
-
-
-def own_A(p, pose):
-    """Forward Jacobian of Eq. 4a: rows [w^T E^T, -r w^T k]."""
-    _, _, _, w = directions(p)
-    k = vec(pose[2] + p["psi"])
-    return np.column_stack([rot90(w), -p["r"] * np.sum(w * k, axis=1)])
-
-
-def well_conditioned(p, pose, limit=30.0):
-    A = own_A(p, pose)
-    A[:, 2] /= np.mean(p["r"])
-    return np.linalg.cond(A) < limit
-
-
-def random_robot(rng) -> Manipulator:
-    """Random valid geometry, |sin(gamma + theta)| >= 0.3, ranges wide enough to never bind."""
-    legs = []
-    for _ in range(3):
-        gamma = rng.uniform(-np.pi, np.pi)
-        gt = rng.choice([-1, 1]) * rng.uniform(np.arcsin(0.3), np.pi - np.arcsin(0.3))
-        legs.append(Leg(a=rng.uniform(80, 250), alpha=rng.uniform(-np.pi, np.pi), beta=rng.uniform(-np.pi, np.pi),
-                        gamma=gamma, theta=gt - gamma, d=rng.uniform(0, 100), r=rng.uniform(10, 60),
-                        psi=rng.uniform(-np.pi, np.pi), s_range=(-1e4, 1e4), l_range=(-1e4, 1e4)))
-    return Manipulator(legs=tuple(legs), name="random")
-
-
-def random_poses(robot, rng, n, xy=30.0, phi=np.pi):
-    p = leg_params(robot)
-    out = []
-    while len(out) < n:
-        pose = np.array([rng.uniform(-xy, xy), rng.uniform(-xy, xy), rng.uniform(-phi, phi)])
-        if well_conditioned(p, pose):
-            out.append(pose)
-    return np.array(out)
 
 
 def aalborg_poses(rng, n):
@@ -175,7 +82,7 @@ def fd_column(robot, pose, leg, q, varphi=None):
             offsets[leg] = t * n
         else:
             p = leg_params(robot.perturbed(**{q: delta}))
-        results.append(exact_pose(p, s, pose, offsets))
+        results.append(solve_loop_closure(p, s, pose, offsets))
     d = (results[0] - results[1]) / (2 * STEP)
     return d
 
@@ -193,7 +100,7 @@ def test_own_solver_reproduces_nominal_pose():
         p = leg_params(robot)
         for pose in poses:
             s, _ = own_ik(p, pose)
-            np.testing.assert_allclose(exact_pose(p, s, pose + [0.3, -0.2, 0.01]), pose, atol=1e-10)
+            np.testing.assert_allclose(solve_loop_closure(p, s, pose + [0.3, -0.2, 0.01]), pose, atol=1e-10)
 
 
 def test_perturbed_changes_one_parameter():
@@ -291,7 +198,7 @@ def fd_point(robot, pose, leg, block, axis):
             p["d"][leg], p["gamma"][leg] = polar(p0["d"][leg] * vec(p0["gamma"][leg]) + t * e)
         elif block == "D":    # D_i - P = -r vec(psi) in the platform frame
             p["r"][leg], p["psi"][leg] = polar(p0["r"][leg] * vec(p0["psi"][leg]) - t * e)
-        res.append(exact_pose(p, s, pose))
+        res.append(solve_loop_closure(p, s, pose))
     return (res[0] - res[1]) / (2 * STEP)
 
 
@@ -360,7 +267,7 @@ def test_pose_error_table2_is_second_order_accurate():
         lin = error_model.pose_error(robot, poses, scaled)
         assert lin.shape == poses.shape
         pert = leg_params(robot.perturbed(**scaled))
-        exact = np.array([exact_pose(pert, own_ik(p0, pose)[0], pose) - pose for pose in poses])
+        exact = np.array([solve_loop_closure(pert, own_ik(p0, pose)[0], pose) - pose for pose in poses])
         # first order is close: the difference is a small fraction of the error itself
         assert np.max(np.abs(exact - lin)) < 0.1 * np.max(np.abs(exact))
         diffs.append(exact - lin)

@@ -1,10 +1,11 @@
 """Checks of the exact (nonlinear) virtual prototype :mod:`pmaccuracy.nonlinear`.
 
-Independent computations written in this file:
+Independent computations written in this file and in ``reference_model``:
 
-* ``own_exact_error``: Newton's method on the six loop equations of Eq. 1 with
-  the clearance displacements applied as the paper's Sec. 4.2 says
-  (``d_i + dsigma_g``, ``gamma_i + dtau_g``, ``theta_i + dtau_b``, platform point
+* ``own_exact_error``: Newton's method on the six loop equations of Eq. 1
+  (``reference_model.solve_loop_closure``) with the clearance displacements
+  applied as the paper's Sec. 4.2 says (``reference_model.displace``:
+  ``d_i + dsigma_g``, ``gamma_i + dtau_g``, ``theta_i + dtau_b``, platform point
   offset by ``drho vec(varphi)``) and the actuators locked; the library's
   analytic loop closure must agree with it to 1e-10.
 * ``own_first_order``: ``A^-1 e`` with ``A`` from Eq. 4a and ``e_i`` from Eq. 8 /
@@ -26,40 +27,12 @@ import pytest
 from pmaccuracy import bounds, nonlinear
 from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
 from pmaccuracy.error_model import assembly_errors
-from pmaccuracy.geometry import Leg, Manipulator
+from pmaccuracy.geometry import Manipulator
+from reference_model import (directions, displace, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
+                             solve_loop_closure, vec)
 
-PARAMS = ("a", "alpha", "beta", "gamma", "theta", "d", "r", "psi")
 AALBORG = Manipulator.preset("aalborg_3ppr")
 FIELDS = ("tau_b", "sigma_g", "tau_g", "rho", "varphi")
-
-
-def vec(t):
-    t = np.asarray(t, float)
-    return np.stack([np.cos(t), np.sin(t)], axis=-1)
-
-
-def rot90(x):
-    x = np.asarray(x, float)
-    return np.stack([-x[..., 1], x[..., 0]], axis=-1)
-
-
-def leg_params(robot):
-    return {k: np.array([getattr(leg, k) for leg in robot.legs], float) for k in PARAMS}
-
-
-def directions(p):
-    return (vec(p["alpha"]), vec(p["alpha"] + p["beta"]), vec(p["alpha"] + p["beta"] + p["gamma"]),
-            vec(p["alpha"] + p["beta"] + p["gamma"] + p["theta"]))
-
-
-def own_ik(p, pose):
-    h, u, v, w = directions(p)
-    k = vec(pose[2] + p["psi"])
-    s, l = np.zeros(3), np.zeros(3)
-    for i in range(3):
-        q = pose[:2] - p["a"][i] * h[i] - p["d"][i] * v[i] - p["r"][i] * k[i]
-        s[i], l[i] = np.linalg.solve(np.column_stack([u[i], w[i]]), q)
-    return s, l
 
 
 def disp_at(disp, n):
@@ -72,63 +45,19 @@ def own_exact_error(robot, pose, d=None, variations=None):
     s, l0 = own_ik(p0, pose)
     p = {k: v + np.asarray((variations or {}).get(k, 0.0), float) for k, v in p0.items()}
     s = s + np.asarray((variations or {}).get("s", 0.0), float)
-    d = d or {f: np.zeros(3) for f in FIELDS}
-    p["d"] = p["d"] + d["sigma_g"]
-    p["gamma"] = p["gamma"] + d["tau_g"]
-    p["theta"] = p["theta"] + d["tau_b"]
-    h, u, v, w = directions(p)
-    c = p["a"][:, None] * h + s[:, None] * u + p["d"][:, None] * v + d["rho"][:, None] * vec(d["varphi"])
-    z = np.concatenate([pose, l0])
-    for _ in range(60):
-        k = vec(z[2] + p["psi"])
-        F = (c + z[3:, None] * w + p["r"][:, None] * k - z[None, :2]).reshape(6)
-        J = np.zeros((6, 6))
-        for i in range(3):
-            J[2 * i:2 * i + 2, :2] = -np.eye(2)
-            J[2 * i:2 * i + 2, 2] = p["r"][i] * rot90(k[i])
-            J[2 * i:2 * i + 2, 3 + i] = w[i]
-        dz = np.linalg.solve(J, -F)
-        z = z + dz
-        if np.max(np.abs(dz)) < 1e-15 * (1 + np.max(np.abs(z))):
-            break
-    assert np.max(np.abs(F)) < 1e-10
-    return z[:3] - pose
+    p, offsets = displace(p, d or {f: np.zeros(3) for f in FIELDS})
+    return solve_loop_closure(p, s, pose, offsets, l0=l0, tol=1e-15) - pose
 
 
 def own_first_order(robot, pose, d):
     p = leg_params(robot)
     _, _, v, w = directions(p)
     _, l = own_ik(p, pose)
-    k = vec(pose[2] + p["psi"])
     Ew = rot90(w)
-    A = np.column_stack([Ew, -p["r"] * np.sum(w * k, axis=1)])
+    A = own_A(p, pose)
     e = (l * d["tau_b"] + np.sum(Ew * v, axis=1) * d["sigma_g"] + (p["d"] * np.sum(w * v, axis=1) + l) * d["tau_g"]
          + np.sum(Ew * vec(d["varphi"]), axis=1) * d["rho"])
     return np.linalg.solve(A, e)
-
-
-def random_robot(rng):
-    legs = []
-    for _ in range(3):
-        gamma = rng.uniform(-np.pi, np.pi)
-        gt = rng.choice([-1, 1]) * rng.uniform(np.arcsin(0.3), np.pi - np.arcsin(0.3))
-        legs.append(Leg(a=rng.uniform(80, 250), alpha=rng.uniform(-np.pi, np.pi), beta=rng.uniform(-np.pi, np.pi),
-                        gamma=gamma, theta=gt - gamma, d=rng.uniform(0, 100), r=rng.uniform(10, 60),
-                        psi=rng.uniform(-np.pi, np.pi), s_range=(-1e4, 1e4), l_range=(-1e4, 1e4)))
-    return Manipulator(legs=tuple(legs), name="random")
-
-
-def random_poses(robot, rng, n):
-    p = leg_params(robot)
-    _, _, _, w = directions(p)
-    out = []
-    while len(out) < n:
-        pose = np.array([rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-np.pi, np.pi)])
-        k = vec(pose[2] + p["psi"])
-        A = np.column_stack([rot90(w), -p["r"] * np.sum(w * k, axis=1) / np.mean(p["r"])])
-        if np.linalg.cond(A) < 30:
-            out.append(pose)
-    return np.array(out)
 
 
 def admissible(rng, clear, shape):
