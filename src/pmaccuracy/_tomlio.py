@@ -10,7 +10,9 @@ import math
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
+
+import tomli_w
 
 from .errors import ConfigError
 
@@ -108,3 +110,52 @@ def reject_unknown(table: dict[str, Any], allowed: set[str], *, source: str, whe
             hint = " (angles are given in degrees as <name>_deg)" if f"{key}_deg" in allowed else ""
             raise ConfigError(f"unknown key{hint}; expected one of {', '.join(sorted(allowed))}",
                               source=source, key=name)
+
+
+class TomlPresets:
+    """Mixin of the TOML constructors shared by robots and clearance sets.
+
+    A subclass sets ``KIND`` (a word for messages) and ``PRESET_FOLDER``
+    (``data/<folder>/<name>.toml``) and defines ``from_dict`` and ``to_dict``.
+    """
+
+    KIND: ClassVar[str]
+    PRESET_FOLDER: ClassVar[str]
+
+    @classmethod
+    def preset_names(cls) -> list[str]:
+        """Names of the built-in presets."""
+        return preset_names(cls.PRESET_FOLDER)
+
+    @classmethod
+    def preset(cls, name: str):
+        """A built-in preset by name (see :meth:`preset_names`)."""
+        if name not in cls.preset_names():
+            raise ConfigError(f"unknown {cls.KIND} preset (presets: {', '.join(cls.preset_names())})", source=name)
+        return cls.load(name)
+
+    @classmethod
+    def load(cls, spec):
+        """A preset name, a path to a TOML file, or an instance (returned as is)."""
+        if isinstance(spec, cls):
+            return spec
+        data, source = read_spec(spec, kind=cls.KIND, folder=cls.PRESET_FOLDER)
+        return cls.from_dict(data, source=source)
+
+    @classmethod
+    def from_toml(cls, path: str | Path):
+        """Read a TOML file (format in the README and the module docstring)."""
+        data, source = read_spec(path, kind=cls.KIND, folder=None)
+        return cls.from_dict(data, source=source)
+
+    @classmethod
+    def from_toml_string(cls, text: str, source: str = "<string>"):
+        """Parse TOML text."""
+        return cls.from_dict(parse_text(text, source), source=source)
+
+    def to_toml(self, path: str | Path | None = None) -> str:
+        """The object as TOML text; also written to ``path`` when given."""
+        text = tomli_w.dumps(self.to_dict())
+        if path is not None:
+            Path(path).write_text(text, encoding="utf-8")
+        return text

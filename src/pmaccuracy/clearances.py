@@ -29,10 +29,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-import tomli_w
 
 from . import _tomlio
 from .errors import ClearanceError, ConfigError
@@ -55,7 +54,7 @@ def _as3(name: str, value: Any, *, positive: bool = False) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class ClearanceSet:
+class ClearanceSet(_tomlio.TomlPresets):
     """Clearance bounds of the three legs (arrays of shape (3,)).
 
     Attributes
@@ -72,6 +71,8 @@ class ClearanceSet:
     revolute_radial: np.ndarray
     name: str = "custom"
     description: str = ""
+    KIND: ClassVar[str] = "clearance"
+    PRESET_FOLDER: ClassVar[str] = "clearances"
 
     def __init__(self, bearing_angle: Any = 0.0, guide_lateral: Any = 0.0,
                  guide_block_length: Any = DEFAULT_GUIDE_BLOCK_LENGTH, revolute_radial: Any = 0.0,
@@ -93,32 +94,6 @@ class ClearanceSet:
     __hash__ = None  # type: ignore[assignment]
 
     # ------------------------------------------------------------------ constructors
-    @classmethod
-    def preset_names(cls) -> list[str]:
-        """Built-in sets: ``case1`` (bearings), ``case2`` (bearings + revolutes), ``all`` (+ guides)."""
-        return _tomlio.preset_names("clearances")
-
-    @classmethod
-    def preset(cls, name: str) -> "ClearanceSet":
-        """A built-in clearance set by name (see :meth:`preset_names`)."""
-        if name not in cls.preset_names():
-            raise ConfigError(f"unknown clearance preset (presets: {', '.join(cls.preset_names())})", source=name)
-        return cls.load(name)
-
-    @classmethod
-    def load(cls, spec: "str | Path | ClearanceSet") -> "ClearanceSet":
-        """A preset name, a path to a clearance TOML file, or a ClearanceSet (returned as is)."""
-        if isinstance(spec, ClearanceSet):
-            return spec
-        data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
-        return cls.from_dict(data, source=source)
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> "ClearanceSet":
-        """Read a clearance file (format in the module docstring)."""
-        data, source = _tomlio.read_spec(path, kind="clearance", folder=None)
-        return cls.from_dict(data, source=source)
-
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ClearanceSet":
         """Build from the parsed TOML table."""
@@ -143,13 +118,6 @@ class ClearanceSet:
             out["description"] = self.description
         out["legs"] = [{k: float(getattr(self, k)[i]) for k in sorted(CLEARANCE_KEYS)} for i in range(3)]
         return out
-
-    def to_toml(self, path: str | Path | None = None) -> str:
-        """The set as TOML text; also written to ``path`` when given."""
-        text = tomli_w.dumps(self.to_dict())
-        if path is not None:
-            Path(path).write_text(text, encoding="utf-8")
-        return text
 
     def only(self, *sources: str) -> "ClearanceSet":
         """A copy keeping only some sources (``"bearing"``, ``"guide"``, ``"revolute"``), others set to 0."""

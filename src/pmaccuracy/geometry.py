@@ -20,10 +20,9 @@ import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-import tomli_w
 
 from . import _tomlio
 from .errors import ConfigError, GeometryError
@@ -82,7 +81,7 @@ class Leg:
 
 
 @dataclass(frozen=True)
-class Manipulator:
+class Manipulator(_tomlio.TomlPresets):
     """A planar 3-PPR manipulator: three :class:`Leg` and a name.
 
     Per-leg parameters are available as arrays of shape ``(3,)`` (``robot.a``,
@@ -97,6 +96,8 @@ class Manipulator:
     legs: tuple[Leg, Leg, Leg]
     name: str = "custom"
     description: str = ""
+    KIND: ClassVar[str] = "robot"
+    PRESET_FOLDER: ClassVar[str] = "robots"
 
     def __post_init__(self) -> None:
         if len(self.legs) != 3:
@@ -129,35 +130,9 @@ class Manipulator:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def preset_names(cls) -> list[str]:
-        """Names of the built-in robots (``aalborg_3ppr``, ``symmetric_3ppr``)."""
-        return _tomlio.preset_names("robots")
-
-    @classmethod
     def preset(cls, name: str = "aalborg_3ppr") -> "Manipulator":
-        """A built-in robot by name; the default is the paper's (reconstructed) prototype."""
-        if name not in cls.preset_names():
-            raise ConfigError(f"unknown robot preset (presets: {', '.join(cls.preset_names())})", source=name)
-        return cls.load(name)
-
-    @classmethod
-    def load(cls, spec: "str | Path | Manipulator") -> "Manipulator":
-        """A preset name, a path to a robot TOML file, or a Manipulator (returned as is)."""
-        if isinstance(spec, Manipulator):
-            return spec
-        data, source = _tomlio.read_spec(spec, kind="robot", folder="robots")
-        return cls.from_dict(data, source=source)
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> "Manipulator":
-        """Read a robot file (format in the README; lengths mm, angles deg)."""
-        data, source = _tomlio.read_spec(path, kind="robot", folder=None)
-        return cls.from_dict(data, source=source)
-
-    @classmethod
-    def from_toml_string(cls, text: str, source: str = "<string>") -> "Manipulator":
-        """Parse the TOML text of a robot file."""
-        return cls.from_dict(_tomlio.parse_text(text, source), source=source)
+        """A built-in robot by name (``aalborg_3ppr``, ``symmetric_3ppr``); default: the paper's prototype."""
+        return super().preset(name)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Manipulator":
@@ -212,13 +187,6 @@ class Manipulator:
             out["description"] = self.description
         out["legs"] = legs
         return out
-
-    def to_toml(self, path: str | Path | None = None) -> str:
-        """The robot as TOML text; also written to ``path`` when given."""
-        text = tomli_w.dumps(self.to_dict())
-        if path is not None:
-            Path(path).write_text(text, encoding="utf-8")
-        return text
 
     def perturbed(self, **changes: np.ndarray | list[float]) -> "Manipulator":
         """A copy with per-leg additive changes, e.g. ``perturbed(theta=[0, 1e-3, 0])`` (mm, rad).
