@@ -29,6 +29,11 @@ joint). The set of pose errors is therefore the parallelepiped
 because a convex function (the norm) is maximal at a vertex and every vertex
 of the projected zonotope is the projection of a vertex ``t``. The
 maximizing clearance configurations follow from the signs ``t``.
+
+Tolerance intervals ``|dq_i| <= t_q,i`` on link parameters (manufacturing and
+assembly errors, Eq. 9) add ``t_q,i |H_q,i|`` to ``c_i``, so clearances and
+tolerances together keep this form (:func:`tolerance_half_widths`).
+:func:`slsqp_max_pose_errors` is the paper-style local baseline.
 """
 
 from __future__ import annotations
