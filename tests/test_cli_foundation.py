@@ -98,9 +98,17 @@ def test_fk_json_lists_every_assembly_mode(capsys):
     assert flipped["within_limits"] is False   # l3 = 182.34 mm > 160 mm
 
 
-def test_fk_without_solution_prints_empty_list(capsys):
-    code, out, _ = run(["fk", "--joints", -40, 40, 0, "--format", "json"], capsys)
-    assert code == 0 and json.loads(out) == []
+def test_fk_refuses_actuator_values_outside_their_range(capsys):
+    code, out, err = run(["fk", "--joints", -40, 40, 0, "--format", "json"], capsys)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "s2=40 mm not in [-40, 10]" in err and "Traceback" not in err
+
+
+def test_fk_without_assembly_mode_is_an_error(capsys):
+    # legs 1 and 2 (parallel bearings) fix y and phi: s1 - s2 = -2 r sin(60 deg) sin(phi) = -51.96 sin(phi) mm,
+    # so s1 - s2 = -80 mm would need sin(phi) = 1.54
+    code, out, err = run(["fk", "--joints", -40, 40, 0, "--allow-outside", "--format", "json"], capsys)
+    assert code == 2 and out == "" and "no assembly mode" in err and len(err.strip().splitlines()) == 1
 
 
 # ----------------------------------------------------------------------------------- workspace

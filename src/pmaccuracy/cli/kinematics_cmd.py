@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from ..errors import NoSolutionError, OutsideJointLimitsError
 from ..kinematics import forward_kinematics, inverse_kinematics
 from . import _common
 
@@ -26,6 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(p)
     p.add_argument("--joints", nargs=3, type=_common.finite_float, required=True, metavar=("S1", "S2", "S3"),
                    help="actuated joint values in mm")
+    p.add_argument("--allow-outside", action="store_true",
+                   help="accept actuator values outside their ranges (s_range of the robot)")
     _common.add_format(p)
     p.set_defaults(func=run_fk)
 
@@ -42,7 +45,15 @@ def run_ik(args: argparse.Namespace) -> int:
 
 def run_fk(args: argparse.Namespace) -> int:
     robot = _common.load_robot(args)
-    fk = forward_kinematics(robot, np.array(args.joints))
+    s = np.array(args.joints)
+    outside = [f"s{i + 1}={v:g} mm not in [{lo:g}, {hi:g}]" for i, (v, (lo, hi)) in enumerate(zip(s, robot.s_range))
+               if not lo <= v <= hi]
+    if outside and not args.allow_outside:
+        raise OutsideJointLimitsError("actuator values outside their ranges: " + ", ".join(outside)
+                                      + " (--allow-outside to solve anyway)")
+    fk = forward_kinematics(robot, s)
+    if not fk.valid.any():
+        raise NoSolutionError(f"no assembly mode: the legs cannot be closed with s = {args.joints} mm")
     out = [{"x": pose[0], "y": pose[1], "phi_deg": np.degrees(pose[2]), "l": l, "within_limits": ok}
            for pose, l, ok, valid in zip(fk.poses, fk.l, fk.within_limits, fk.valid) if valid]
     _common.emit(out, args.format)
