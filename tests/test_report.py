@@ -259,7 +259,7 @@ def test_document_table():
     md = doc.to_markdown().splitlines()
     i = md.index("| name | value | n |")
     assert md[i + 1] == "|---|---|---|"
-    assert md[i + 2] == "| a <b> | 1.235 | 3 |"  # floats with 4 significant digits
+    assert md[i + 2] == "| a <b> | 1.2346 | 3 |"  # floats with 4 significant digits
     assert md[i + 3] == "| **x** | 0.5 | PASS |"
     assert md[i + 4] == "| y | 2e-05 | FAIL |"
     html = doc.to_html()

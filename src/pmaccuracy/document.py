@@ -102,7 +102,7 @@ class Document:
 
 def _cell(value: object) -> str:
     if isinstance(value, float):
-        return f"{value:.4g}"
+        return f"{value:.5g}"
     return str(value)
 
 

@@ -170,8 +170,7 @@ def _maps_section(doc: Document, maps: dict, out: Path) -> None:
     rows = []
     for case, ds in maps.items():
         for phi, ranges in summarize(ds).items():
-            rows.append([case, phi] + [f"{ranges[_JSON_KEYS[v]][0]:.4f} - {ranges[_JSON_KEYS[v]][1]:.4f}"
-                                       for v in MAP_VARIABLES])
+            rows.append([case, phi] + [_range(ranges[_JSON_KEYS[v]], 4) for v in MAP_VARIABLES])
     doc.table(["case", "phi [deg]", "dx_max [mm]", "dy_max [mm]", "dphi_max [deg]", "dp_max [mm]"], rows)
     for case, ds in maps.items():
         for phi in ds.phi.values:
