@@ -259,12 +259,12 @@ def test_document_table():
     md = doc.to_markdown().splitlines()
     i = md.index("| name | value | n |")
     assert md[i + 1] == "|---|---|---|"
-    assert md[i + 2] == "| a <b> | 1.2346 | 3 |"  # floats with 4 significant digits
+    assert md[i + 2] == "| a <b> | 1.2346 | 3 |"  # floats with 5 significant digits
     assert md[i + 3] == "| **x** | 0.5 | PASS |"
     assert md[i + 4] == "| y | 2e-05 | FAIL |"
     html = doc.to_html()
     assert "<thead><tr><th>name</th><th>value</th><th>n</th></tr></thead>" in html
-    assert "<tr><td>a &lt;b&gt;</td><td>1.235</td><td>3</td></tr>" in html
+    assert "<tr><td>a &lt;b&gt;</td><td>1.2346</td><td>3</td></tr>" in html
     assert "<td><b>x</b></td>" in html
     assert "<span class='ok'>PASS</span>" in html and "<span class='bad'>FAIL</span>" in html
     assert html.count("<tr>") == 4
