@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import html
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,6 +102,9 @@ class Document:
 
 
 def _cell(value: object) -> str:
+    """Five significant digits for floats; ``-`` for a missing or non-finite value."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
     if isinstance(value, float):
         return f"{value:.5g}"
     return str(value)

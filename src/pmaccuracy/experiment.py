@@ -66,9 +66,7 @@ ending in ``_deg``.
 
 from __future__ import annotations
 
-import base64
 import csv
-import html
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -79,11 +77,14 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from . import figures
 from .bounds import PoseErrorBounds, first_order_pose_error, max_pose_errors
 from .clearances import ClearanceDisplacement, ClearanceSet
+from .document import Document
 from .error_model import pose_state
 from .errors import ConfigError, MeasurementFileError, OutsideJointLimitsError
 from .geometry import Manipulator
+from .maps import error_map
 from .kinematics import DEFAULT_MAX_CONDITION, as_poses, check_within_limits, inverse_kinematics
 
 #: Push directions, in the order of the readings' second axis.
@@ -835,9 +836,6 @@ def plot_measured_maps(robot: Manipulator | str, clearances: ClearanceSet | str,
     errors; ``scale`` multiplies the drawn maxima (2 for the width-consistent view).
     Returns ``{phi_deg: Figure}``.
     """
-    from .figures import plot_error_map
-    from .maps import error_map
-
     robot = Manipulator.load(robot)
     clearances = ClearanceSet.load(clearances)
     out = {}
@@ -846,16 +844,10 @@ def plot_measured_maps(robot: Manipulator | str, clearances: ClearanceSet | str,
         measured = {"x": sub.measurements.nominal[:, 0], "y": sub.measurements.nominal[:, 1],
                     **sub.measured_values()}
         conv = "measured ranges vs maxima (paper)" if scale == 1 else f"measured ranges vs {scale:g} x maxima"
-        out[phi_deg] = plot_error_map(ds, phi_deg, measured=measured, scale=scale,
-                                      title=f"{robot.name}, clearances {clearances.name}, $\\phi$ = {phi_deg:g} deg: "
-                                            f"{conv}")
+        out[phi_deg] = figures.plot_error_map(
+            ds, phi_deg, measured=measured, scale=scale,
+            title=f"{robot.name}, clearances {clearances.name}, $\\phi$ = {phi_deg:g} deg: {conv}")
     return out
-
-
-def _save(fig: Figure, path: Path, dpi: int = 100) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
 
 
 def write_figures(robot: Manipulator | str, clearances: ClearanceSet | str, comparison: Comparison,
@@ -873,13 +865,13 @@ def write_figures(robot: Manipulator | str, clearances: ClearanceSet | str, comp
     for scale, suffix in ((1.0, ""), (2.0, "_x2")):
         for phi_deg, fig in plot_measured_maps(robot, clearances, comparison, grid=map_grid, scale=scale).items():
             name = f"map_phi{phi_deg:g}{suffix}"
-            paths[name] = _save(fig, out_dir / f"{prefix}{name}.png")
+            paths[name] = figures.save(fig, out_dir / f"{prefix}{name}.png")
     if box_datasets is None:
         box_datasets = {f"phi = {phi:g} deg": sub.measured for phi, sub in comparison.by_orientation().items()}
-    paths["boxplot"] = _save(plot_boxplots(box_datasets), out_dir / f"{prefix}boxplot.png")
-    paths["accuracy"] = _save(plot_accuracy(comparison), out_dir / f"{prefix}accuracy.png")
-    paths["regression"] = _save(plot_regression(comparison, 1.0), out_dir / f"{prefix}regression.png")
-    paths["regression_x2"] = _save(plot_regression(comparison, 2.0), out_dir / f"{prefix}regression_x2.png")
+    paths["boxplot"] = figures.save(plot_boxplots(box_datasets), out_dir / f"{prefix}boxplot.png")
+    paths["accuracy"] = figures.save(plot_accuracy(comparison), out_dir / f"{prefix}accuracy.png")
+    paths["regression"] = figures.save(plot_regression(comparison, 1.0), out_dir / f"{prefix}regression.png")
+    paths["regression_x2"] = figures.save(plot_regression(comparison, 2.0), out_dir / f"{prefix}regression_x2.png")
     return paths
 
 
@@ -903,26 +895,6 @@ def _json_ready(value: Any) -> Any:
     return value
 
 
-def _fmt(value: Any, digits: int = 4) -> str:
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "-"
-    if isinstance(value, float):
-        return f"{value:.{digits}g}"
-    return html.escape(str(value))
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in row) + "</tr>" for row in rows)
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
-
-
-def _img(path: Path, caption: str) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}"/>'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
-
-
 _CAPTIONS = {
     "boxplot": "Measured errors per orientation (cf. Fig. 13).",
     "accuracy": "ISO 9283 accuracy per point, AP_p = dp and AP_phi = dphi (Eq. 24, cf. Fig. 14).",
@@ -931,66 +903,53 @@ _CAPTIONS = {
 }
 
 
-def render_html(summary: Mapping[str, Any], figures: Mapping[str, Path], *, title: str) -> str:
+def render_html(summary: Mapping[str, Any], figure_paths: Mapping[str, Path], *, title: str) -> str:
     """A self-contained HTML report (figures embedded as base64 PNG) of a :meth:`Comparison.summary`."""
     q_head = ["", "dx [mm]", "dy [mm]", "dp [mm]", "dphi [deg]"]
 
     def qrow(name: str, d: Mapping[str, Any], key: str | None = None) -> list[Any]:
         return [name] + [(d[q][key] if key else d[q]) for q in QUANTITIES]
 
-    stats = [qrow("RMSD, measured - max (paper)", summary["rmsd"]),
-             qrow("RMSD, measured - 2 max (width-consistent)", summary["rmsd_width_consistent"]),
-             qrow("mean of measured", summary["mean"]),
-             qrow("SSD of measured", summary["ssd"]),
-             qrow("share inside +-2A, direct", summary["band"]["direct"], "share"),
-             qrow("share inside +-2A, 2 x max", summary["band"]["width_consistent"], "share"),
-             qrow("largest excess beyond the band, direct", summary["band"]["direct"], "max_excess"),
-             qrow("Pearson r, direct", summary["regression"]["direct"], "r")]
-    per_phi = [[o["phi_deg"], o["n_points"], *(o["rmsd"][q] for q in QUANTITIES),
-                *(o["rmsd_width_consistent"][q] for q in QUANTITIES)] for o in summary["orientations"]]
+    doc = Document(title)
+    doc.paragraph(
+        f"Measurements: `{summary['source']}`; robot **{summary['robot']}**, clearances "
+        f"**{summary['clearances']}**; {summary['n_points']} points. Measured errors by Eq. 23a-d (ranges over "
+        f"the six push readings), predicted maxima by Eq. 21-22 at the nominal poses. Camera accuracy A_meas = "
+        f"{summary['accuracy_mm']:g} mm, {summary['accuracy_deg']:g} deg.")
+    doc.heading("Conventions")
+    conv = summary["conventions"]
+    doc.bullets([f"**rmsd**: {conv['rmsd']}.", f"**rmsd_width_consistent**: {conv['rmsd_width_consistent']}."])
+    doc.heading("Statistics over all points")
+    doc.table(q_head, [qrow("RMSD, measured - max (paper)", summary["rmsd"]),
+                       qrow("RMSD, measured - 2 max (width-consistent)", summary["rmsd_width_consistent"]),
+                       qrow("mean of measured", summary["mean"]),
+                       qrow("SSD of measured", summary["ssd"]),
+                       qrow("share inside +-2A, direct", summary["band"]["direct"], "share"),
+                       qrow("share inside +-2A, 2 x max", summary["band"]["width_consistent"], "share"),
+                       qrow("largest excess beyond the band, direct", summary["band"]["direct"], "max_excess"),
+                       qrow("Pearson r, direct", summary["regression"]["direct"], "r")])
     acc = summary["accuracy_iso9283"]
-    point_cols = ["point", "x_nom", "y_nom", "phi_nom_deg", "dx", "dx_max", "dy", "dy_max", "dp", "dp_max",
-                  "dphi_deg", "dphi_max_deg"]
-    points = [[p[c] for c in point_cols] for p in summary["points"]]
-    figs = []
-    for name, path in figures.items():
+    doc.paragraph(f"ISO 9283 accuracy (Eq. 24): position AP_p from {acc['position'][0]:.4g} to "
+                  f"{acc['position'][1]:.4g} mm, orientation AP_phi from {acc['orientation_deg'][0]:.4g} to "
+                  f"{acc['orientation_deg'][1]:.4g} deg.")
+    doc.heading("RMSD per orientation")
+    doc.table(["phi [deg]", "points", "dx", "dy", "dp", "dphi [deg]", "dx (2x)", "dy (2x)", "dp (2x)",
+               "dphi (2x) [deg]"],
+              [[o["phi_deg"], o["n_points"], *(o["rmsd"][q] for q in QUANTITIES),
+                *(o["rmsd_width_consistent"][q] for q in QUANTITIES)] for o in summary["orientations"]])
+    doc.heading("Figures")
+    for name, path in figure_paths.items():
         if name.startswith("map_"):
             caption = (f"Maximum pose errors over the workspace with the measured points (cf. Figs. 9-12), "
                        f"{'twice the maxima' if name.endswith('_x2') else 'paper convention'}.")
         else:
             caption = _CAPTIONS.get(name, name)
-        figs.append(_img(Path(path), caption))
-    conv = summary["conventions"]
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"/><title>{html.escape(title)}</title>
-<style>
-body {{ font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }}
-table {{ border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }}
-th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }}
-th {{ background: #eee; }}
-figure {{ margin: 1.5em 0; }} img {{ max-width: 100%; }} figcaption {{ font-size: 0.9em; color: #555; }}
-</style></head><body>
-<h1>{html.escape(title)}</h1>
-<p>Measurements: <code>{html.escape(str(summary['source']))}</code>; robot <b>{html.escape(str(summary['robot']))}</b>,
-clearances <b>{html.escape(str(summary['clearances']))}</b>; {summary['n_points']} points. Measured errors by Eq. 23a-d
-(ranges over the six push readings), predicted maxima by Eq. 21-22 at the nominal poses. Camera accuracy
-A_meas = {_fmt(summary['accuracy_mm'])} mm, {_fmt(summary['accuracy_deg'])} deg.</p>
-<h2>Conventions</h2>
-<ul><li><b>rmsd</b>: {html.escape(conv['rmsd'])}.</li>
-<li><b>rmsd_width_consistent</b>: {html.escape(conv['rmsd_width_consistent'])}.</li></ul>
-<h2>Statistics over all points</h2>
-{_table(q_head, stats)}
-<p>ISO 9283 accuracy (Eq. 24): position AP_p from {_fmt(acc['position'][0])} to {_fmt(acc['position'][1])} mm,
-orientation AP_phi from {_fmt(acc['orientation_deg'][0])} to {_fmt(acc['orientation_deg'][1])} deg.</p>
-<h2>RMSD per orientation</h2>
-{_table(["phi [deg]", "points", "dx", "dy", "dp", "dphi [deg]", "dx (2x)", "dy (2x)", "dp (2x)", "dphi (2x) [deg]"],
-        per_phi)}
-<h2>Figures</h2>
-{''.join(figs)}
-<h2>Points</h2>
-{_table(point_cols, points)}
-</body></html>
-"""
+        doc.figure(path, caption)
+    doc.heading("Points")
+    point_cols = ["point", "x_nom", "y_nom", "phi_nom_deg", "dx", "dx_max", "dy", "dy_max", "dp", "dp_max",
+                  "dphi_deg", "dphi_max_deg"]
+    doc.table(point_cols, [[p[c] for c in point_cols] for p in summary["points"]])
+    return doc.to_html()
 
 
 def write_report(robot: Manipulator | str, clearances: ClearanceSet | str, comparison: Comparison,
@@ -999,16 +958,16 @@ def write_report(robot: Manipulator | str, clearances: ClearanceSet | str, compa
     self-contained ``report.html`` into ``out_dir``; returns ``{name: path}`` of every file written."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    figures = write_figures(robot, clearances, comparison, out_dir, map_grid=map_grid)
+    figure_paths = write_figures(robot, clearances, comparison, out_dir, map_grid=map_grid)
     summary = comparison.summary()
-    summary["figures"] = {k: p.name for k, p in figures.items()}
+    summary["figures"] = {k: p.name for k, p in figure_paths.items()}
     json_path = out_dir / "comparison.json"
     json_path.write_text(json.dumps(_json_ready(summary), indent=2) + "\n", encoding="utf-8")
     report = out_dir / "report.html"
-    report.write_text(render_html(_json_ready(summary), figures,
+    report.write_text(render_html(_json_ready(summary), figure_paths,
                                   title=title or f"Experimental validation: {comparison.robot}, "
                                                  f"clearances {comparison.clearances}"), encoding="utf-8")
-    return {"report": report, "json": json_path, **figures}
+    return {"report": report, "json": json_path, **figure_paths}
 
 
 def virtual_experiment_section(robot: Manipulator | str, clearances: ClearanceSet | str,
@@ -1061,14 +1020,14 @@ def virtual_experiment_section(robot: Manipulator | str, clearances: ClearanceSe
     by_phi = comparison.by_orientation()
     for scale, suffix in ((1.0, ""), (2.0, "_x2")):
         for phi_deg, fig in plot_measured_maps(robot, clearances, comparison, grid=map_grid, scale=scale).items():
-            files[f"map_phi{phi_deg:g}{suffix}"] = _save(fig, out_dir / f"{prefix}map_phi{phi_deg:g}{suffix}.png")
-    files["boxplot"] = _save(plot_boxplots({f"phi = {p:g} deg": c.measured for p, c in by_phi.items()}),
+            files[f"map_phi{phi_deg:g}{suffix}"] = figures.save(fig, out_dir / f"{prefix}map_phi{phi_deg:g}{suffix}.png")
+    files["boxplot"] = figures.save(plot_boxplots({f"phi = {p:g} deg": c.measured for p, c in by_phi.items()}),
                              out_dir / f"{prefix}boxplot.png")
     for phi_deg, sub in by_phi.items():
         tag = f"phi{phi_deg:g}"
-        files[f"accuracy_{tag}"] = _save(plot_accuracy(sub), out_dir / f"{prefix}accuracy_{tag}.png")
-        files[f"regression_{tag}"] = _save(plot_regression(sub, 1.0), out_dir / f"{prefix}regression_{tag}.png")
-        files[f"regression_{tag}_x2"] = _save(plot_regression(sub, 2.0), out_dir / f"{prefix}regression_{tag}_x2.png")
+        files[f"accuracy_{tag}"] = figures.save(plot_accuracy(sub), out_dir / f"{prefix}accuracy_{tag}.png")
+        files[f"regression_{tag}"] = figures.save(plot_regression(sub, 1.0), out_dir / f"{prefix}regression_{tag}.png")
+        files[f"regression_{tag}_x2"] = figures.save(plot_regression(sub, 2.0), out_dir / f"{prefix}regression_{tag}_x2.png")
     result: dict[str, Any] = {
         "robot": robot.name, "clearances": clearances.name, "model": model, "take_up": take_up,
         "noise_mm": noise_mm, "noise_deg": noise_deg, "seed": seed, "grid": grid,
