@@ -104,26 +104,28 @@ class PoseErrorBounds:
                 for p, a, b, c, d in zip(poses, *cols)]
 
 
-def leg_half_widths(robot: Manipulator, clearances: ClearanceSet, state: PoseState) -> np.ndarray:
-    """``c_i`` (mm), shape ``(..., 3)``: the largest |e_i| the clearances of leg i allow (module docstring)."""
-    H = H_diagonals(robot, state)
+def leg_half_widths(clearances: ClearanceSet, H: dict[str, np.ndarray]) -> np.ndarray:
+    """``c_i`` (mm), shape ``(..., 3)``: the largest |e_i| the clearances of leg i allow (module docstring).
+
+    ``H`` is :func:`pmaccuracy.error_model.H_diagonals` at the poses.
+    """
     eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
     L = clearances.guide_block_length
     guide = np.maximum(eps_g * np.abs(H["d"]), 2 * eps_g * np.abs(H["gamma"]) / L)
     return eps_b * np.abs(H["theta"]) + guide + eps_r
 
 
-def tolerance_half_widths(robot: Manipulator, tolerances: Mapping[str, Any], state: PoseState) -> np.ndarray:
+def tolerance_half_widths(tolerances: Mapping[str, Any], H: dict[str, np.ndarray]) -> np.ndarray:
     """``c_i`` (mm), shape ``(..., 3)``, of tolerance intervals ``|dq_i| <= t_q,i`` on link parameters.
 
     By Eq. 9 a variation ``dq_i`` adds ``H_q,i dq_i`` to leg i's row of
     ``A [dp; dphi]``, so intervals add ``sum_q t_q,i |H_q,i|`` to the leg's
     half-width: the error set stays the parallelepiped ``A^-1 diag(c) [-1, 1]^3``.
     ``tolerances`` maps names of :data:`pmaccuracy.error_model.LINK_VARIATIONS`
-    (``rho``: a radius, any direction) to half-widths ``(3,)`` in mm or rad.
+    (``rho``: a radius, any direction) to half-widths ``(3,)`` in mm or rad;
+    ``H`` is :func:`pmaccuracy.error_model.H_diagonals` at the poses.
     """
-    H = H_diagonals(robot, state)
-    c = np.zeros(state.s.shape)
+    c = np.zeros(H["theta"].shape)
     for q, t in _check_tolerances(tolerances).items():
         c = c + t * np.abs(H[q])
     return c
@@ -154,17 +156,16 @@ def _check_tolerances(tolerances: Mapping[str, Any]) -> dict[str, np.ndarray]:
     return out
 
 
-def _worst_variations(robot: Manipulator, tolerances: Mapping[str, Any], state: PoseState,
+def _worst_variations(tolerances: dict[str, np.ndarray], H: dict[str, np.ndarray],
                       t: np.ndarray) -> dict[str, np.ndarray]:
-    """Parameter variations at the vertex of the tolerance box making leg i's term ``t_i`` times its maximum."""
-    H = H_diagonals(robot, state)
-    return {q: t * tol * _sign(H[q]) for q, tol in _check_tolerances(tolerances).items()}
+    """Parameter variations at the vertex of the (checked) tolerance box making leg i's term ``t_i`` times its
+    maximum."""
+    return {q: t * tol * _sign(H[q]) for q, tol in tolerances.items()}
 
 
-def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, state: PoseState,
+def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, H: dict[str, np.ndarray],
                          t: np.ndarray) -> ClearanceDisplacement:
     """Joint displacements making ``e_i = t_i c_i`` for signs ``t`` ``(..., 3)`` (the argmax of Eq. 21-22)."""
-    H = H_diagonals(robot, state)
     eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
     L = clearances.guide_block_length
     tau_b = t * eps_b * _sign(H["theta"])
@@ -238,9 +239,10 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[
     state = pose_state(robot, poses, max_condition)
     if not allow_outside:
         check_within_limits(robot, poses, state)
-    c = leg_half_widths(robot, clearances, state)
+    H = H_diagonals(robot, state)  # once per block: every half-width and argmax below uses it
+    c = leg_half_widths(clearances, H)
     if tolerances:
-        c = c + tolerance_half_widths(robot, tolerances, state)
+        c = c + tolerance_half_widths(tolerances, H)
     G = state.A_inv * c[:, None, :]
     extents = np.sum(np.abs(G), axis=-1)  # (n, 3): support functions along x, y, phi
     vertices = np.einsum("nij,vj->nvi", G[:, :2, :], _VERTEX_SIGNS)  # (n, 4, 2)
@@ -249,13 +251,13 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[
     out = {"dx": extents[:, 0], "dy": extents[:, 1], "dphi": extents[:, 2],
            "dp": np.take_along_axis(norms, best[:, None], axis=-1)[:, 0], "c": c, "G": G, "t": _VERTEX_SIGNS[best]}
     if details:
-        out["worst"] = {q: _worst_configuration(robot, clearances, state, _sign(state.A_inv[:, row, :]))
+        out["worst"] = {q: _worst_configuration(robot, clearances, H, _sign(state.A_inv[:, row, :]))
                         for row, q in enumerate(("dx", "dy", "dphi"))}
-        out["worst"]["dp"] = _worst_configuration(robot, clearances, state, out["t"])
+        out["worst"]["dp"] = _worst_configuration(robot, clearances, H, out["t"])
         if tolerances:
             signs = {q: _sign(state.A_inv[:, row, :]) for row, q in enumerate(("dx", "dy", "dphi"))}
             signs["dp"] = out["t"]
-            out["worst_variations"] = {q: _worst_variations(robot, tolerances, state, t) for q, t in signs.items()}
+            out["worst_variations"] = {q: _worst_variations(tolerances, H, t) for q, t in signs.items()}
     return out
 
 
@@ -270,16 +272,15 @@ def first_order_pose_error(robot: Manipulator, poses: np.ndarray | PoseState,
 
 
 # ----------------------------------------------------------------------------- baseline
-def _leg_coefficients(robot: Manipulator, clearances: ClearanceSet, state: PoseState, index: int
+def _leg_coefficients(clearances: ClearanceSet, state: PoseState, H: dict[str, np.ndarray], index: int
                       ) -> tuple[np.ndarray, list[str], np.ndarray]:
     """Columns of the paper's J^c_err (Eq. 20a) at one pose, scaled to unit-box variables.
 
     Variables (normalized): zb_i = dtau_b,i / eps_theta,i; zs_i = dsigma_g,i / eps_g,i;
     zt_i = dtau_g,i / (2 eps_g,i / L_g,i) (the rhombus becomes |zs +- zt| <= 1);
     zr_i = drho_i / eps_r,i in [0, 1] with angle varphi_i. Variables whose
-    clearance is zero are left out.
+    clearance is zero are left out. ``H`` holds the diagonals at every pose of ``state``.
     """
-    H = H_diagonals(robot, state)
     A_inv = state.A_inv[index]
     cols, kinds, legs = [], [], []
     eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
@@ -319,8 +320,9 @@ def slsqp_max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: n
     rng = np.random.default_rng(seed)
     Ew = perp(robot.w)
     out = np.zeros((flat.shape[0], 4))
+    H = H_diagonals(robot, state)
     for k in range(flat.shape[0]):
-        C, kinds, legs = _leg_coefficients(robot, clearances, state, k)
+        C, kinds, legs = _leg_coefficients(clearances, state, H, k)
         out[k] = _slsqp_pose(C, kinds, legs, Ew, n_starts, rng)
     shape = poses.shape[:-1]
     return PoseErrorBounds(poses=poses, dx_max=out[:, 0].reshape(shape), dy_max=out[:, 1].reshape(shape),
