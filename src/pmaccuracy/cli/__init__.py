@@ -14,9 +14,23 @@ import sys
 
 from ..errors import PmAccuracyError
 
+#: Commands in help order: name -> (module of ``pmaccuracy.cli`` registering it, one-line help).
+#: The help lines let ``pmaccuracy --help`` list every command without importing any command module;
+#: ``tests/test_cli_lazy.py`` checks that they equal what each module registers.
+COMMANDS = {
+    "ik": ("kinematics_cmd", "inverse kinematics: joint values s, l of poses (Eq. 2a, 2b)"),
+    "fk": ("kinematics_cmd", "forward kinematics: every assembly mode for actuator values (analytic)"),
+    "workspace": ("workspace_cmd", "constant-orientation workspace: exact polygon of the 12 joint limits (Sec. 3)"),
+    "bounds": ("bounds_cmd", "maximum pose errors due to joint clearances at poses (exact, Eq. 21-22)"),
+    "map": ("map_cmd", "error maps over constant-orientation workspaces (NetCDF, Zarr or CSV, optional figure)"),
+    "reproduce": ("reproduce_cmd",
+                  "reproduce the paper: workspace, error maps, paper check, sources, design comparison"),
+    "experiment": ("experiment_cmd",
+                   "experimental validation: simulate the push protocol, compare measurements with the model"),
+    "vision": ("vision_cmd", "vision measurement: calibrate a camera, measure the platform pose"),
+}
 #: Modules of ``pmaccuracy.cli`` that register commands, in help order.
-COMMAND_MODULES = ("kinematics_cmd", "workspace_cmd", "bounds_cmd", "map_cmd", "reproduce_cmd",
-                   "experiment_cmd", "vision_cmd")
+COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -26,7 +40,19 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _requested_command(argv: list[str]) -> str | None:
+    """The command named on the command line: the first argument that is not an option."""
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
+def build_parser(argv: list[str] | None = None, *, load_all: bool = False) -> argparse.ArgumentParser:
+    """The ``pmaccuracy`` parser; only the module of the requested command is imported.
+
+    Every other command gets a placeholder sub-parser carrying just its help line
+    (:data:`COMMANDS`), so ``pmaccuracy --help`` imports no command module and
+    ``pmaccuracy bounds ...`` imports only ``bounds_cmd``. ``load_all`` registers
+    every module for real (tests, documentation).
+    """
     from .. import __version__
 
     parser = OneLineParser(
@@ -37,14 +63,27 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"pmaccuracy {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True
-    for name in COMMAND_MODULES:
-        importlib.import_module(f".{name}", __name__).register(sub)
+    wanted = _requested_command(sys.argv[1:] if argv is None else argv)
+    # A name missing from the table (a typo, or a command a module registers but COMMANDS does not list yet):
+    # register everything, so the command still runs and a typo still gets argparse's list of choices.
+    load_all = load_all or (wanted is not None and wanted not in COMMANDS)
+    registered: set[str] = set()
+    for name, (module, help_line) in COMMANDS.items():
+        if name in registered:
+            continue
+        if load_all or (wanted in COMMANDS and COMMANDS[wanted][0] == module):
+            before = set(sub.choices)
+            importlib.import_module(f".{module}", __name__).register(sub)
+            registered |= set(sub.choices) - before
+        else:
+            sub.add_parser(name, help=help_line, add_help=False)
+            registered.add(name)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pmaccuracy`` console script; returns the exit status."""
-    parser = build_parser()
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..csvio import read_poses_csv  # noqa: F401  (columnar reader; kept importable from here)
 from ..errors import ConfigError, PmAccuracyError
 from ..geometry import Manipulator
 
@@ -133,41 +134,3 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
         arr = read_poses_csv(csv_path)
     arr[:, 2] = np.radians(arr[:, 2])
     return arr
-
-
-def read_poses_csv(path: str) -> np.ndarray:
-    """Poses from a CSV whose header names the columns ``x``, ``y``, ``phi_deg`` (mm, mm, deg) -> ``(N, 3)``.
-
-    Other columns are ignored, so a map written by ``pmaccuracy map --out FILE.csv``
-    can be fed back to ``pmaccuracy bounds --poses-csv``.
-    """
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            header = [h.strip() for h in next(reader, [])]
-            missing = [c for c in ("x", "y", "phi_deg") if c not in header]
-            if missing:
-                raise ConfigError(f"header must name the columns x,y,phi_deg (missing {','.join(missing)}), "
-                                  f"got {','.join(header)!r}", source=path)
-            cols = [header.index(c) for c in ("x", "y", "phi_deg")]
-            rows = []
-            for lineno, row in enumerate(reader, start=2):
-                if not row or all(not c.strip() for c in row):
-                    continue
-                if len(row) != len(header):
-                    raise ConfigError(f"expected {len(header)} values, got {len(row)}", source=path,
-                                      key=f"line {lineno}")
-                try:
-                    values = [float(row[j]) for j in cols]
-                except ValueError:
-                    raise ConfigError(f"non-numeric value in {row}", source=path, key=f"line {lineno}") from None
-                if not all(math.isfinite(v) for v in values):
-                    raise ConfigError(f"non-finite value in {row}", source=path, key=f"line {lineno}")
-                rows.append(values)
-    except FileNotFoundError:
-        raise ConfigError("no such file", source=path) from None
-    except UnicodeDecodeError:
-        raise ConfigError("not a text CSV file", source=path) from None
-    if not rows:
-        raise ConfigError("no poses in file", source=path)
-    return np.array(rows, dtype=float)

@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
-from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
-from ..clearances import ClearanceSet
 from ..errors import PmAccuracyError
 from . import _common
+
+#: Poses per call of the library when a progress bar is shown (a multiple of its internal block of 8192,
+#: so the first pose outside the ranges or singular is still the one reported).
+PROGRESS_BLOCK = 1 << 17
+#: Output columns of the exact bounds (mm, mm, deg, mm, mm, deg, mm), as ``PoseErrorBounds.records``.
+COLUMNS = ("x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max")
 
 
 def add_clearances(parser: argparse.ArgumentParser) -> None:
@@ -37,6 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",
                    help="add the worst-case clearance configurations (exact method only)")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr for long runs (default: when stderr is a terminal)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -46,7 +53,46 @@ def _configuration(disp) -> dict:
             "rho_mm": disp.rho, "varphi_deg": np.degrees(disp.varphi)}
 
 
+def _columns(result) -> dict[str, np.ndarray]:
+    """The output columns of a :class:`~pmaccuracy.bounds.PoseErrorBounds` (same values as its ``records``)."""
+    poses = result.poses.reshape(-1, 3)
+    return {"x": poses[:, 0], "y": poses[:, 1], "phi_deg": np.degrees(poses[:, 2]),
+            "dx_max": result.dx_max.reshape(-1), "dy_max": result.dy_max.reshape(-1),
+            "dphi_max_deg": result.dphi_max_deg.reshape(-1), "dp_max": result.dp_max.reshape(-1)}
+
+
+def _exact_columns(robot, clearances, poses: np.ndarray, tolerances, allow_outside: bool,
+                   progress: bool | None) -> dict[str, np.ndarray]:
+    """Exact bounds of ``poses`` ``(N, 3)`` [mm, mm, rad] as output columns, block by block with a progress bar.
+
+    The columns are preallocated and filled per block of :data:`PROGRESS_BLOCK`
+    poses, so only one block of the library's intermediate arrays (generators
+    ``(n, 3, 3)`` etc.) is alive at a time.
+    """
+    from ..bounds import max_pose_errors
+
+    n = poses.shape[0]
+    show = (sys.stderr.isatty() if progress is None else progress) and n > PROGRESS_BLOCK
+    if not show and n <= PROGRESS_BLOCK:
+        return _columns(max_pose_errors(robot, clearances, poses, tolerances=tolerances,
+                                        allow_outside=allow_outside))
+    from tqdm import tqdm
+
+    out = {name: np.empty(n) for name in COLUMNS}
+    with tqdm(total=n, disable=not show, desc="bounds", unit="pose", unit_scale=True, file=sys.stderr) as bar:
+        for start in range(0, n, PROGRESS_BLOCK):
+            block = max_pose_errors(robot, clearances, poses[start:start + PROGRESS_BLOCK], tolerances=tolerances,
+                                    allow_outside=allow_outside)
+            for name, values in _columns(block).items():
+                out[name][start:start + len(values)] = values
+            bar.update(len(block.dp_max))
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
+    from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
+    from ..clearances import ClearanceSet
+
     robot = _common.load_robot(args)
     clearances = ClearanceSet.load(args.clearances)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
@@ -55,17 +101,28 @@ def run(args: argparse.Namespace) -> int:
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")
         result = slsqp_max_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
-    else:
-        result = max_pose_errors(robot, clearances, poses, tolerances=tolerances, allow_outside=args.allow_outside,
-                                 details=args.details)
+        _columnar_output(_columns(result), args.format)
+        return 0
+    if not args.details:
+        _columnar_output(_exact_columns(robot, clearances, poses, tolerances, args.allow_outside, args.progress),
+                         args.format)
+        return 0
+    result = max_pose_errors(robot, clearances, poses, tolerances=tolerances, allow_outside=args.allow_outside,
+                             details=True)
     records = result.records()
-    if args.details:
-        for k, rec in enumerate(records):
-            rec["worst"] = {q: _configuration(type(d)(*(np.asarray(f)[k] for f in
-                                                       (d.tau_b, d.sigma_g, d.tau_g, d.rho, d.varphi))))
-                            for q, d in result.worst.items()}
-            if result.worst_variations:
-                rec["worst_variations"] = {q: {name: np.asarray(v)[k] for name, v in var.items()}
-                                           for q, var in result.worst_variations.items()}
+    for k, rec in enumerate(records):
+        rec["worst"] = {q: _configuration(type(d)(*(np.asarray(f)[k] for f in
+                                                   (d.tau_b, d.sigma_g, d.tau_g, d.rho, d.varphi))))
+                        for q, d in result.worst.items()}
+        if result.worst_variations:
+            rec["worst_variations"] = {q: {name: np.asarray(v)[k] for name, v in var.items()}
+                                       for q, var in result.worst_variations.items()}
     _common.emit(records, args.format)
     return 0
+
+
+def _columnar_output(columns: dict[str, np.ndarray], fmt: str) -> None:
+    """One row per pose on stdout: CSV and table written column-wise (pyarrow for CSV), JSON as records."""
+    from ..csvio import format_columns
+
+    format_columns(columns, fmt, sys.stdout)
