@@ -3,57 +3,157 @@
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 from pathlib import Path
 
-import numpy as np
-
-from .. import figures
-from ..clearances import ClearanceSet
 from ..errors import ConfigError
-from ..maps import error_map, save_map, summarize
 from . import _common
 from .bounds_cmd import add_clearances
+
+#: Output types of ``--out`` by extension.
+OUT_TYPES = (".nc", ".csv", ".zarr")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "map", help="error maps over constant-orientation workspaces (NetCDF or CSV, optional figure)",
-        description="Exact dx_max, dy_max, dp_max (mm) and dphi_max (deg) on an N x N grid over the workspace at "
-                    "each orientation. Writes NetCDF (.nc) or CSV (.csv) by extension and prints the ranges.")
+        "map", help="error maps over constant-orientation workspaces (NetCDF, Zarr or CSV, optional figure)",
+        description="Exact maximum pose errors on an N x N grid spanning the workspaces at the given orientations. "
+                    "Writes NetCDF (.nc) or CSV (.csv), computed in memory, or a Zarr store (.zarr), streamed tile "
+                    "by tile with Dask in bounded memory and resumable: run the same command again after an "
+                    "interruption and only the missing tiles are computed. Before computing it prints the size and "
+                    "an estimated time (with --progress or on a terminal) and refuses an in-memory map that would "
+                    "not fit in the available memory. Missing parent folders of --out and --plot are created. "
+                    "Prints the ranges.")
     _common.add_robot(p)
     add_clearances(p)
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
                    help="platform orientation in degrees (repeatable)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
-    p.add_argument("--out", required=True, metavar="FILE", help="output map, .nc or .csv")
+    p.add_argument("--out", required=True, metavar="FILE",
+                   help="output map: .nc or .csv (in memory) or .zarr (streamed, resumable; open with "
+                        "xarray.open_zarr); missing parent folders are created")
     p.add_argument("--plot", metavar="FILE.png",
-                   help="four-panel figure; with several orientations one file per orientation, FILE-<phi>deg.png")
-    p.add_argument("--chunk-size", type=_common.positive_int, default=1 << 18, metavar="K",
-                   help="grid points per block")
-    p.add_argument("--dask", action="store_true", help="compute the blocks with Dask (pmaccuracy[dask])")
+                   help="four-panel figure; with several orientations one file per orientation, FILE-<phi>deg.png "
+                        "(large maps are drawn from every k-th grid point)")
+    p.add_argument("--chunk-size", type=_common.positive_int, default=None, metavar="K",
+                   help="grid points per computed block (default: 65536)")
+    p.add_argument("--tile", type=_common.positive_int, default=None, metavar="T",
+                   help="Zarr chunk side along y and x, one orientation per chunk (default: 1024)")
+    p.add_argument("--dask", action="store_true", help="compute an in-memory map's blocks with Dask")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="dask.distributed scheduler to compute on, e.g. tcp://10.0.0.1:8786 (implies --dask; with "
+                        ".zarr every worker must see --out)")
+    p.add_argument("--workers", type=_common.positive_int, default=None, metavar="W",
+                   help="threads of the local Dask scheduler for .zarr (default: one per core)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress bar (default: when stderr is a terminal)")
+                   help="estimate and progress bar on stderr (default: when stderr is a terminal)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
 
+def prepare_output(path: Path, option: str) -> None:
+    """Create the missing parent folders of ``path`` and check that it can be written there (ConfigError if not)."""
+    parent = path.parent if str(path.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create the folder {parent} ({exc.strerror or exc})", source=str(path),
+                          key=option) from None
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"the folder {parent} is not writable", source=str(path), key=option)
+    if path.exists() and path.is_dir() and path.suffix.lower() != ".zarr":
+        raise ConfigError("is a folder", source=str(path), key=option)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ConfigError("is not writable", source=str(path), key=option)
+
+
 def run(args: argparse.Namespace) -> int:
-    robot = _common.load_robot(args)
-    clearances = ClearanceSet.load(args.clearances)
+    import numpy as np
+
+    from .. import maps
+    from ..clearances import ClearanceSet
+
     out = Path(args.out)
-    if out.suffix.lower() not in (".nc", ".csv"):
-        raise ConfigError(f"unknown map file type {out.suffix!r}: use .nc or .csv", source=args.out)
+    suffix = out.suffix.lower()
+    if suffix not in OUT_TYPES:
+        raise ConfigError(f"unknown map file type {out.suffix!r}: use .nc, .csv or .zarr", source=args.out)
     if args.grid < 2:
         raise ConfigError("--grid needs at least 2 points per axis")
-    ds = error_map(robot, clearances, np.radians(args.phi_deg), args.grid, chunk_size=args.chunk_size,
-                   use_dask=args.dask, progress=args.progress)
-    save_map(ds, out)
+    if args.workers and suffix != ".zarr":
+        raise ConfigError("--workers applies to .zarr maps (use --dask for an in-memory map)", key="--workers")
+    robot = _common.load_robot(args)
+    clearances = ClearanceSet.load(args.clearances)
+    phis = np.radians(args.phi_deg)
+    n_phi = len(phis)
+    if suffix != ".zarr":
+        maps.check_fits_in_memory(n_phi, args.grid)  # before anything is computed or created
+    prepare_output(out, "--out")
     if args.plot:
-        plot = Path(args.plot)
-        for phi in ds.phi.values:
-            path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")
-            figures.save(figures.plot_error_map(ds, float(phi)), path)
-    rows = [{"phi_deg": float(phi), **{k: v for k, v in ranges.items()}} for phi, ranges in
-            zip(ds.phi.values, summarize(ds).values())]
+        prepare_output(Path(args.plot), "--plot")
+    chunk = args.chunk_size or maps.DEFAULT_CHUNK
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+    if show:
+        _announce(maps, robot, clearances, phis, args, suffix)
+    if suffix == ".zarr":
+        result = maps.write_zarr_map(out, robot, clearances, phis, args.grid, tile=args.tile or maps.DEFAULT_ZARR_TILE,
+                                     chunk_size=chunk, scheduler=args.scheduler, workers=args.workers,
+                                     progress=show)
+        summary = result["summary"]
+        if args.plot:
+            import xarray as xr
+
+            with xr.open_zarr(out) as ds:
+                _plots(_thinned(ds), Path(args.plot))
+    else:
+        ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        maps.save_map(ds, out)
+        if args.plot:
+            _plots(_thinned(ds), Path(args.plot))
+        summary = maps.summarize(ds)
+    rows = [{"phi_deg": float(key), **ranges} for key, ranges in summary.items()]
     _common.emit(rows, args.format)
     return 0
+
+
+def _in_memory(maps, robot, clearances, phis, args, chunk, show):
+    if not args.scheduler:
+        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
+                              progress=show)
+    from distributed import Client
+
+    with Client(args.scheduler):
+        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show)
+
+
+def _announce(maps, robot, clearances, phis, args, suffix: str) -> None:
+    """One line on stderr: size of the result and a rough time, before computing."""
+    x, y = maps.map_grid(robot, phis, args.grid)
+    size = maps.map_nbytes(len(phis), args.grid)
+    workers = (args.workers or os.cpu_count() or 1) if suffix == ".zarr" else 1
+    seconds = maps.estimate_seconds(robot, clearances, phis, x, y, workers=workers)
+    where = "streamed to Zarr" if suffix == ".zarr" else "in memory"
+    print(f"map: {len(phis)} x {args.grid} x {args.grid} grid, {maps.format_bytes(size)} of results {where}, "
+          f"about {_duration(seconds)}", file=sys.stderr)
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _thinned(ds, max_points: int = 1001):
+    """Every k-th grid point so that a figure draws at most ``max_points`` per axis (a figure shows no more)."""
+    step = max(1, -(-max(ds.sizes["x"], ds.sizes["y"]) // max_points))
+    return ds.isel(x=slice(None, None, step), y=slice(None, None, step)).load() if step > 1 else ds.load()
+
+
+def _plots(ds, plot: Path) -> None:
+    from .. import figures
+
+    for phi in ds.phi.values:
+        path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")
+        figures.save(figures.plot_error_map(ds, float(phi)), path)
