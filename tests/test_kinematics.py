@@ -141,8 +141,9 @@ def test_fk_ik_round_trip(rr, seed):
     poses = poses[condition_of_a(robot, poses) < 100]
     ik = inverse_kinematics(robot, poses)
     fk = forward_kinematics(robot, ik.s)
-    assert fk.poses.shape == (len(poses), 2, 3)
+    assert fk.poses.shape == (len(poses), 6, 3)
     assert np.all(fk.valid[:, 0])
+    assert not np.any(fk.valid[:, 2:])  # a 3-PPR has at most two assembly modes
     # The pose we started from is one of the assembly modes ...
     err = np.abs(fk.poses - poses[:, None, :])
     err[..., 2] = np.abs(np.angle(np.exp(1j * (fk.poses[..., 2] - poses[:, None, 2]))))
@@ -202,14 +203,15 @@ def test_fk_of_aalborg_home_joints(aalborg):
     """s = (-15, -15, 0): by hand, sin(phi + 30) = sin(phi + 150) gives phi = 0 or 180 deg;
     the second mode (0, -30, 180 deg) needs l3 = 182.34 mm > 160 mm."""
     fk = forward_kinematics(aalborg, [-15.0, -15.0, 0.0])
-    assert fk.valid.tolist() == [True, True]
-    order = np.argsort(np.abs(fk.poses[:, 2]))
+    assert fk.valid.tolist() == [True, True] + [False] * 4
+    order = np.argsort(np.abs(fk.poses[:2, 2]))
     home, flipped = fk.poses[order]
     np.testing.assert_allclose(home, [0, 0, 0], atol=1e-10)
     np.testing.assert_allclose(flipped[:2], [0, -30], atol=1e-10)
     assert abs(flipped[2]) == pytest.approx(np.pi, abs=1e-10)
     np.testing.assert_allclose(fk.l[order[1], 2], 192.34 - 70 + 30 + 30, atol=1e-10)
     assert fk.within_limits[order].tolist() == [True, False]
+    assert not fk.within_limits[2:].any()
 
 
 def test_fk_without_solution(aalborg):

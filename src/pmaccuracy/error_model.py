@@ -70,6 +70,7 @@ class PoseState:
     A: np.ndarray
     B: np.ndarray
     A_inv: np.ndarray
+    joints: np.ndarray | None = None
 
 
 def pose_state(robot: Manipulator, poses: np.ndarray, max_condition: float = DEFAULT_MAX_CONDITION) -> PoseState:
@@ -80,11 +81,13 @@ def pose_state(robot: Manipulator, poses: np.ndarray, max_condition: float = DEF
     The returned arrays keep the leading shape of ``poses``.
     """
     poses = as_poses(poses)
-    A, B = jacobians(robot, poses)
-    A_inv = regular_inverse(robot, A, poses, max_condition)
+    robot.require_3ppr("the paper's error model")
     ik = inverse_kinematics(robot, poses)
+    A, B = ik.A, ik.B
+    A_inv = regular_inverse(robot, A, poses, max_condition)
     k = unit(poses[..., None, 2] + robot.psi)
-    return PoseState(poses=poses, s=ik.s, l=ik.l, within_limits=ik.within_limits, k=k, A=A, B=B, A_inv=A_inv)
+    return PoseState(poses=poses, s=ik.s, l=ik.l, within_limits=ik.within_limits, k=k, A=A, B=B, A_inv=A_inv,
+                     joints=ik.joints)
 
 
 def _state(robot: Manipulator, poses_or_state: np.ndarray | PoseState) -> PoseState:

@@ -57,3 +57,7 @@ class MeasurementFileError(ConfigError):
 
 class VisionError(PmAccuracyError, ValueError):
     """An image does not show the expected markers, or a calibration is unusable."""
+
+
+class UnsupportedArchitectureError(ConfigError):
+    """The requested computation is not available for this robot's architecture."""

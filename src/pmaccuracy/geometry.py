@@ -1,4 +1,4 @@
-"""Geometry of a planar 3-PPR parallel manipulator (paper Sec. 2, Eq. 1).
+"""Robot descriptions: planar parallel manipulators with three legs (the paper's 3-PPR: Sec. 2, Eq. 1).
 
 Notation of the paper, for leg ``i`` (``vec(t) = [cos t, sin t]``)::
 
@@ -25,10 +25,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from . import _tomlio
-from .errors import ConfigError, GeometryError
+from .errors import ConfigError, GeometryError, UnsupportedArchitectureError
+from .legs import LEG_TYPES, Chain, ChainLeg, LegType, PPRLeg
 
-#: Keys of one ``[[legs]]`` table in a robot file.
-LEG_KEYS = {"a", "alpha_deg", "beta_deg", "gamma_deg", "theta_deg", "d", "r", "psi_deg", "s_range", "l_range"}
+#: Keys of one ``[[legs]]`` table in a 3-PPR robot file.
+LEG_KEYS = PPRLeg.KEYS
 #: Names of the per-leg link parameters that the error model can vary (Eq. 6).
 LINK_PARAMETERS = ("a", "alpha", "beta", "d", "gamma", "theta", "r", "psi")
 #: |sin(gamma + theta)| below this makes the bearing parallel to the guide: B singular everywhere.
@@ -60,40 +61,35 @@ def round_trip_degrees(angle: float) -> float:
     return deg
 
 
-@dataclass(frozen=True)
-class Leg:
-    """One P-P-R leg (paper Fig. 2 and 4). Lengths in mm, angles in rad.
-
-    ``s_range`` is the actuated prismatic joint's range, ``l_range`` the
-    passive prismatic joint's (linear bearing) range.
-    """
-
-    a: float
-    alpha: float
-    beta: float
-    gamma: float
-    theta: float
-    d: float
-    r: float
-    psi: float
-    s_range: tuple[float, float]
-    l_range: tuple[float, float]
+#: The paper's P-P-R leg (kept under its historical name).
+Leg = PPRLeg
 
 
 @dataclass(frozen=True)
 class Manipulator(_tomlio.TomlPresets):
-    """A planar 3-PPR manipulator: three :class:`Leg` and a name.
+    """A planar parallel manipulator with three legs, each a chain of three one-DOF joints.
 
-    Per-leg parameters are available as arrays of shape ``(3,)`` (``robot.a``,
-    ``robot.alpha``, ...); the directions of Eq. 1 as ``robot.h``, ``robot.u``,
-    ``robot.v``, ``robot.w`` of shape ``(3, 2)``.
+    ``legs`` are designer leg types (:class:`~pmaccuracy.legs.PPRLeg` of the
+    paper, :class:`~pmaccuracy.legs.RPRLeg`, :class:`~pmaccuracy.legs.RRRLeg`,
+    :class:`~pmaccuracy.legs.PRRLeg` or the general :class:`~pmaccuracy.legs.ChainLeg`,
+    mixed as needed); every computation goes through their :attr:`chains`
+    (:class:`~pmaccuracy.legs.Chain`), so nothing above the legs depends on
+    the architecture.
+
+    For a 3-PPR the paper's per-leg parameters are available as arrays of
+    shape ``(3,)`` (``robot.a``, ``robot.alpha``, ...) and the directions of
+    Eq. 1 as ``robot.h``, ``robot.u``, ``robot.v``, ``robot.w`` of shape ``(3, 2)``.
 
     Build one with :meth:`preset`, :meth:`from_toml`, :meth:`load` (either) or
-    directly from three legs; :meth:`perturbed` returns a copy with small
+    directly from three legs; :meth:`perturbed` returns a 3-PPR copy with small
     parameter changes (the error model's variations, Eq. 6).
+
+    >>> robot = Manipulator.preset("symmetric_3rpr")
+    >>> robot.architecture, [c.label for c in robot.chains]
+    ('3-RPR', ['RP_R', 'RP_R', 'RP_R'])
     """
 
-    legs: tuple[Leg, Leg, Leg]
+    legs: tuple[LegType, LegType, LegType]
     name: str = "custom"
     description: str = ""
     KIND: ClassVar[str] = "robot"
@@ -101,99 +97,128 @@ class Manipulator(_tomlio.TomlPresets):
 
     def __post_init__(self) -> None:
         if len(self.legs) != 3:
-            raise GeometryError(f"a 3-PPR needs exactly three legs, got {len(self.legs)}", source=self.name)
+            raise GeometryError(f"a planar 3-DOF parallel manipulator needs exactly three legs, got "
+                                f"{len(self.legs)}", source=self.name)
         for i, leg in enumerate(self.legs, start=1):
             where = f"legs[{i}]"
-            for field in dataclasses.fields(Leg):
-                value = np.asarray(getattr(leg, field.name), dtype=float)
-                if not np.all(np.isfinite(value)):
-                    raise GeometryError("must be finite", source=self.name, key=f"{where}.{field.name}")
-            for length in ("a", "d"):
-                if getattr(leg, length) < 0:
-                    raise GeometryError("a length must not be negative", source=self.name, key=f"{where}.{length}")
-            if leg.r <= 0:
-                raise GeometryError("the platform radius must be positive", source=self.name, key=f"{where}.r")
-            for rng in ("s_range", "l_range"):
-                lo, hi = getattr(leg, rng)
-                if not lo < hi:
-                    raise GeometryError(f"empty range [{lo}, {hi}]", source=self.name, key=f"{where}.{rng}")
-            if abs(np.sin(leg.gamma + leg.theta)) < MIN_GUIDE_BEARING_SINE:
-                raise GeometryError(
-                    "bearing parallel to the guide (gamma + theta = 0 or 180 deg): the matrix B of Eq. 4b "
-                    "is singular everywhere",
-                    source=self.name, key=where)
+            if not isinstance(leg, LegType):
+                raise GeometryError(f"not a leg type: {type(leg).__name__}", source=self.name, key=where)
+            for name, value in _numbers(leg):
+                if not np.all(np.isfinite(np.asarray(value, dtype=float))):
+                    if not (name.endswith("range") and isinstance(leg, ChainLeg)):
+                        raise GeometryError("must be finite", source=self.name, key=f"{where}.{name}")
+            if isinstance(leg, PPRLeg):
+                _check_ppr_leg(leg, self.name, where)
+        chains = self.chains  # builds and checks every chain
+        if all(isinstance(leg, PPRLeg) for leg in self.legs):
+            bearing = np.array([leg.alpha + leg.beta + leg.gamma + leg.theta for leg in self.legs])
+            if np.all(np.abs(np.sin(bearing - bearing[0])) < MIN_GUIDE_BEARING_SINE):
+                raise GeometryError("all three bearings are parallel: the matrix A of Eq. 4a is singular at "
+                                    "every pose (the platform can slide along them)", source=self.name, key="legs")
+        both_p = [i for i, c in enumerate(chains, start=1)
+                  if all(c.joints[k].kind == "P" for k in c.passive_indices)]
+        if len(both_p) > 1:
+            raise GeometryError(f"legs {both_p[0]} and {both_p[1]} both have two passive prismatic joints: they "
+                                "fix the orientation twice and leave the platform a free translation",
+                                source=self.name, key="legs")
 
-        bearing = np.array([leg.alpha + leg.beta + leg.gamma + leg.theta for leg in self.legs])
-        if np.all(np.abs(np.sin(bearing - bearing[0])) < MIN_GUIDE_BEARING_SINE):
-            raise GeometryError("all three bearings are parallel: the matrix A of Eq. 4a is singular at every "
-                                "pose (the platform can slide along them)", source=self.name, key="legs")
+    def _check_coincident(self, chains: tuple[Chain, ...]) -> None:
+        """Two legs attached at the same base point and the same platform point constrain nothing new."""
+        scale = max(1.0, *(abs(c.base_z) for c in chains), *(abs(c.platform_z) for c in chains))
+        for i in range(3):
+            for j in range(i + 1, 3):
+                a, b = chains[i], chains[j]
+                if (abs(a.base_z - b.base_z) <= 1e-9 * scale and abs(a.platform_z - b.platform_z) <= 1e-9 * scale
+                        and a.pattern == b.pattern and a.actuated_index == b.actuated_index
+                        and abs(np.sin(a.base_angle - b.base_angle)) < 1e-9):
+                    raise GeometryError(f"legs {i + 1} and {j + 1} have coincident base and platform points",
+                                        source=self.name, key=f"legs[{j + 1}]")
+
+    # ------------------------------------------------------------------ structure
+    @cached_property
+    def chains(self) -> tuple[Chain, Chain, Chain]:
+        """The legs in the general chain form (:class:`~pmaccuracy.legs.Chain`)."""
+        out = []
+        for i, leg in enumerate(self.legs, start=1):
+            try:
+                out.append(leg.chain)
+            except GeometryError as exc:
+                raise GeometryError(exc.message, source=self.name, key=f"legs[{i}].{exc.key}") from None
+        return tuple(out)
+
+    @property
+    def architecture(self) -> str:
+        """``"3-PPR"``, ``"3-RPR"``, ``"3-RRR"``, ``"3-PRR"`` for three legs of one designer type, else ``"chain"``."""
+        kinds = {type(leg) for leg in self.legs}
+        return next(iter(kinds)).ARCHITECTURE if len(kinds) == 1 else "chain"
+
+    @property
+    def is_3ppr(self) -> bool:
+        """True when every leg is the paper's P-P-R leg (the error model of the paper applies)."""
+        return all(isinstance(leg, PPRLeg) for leg in self.legs)
+
+    def require_3ppr(self, what: str) -> "Manipulator":
+        """Return self, or raise :class:`UnsupportedArchitectureError` naming ``what`` needs a 3-PPR."""
+        if not self.is_3ppr:
+            raise UnsupportedArchitectureError(
+                f"{what} is implemented for 3-PPR robots only (the paper's error model); {self.name!r} is a "
+                f"{self.architecture} ({', '.join(c.label for c in self.chains)})", source=self.name)
+        return self
 
     # ------------------------------------------------------------------ constructors
     @classmethod
     def preset(cls, name: str = "aalborg_3ppr") -> "Manipulator":
-        """A built-in robot by name (``aalborg_3ppr``, ``symmetric_3ppr``); default: the paper's prototype."""
+        """A built-in robot by name (see :meth:`preset_names`); default: the paper's prototype ``aalborg_3ppr``."""
         return super().preset(name)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Manipulator":
-        """Build from the parsed TOML table (degrees in ``*_deg`` keys)."""
+        """Build from the parsed TOML table (degrees in ``*_deg`` keys); ``architecture`` picks the leg type.
+
+        Also refuses geometries that can reach no pose at all within their joint
+        ranges (:func:`check_reachable`).
+        """
         _tomlio.reject_unknown(data, {"architecture", "name", "description", "legs"}, source=source, where="")
         arch = data.get("architecture", "3-PPR")
-        if arch != "3-PPR":
-            raise ConfigError(f"unsupported architecture {arch!r} (only '3-PPR')", source=source, key="architecture")
+        leg_type = LEG_TYPES.get(arch) if isinstance(arch, str) else None
+        if leg_type is None:
+            raise ConfigError(f"unknown architecture {arch!r} (expected one of {', '.join(LEG_TYPES)})",
+                              source=source, key="architecture")
         legs = []
         for i, table in enumerate(_tomlio.legs_table(data, source=source), start=1):
             where = f"legs[{i}]"
-            _tomlio.reject_unknown(table, LEG_KEYS, source=source, where=where)
-            num = lambda key, **kw: _tomlio.number(table, key, source=source, where=where, **kw)  # noqa: E731
-            legs.append(Leg(
-                a=num("a", nonnegative=True),
-                alpha=np.radians(num("alpha_deg")),
-                beta=np.radians(num("beta_deg")),
-                gamma=np.radians(num("gamma_deg")),
-                theta=np.radians(num("theta_deg")),
-                d=num("d", nonnegative=True),
-                r=num("r", positive=True),
-                psi=np.radians(num("psi_deg")),
-                s_range=_tomlio.interval(table, "s_range", source=source, where=where),
-                l_range=_tomlio.interval(table, "l_range", source=source, where=where),
-            ))
+            _tomlio.reject_unknown(table, leg_type.KEYS, source=source, where=where)
+            legs.append(leg_type.from_table(table, source=source, where=where))
         name = data.get("name", Path(source).stem if source.endswith(".toml") else source)
         if not isinstance(name, str):
             raise ConfigError("must be a string", source=source, key="name")
         try:
-            return cls(legs=tuple(legs), name=name, description=str(data.get("description", "")))
+            robot = cls(legs=tuple(legs), name=name, description=str(data.get("description", "")))
+            robot._check_coincident(robot.chains)
+            from .kinematics import check_reachable
+            check_reachable(robot)
         except GeometryError as exc:
             raise GeometryError(exc.message, source=source, key=exc.key) from None
+        return robot
 
     def to_dict(self) -> dict[str, Any]:
         """The TOML table of this robot (degrees in ``*_deg`` keys)."""
-        legs = []
-        for leg in self.legs:
-            legs.append({
-                "a": float(leg.a),
-                "alpha_deg": round_trip_degrees(leg.alpha),
-                "beta_deg": round_trip_degrees(leg.beta),
-                "gamma_deg": round_trip_degrees(leg.gamma),
-                "theta_deg": round_trip_degrees(leg.theta),
-                "d": float(leg.d),
-                "r": float(leg.r),
-                "psi_deg": round_trip_degrees(leg.psi),
-                "s_range": [float(v) for v in leg.s_range],
-                "l_range": [float(v) for v in leg.l_range],
-            })
-        out: dict[str, Any] = {"architecture": "3-PPR", "name": self.name}
+        arch = self.architecture
+        legs = [leg.to_table() for leg in self.legs] if arch != "chain" else \
+            [ChainLeg(leg.chain).to_table() for leg in self.legs]
+        out: dict[str, Any] = {"architecture": arch, "name": self.name}
         if self.description:
             out["description"] = self.description
         out["legs"] = legs
         return out
 
     def perturbed(self, **changes: np.ndarray | list[float]) -> "Manipulator":
-        """A copy with per-leg additive changes, e.g. ``perturbed(theta=[0, 1e-3, 0])`` (mm, rad).
+        """A copy with per-leg additive changes, e.g. ``perturbed(theta=[0, 1e-3, 0])`` (mm, rad); 3-PPR only.
 
         Keys are :data:`LINK_PARAMETERS`; each value has shape ``(3,)``. Used for
         assembly errors (Table 2) and for the finite-difference checks of Eq. 6-11.
         """
+        self.require_3ppr("perturbed()")
         unknown = set(changes) - set(LINK_PARAMETERS)
         if unknown:
             raise ValueError(f"unknown link parameters {sorted(unknown)}; expected {LINK_PARAMETERS}")
@@ -206,6 +231,7 @@ class Manipulator(_tomlio.TomlPresets):
 
     # ------------------------------------------------------------------ per-leg arrays
     def _column(self, name: str) -> np.ndarray:
+        self.require_3ppr(f"the paper's parameter {name!r}")
         return np.array([getattr(leg, name) for leg in self.legs], dtype=float)
 
     @cached_property
@@ -250,12 +276,18 @@ class Manipulator(_tomlio.TomlPresets):
 
     @cached_property
     def s_range(self) -> np.ndarray:
-        """Actuated joint ranges (mm), shape (3, 2) as ``[min, max]`` rows."""
-        return np.array([leg.s_range for leg in self.legs], dtype=float)
+        """Actuated joint ranges (mm, or rad for an actuated R), shape (3, 2) as ``[min, max]`` rows."""
+        return np.array([c.actuated.range for c in self.chains], dtype=float)
+
+    @cached_property
+    def actuated_kinds(self) -> tuple[str, str, str]:
+        """``"R"`` or ``"P"`` for each leg's actuated joint."""
+        return tuple(c.actuated.kind for c in self.chains)
 
     @cached_property
     def l_range(self) -> np.ndarray:
-        """Passive joint ranges (mm), shape (3, 2) as ``[min, max]`` rows."""
+        """Passive bearing ranges of a 3-PPR (mm), shape (3, 2) as ``[min, max]`` rows."""
+        self.require_3ppr("l_range")
         return np.array([leg.l_range for leg in self.legs], dtype=float)
 
     @cached_property
@@ -280,16 +312,66 @@ class Manipulator(_tomlio.TomlPresets):
 
     @cached_property
     def base_points(self) -> np.ndarray:
-        """Points ``A_i = a_i h_i`` (mm), shape (3, 2)."""
-        return self.a[:, None] * self.h
+        """Origins of the legs' base frames (mm), shape (3, 2); ``A_i = a_i h_i`` for a 3-PPR."""
+        return np.array([c.base for c in self.chains], dtype=float)
+
+    @cached_property
+    def platform_attachments(self) -> np.ndarray:
+        """The legs' end points in the platform frame (mm), shape (3, 2); ``-r_i vec(psi_i)`` for a 3-PPR."""
+        return np.array([c.platform for c in self.chains], dtype=float)
 
     @property
     def characteristic_length(self) -> float:
-        """Mean platform radius (mm): turns the rotation column of A into a length for conditioning."""
-        return float(np.mean(self.r))
+        """Mean distance of the legs' platform points from P (mm; the platform radius of a 3-PPR).
+
+        Turns the rotation column of A into a length for a dimensionally
+        homogeneous condition number; falls back to the mean distance of the
+        base points from the origin when the legs all end at P.
+        """
+        r = float(np.mean(np.hypot(*self.platform_attachments.T)))
+        if r > 1e-9:
+            return r
+        return max(1.0, float(np.mean(np.hypot(*self.base_points.T))))
 
     def platform_points(self, poses: np.ndarray) -> np.ndarray:
-        """Revolute centres ``D_i = p - r_i k_i`` (mm) for poses ``(..., 3)`` -> ``(..., 3, 2)``."""
+        """The legs' platform points in the base frame, ``p + Rot(phi) d_i`` (mm): ``(..., 3)`` -> ``(..., 3, 2)``.
+
+        For a 3-PPR these are the revolute centres ``D_i = p - r_i k_i``.
+        """
         poses = np.asarray(poses, dtype=float)
-        k = unit(poses[..., None, 2] + self.psi)
-        return poses[..., None, :2] - self.r[:, None] * k
+        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
+        d = self.platform_attachments
+        rot = np.stack([c[..., None] * d[:, 0] - s[..., None] * d[:, 1],
+                        s[..., None] * d[:, 0] + c[..., None] * d[:, 1]], axis=-1)
+        return poses[..., None, :2] + rot
+
+
+def _numbers(leg: LegType):
+    """(name, value) of a leg's numeric parameters, for the finiteness check."""
+    for f in dataclasses.fields(leg):
+        value = getattr(leg, f.name)
+        if isinstance(value, Chain):
+            for j, joint in enumerate(value.joints, start=1):
+                yield f"joints[{j}].link", joint.link
+                yield f"joints[{j}].offset_deg", joint.offset
+                yield f"joints[{j}].range", joint.range
+            yield "base", value.base
+            yield "platform", value.platform
+        elif isinstance(value, (int, float, tuple)) and not isinstance(value, bool):
+            yield f.name, value
+
+
+def _check_ppr_leg(leg: PPRLeg, source: str, where: str) -> None:
+    for length in ("a", "d"):
+        if getattr(leg, length) < 0:
+            raise GeometryError("a length must not be negative", source=source, key=f"{where}.{length}")
+    if leg.r <= 0:
+        raise GeometryError("the platform radius must be positive", source=source, key=f"{where}.r")
+    for rng in ("s_range", "l_range"):
+        lo, hi = getattr(leg, rng)
+        if not lo < hi:
+            raise GeometryError(f"empty range [{lo}, {hi}]", source=source, key=f"{where}.{rng}")
+    if abs(np.sin(leg.gamma + leg.theta)) < MIN_GUIDE_BEARING_SINE:
+        raise GeometryError(
+            "bearing parallel to the guide (gamma + theta = 0 or 180 deg): the matrix B of Eq. 4b "
+            "is singular everywhere", source=source, key=where)

@@ -60,7 +60,8 @@ def displaced_pose(robot: Manipulator, poses: np.ndarray, displacement: Clearanc
          + (robot.d + dv("d") + disp.sigma_g)[..., None] * unit(gamma_p)
          + np.asarray(disp.rho, float)[..., None] * unit(disp.varphi))
     solution = solve_loop_closure(c, unit(theta_p), robot.r + dv("r"), robot.psi + dv("psi"))
-    fk = FKSolution(poses=solution[0], valid=solution[1], l=solution[2], within_limits=solution[1])
+    joints = np.stack([np.zeros_like(solution[2]), solution[2], np.zeros_like(solution[2])], axis=-1)
+    fk = FKSolution(poses=solution[0], valid=solution[1], joints=joints, within_limits=solution[1])
     try:
         return fk.nearest(poses)
     except NoSolutionError:
