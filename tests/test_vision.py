@@ -1,13 +1,16 @@
-"""Vision measurement: marker detection, calibration, platform pose, synthetic images and the CLI.
+"""Vision measurement on the flat (ideal) renderer: detection, single-view calibration, pose, files, CLI basics.
 
 Synthetic images at 0.1 mm/px (markers of 1.5 mm radius, blur and noise) must
 give the pose within the paper's measurement accuracy (0.01 mm, 0.01 deg).
+The physically modelled camera is tested in test_vision_camera.py and
+test_vision_accuracy.py.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -109,7 +112,7 @@ def test_pose_accuracy_synthetic(k: int) -> None:
 def test_pose_through_homography() -> None:
     h = vision.sheet_homography(SHAPE, mm_per_pixel=SCALE, rotation=math.radians(8.0), offset_mm=(1.5, -2.0),
                                 perspective=(5e-5, -3e-5))
-    cal = vision.Calibration(h, spacing_mm=20.0)
+    cal = vision.Calibration.from_homography(h, image_size=SHAPE[::-1])
     image = vision.render_platform(4.0, -3.0, math.radians(17.0), shape=SHAPE, pixel_to_mm=h, seed=5)
     pose = vision.measure_pose(image, calibration=cal)
     assert abs(pose.x - 4.0) < 0.01 and abs(pose.y + 3.0) < 0.01
@@ -148,12 +151,21 @@ def test_pose_least_squares_against_independent_fit() -> None:
     assert pose.residual_mm == pytest.approx(rms, rel=1e-9)
 
 
-@pytest.mark.parametrize("count", [3, 5])
-def test_wrong_number_of_markers(count: int) -> None:
-    centres_mm = np.concatenate([vision.platform_markers(0.0, 0.0, 0.1), [[18.0, 3.0]]])[:count]
-    centres_px = vision.mm_to_pixels(centres_mm, SCALE, SHAPE)
-    image = vision.render_dots(SHAPE, centres_px, 15.0, blur_sigma=1.0, noise_sigma=0.01, seed=1)
-    with pytest.raises(VisionError, match=f"found {count} markers"):
+def test_wrong_number_of_markers_and_stray_blobs() -> None:
+    square = vision.platform_markers(0.0, 0.0, 0.1)
+    three = vision.render_dots(SHAPE, vision.mm_to_pixels(square[:3], SCALE, SHAPE), 15.0, blur_sigma=1.0,
+                               noise_sigma=0.01, seed=1)
+    with pytest.raises(VisionError, match="found 3 markers"):
+        vision.measure_pose(three, mm_per_pixel=SCALE)
+    # a fifth round blob of the same size that is not on the square is ignored: one set of four forms it
+    five = vision.render_dots(SHAPE, vision.mm_to_pixels(np.concatenate([square, [[18.0, 3.0]]]), SCALE, SHAPE),
+                              15.0, blur_sigma=1.0, noise_sigma=0.01, seed=1)
+    pose = vision.measure_pose(five, mm_per_pixel=SCALE)
+    assert abs(pose.x) < 0.01 and abs(pose.y) < 0.01 and abs(pose.phi_deg - math.degrees(0.1)) < 0.01
+    # two squares side by side: two candidate sets, which one is the platform is unknown
+    two = np.concatenate([vision.platform_markers(-14.0, 0.0, 0.0), vision.platform_markers(14.0, 0.0, 0.0)])
+    image = vision.render_dots(SHAPE, vision.mm_to_pixels(two, SCALE, SHAPE), 15.0, blur_sigma=1.0, seed=2)
+    with pytest.raises(VisionError, match="found 8 round blobs and 2 sets of 4"):
         vision.measure_pose(image, mm_per_pixel=SCALE)
 
 
@@ -174,7 +186,7 @@ def test_pose_rejects_wrong_scale_and_non_square() -> None:
 
 def _check_calibration(cal: vision.Calibration, truth_pixel_to_mm: np.ndarray, tol_mm: float) -> None:
     grid = np.stack(np.meshgrid(np.linspace(60, 540, 7), np.linspace(60, 540, 7)), axis=-1).reshape(-1, 2)
-    expected = vision._apply_h(truth_pixel_to_mm / truth_pixel_to_mm[2, 2], grid)
+    expected = vision.apply_homography(truth_pixel_to_mm / truth_pixel_to_mm[2, 2], grid)
     assert np.max(np.linalg.norm(cal.pixel_to_mm(grid) - expected, axis=1)) < tol_mm
 
 
@@ -183,7 +195,7 @@ def test_calibration_similarity() -> None:
     sheet = vision.render_calibration_sheet(SHAPE, pixel_to_mm=h, seed=4)
     cal = vision.calibrate(sheet.image, spacing_mm=20.0)
     assert cal.n_points >= len(sheet.centres_mm) - 4  # dots touching the border may be dropped
-    assert cal.residual_mm < 0.01
+    assert cal.residuals["plane_rms_mm"] < 0.01 and cal.model == "single-view"
     assert cal.mm_per_pixel == pytest.approx(0.25, rel=1e-3)
     _check_calibration(cal, h, 0.01)
 
@@ -193,10 +205,13 @@ def test_calibration_projective() -> None:
                                 perspective=(2e-4, -1e-4))
     sheet = vision.render_calibration_sheet(SHAPE, pixel_to_mm=h, seed=5)
     cal = vision.calibrate(sheet.image)
-    assert cal.residual_mm < 0.01
+    assert cal.residuals["plane_rms_mm"] < 0.01
     _check_calibration(cal, h, 0.02)
-    # the homography is really projective: an affine map could not reach this accuracy
-    assert abs(cal.homography[2, 0]) > 1e-6
+    # the image has no lens distortion: the fitted radial terms move the image corner by less than 0.05 px
+    corner = np.array([[0.0, 0.0], [599.0, 599.0]])
+    n = cal.camera.undistort(corner)
+    ideal = n * cal.camera.matrix[0, 0] + cal.camera.matrix[:2, 2]
+    assert np.max(np.abs(ideal - corner)) < 0.05
 
 
 def test_calibration_frame_convention() -> None:
@@ -230,38 +245,50 @@ def test_calibration_ignores_spurious_blob_and_needs_a_grid() -> None:
 
 def test_calibration_toml_round_trip(tmp_path) -> None:
     h = vision.sheet_homography(SHAPE, mm_per_pixel=0.25, rotation=0.3, perspective=(1e-4, 2e-4))
-    cal = vision.Calibration(h, spacing_mm=20.0, residual_mm=0.0031, n_points=42)
+    sheet = vision.render_calibration_sheet(SHAPE, pixel_to_mm=h, seed=3)
+    cal = vision.calibrate(sheet.image)
     path = tmp_path / "cal.toml"
     cal.to_toml(path)
     back = vision.Calibration.from_toml(path)
-    assert back == cal
-    np.testing.assert_array_equal(back.homography, cal.homography)
+    for name in ("plane", "covariance"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(cal, name))
+    np.testing.assert_array_equal(back.camera.matrix, cal.camera.matrix)
+    np.testing.assert_array_equal(back.camera.distortion, cal.camera.distortion)
+    assert back.residuals == cal.residuals and back.model == cal.model and back.n_points == cal.n_points
     with pytest.raises(Exception):
         back.spacing_mm = 10.0  # frozen
 
 
-@pytest.mark.parametrize("text, key", [
-    ("[calibration]\nspacing_mm = 20.0\nresidual_mm = 0.0\nn_points = 9\n", "calibration.homography"),
-    ("[calibration]\nspacing_mm = -1\nresidual_mm = 0.0\nn_points = 9\nhomography = [[1,0,0],[0,1,0],[0,0,1]]\n",
-     "calibration.spacing_mm"),
-    ("[calibration]\nspacing_mm = 20\nresidual_mm = 0.0\nn_points = 9\nhomography = [[1,0,0],[0,1,0]]\n",
-     "calibration.homography"),
-    ("[calibration]\nspacing_mm = 20\nresidual_mm = 0.0\nn_points = 9\nhomography = [[1,0,0],[0,1,'a'],[0,0,1]]\n",
-     "calibration.homography[1][2]"),
-    ("[calibration]\nspacing_mm = 20\nresidual_mm = 0.0\nn_points = 9\nhomography = [[1,2,0],[2,4,0],[0,0,1]]\n",
-     "calibration.homography"),
-    ("[calibration]\nspacing_mm = 20\nresidual_mm = 0.0\nn_points = 9.5\nhomography = [[1,0,0],[0,1,0],[0,0,1]]\n",
-     "calibration.n_points"),
-    ("[calibration]\nspacing = 20\nresidual_mm = 0.0\nn_points = 9\nhomography = [[1,0,0],[0,1,0],[0,0,1]]\n",
-     "calibration.spacing"),
-    ("spacing_mm = 20\n", "calibration"),
+GOOD = vision.Calibration.from_homography(np.diag([0.1, -0.1, 1.0]), image_size=(600, 600)).to_toml()
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ('model = "single-view"', 'model = "zoom"', "calibration.model"),
+    ("spacing_mm = 20.0", "spacing_mm = -1", "calibration.spacing_mm"),
+    ("image_size = [600, 600]", "image_size = [600]", "calibration.image_size"),
+    ("distortion = [0.0, 0.0, 0.0, 0.0, 0.0]", "distortion = [0.0, 'a', 0.0, 0.0, 0.0]", "calibration.distortion[1]"),
+    ("distortion = [0.0, 0.0, 0.0, 0.0, 0.0]", "distortion = [0.0, 0.0]", "calibration.distortion"),
+    ("n_points = 0", "n_points = 9.5", "calibration.n_points"),
+    ("spacing_mm = 20.0", "spacing = 20.0", "calibration.spacing"),
+    ('model = "single-view"', 'model = "multi-view"', "calibration.plane.rotation"),
+    ("[calibration.plane]\nhomography = [", "[calibration.plane]\nhomography = [[1, 2, 3],", "homography"),
 ])
-def test_calibration_bad_files(tmp_path, text: str, key: str) -> None:
+def test_calibration_bad_files(tmp_path, old: str, new: str, key: str) -> None:
+    assert old in GOOD
     path = tmp_path / "bad.toml"
-    path.write_text(text)
+    path.write_text(GOOD.replace(old, new, 1))
     with pytest.raises(ConfigError) as info:
         vision.Calibration.from_toml(path)
     assert str(path) in str(info.value) and key in str(info.value)
+
+
+def test_calibration_singular_plane(tmp_path) -> None:
+    path = tmp_path / "bad.toml"
+    text, count = re.subn(r"homography = \[\n(.*\n){3}\]", "homography = [[1, 2, 0], [2, 4, 0], [0, 0, 1]]", GOOD)
+    assert count == 1
+    path.write_text(text)
+    with pytest.raises(ConfigError, match="calibration.plane.homography: is singular"):
+        vision.Calibration.from_toml(path)
 
 
 def test_calibration_missing_and_malformed_file(tmp_path) -> None:
@@ -325,40 +352,44 @@ def test_cli_calibrate_and_pose(images, capsys) -> None:
     assert main(["vision", "calibrate", str(images["sheet"]), "--spacing-mm", "20", "--out", str(cal_path),
                  "--format", "json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["n_points"] == 9 and summary["residual_mm"] < 0.01
+    assert summary["n_points"] == 9 and summary["plane_rms_mm"] < 0.01 and summary["model"] == "single-view"
     cal = vision.Calibration.from_toml(cal_path)
     assert cal.mm_per_pixel == pytest.approx(SCALE, rel=1e-3)
 
     for option in (["--calibration", str(cal_path)], ["--mm-per-pixel", str(SCALE)]):
         assert main(["vision", "pose", str(images["pose"]), *option, "--format", "json"]) == 0
         out = json.loads(capsys.readouterr().out)
-        assert set(out) == {"x", "y", "phi_deg", "residual_mm"}
+        assert set(out) == {"x", "y", "phi_deg", "residual_mm", "uncertainty"}
+        assert set(out["uncertainty"]) == {"x_mm", "y_mm", "phi_deg"}
+        assert 0 < out["uncertainty"]["x_mm"] < 0.005
         assert out["x"] == pytest.approx(3.2, abs=0.01) and out["y"] == pytest.approx(-4.1, abs=0.01)
         assert out["phi_deg"] == pytest.approx(12.5, abs=0.01)
 
 
 def test_cli_render_detect(images, capsys) -> None:
     out_png = images["folder"] / "rendered.png"
-    assert main(["vision", "render-pose", "--x", "1", "--y", "2", "--phi-deg", "-30", "--mm-per-pixel", "0.1",
+    assert main(["vision", "render-pose", "--camera", "flat", "--x", "1", "--y", "2", "--phi-deg", "-30",
+                 "--mm-per-pixel", "0.1",
                  "--out", str(out_png), "--seed", "3", "--noise", "0.005"]) == 0
     assert main(["vision", "pose", str(out_png), "--mm-per-pixel", "0.1", "--format", "csv"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert lines[0] == "x,y,phi_deg,residual_mm"
-    x, y, phi, _ = (float(v) for v in lines[1].split(","))
+    assert lines[0] == "x,y,phi_deg,residual_mm,uncertainty.x_mm,uncertainty.y_mm,uncertainty.phi_deg"
+    x, y, phi = (float(v) for v in lines[1].split(",")[:3])
     assert (x, y, phi) == pytest.approx((1.0, 2.0, -30.0), abs=0.01)
     assert main(["vision", "detect", str(out_png), "--format", "json"]) == 0
     assert len(json.loads(capsys.readouterr().out)) == 4
     sheet_png = images["folder"] / "rendered_sheet.png"
-    assert main(["vision", "render-sheet", "--out", str(sheet_png), "--rotation-deg", "10", "--seed", "1"]) == 0
+    assert main(["vision", "render-sheet", "--camera", "flat", "--out", str(sheet_png), "--rotation-deg", "10",
+                 "--seed", "1"]) == 0
     assert vision.load_image(sheet_png).shape == SHAPE
 
 
 @pytest.mark.parametrize("name, extra, message", [
     ("missing", ["--mm-per-pixel", "0.1"], "no such image file"),
     ("text", ["--mm-per-pixel", "0.1"], "not a readable image"),
-    ("blank", ["--mm-per-pixel", "0.1"], "no markers found"),
+    ("blank", ["--mm-per-pixel", "0.1"], "found no markers"),
     ("three", ["--mm-per-pixel", "0.1"], "found 3 markers"),
-    ("sheet", ["--mm-per-pixel", "0.1"], "found 9 markers"),
+    ("sheet", ["--mm-per-pixel", "0.1"], "found 9 round blobs and 4 sets of 4 form the 20 mm marker square"),
     ("pose", ["--mm-per-pixel", "0.25"], "wrong scale"),
     ("pose", ["--calibration", "missing.toml"], "no such calibration file"),
 ])

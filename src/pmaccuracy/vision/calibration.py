@@ -242,9 +242,7 @@ class Calibration:
 
     def to_toml(self, path: str | Path | None = None) -> str:
         """The calibration as TOML text; also written to ``path`` when given."""
-        import tomli_w
-
-        text = tomli_w.dumps(self.to_dict())
+        text = _toml_text(self.to_dict())
         if path is not None:
             Path(path).write_text(text, encoding="utf-8")
         return text
@@ -344,6 +342,40 @@ class Calibration:
         k = nominal_matrix(image_size)
         return cls(CameraModel(k, np.zeros(5), image_size), np.linalg.inv(h @ k), model="single-view",
                    spacing_mm=spacing_mm)
+
+
+def _toml_text(data: dict[str, Any]) -> str:
+    """TOML text of nested tables of numbers, strings, booleans and (nested) lists, matrices one row per line.
+
+    Floats are written with ``repr`` (shortest round trip), so reading the file
+    back gives the same numbers bit for bit.
+    """
+    import json
+
+    def value(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, (int, float)):
+            return repr(v)
+        if isinstance(v, str):
+            return json.dumps(v)
+        if v and isinstance(v[0], list):
+            return "[\n" + "".join(f"    {value(r)},\n" for r in v) + "]"
+        return "[" + ", ".join(value(x) for x in v) + "]"
+
+    lines: list[str] = []
+
+    def table(name: str, t: dict[str, Any]) -> None:
+        lines.append(f"[{name}]")
+        lines.extend(f"{k} = {value(v)}" for k, v in t.items() if not isinstance(v, dict))
+        for k, v in t.items():
+            if isinstance(v, dict):
+                lines.append("")
+                table(f"{name}.{k}", v)
+
+    for name, t in data.items():
+        table(name, t)
+    return "\n".join(lines) + "\n"
 
 
 def _array(table: dict[str, Any], key: str, shape: tuple[int, ...], source: str, where: str) -> np.ndarray:
@@ -530,6 +562,10 @@ def _single_predict(p: np.ndarray, grid_mm: np.ndarray, k: np.ndarray, image_siz
 def fit_single_view(view: View, image_size: tuple[int, int], *, spacing_mm: float) -> Calibration:
     """Plane homography + radial distortion ``k1, k2`` of one view (module docstring), with the centre correction.
 
+    The radial terms are fitted only when the dots can constrain them: ``k1``
+    and ``k2`` from 20 dots on, ``k1`` alone from 12, none with fewer (then
+    they stay 0 and the model is the plain homography).
+
     Least squares in pixels (:func:`scipy.optimize.least_squares`, Levenberg-
     Marquardt) from the distortion-free homography (OpenCV ``findHomography``,
     all points, least squares).
@@ -548,10 +584,20 @@ def fit_single_view(view: View, image_size: tuple[int, int], *, spacing_mm: floa
     centres = view.pixels
     radius = 0.0
 
+    # radial terms need dots spread over the image: k1 and k2 from 20 dots on, k1 alone from 12, none below
+    free = np.ones(p.size, dtype=bool)
+    free[:2] = [len(view.grid_mm) >= 12, len(view.grid_mm) >= 20]
+
     def fit(p0: np.ndarray, target: np.ndarray) -> np.ndarray:
-        res = least_squares(lambda q: (_single_predict(q, view.grid_mm, k, image_size) - target).ravel(), p0,
-                            method="lm", x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14)
-        return res.x
+        def residual(q: np.ndarray) -> np.ndarray:
+            full = p0.copy()
+            full[free] = q
+            return (_single_predict(full, view.grid_mm, k, image_size) - target).ravel()
+
+        res = least_squares(residual, p0[free], method="lm", x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        out = p0.copy()
+        out[free] = res.x
+        return out
 
     p = fit(p, centres)
     for _ in range(BIAS_ITERATIONS):
@@ -561,7 +607,7 @@ def fit_single_view(view: View, image_size: tuple[int, int], *, spacing_mm: floa
         centres = _corrected(cal.camera, [cal.plane], [view], radius)[0]
         p = fit(p, centres)
     residual = centres - _single_predict(p, view.grid_mm, k, image_size)
-    cov = _covariance(lambda q: _single_predict(q, view.grid_mm, k, image_size), p, np.ones(p.size, bool),
+    cov = _covariance(lambda q: _single_predict(q, view.grid_mm, k, image_size), p, free,
                       residual.ravel(), np.arange(p.size))
     cam = CameraModel(k, np.array([p[0], p[1], 0.0, 0.0, 0.0]), image_size)
     plane = np.append(p[2:10], 1.0).reshape(3, 3)

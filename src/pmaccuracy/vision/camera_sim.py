@@ -246,6 +246,13 @@ class SheetView:
     centres_px: np.ndarray = field(repr=False)
 
 
+def render_view(sim: SimulatedCamera, view: int, *, pose_seed: int = 0, seed: int | None = None,
+                **options) -> SheetView:
+    """:func:`render_sheet` of calibration view ``view`` (:func:`calibration_pose`; 0 = the reference plane)."""
+    rs, ts = calibration_pose(view, seed=pose_seed)
+    return render_sheet(sim, sheet_rotation=rs, sheet_translation=ts, seed=seed, **options)
+
+
 def render_sheet(sim: SimulatedCamera, *, sheet_rotation: np.ndarray | None = None,
                  sheet_translation: np.ndarray | None = None, spacing_mm: float = DEFAULT_SPACING_MM,
                  dot_radius_mm: float = 2.0, seed: int | None = None) -> SheetView:
@@ -276,26 +283,30 @@ def render_sheet(sim: SimulatedCamera, *, sheet_rotation: np.ndarray | None = No
     return SheetView(render(sim, disks, seed=seed), rot, trans, centres, px)
 
 
-def calibration_poses(count: int, *, seed: int, tilt_range_deg: tuple[float, float] = (10.0, 30.0),
-                      pivot_mm: tuple[float, float] = (0.0, 0.0)) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``count`` seeded sheet poses ``(R_s (3, 3), t_s (3,))`` for calibration views: tilted 10-30 deg.
+def calibration_pose(view: int, *, seed: int = 0, tilt_range_deg: tuple[float, float] = (10.0, 30.0),
+                     pivot_mm: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Sheet pose ``(R_s (3, 3), t_s (3,) mm)`` of calibration view number ``view`` (0 = on the reference plane).
 
-    Each view turns the sheet by a random angle in ``tilt_range_deg`` about a
-    random in-plane axis through ``pivot_mm`` (the tilt azimuths spread evenly
-    around the circle, jittered), spins it by up to 15 deg about its normal and
-    shifts it by up to 7 mm in the plane and 15 mm in height.
+    View ``k >= 1`` turns the sheet by an angle in ``tilt_range_deg`` about an
+    in-plane axis through ``pivot_mm`` whose azimuth advances by the golden
+    angle from view to view (so any number of views spreads around the
+    circle), spins it by up to 15 deg about its normal and shifts it by up to
+    7 mm in the plane and 15 mm in height; the random parts come from
+    ``numpy.random.default_rng([seed, k])``, so a view does not depend on how
+    many others are drawn.
     """
-    rng = np.random.default_rng(seed)
-    poses = []
-    for k in range(int(count)):  # a handful of views
-        az = 2 * math.pi * (k + rng.uniform(-0.3, 0.3)) / count
-        tilt = math.radians(rng.uniform(*tilt_range_deg))
-        spin = math.radians(rng.uniform(-15.0, 15.0))
-        rs = rotation_matrix(tilt * np.array([math.cos(az), math.sin(az), 0.0])) @ rotation_matrix([0.0, 0.0, spin])
-        pivot = np.array([pivot_mm[0], pivot_mm[1], 0.0])
-        shift = np.array([rng.uniform(-7, 7), rng.uniform(-7, 7), rng.uniform(-15, 15)])
-        poses.append((rs, pivot - rs @ pivot + shift))
-    return poses
+    if view == 0:
+        return np.eye(3), np.zeros(3)
+    if view < 0:
+        raise VisionError(f"view must be 0 (the reference plane) or a positive number, got {view}")
+    rng = np.random.default_rng([int(seed), int(view)])
+    az = math.radians(137.508 * view + rng.uniform(-20.0, 20.0))
+    tilt = math.radians(rng.uniform(*tilt_range_deg))
+    spin = math.radians(rng.uniform(-15.0, 15.0))
+    rs = rotation_matrix(tilt * np.array([math.cos(az), math.sin(az), 0.0])) @ rotation_matrix([0.0, 0.0, spin])
+    pivot = np.array([pivot_mm[0], pivot_mm[1], 0.0])
+    shift = np.array([rng.uniform(-7, 7), rng.uniform(-7, 7), rng.uniform(-15, 15)])
+    return rs, pivot - rs @ pivot + shift
 
 
 def platform_disks(sim: SimulatedCamera, x: float, y: float, phi: float, height_mm: float, *,

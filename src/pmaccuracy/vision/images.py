@@ -68,10 +68,12 @@ def load_image(path: str | Path) -> np.ndarray:
 
 
 def save_image(path: str | Path, image: np.ndarray) -> None:
-    """Write a gray float image ``(H, W)`` with values in [0, 1] (clipped) to a PNG, TIFF, JPEG or BMP file.
+    """Write a gray image ``(H, W)`` to a PNG, TIFF, JPEG or BMP file.
 
-    PNG and TIFF are written with 16 bits per pixel (which keeps the sub-pixel
-    information of synthetic images), JPEG and BMP with 8 bits.
+    ``uint8`` images (a camera's 8-bit output) are written unchanged. Float
+    images with values in [0, 1] (clipped) are written with 16 bits per pixel
+    to PNG and TIFF (which keeps the sub-pixel information of synthetic
+    images), with 8 bits to JPEG and BMP.
     """
     from skimage import io, util
 
@@ -80,7 +82,11 @@ def save_image(path: str | Path, image: np.ndarray) -> None:
     if suffix not in IMAGE_SUFFIXES:
         raise VisionError(f"{path}: unsupported image type {suffix or '(no extension)'!r}; use one of "
                           f"{', '.join(IMAGE_SUFFIXES)}")
-    arr = np.clip(np.asarray(image, dtype=float), 0.0, 1.0)
-    data = util.img_as_uint(arr) if suffix in (".png", ".tif", ".tiff") else util.img_as_ubyte(arr)
+    raw = np.asarray(image)
+    if raw.dtype == np.uint8:  # an 8-bit camera image: written as it is
+        data = raw
+    else:
+        arr = np.clip(raw.astype(float), 0.0, 1.0)
+        data = util.img_as_uint(arr) if suffix in (".png", ".tif", ".tiff") else util.img_as_ubyte(arr)
     io.imsave(path, data, check_contrast=False)
 
