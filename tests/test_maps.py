@@ -376,3 +376,25 @@ def test_million_point_map():
     for n, (j, i) in enumerate(idx):
         assert ds.dp_max.values[0, j, i] == pytest.approx(b.dp_max[n], rel=1e-12)
         assert ds.dx_max.values[0, j, i] == pytest.approx(b.dx_max[n], rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- memory
+def test_peak_memory_within_1_3_of_the_dataset():
+    """Block-by-block filling of preallocated arrays: tracemalloc's peak (numpy included) <= 1.3 x the dataset."""
+    import tracemalloc
+
+    error_map(AALBORG, CASE2, 0.0, 11)  # imports and caches outside the measurement
+    tracemalloc.start()
+    try:
+        ds = error_map(AALBORG, CASE2, PHIS, 300)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert ds.nbytes == pytest.approx(3 * 300 * 300 * 4 * 8, rel=0.01)
+    assert peak <= 1.3 * ds.nbytes, (peak, ds.nbytes)
+
+
+def test_refuses_a_map_larger_than_memory():
+    """A grid whose result needs terabytes is refused before anything is allocated."""
+    with pytest.raises(ConfigError, match="zarr"):
+        error_map(AALBORG, CASE1, PHIS, 400_000)

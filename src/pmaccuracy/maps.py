@@ -208,7 +208,7 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     robot, clearances : objects, preset names or TOML paths
     phis : orientation(s) in **radians** (scalar or ``(k,)``)
     n : grid points per axis
-    chunk_size : grid points per block
+    chunk_size : grid points per block at most (blocks are also kept below 1/80 of the map)
     use_dask : compute the blocks as Dask tasks, a few at a time (needs ``pip install pmaccuracy[dask]``)
     progress : show a progress bar; default: only when stderr is a terminal
 
@@ -243,7 +243,10 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
               out: dict[str, np.ndarray]) -> None:
     """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
     show = sys.stderr.isatty() if progress is None else progress
-    rows = max(1, chunk_size // len(x))
+    # A block's temporaries take about 0.3 kB per point, the result 32 B per point: blocks of at most 1/80 of
+    # the map keep the peak within MEMORY_FACTOR x the dataset (never below 2048 points: speed).
+    block = min(chunk_size, max(2048, len(phis) * len(y) * len(x) // 80))
+    rows = max(1, block // len(x))
     blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
     names = list(MAP_VARIABLES)
 
