@@ -142,7 +142,13 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
     areas = np.bincount(labels.ravel())
     plausible = (areas >= min_area) & (areas <= max_area)
     plausible[0] = False
-    rejected = int(np.count_nonzero(areas[1:] >= min_area) - np.count_nonzero(plausible))
+    # regions that reach the image border are cut by the frame (their shape and centroid are not the dot's)
+    on_border = np.zeros(labels.max() + 1, dtype=bool)
+    on_border[np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = True
+    on_border[0] = False
+    cut_early = int(np.count_nonzero(on_border & (areas >= min_area) & (areas <= max_area)))
+    plausible &= ~on_border
+    rejected = int(np.count_nonzero((areas[1:] >= min_area) & ~on_border[1:]) - np.count_nonzero(plausible))
     keep = np.zeros(labels.max() + 1, dtype=bool)
     radius = np.zeros(labels.max() + 1)
     for region in measure.regionprops(np.where(plausible[labels], labels, 0)):  # loop over candidate regions
@@ -157,12 +163,20 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
         radius[region.label] = math.sqrt(area / math.pi)
     kept = np.where(keep[labels], labels, 0)
     if kept.max() == 0:
-        return Blobs(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0), 0, rejected)
+        return Blobs(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0), cut_early, rejected)
 
     # support and ring: grown by distances that depend on each blob's radius -> grow by the largest, then cut
     margin = 3.0 + radius / 4.0
     width = 3.0 + radius / 6.0
     reach = float(np.max((margin + width)[keep]))
+    # work in the window holding the kept blobs and their rings (a platform image: a small part of the frame)
+    h, w = img.shape
+    pad = int(math.ceil(reach)) + 6
+    rows = np.flatnonzero(kept.any(axis=1))
+    cols = np.flatnonzero(kept.any(axis=0))
+    r0, r1 = max(rows[0] - pad, 0), min(rows[-1] + pad + 1, h)
+    c0, c1 = max(cols[0] - pad, 0), min(cols[-1] + pad + 1, w)
+    kept, mask, img = kept[r0:r1, c0:c1], mask[r0:r1, c0:c1], img[r0:r1, c0:c1]
     grown = segmentation.expand_labels(kept, distance=reach)
     dist = ndimage.distance_transform_edt(kept == 0)
     lab = grown
@@ -171,10 +185,12 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
     ring = (lab > 0) & ~support & (dist <= (margin + width)[lab]) & ~others
     # blobs whose support or ring reaches the border are cut by the frame
     edge = np.zeros_like(support)
-    edge[0, :] = edge[-1, :] = edge[:, 0] = edge[:, -1] = True
+    edge[0, :], edge[-1, :] = r0 == 0, r1 == h
+    edge[:, 0] |= c0 == 0
+    edge[:, -1] |= c1 == w
     border_ids = np.unique(lab[edge & (lab > 0)])
     ids = np.setdiff1d(np.flatnonzero(keep), border_ids)
-    cut = int(np.count_nonzero(keep[border_ids])) if border_ids.size else 0
+    cut = cut_early + (int(np.count_nonzero(keep[border_ids])) if border_ids.size else 0)
     if ids.size == 0:
         return Blobs(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0), cut, rejected)
 
@@ -233,7 +249,7 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
     if np.any(n_in < 5):  # tiny dots: the peak weight
         small_ids = n_in < 5
         contrast[small_ids] = np.array([np.max(wts[ls == i]) for i in ids[small_ids]])
-    centres = np.stack([cx + origin[ids, 1], cy + origin[ids, 0]], axis=1)
+    centres = np.stack([cx + origin[ids, 1] + c0, cy + origin[ids, 0] + r0], axis=1)
     good = enough & np.isfinite(centres).all(axis=1) & (total > 0) & (contrast > 0)
     rejected += int(np.count_nonzero(~good))
     return Blobs(centres[good], sigma[good], (total / contrast)[good], contrast[good], cut, rejected)
