@@ -48,11 +48,15 @@ def test_ik_json(capsys):
     assert code == 0 and err == ""
     data = json.loads(out)
     assert isinstance(data, list) and len(data) == 2
-    assert set(data[0]) == {"x", "y", "phi_deg", "s", "l", "within_limits"}
+    assert set(data[0]) == {"x", "y", "phi_deg", "q", "passive", "s", "l", "within_limits"}
     home, outside = data
     assert (home["x"], home["y"], home["phi_deg"]) == (0, 0, 0)
     np.testing.assert_allclose(home["s"], [-15, -15, 0], atol=1e-9)
     np.testing.assert_allclose(home["l"], [L12_HOME, L12_HOME, L3_HOME], atol=1e-9)
+    np.testing.assert_allclose(home["q"], home["s"], atol=0)
+    # passive joints in chain order: the bearing l_i (mm) and the platform revolute (deg, phi - theta'_i)
+    np.testing.assert_allclose([p[0] for p in home["passive"]], home["l"], atol=0)
+    np.testing.assert_allclose([p[1] for p in home["passive"]], [0, 180, 90], atol=1e-9)   # wrapped to (-180, 180]
     assert home["within_limits"] is True
     np.testing.assert_allclose(outside["s"], [-15, -15, -30], atol=1e-9)   # x = -s3 at phi = 0
     assert outside["within_limits"] is False
@@ -88,7 +92,7 @@ def test_fk_json_lists_every_assembly_mode(capsys):
     assert code == 0 and err == ""
     data = json.loads(out)
     assert len(data) == 2
-    assert all(set(d) == {"x", "y", "phi_deg", "l", "within_limits"} for d in data)
+    assert all(set(d) == {"x", "y", "phi_deg", "l", "passive", "working_modes", "within_limits"} for d in data)
     home = min(data, key=lambda d: abs(d["phi_deg"]))
     flipped = max(data, key=lambda d: abs(d["phi_deg"]))
     np.testing.assert_allclose([home["x"], home["y"], home["phi_deg"]], [0, 0, 0], atol=1e-9)
@@ -116,7 +120,7 @@ def test_workspace_json_phi0(capsys):
     code, out, err = run(["workspace", "--phi-deg", 0, "--format", "json"], capsys)
     assert code == 0 and err == ""
     data = json.loads(out)
-    assert set(data) == {"phi_deg", "area", "bounds", "polygon"}
+    assert set(data) == {"robot", "architecture", "phi_deg", "area", "bounds", "polygon"}
     assert data["phi_deg"] == 0
     assert data["area"] == pytest.approx(2500, abs=1e-6)
     np.testing.assert_allclose(data["bounds"]["x"], [-25, 25], atol=1e-9)
@@ -207,9 +211,16 @@ def test_bad_poses_csv_exit_2(tmp_path, capsys):
     assert_one_line_error(*run(both, capsys), "not both")
 
 
-def test_workspace_plot_to_missing_folder_exits_2(tmp_path, capsys):
+def test_workspace_plot_creates_missing_folders(tmp_path, capsys):
     target = tmp_path / "no" / "such" / "dir" / "ws.png"
-    assert_one_line_error(*run(["workspace", "--plot", target], capsys), "ws.png")
+    code, out, err = run(["workspace", "--plot", target], capsys)
+    assert code == 0 and err == "" and target.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_workspace_plot_into_a_file_exits_2(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert_one_line_error(*run(["workspace", "--plot", blocker / "ws.png"], capsys), "ws.png")
 
 
 # ----------------------------------------------------------------------------------- real process

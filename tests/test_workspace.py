@@ -17,9 +17,8 @@ from conftest import manipulators, random_manipulator
 from pmaccuracy.errors import EmptyWorkspaceError
 from pmaccuracy.geometry import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics, require_within_limits
-from pmaccuracy.workspace import (CONSTRAINT_LABELS, Workspace, constant_orientation_workspace,
-                                  grid_search_workspace, joint_halfplanes, leg_box, plot_workspaces,
-                                  save_workspace_figure)
+from pmaccuracy.workspace import (Workspace, constant_orientation_workspace, grid_search_workspace, leg_box,
+                                  plot_workspaces, save_comparison_figure, save_workspace_figure)
 
 SIN60 = np.sqrt(3) / 2
 
@@ -97,28 +96,74 @@ def test_symmetric_phi0_is_a_regular_hexagon(symmetric):
 
 
 # ----------------------------------------------------------------------------------- half-planes
+def ppr_halfplanes(robot, phi):
+    """Independent 3-PPR reference: the 12 joint limits of Eq. 2a/2b as half-planes ``G p <= h``.
+
+    With ``q_i = p - a_i h_i - d_i v_i - r_i k_i`` and ``E`` the right-angle rotation,
+    ``s_i = (w^T E q)/(w^T E u)`` and ``l_i = (u^T E q)/(u^T E w)`` are affine in ``p``.
+    """
+    vec = lambda t: np.stack([np.cos(t), np.sin(t)], axis=-1)  # noqa: E731
+    E = np.array([[0.0, -1.0], [1.0, 0.0]])
+    G, h = [], []
+    for leg in robot.legs:
+        u = vec(leg.alpha + leg.beta)
+        v = vec(leg.alpha + leg.beta + leg.gamma)
+        w = vec(leg.alpha + leg.beta + leg.gamma + leg.theta)
+        c = leg.a * vec(leg.alpha) + leg.d * v + leg.r * vec(phi + leg.psi)
+        gs = (w @ E) / (w @ E @ u)                         # ds/dp = w^T E / (w^T E u)
+        gl = (u @ E) / (u @ E @ w)                          # dl/dp = u^T E / (u^T E w)
+        for grad, (lo, hi) in ((gs, leg.s_range), (gl, leg.l_range)):
+            G += [grad, -grad]
+            h += [hi + grad @ c, -lo - grad @ c]
+    return np.array(G), np.array(h)
+
+
+def reference_polygon(robot, phi):
+    """Vertices (CCW) and area of the 12 half-planes by scipy's half-space intersection (independent)."""
+    from scipy.optimize import linprog
+    from scipy.spatial import ConvexHull, HalfspaceIntersection
+    G, h = ppr_halfplanes(robot, phi)
+    n = np.linalg.norm(G, axis=1)
+    res = linprog([0, 0, -1], A_ub=np.column_stack([G / n[:, None], np.ones(12)]), b_ub=h / n,
+                  bounds=[(None, None)] * 3, method="highs")
+    if res.x[2] <= 1e-9:   # no inscribed disc: empty (or zero-area)
+        return np.zeros((0, 2)), 0.0
+    hsi = HalfspaceIntersection(np.column_stack([G / n[:, None], -h / n]), res.x[:2])
+    hull = ConvexHull(hsi.intersections)
+    return hull.points[hull.vertices], hull.volume
+
+
 def test_halfplanes_are_the_joint_excesses(rng):
-    """G p - h = [s - s_max, s_min - s, l - l_max, l_min - l] with s, l from the IK (Eq. 2a, 2b)."""
-    assert len(CONSTRAINT_LABELS) == 12
+    """The reference half-planes give G p - h = [s - s_max, s_min - s, ...] with s, l from the library's IK."""
     for _ in range(8):
         rr = random_manipulator(rng)
         robot = rr.robot
         phi = rng.uniform(-np.pi, np.pi)
-        G, h = joint_halfplanes(robot, phi)
-        assert G.shape == (12, 2) and h.shape == (12,)
+        G, h = ppr_halfplanes(robot, phi)
         p = rr.home[:2] + rng.uniform(-100, 100, (50, 2))
         ik = inverse_kinematics(robot, np.column_stack([p, np.full(50, phi)]))
-        expected = np.concatenate([ik.s - robot.s_range[:, 1], robot.s_range[:, 0] - ik.s,
-                                   ik.l - robot.l_range[:, 1], robot.l_range[:, 0] - ik.l], axis=-1)
-        np.testing.assert_allclose(p @ G.T - h, expected, atol=1e-9)
+        excess = p @ G.T - h
+        np.testing.assert_allclose(excess[:, 0::4], ik.s - robot.s_range[:, 1], atol=1e-9)
+        np.testing.assert_allclose(excess[:, 1::4], robot.s_range[:, 0] - ik.s, atol=1e-9)
+        np.testing.assert_allclose(excess[:, 2::4], ik.l - robot.l_range[:, 1], atol=1e-9)
+        np.testing.assert_allclose(excess[:, 3::4], robot.l_range[:, 0] - ik.l, atol=1e-9)
 
 
-def test_halfplanes_broadcast_over_phi(aalborg):
-    phis = np.radians([[0.0, 30.0], [-30.0, 60.0]])
-    G, h = joint_halfplanes(aalborg, phis)
-    assert G.shape == (12, 2) and h.shape == (2, 2, 12)
-    for idx in np.ndindex(2, 2):
-        np.testing.assert_allclose(h[idx], joint_halfplanes(aalborg, phis[idx])[1], atol=1e-12)
+@pytest.mark.parametrize("name", ["aalborg_3ppr", "symmetric_3ppr"])
+def test_3ppr_presets_equal_the_half_plane_polygon(name):
+    """The generic arc/segment region of a 3-PPR is the paper's polygon: area and vertices to 1e-12."""
+    robot = Manipulator.preset(name)
+    for deg in (-45, -30, -10, 0, 10, 30, 45, 60):
+        phi = np.radians(deg)
+        ws = constant_orientation_workspace(robot, phi)
+        verts, area = reference_polygon(robot, phi)
+        assert ws.is_empty == (area == 0.0)
+        assert ws.area == pytest.approx(area, rel=1e-12)
+        assert ws.vertices.shape == verts.shape
+        if area:
+            d = np.linalg.norm(ws.vertices[:, None] - verts[None], axis=-1)
+            assert np.all(d.min(axis=1) < 1e-12 * 200) and np.all(d.min(axis=0) < 1e-12 * 200)
+            assert shoelace(ws.vertices) == pytest.approx(area, rel=1e-12)
 
 
 # ----------------------------------------------------------------------------------- random geometries
@@ -132,13 +177,17 @@ def test_polygon_properties_on_random_geometries(rr):
     assert ws.vertices.ndim == 2 and ws.vertices.shape[1] == 2 and len(ws.vertices) >= 3
     assert shoelace(ws.vertices) == pytest.approx(ws.area, rel=1e-9)   # counter-clockwise, area matches
     (xmin, xmax), (ymin, ymax) = ws.bounds
-    assert xmin == ws.vertices[:, 0].min() and ymax == ws.vertices[:, 1].max()
+    assert xmin == pytest.approx(ws.vertices[:, 0].min(), abs=1e-9)
+    assert ymax == pytest.approx(ws.vertices[:, 1].max(), abs=1e-9)
     # Every vertex is reachable (boundary counts as inside) and lies on at least two joint limits.
     poses = np.column_stack([ws.vertices, np.full(len(ws.vertices), home[2])])
     require_within_limits(robot, poses)
-    excess = ws.vertices @ ws.G.T - ws.h
+    G, h = ppr_halfplanes(robot, home[2])
+    excess = ws.vertices @ G.T - h
     assert np.all(np.sum(np.abs(excess) < 1e-7, axis=1) >= 2)
-    assert ws.contains(ws.interior_point) and ws.inradius > 0
+    verts, area = reference_polygon(robot, home[2])
+    assert ws.area == pytest.approx(area, rel=1e-9)
+    assert ws.contains(ws.interior_point)
     assert np.all(ws.contains(ws.vertices))
     assert ws.contains(ws.centroid)
 
@@ -262,13 +311,12 @@ def test_plot_workspaces_draws_each_orientation(aalborg):
     labels = ax.get_legend_handles_labels()[1]
     for deg in ("0", "30", "-30"):
         assert any(f"= {deg}°" in lab for lab in labels), labels
-    assert any("A_i" in lab for lab in labels) and any("guides" in lab for lab in labels)
-    assert any("D_1D_2D_3" in lab for lab in labels)
+    assert any("base" in lab for lab in labels) and any("rails" in lab for lab in labels)
+    assert any("platform" in lab for lab in labels) and any("actuated" in lab for lab in labels)
     assert "mm" in ax.get_xlabel() and "mm" in ax.get_ylabel()
     assert ax.get_aspect() == 1.0
-    assert ax.get_title()
     # The platform triangle is drawn around the centre of the phi = 0 workspace (the origin here).
-    tri = [p for p in ax.patches if "D_1D_2D_3" in p.get_label()][0]
+    tri = [p for p in ax.patches if "platform" in p.get_label()][0]
     np.testing.assert_allclose(tri.get_xy()[:3].mean(axis=0), [0.0, 0.0], atol=1e-9)
 
 
@@ -281,3 +329,10 @@ def test_save_workspace_figure(aalborg, tmp_path):
     path = save_workspace_figure(aalborg, tmp_path / "fig3.png")
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_save_comparison_figure(tmp_path):
+    robots = [Manipulator.preset(n) for n in ("aalborg_3ppr", "symmetric_3rpr", "symmetric_3rrr", "symmetric_3prr")]
+    path = save_comparison_figure(robots, tmp_path / "cmp.png")
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000

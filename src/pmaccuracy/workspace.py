@@ -1,23 +1,28 @@
-"""Constant-orientation workspace of a 3-PPR manipulator (paper Sec. 3, Fig. 3).
+"""Constant-orientation workspace of any planar 3-leg manipulator, exact (paper Sec. 3, Fig. 3).
 
-At a fixed orientation ``phi`` every joint value of the inverse kinematics
-(Eq. 2a, 2b) is an affine function of the position ``p = [x, y]``::
+At a fixed orientation ``phi`` each joint limit ``q_k = lo`` or ``hi`` locks
+one joint of a leg; the two joints left make a dyad, whose platform point
+runs on a **circle** (two passive revolutes) or a **line** (a revolute and a
+slide) in ``(x, y)`` (:meth:`pmaccuracy.legs.Chain.locked`). Where a leg's
+two inverse-kinematics branches merge (``B_ii = 0``) the working mode's
+branch ends, again on circles or lines (:meth:`pmaccuracy.legs.Chain.boundary_curves`).
+The workspace is therefore a region bounded by circular arcs and segments:
 
-    c_i(phi) = a_i h_i + d_i v_i + r_i k_i(phi)                       (mm, Eq. 1)
-    s_i = (w_i^T E u_i)^-1 w_i^T E (p - c_i(phi)) = sigma_i . (p - c_i(phi))   (Eq. 2a)
-    l_i = (u_i^T E w_i)^-1 u_i^T E (p - c_i(phi)) = lambda_i . (p - c_i(phi))  (Eq. 2b)
+1. split every candidate curve at its intersections with all the others;
+2. test a point just to the left and just to the right of each piece's
+   midpoint with the inverse kinematics (every joint in range, on the
+   working mode): a piece with the workspace on exactly one side is boundary,
+   oriented with the workspace on its left;
+3. the area is Green's theorem over the oriented pieces,
+   ``A = 1/2 sum (x dy - y dx)``, in closed form for segments
+   (``1/2 a x b``) and arcs (``1/2 [R^2 dt + R (c_x (sin t1 - sin t0) - c_y (cos t1 - cos t0))]``),
+   exact to rounding; pieces chained end to start give the boundary loops.
 
-    sigma_i  = E^T w_i / (w_i^T E u_i)        lambda_i = E^T u_i / (u_i^T E w_i)
+For the 3-PPR every curve is a line and the region is the paper's convex
+polygon (the 12 half-planes of Eq. 2a/2b). The paper's "searching method"
+(IK on a grid) is :func:`grid_search_workspace`, the cross-check.
 
-(``x^T E y = x . (E y)``, so ``w^T E p = (E^T w) . p``). The twelve joint
-limits ``s_min <= s_i <= s_max`` and ``l_min <= l_i <= l_max`` are therefore
-twelve half-planes ``G p <= h`` and the workspace at constant ``phi`` is their
-intersection: an exact convex polygon, bounded because each leg alone keeps
-``p`` in the parallelogram ``c_i + [s range] u_i + [l range] w_i + r_i k_i``.
-The paper obtains the same region by a "searching method" (IK on a grid);
-:func:`grid_search_workspace` does that as a cross-check.
-
-Lengths are in mm, angles in radians (the figure and the CLI use degrees).
+Lengths in mm, angles in rad (figures and the CLI use degrees).
 """
 
 from __future__ import annotations
@@ -27,143 +32,149 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import EmptyWorkspaceError
-from .geometry import Manipulator, perp, unit
+from .errors import EmptyWorkspaceError, GeometryError
+from .geometry import Manipulator
 from .kinematics import LIMIT_TOLERANCE, inverse_kinematics
+from .legs import Curve
 
-#: Names of the rows of :func:`joint_halfplanes`, in order.
-CONSTRAINT_LABELS = tuple(
-    [f"s{i} <= s{i}_max" for i in (1, 2, 3)] + [f"s{i} >= s{i}_min" for i in (1, 2, 3)]
-    + [f"l{i} <= l{i}_max" for i in (1, 2, 3)] + [f"l{i} >= l{i}_min" for i in (1, 2, 3)]
-)
-#: A workspace whose largest inscribed disc is smaller than this radius (mm) is degenerate: treated as empty.
-MIN_INRADIUS = 1e-6
 #: Orientations of the paper's Fig. 3 (deg).
 DEFAULT_PHIS_DEG = (0.0, 30.0, -30.0)
+#: A workspace whose area is below this (mm^2) is treated as empty (a segment or a point).
+MIN_AREA = 1e-9
 
 
-def joint_coefficients(robot: Manipulator) -> tuple[np.ndarray, np.ndarray]:
-    """The constant gradients ``sigma_i = ds_i/dp`` and ``lambda_i = dl_i/dp`` at fixed phi.
+@dataclass(frozen=True)
+class Piece:
+    """An oriented piece of the workspace boundary (workspace on its left), mm.
 
-    ``sigma_i = E^T w_i / (w_i^T E u_i)`` (Eq. 2a) and
-    ``lambda_i = E^T u_i / (u_i^T E w_i)`` (Eq. 2b); both of shape ``(3, 2)``
-    (mm/mm, dimensionless). ``E^T x = -E x``; the denominators are
-    ``+-sin(gamma_i + theta_i)``, kept away from zero by the geometry checks.
+    ``kind`` is ``"segment"`` (from ``start`` to ``end``) or ``"arc"`` (centre
+    ``centre``, radius ``radius``, from angle ``t0`` through the signed sweep
+    ``sweep`` rad: positive counter-clockwise). ``label`` names the joint limit.
     """
-    w_E_u = np.sum(robot.w * perp(robot.u), axis=-1)  # w_i^T E u_i, (3,)
-    sigma = -perp(robot.w) / w_E_u[:, None]
-    lam = -perp(robot.u) / (-w_E_u)[:, None]          # u^T E w = -w^T E u
-    return sigma, lam
 
+    kind: str
+    start: complex
+    end: complex
+    centre: complex = 0j
+    radius: float = 0.0
+    t0: float = 0.0
+    sweep: float = 0.0
+    label: str = ""
+    curve: int = -1
 
-def loop_origins(robot: Manipulator, phi: np.ndarray | float) -> np.ndarray:
-    """``c_i(phi) = a_i h_i + d_i v_i + r_i k_i(phi)`` (mm), shape ``(..., 3, 2)`` for phi ``(...)``.
+    def green(self) -> float:
+        """``1/2 integral (x dy - y dx)`` along the piece (mm^2)."""
+        if self.kind == "segment":
+            return 0.5 * float(np.imag(np.conj(self.start) * self.end))
+        t0, t1 = self.t0, self.t0 + self.sweep
+        c, R = self.centre, self.radius
+        return 0.5 * (R * R * self.sweep + R * (c.real * (np.sin(t1) - np.sin(t0))
+                                                - c.imag * (np.cos(t1) - np.cos(t0))))
 
-    The point ``P`` would occupy for ``s_i = l_i = 0`` (Eq. 1 with the joint terms removed).
-    """
-    phi = np.asarray(phi, dtype=float)
-    k = unit(phi[..., None] + robot.psi)  # (..., 3, 2)
-    return robot.base_points + robot.d[:, None] * robot.v + robot.r[:, None] * k
+    def sample(self, step: float = 0.5) -> np.ndarray:
+        """Points along the piece ``(K, 2)`` mm (arcs at most ``step`` mm apart, at least 8 per arc)."""
+        if self.kind == "segment":
+            z = np.array([self.start, self.end])
+        else:
+            n = max(8, int(np.ceil(abs(self.sweep) * self.radius / step)) + 1)
+            t = self.t0 + np.linspace(0.0, self.sweep, min(n, 2000))
+            z = self.centre + self.radius * np.exp(1j * t)
+        return np.column_stack([z.real, z.imag])
 
-
-def joint_halfplanes(robot: Manipulator, phi: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """The 12 joint-limit constraints at orientation ``phi`` as half-planes ``G @ [x, y] <= h``.
-
-    With ``sigma_i, lambda_i`` from :func:`joint_coefficients` and
-    ``c_i = c_i(phi)`` from :func:`loop_origins` (Eq. 2a, 2b)::
-
-        rows 0-2  :  sigma_i . p <= s_i,max + sigma_i . c_i
-        rows 3-5  : -sigma_i . p <= -s_i,min - sigma_i . c_i
-        rows 6-8  :  lambda_i . p <= l_i,max + lambda_i . c_i
-        rows 9-11 : -lambda_i . p <= -l_i,min - lambda_i . c_i
-
-    (labels in :data:`CONSTRAINT_LABELS`). The rows are *not* normalized:
-    ``G @ p - h`` is the amount (mm of joint travel) by which each joint
-    exceeds its limit, exactly what :func:`~pmaccuracy.kinematics.within_joint_limits`
-    compares with its tolerance.
-
-    Parameters
-    ----------
-    phi : float or array ``(...)``, rad
-
-    Returns
-    -------
-    G : ``(12, 2)`` (independent of phi);  h : ``(..., 12)`` mm
-    """
-    sigma, lam = joint_coefficients(robot)
-    c = loop_origins(robot, phi)  # (..., 3, 2)
-    s_c = np.sum(sigma * c, axis=-1)  # (..., 3)
-    l_c = np.sum(lam * c, axis=-1)
-    G = np.concatenate([sigma, -sigma, lam, -lam], axis=0)
-    h = np.concatenate([robot.s_range[:, 1] + s_c, -robot.s_range[:, 0] - s_c,
-                        robot.l_range[:, 1] + l_c, -robot.l_range[:, 0] - l_c], axis=-1)
-    return G, h
+    def extremes(self) -> np.ndarray:
+        """End points and, for arcs, the axis-extreme points within the sweep: ``(K,)`` complex."""
+        pts = [self.start, self.end]
+        if self.kind == "arc":
+            lo, hi = sorted((self.t0, self.t0 + self.sweep))
+            for k in range(int(np.floor(lo / (np.pi / 2))), int(np.ceil(hi / (np.pi / 2))) + 1):
+                t = k * np.pi / 2
+                if lo <= t <= hi:
+                    pts.append(self.centre + self.radius * np.exp(1j * t))
+        return np.array(pts)
 
 
 @dataclass(frozen=True, eq=False)
 class Workspace:
-    """The constant-orientation workspace at ``phi``: an exact convex polygon (paper Sec. 3).
+    """The constant-orientation workspace of ``robot`` at ``phi``: a region bounded by segments and arcs.
 
     Attributes
     ----------
+    robot : the manipulator (its inverse kinematics decides :meth:`contains`)
     phi : float, rad
-    vertices : ``(M, 2)`` mm, counter-clockwise; ``(0, 2)`` when empty
-    area : float, mm^2 (0.0 when empty)
+    pieces : the oriented boundary pieces (:class:`Piece`, workspace on the left)
+    loops : list of ``(K, 2)`` mm closed boundary polylines (arcs sampled), outer loops
+        counter-clockwise, holes clockwise
+    vertices : ``(M, 2)`` mm, the corners of the boundary in loop order (where one curve meets
+        another); for a 3-PPR the polygon's vertices, counter-clockwise; ``(0, 2)`` when empty
+    area : float, mm^2 (0.0 when empty), exact (Green's theorem)
     bounds : ``((xmin, xmax), (ymin, ymax))`` mm; NaN when empty
-    G, h : ``(12, 2)`` and ``(12,)``: the joint-limit half-planes ``G p <= h`` (:func:`joint_halfplanes`)
-    interior_point : ``(2,)`` mm, Chebyshev centre (centre of the largest inscribed disc); NaN when empty
-    inradius : float, mm, radius of that disc in the Euclidean metric (<= 0 when empty)
     """
 
+    robot: Manipulator = field(repr=False)
     phi: float
+    pieces: tuple[Piece, ...] = field(repr=False)
+    loops: tuple[np.ndarray, ...] = field(repr=False)
     vertices: np.ndarray
     area: float
     bounds: tuple[tuple[float, float], tuple[float, float]]
-    G: np.ndarray = field(repr=False)
-    h: np.ndarray = field(repr=False)
-    interior_point: np.ndarray = field(repr=False)
-    inradius: float = field(repr=False)
 
     @property
     def is_empty(self) -> bool:
         """True when no position (or only a zero-area set of them) is reachable at ``phi``."""
-        return self.vertices.shape[0] == 0
+        return self.area <= MIN_AREA
 
     def require_nonempty(self) -> "Workspace":
         """Return self, or raise :class:`EmptyWorkspaceError` if the workspace is empty."""
         if self.is_empty:
             raise EmptyWorkspaceError(
                 f"the constant-orientation workspace at phi = {np.degrees(self.phi):g} deg is empty: "
-                "no position satisfies all twelve joint limits (Eq. 2a, 2b)")
+                "no position satisfies every joint limit on the legs' working modes")
         return self
 
     @property
     def centroid(self) -> np.ndarray:
-        """Area centroid of the polygon ``(2,)`` mm (NaN when empty)."""
+        """Area centroid ``(2,)`` mm (NaN when empty), from the sampled boundary loops."""
         if self.is_empty:
             return np.full(2, np.nan)
-        x, y = self.vertices.T
-        xn, yn = np.roll(x, -1), np.roll(y, -1)
-        cross = x * yn - xn * y
-        a = cross.sum() / 2
-        return np.array([np.sum((x + xn) * cross), np.sum((y + yn) * cross)]) / (6 * a)
+        m = np.zeros(2)
+        a_tot = 0.0
+        for loop in self.loops:
+            x, y = loop[:-1, 0], loop[:-1, 1]
+            xn, yn = loop[1:, 0], loop[1:, 1]
+            cross = x * yn - xn * y
+            a_tot += cross.sum() / 2
+            m += np.array([np.sum((x + xn) * cross), np.sum((y + yn) * cross)]) / 6
+        return m / a_tot
 
-    def contains(self, points: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    @property
+    def interior_point(self) -> np.ndarray:
+        """A point inside the workspace ``(2,)`` mm: the centroid if inside, else the inside grid point
+        farthest from the boundary samples; NaN when empty."""
+        if self.is_empty:
+            return np.full(2, np.nan)
+        c = self.centroid
+        if self.contains(c):
+            return c
+        x, y, inside = self.grid(61)
+        X, Y = np.meshgrid(x, y)
+        pts = np.column_stack([X[inside], Y[inside]])
+        boundary = np.vstack(self.loops)
+        d = np.min(np.hypot(pts[:, None, 0] - boundary[None, :, 0], pts[:, None, 1] - boundary[None, :, 1]), axis=1)
+        return pts[int(np.argmax(d))]
+
+    def contains(self, points: np.ndarray, tol: float = LIMIT_TOLERANCE) -> np.ndarray:
         """True for positions ``(..., 2)`` mm inside the workspace; result shape ``(...)``.
 
-        A point is inside when every joint is within its limits up to ``tol``
-        mm of joint travel (``max(G p - h) <= tol``), the same test as
-        :func:`~pmaccuracy.kinematics.inverse_kinematics`, so a pose computed
-        on the boundary (e.g. a vertex) counts as inside. Always False when
-        the workspace is empty.
+        The same test as the inverse kinematics: every leg reaches the pose on
+        its working mode and every joint is within its range up to ``tol`` (mm
+        or rad), so a pose computed on the boundary counts as inside.
         """
         points = np.asarray(points, dtype=float)
         if points.ndim == 0 or points.shape[-1] != 2:
             raise ValueError(f"points must have shape (..., 2), got {points.shape}")
         if self.is_empty:
             return np.zeros(points.shape[:-1], dtype=bool)
-        excess = points @ self.G.T - self.h
-        return np.all(excess <= tol, axis=-1)
+        return _inside(self.robot, self.phi, points, tol)
 
     def grid(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A regular ``n x n`` grid over the bounds: ``x (n,)``, ``y (n,)`` mm and ``inside (n, n)`` [y, x].
@@ -182,51 +193,234 @@ class Workspace:
         return x, y, self.contains(np.stack([X, Y], axis=-1))
 
 
-def _empty(phi: float, G: np.ndarray, h: np.ndarray, inradius: float) -> Workspace:
-    nan = float("nan")
-    return Workspace(phi=phi, vertices=np.zeros((0, 2)), area=0.0, bounds=((nan, nan), (nan, nan)),
-                     G=G, h=h, interior_point=np.full(2, nan), inradius=inradius)
+def _inside(robot: Manipulator, phi: float, points: np.ndarray, tol: float) -> np.ndarray:
+    poses = np.concatenate([points, np.full(points.shape[:-1] + (1,), float(phi))], axis=-1)
+    return inverse_kinematics(robot, poses, tol).within_limits
 
 
-def constant_orientation_workspace(robot: Manipulator, phi: float,
-                                   min_inradius: float = MIN_INRADIUS) -> Workspace:
-    """The exact workspace polygon of ``robot`` at orientation ``phi`` (rad), paper Sec. 3.
+# ---------------------------------------------------------------------------------------- arrangement
+def _line_frame(c: Curve) -> tuple[complex, complex]:
+    """A point and the unit direction of a line ``n . p + o = 0`` (direction ``E n``)."""
+    return -c.offset * c.normal, 1j * c.normal
 
-    1. Half-planes ``G p <= h`` from :func:`joint_halfplanes` (Eq. 2a, 2b).
-    2. Chebyshev centre by linear programming (``scipy.optimize.linprog``)::
 
-           max t  s.t.  (G_k / |G_k|) . p + t <= h_k / |G_k|,  k = 1..12
+def _intersections(a: Curve, b: Curve) -> list[complex]:
+    """Intersection points of two curves (circles and lines), complex mm."""
+    if a.kind == "line" and b.kind == "line":
+        det = a.normal.real * b.normal.imag - a.normal.imag * b.normal.real
+        if abs(det) < 1e-12:
+            return []
+        x = (-a.offset * b.normal.imag + b.offset * a.normal.imag) / det
+        y = (-a.normal.real * b.offset + b.normal.real * a.offset) / det
+        return [complex(x, y)]
+    if a.kind == "circle" and b.kind == "line":
+        a, b = b, a
+    if a.kind == "line":
+        p0, d = _line_frame(a)
+        w = p0 - b.centre
+        bq = 2 * (d.conjugate() * w).real
+        cq = abs(w) ** 2 - b.radius ** 2
+        disc = bq * bq - 4 * cq
+        if disc < -1e-12 * max(1.0, bq * bq):
+            return []
+        r = np.sqrt(max(disc, 0.0))
+        return [p0 + d * (-bq + r) / 2, p0 + d * (-bq - r) / 2]
+    dz = b.centre - a.centre
+    dist = abs(dz)
+    if dist < 1e-12 or dist > a.radius + b.radius + 1e-12 or dist < abs(a.radius - b.radius) - 1e-12:
+        return []
+    along = (a.radius ** 2 - b.radius ** 2 + dist ** 2) / (2 * dist)
+    h = np.sqrt(max(a.radius ** 2 - along ** 2, 0.0))
+    u = dz / dist
+    m = a.centre + along * u
+    return [m + 1j * u * h, m - 1j * u * h]
 
-       ``t`` is the radius of the largest inscribed disc; ``t < min_inradius``
-       (mm) means an empty or zero-area (segment/point) workspace, returned as
-       an empty :class:`Workspace` rather than raising.
-    3. Vertices by ``scipy.spatial.HalfspaceIntersection`` about that centre,
-       ordered counter-clockwise and measured by ``scipy.spatial.ConvexHull``.
+
+def _dedupe(curves: list[Curve], scale: float) -> list[Curve]:
+    out: list[Curve] = []
+    tol = 1e-9 * scale
+    for c in curves:
+        same = False
+        for o in out:
+            if c.kind != o.kind:
+                continue
+            if c.kind == "circle":
+                same = abs(c.centre - o.centre) < tol and abs(c.radius - o.radius) < tol
+            else:
+                same = (abs(c.normal - o.normal) < 1e-12 and abs(c.offset - o.offset) < tol) or \
+                       (abs(c.normal + o.normal) < 1e-12 and abs(c.offset + o.offset) < tol)
+            if same:
+                break
+        if not same:
+            out.append(c)
+    return out
+
+
+def boundary_curves(robot: Manipulator, phi: float) -> list[Curve]:
+    """Every circle and line that can bound the workspace at ``phi`` (rad), labelled ``leg i: ...``."""
+    curves = []
+    for i, chain in enumerate(robot.chains, start=1):
+        for c in chain.boundary_curves(phi):
+            curves.append(Curve(c.kind, centre=c.centre, radius=c.radius, normal=c.normal, offset=c.offset,
+                                label=f"leg {i}: {c.label}"))
+    return curves
+
+
+def constant_orientation_workspace(robot: Manipulator, phi: float, tol: float = LIMIT_TOLERANCE) -> Workspace:
+    """The exact workspace of ``robot`` at orientation ``phi`` (rad), paper Sec. 3 (module docstring).
+
+    Raises :class:`GeometryError` when the region is unbounded (passive slides
+    without ranges); an empty workspace is returned as such (``is_empty``).
     """
-    from scipy.optimize import linprog
-    from scipy.spatial import ConvexHull, HalfspaceIntersection
-
     phi = float(phi)
     if not np.isfinite(phi):
         raise ValueError(f"phi must be finite, got {phi}")
-    G, h = joint_halfplanes(robot, phi)
-    norms = np.linalg.norm(G, axis=1)
-    Gn, hn = G / norms[:, None], h / norms
-    # Variables (x, y, t); maximize t.
-    res = linprog(c=[0.0, 0.0, -1.0], A_ub=np.column_stack([Gn, np.ones(12)]), b_ub=hn,
-                  bounds=[(None, None)] * 3, method="highs")
-    if res.status != 0:  # pragma: no cover - the polygon is always bounded, t free keeps it feasible
-        raise RuntimeError(f"linprog failed on the workspace half-planes: {res.message}")
-    centre, radius = res.x[:2], float(res.x[2])
-    if radius < min_inradius:
-        return _empty(phi, G, h, radius)
-    hsi = HalfspaceIntersection(np.column_stack([Gn, -hn]), centre)
-    hull = ConvexHull(hsi.intersections)
-    vertices = hull.points[hull.vertices]  # counter-clockwise in 2-D
-    bounds = ((float(vertices[:, 0].min()), float(vertices[:, 0].max())),
-              (float(vertices[:, 1].min()), float(vertices[:, 1].max())))
-    return Workspace(phi=phi, vertices=vertices, area=float(hull.volume), bounds=bounds,
-                     G=G, h=h, interior_point=centre, inradius=radius)
+    scale = max(1.0, float(np.max(np.hypot(*robot.base_points.T))),
+                float(np.max(np.hypot(*robot.platform_attachments.T))))
+    curves = _dedupe(boundary_curves(robot, phi), scale)
+    # a box that holds every bounded region: all intersection points and circle extremes
+    pts = []
+    for i in range(len(curves)):
+        if curves[i].kind == "circle":
+            c, r = curves[i].centre, curves[i].radius
+            pts += [c + r, c - r, c + 1j * r, c - 1j * r]
+        for j in range(i + 1, len(curves)):
+            pts += _intersections(curves[i], curves[j])
+    if not pts:
+        return _empty(robot, phi)
+    pts = np.array(pts)
+    lo = complex(pts.real.min(), pts.imag.min())
+    hi = complex(pts.real.max(), pts.imag.max())
+    size = max(abs(hi - lo), 1e-3 * scale)
+    margin = 0.05 * size + 1e-3 * scale
+    lo -= complex(margin, margin)
+    hi += complex(margin, margin)
+    box = [Curve("line", normal=1 + 0j, offset=-hi.real, label="box"),
+           Curve("line", normal=-1 + 0j, offset=lo.real, label="box"),
+           Curve("line", normal=1j, offset=-hi.imag, label="box"),
+           Curve("line", normal=-1j, offset=lo.imag, label="box")]
+    everything = curves + box
+    raw = _split(everything, lo, hi)
+    if not raw:
+        return _empty(robot, phi)
+    delta = 1e-7 * max(size, 1.0)
+    mids = np.array([p[0] for p in raw])
+    normals = np.array([p[1] for p in raw])
+    probe = np.concatenate([mids + delta * normals, mids - delta * normals])
+    inside = _inside(robot, phi, np.column_stack([probe.real, probe.imag]), tol)
+    left, right = inside[:len(raw)], inside[len(raw):]
+    pieces = []
+    for (mid, normal, piece), l_in, r_in in zip(raw, left, right):
+        if l_in == r_in:
+            continue
+        if everything[piece.curve].label == "box":
+            raise GeometryError(f"the workspace at phi = {np.degrees(phi):g} deg is unbounded: give the passive "
+                                "prismatic joints ranges", source=robot.name, key="legs")
+        pieces.append(piece if l_in else _reverse(piece))
+    if not pieces:
+        return _empty(robot, phi)
+    area = float(sum(p.green() for p in pieces))
+    if area <= MIN_AREA:
+        return _empty(robot, phi)
+    ext = np.concatenate([p.extremes() for p in pieces])
+    bounds = ((float(ext.real.min()), float(ext.real.max())), (float(ext.imag.min()), float(ext.imag.max())))
+    loops, vertices = _loops(pieces, 1e-6 * max(size, 1.0))
+    return Workspace(robot=robot, phi=phi, pieces=tuple(pieces), loops=tuple(loops), vertices=vertices,
+                     area=area, bounds=bounds)
+
+
+def _empty(robot: Manipulator, phi: float) -> Workspace:
+    nan = float("nan")
+    return Workspace(robot=robot, phi=phi, pieces=(), loops=(), vertices=np.zeros((0, 2)), area=0.0,
+                     bounds=((nan, nan), (nan, nan)))
+
+
+def _split(curves: list[Curve], lo: complex, hi: complex) -> list[tuple[complex, complex, Piece]]:
+    """Cut every curve at its intersections (lines clipped to the box): ``(midpoint, left normal, piece)``."""
+    out = []
+    for i, c in enumerate(curves):
+        cuts = []
+        for j, o in enumerate(curves):
+            if j != i:
+                cuts += _intersections(c, o)
+        if c.kind == "line":
+            p0, d = _line_frame(c)
+            ts = sorted({round(float((d.conjugate() * (z - p0)).real), 12) for z in cuts})
+            tmin, tmax = _clip(p0, d, lo, hi)
+            if tmin is None:
+                continue
+            ts = [tmin] + [t for t in ts if tmin < t < tmax] + [tmax]
+            for t0, t1 in zip(ts[:-1], ts[1:]):
+                if t1 - t0 <= 1e-12 * max(1.0, abs(t1)):
+                    continue
+                a, b = p0 + t0 * d, p0 + t1 * d
+                out.append(((a + b) / 2, 1j * d, Piece("segment", a, b, label=c.label, curve=i)))
+        else:
+            angles = sorted({float(np.mod(np.angle(z - c.centre), 2 * np.pi)) for z in cuts})
+            if not angles:
+                angles = [0.0]
+            angles = angles + [angles[0] + 2 * np.pi]
+            for t0, t1 in zip(angles[:-1], angles[1:]):
+                if t1 - t0 <= 1e-12:
+                    continue
+                tm = (t0 + t1) / 2
+                mid = c.centre + c.radius * np.exp(1j * tm)
+                a = c.centre + c.radius * np.exp(1j * t0)
+                b = c.centre + c.radius * np.exp(1j * t1)
+                # counter-clockwise travel: the inside of the circle is on the left
+                out.append((mid, -np.exp(1j * tm), Piece("arc", a, b, centre=c.centre, radius=c.radius, t0=t0,
+                                                         sweep=t1 - t0, label=c.label, curve=i)))
+    return out
+
+
+def _clip(p0: complex, d: complex, lo: complex, hi: complex) -> tuple[float | None, float | None]:
+    """Parameter interval of the line ``p0 + t d`` inside the box ``[lo, hi]``."""
+    tmin, tmax = -np.inf, np.inf
+    for p, dd, a, b in ((p0.real, d.real, lo.real, hi.real), (p0.imag, d.imag, lo.imag, hi.imag)):
+        if abs(dd) < 1e-15:
+            if not a <= p <= b:
+                return None, None
+            continue
+        t1, t2 = (a - p) / dd, (b - p) / dd
+        tmin, tmax = max(tmin, min(t1, t2)), min(tmax, max(t1, t2))
+    if tmin >= tmax:
+        return None, None
+    return float(tmin), float(tmax)
+
+
+def _reverse(p: Piece) -> Piece:
+    if p.kind == "segment":
+        return Piece("segment", p.end, p.start, label=p.label, curve=p.curve)
+    return Piece("arc", p.end, p.start, centre=p.centre, radius=p.radius, t0=p.t0 + p.sweep, sweep=-p.sweep,
+                 label=p.label, curve=p.curve)
+
+
+def _loops(pieces: list[Piece], tol: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """Chain the oriented pieces end to start into closed loops; corners where the curve changes."""
+    remaining = list(pieces)
+    loops, corners = [], []
+    while remaining:
+        chain = [remaining.pop(0)]
+        while True:
+            end = chain[-1].end
+            k = next((k for k, p in enumerate(remaining) if abs(p.start - end) <= tol), None)
+            if k is None:
+                break
+            chain.append(remaining.pop(k))
+        pts = np.vstack([p.sample()[:-1] for p in chain] + [chain[0].sample()[:1]])
+        loops.append(pts)
+        for a, b in zip(chain, chain[1:] + chain[:1]):
+            if a.curve != b.curve:
+                corners.append([b.start.real, b.start.imag])
+    # the largest loop first
+    order = sorted(range(len(loops)), key=lambda i: -abs(_shoelace(loops[i])))
+    loops = [loops[i] for i in order]
+    return loops, np.array(corners) if corners else np.zeros((0, 2))
+
+
+def _shoelace(loop: np.ndarray) -> float:
+    x, y = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,8 +431,9 @@ class GridWorkspace:
     ----------
     phi : float, rad
     x, y : ``(n,)`` mm, grid coordinates
-    inside : bool ``(n, n)`` indexed [y, x]: every joint within its limits (Eq. 2a, 2b)
-    area : float, mm^2, ``count(inside) * dx * dy`` (a first-order estimate)
+    inside : bool ``(n, n)`` indexed [y, x]: every joint within its limits
+    area : float, mm^2, ``count(inside) * dx * dy`` (a first-order estimate: its error is about the
+        boundary length times half a grid step)
     """
 
     phi: float
@@ -249,21 +444,20 @@ class GridWorkspace:
 
 
 def leg_box(robot: Manipulator, phi: float) -> tuple[tuple[float, float], tuple[float, float]]:
-    """A box ``((xmin, xmax), (ymin, ymax))`` (mm) that contains the workspace at ``phi``.
+    """A box ``((xmin, xmax), (ymin, ymax))`` (mm) around the workspace at ``phi``: its bounds plus 5 %.
 
-    Each leg alone keeps ``P`` in the parallelogram ``c_i + s u_i + l w_i``
-    (s, l over their ranges); the box is the intersection of the three
-    parallelograms' bounding boxes (the box of leg 1 if that is empty).
+    Falls back to the extent of the legs' boundary curves when the workspace is empty.
     """
-    c = loop_origins(robot, phi)  # (3, 2)
-    s = robot.s_range[:, :, None, None] * robot.u[:, None, None, :]  # (3, 2, 1, 2)
-    l = robot.l_range[:, None, :, None] * robot.w[:, None, None, :]  # (3, 1, 2, 2)
-    corners = (c[:, None, None, :] + s + l).reshape(3, 4, 2)
-    lo, hi = corners.min(axis=1), corners.max(axis=1)  # (3, 2)
-    box_lo, box_hi = lo.max(axis=0), hi.min(axis=0)
-    if np.any(box_lo >= box_hi):
-        box_lo, box_hi = lo[0], hi[0]
-    return (float(box_lo[0]), float(box_hi[0])), (float(box_lo[1]), float(box_hi[1]))
+    ws = constant_orientation_workspace(robot, phi)
+    if ws.is_empty:
+        pts = [p for c in boundary_curves(robot, phi) if c.kind == "circle"
+               for p in (c.centre + c.radius, c.centre - c.radius, c.centre + 1j * c.radius,
+                         c.centre - 1j * c.radius)]
+        pts = np.array(pts) if pts else np.array([0j])
+        return (float(pts.real.min()), float(pts.real.max())), (float(pts.imag.min()), float(pts.imag.max()))
+    (x0, x1), (y0, y1) = ws.bounds
+    mx, my = 0.05 * (x1 - x0) + 1e-6, 0.05 * (y1 - y0) + 1e-6
+    return (x0 - mx, x1 + mx), (y0 - my, y1 + my)
 
 
 def grid_search_workspace(robot: Manipulator, phi: float, n: int,
@@ -273,7 +467,7 @@ def grid_search_workspace(robot: Manipulator, phi: float, n: int,
 
     ``box = ((xmin, xmax), (ymin, ymax))`` mm defaults to :func:`leg_box`.
     A grid point is inside when :func:`~pmaccuracy.kinematics.inverse_kinematics`
-    finds all twelve joint limits satisfied (tolerance ``tol`` mm).
+    finds every joint within its limits (tolerance ``tol``).
     """
     n = int(n)
     if n < 2:
@@ -288,83 +482,193 @@ def grid_search_workspace(robot: Manipulator, phi: float, n: int,
     return GridWorkspace(phi=float(phi), x=x, y=y, inside=inside, area=area)
 
 
-# ---------------------------------------------------------------------------------------- figure
-def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | None = None, ax=None):
+# ---------------------------------------------------------------------------------------- figures
+_COLORS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
+
+
+def home_pose(robot: Manipulator) -> np.ndarray:
+    """A representative pose ``(3,)`` [mm, mm, rad] for drawing: an interior point of the phi = 0 workspace.
+
+    Falls back to the origin when that workspace is empty.
+    """
+    ws = constant_orientation_workspace(robot, 0.0)
+    if ws.is_empty:
+        return np.zeros(3)
+    return np.array([*ws.interior_point, 0.0])
+
+
+def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) -> None:
+    """Draw the legs (joints and links), the base frames and the platform assembled at ``pose`` (mm, rad).
+
+    Revolute joints are circles, prismatic joints squares at the middle of their
+    slide; the actuated joint of each leg is filled red and an actuated slide's
+    range is drawn as a grey rail. Coordinates in mm.
+    """
+    from matplotlib.patches import Polygon
+
+    ik = inverse_kinematics(robot, pose)
+    pts_platform = robot.platform_points(pose)
+    for i, chain in enumerate(robot.chains):
+        q = ik.joints[i]
+        if not np.all(np.isfinite(q)):
+            continue
+        centres, dirs, _, end = chain.frames(q)
+        # frame origins after each joint
+        origins = [complex(*chain.base)]
+        for k in range(3):
+            origins.append(centres[k + 1] if k < 2 else end)
+        path = np.array(origins)
+        ax.plot(path.real, path.imag, color="0.25", linewidth=1.6, zorder=3,
+                label="legs" if (label and i == 0) else None)
+        a = chain.actuated_index
+        if chain.actuated.kind == "P" and a == 0:  # a guide fixed on the base
+            lo, hi = chain.actuated.range
+            e = dirs[a]
+            rail = np.array([centres[a] + lo * e, centres[a] + hi * e])
+            ax.plot(rail.real, rail.imag, color="0.55", linewidth=5, alpha=0.6, solid_capstyle="butt", zorder=1,
+                    label="actuated rails (range)" if (label and i == 0) else None)
+        for k, joint in enumerate(chain.joints):
+            actuated = k == a
+            face = "tab:red" if actuated else "white"
+            if joint.kind == "R":
+                ax.plot(centres[k].real, centres[k].imag, "o", markersize=6, markerfacecolor=face,
+                        markeredgecolor="k", zorder=5)
+            else:
+                # the carriage: at the end of the slide when a link follows it, else half-way along it
+                mid = centres[k] + q[k] * dirs[k] * (1.0 if joint.link != (0.0, 0.0) else 0.5)
+                ax.plot(mid.real, mid.imag, "s", markersize=6, markerfacecolor=face, markeredgecolor="k",
+                        zorder=5)
+        ax.plot(chain.base[0], chain.base[1], "k^", markersize=7, zorder=4,
+                label="leg base frames" if (label and i == 0) else None)
+    tri = pts_platform
+    ax.add_patch(Polygon(tri, closed=True, facecolor="0.6", alpha=0.5, edgecolor="k", zorder=4,
+                         label=f"platform ($\\phi$ = {np.degrees(pose[2]):g}°)" if label else None))
+    ax.plot(pose[0], pose[1], "k+", markersize=8, zorder=6)
+    if label:
+        ax.plot([], [], "o", markerfacecolor="tab:red", markeredgecolor="k", label="actuated joint")
+
+
+def fill_workspace(ws: Workspace, ax, color: str, label: str | None) -> None:
+    """Fill a workspace (holes left open) and outline its boundary."""
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path as MplPath
+
+    if ws.is_empty:
+        ax.plot([], [], color=color, label=f"{label}: empty" if label else None)
+        return
+    verts, codes = [], []
+    for loop in ws.loops:
+        verts.append(loop)
+        codes += [MplPath.MOVETO] + [MplPath.LINETO] * (len(loop) - 2) + [MplPath.CLOSEPOLY]
+    path = MplPath(np.vstack(verts), codes)
+    ax.add_patch(PathPatch(path, facecolor=color, alpha=0.25, edgecolor=color, linewidth=1.5, zorder=2,
+                           label=f"{label}, {ws.area:.0f} mm$^2$" if label else None))
+
+
+def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | None = None, ax=None,
+                    pose: np.ndarray | None = None, zoom: bool = False):
     """Draw constant-orientation workspaces for several orientations (paper Fig. 3 analogue).
 
-    Draws each workspace polygon at ``phis`` (rad; default 0, 30 and -30 deg),
-    the base points ``A_i``, the guides ``A_i + s u_i`` over each ``s`` range,
-    and the robot assembled at the centroid of the ``phi = 0`` workspace:
-    sliders ``B_i``, offset links ``B_i C_i`` (``d_i v_i``), bearings
-    ``C_i D_i`` (``l_i w_i``) and the platform triangle ``D_1 D_2 D_3``.
-    Without ``ax`` a new :class:`matplotlib.figure.Figure` is made (no
-    pyplot state); returns the axes. Coordinates in mm.
+    Each workspace at ``phis`` (rad; default 0, 30 and -30 deg) is filled and
+    outlined; the robot is drawn assembled at ``pose`` (default
+    :func:`home_pose`) unless ``zoom``, which frames the workspaces alone.
+    Without ``ax`` a new :class:`matplotlib.figure.Figure` is made (no pyplot
+    state); returns the axes. Coordinates in mm.
     """
     from matplotlib.figure import Figure
 
     phis = np.radians(DEFAULT_PHIS_DEG) if phis is None else np.atleast_1d(np.asarray(phis, dtype=float))
     if ax is None:
         ax = Figure(figsize=(7.5, 7.0)).add_subplot()
-    colors = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
-    for j, phi in enumerate(phis):
-        ws = constant_orientation_workspace(robot, phi)
-        deg = np.degrees(phi)
-        color = colors[j % len(colors)]
-        if ws.is_empty:
-            ax.plot([], [], color=color, label=f"$\\phi$ = {deg:g}°: empty")
-            continue
-        ax.fill(ws.vertices[:, 0], ws.vertices[:, 1], facecolor=color, alpha=0.25, edgecolor=color,
-                linewidth=1.5, label=f"$\\phi$ = {deg:g}°, {ws.area:.0f} mm$^2$")
-
-    A = robot.base_points
-    ax.plot(A[:, 0], A[:, 1], "k^", markersize=8, label="base points $A_i$")
-    for i in range(3):
-        ax.annotate(f"$A_{i + 1}$", A[i], textcoords="offset points", xytext=(6, 6))
-    guides = A[:, None, :] + robot.s_range[:, :, None] * robot.u[:, None, :]  # (3, 2, 2)
-    for i in range(3):
-        ax.plot(guides[i, :, 0], guides[i, :, 1], color="0.35", linewidth=5, solid_capstyle="butt",
-                alpha=0.6, label="guides (s range)" if i == 0 else None)
-
-    ws0 = constant_orientation_workspace(robot, 0.0)
-    if not ws0.is_empty:
-        pose = np.array([*ws0.centroid, 0.0])
-        ik = inverse_kinematics(robot, pose)
-        B = A + ik.s[:, None] * robot.u
-        C = B + robot.d[:, None] * robot.v
-        D = robot.platform_points(pose)
-        ax.plot(B[:, 0], B[:, 1], "ks", markersize=5, label="sliders $B_i$")
-        for i in range(3):
-            ax.plot(*np.stack([B[i], C[i]]).T, color="tab:brown", linewidth=2,
-                    label="offset links $d_i$" if i == 0 else None)
-            ax.plot(*np.stack([C[i], D[i]]).T, color="tab:cyan", linewidth=2,
-                    label="bearings $l_i$" if i == 0 else None)
-        tri = np.vstack([D, D[:1]])
-        ax.fill(tri[:, 0], tri[:, 1], facecolor="0.6", alpha=0.5, edgecolor="k",
-                label="platform $D_1D_2D_3$ ($\\phi$ = 0)")
-        ax.plot(pose[0], pose[1], "k+", markersize=8)
-
-    ax.set_aspect("equal")
+    spaces = [constant_orientation_workspace(robot, phi) for phi in phis]
+    for j, (phi, ws) in enumerate(zip(phis, spaces)):
+        fill_workspace(ws, ax, _COLORS[j % len(_COLORS)], f"$\\phi$ = {np.degrees(phi):g}°")
+    if not zoom:
+        draw_robot(robot, home_pose(robot) if pose is None else np.asarray(pose, float), ax)
+    else:
+        boxes = [ws.bounds for ws in spaces if not ws.is_empty]
+        if boxes:
+            x0 = min(b[0][0] for b in boxes)
+            x1 = max(b[0][1] for b in boxes)
+            y0 = min(b[1][0] for b in boxes)
+            y1 = max(b[1][1] for b in boxes)
+            m = 0.08 * max(x1 - x0, y1 - y0)
+            ax.set_xlim(x0 - m, x1 + m)
+            ax.set_ylim(y0 - m, y1 + m)
+    ax.set_aspect("equal", adjustable="datalim" if not zoom else "box")
+    ax.autoscale_view()
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
-    ax.set_title(f"Constant-orientation workspaces, {robot.name}")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize="small")
     return ax
 
 
 def save_workspace_figure(robot: Manipulator, path: str | Path,
                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 150) -> Path:
-    """Write :func:`plot_workspaces` for ``phis_deg`` (deg) to ``path`` as a PNG (Agg canvas); returns the path.
+    """Write the workspaces at ``phis_deg`` (deg) to ``path`` as a PNG; returns the path.
 
-    The file is PNG whatever its extension.
+    Left: the whole robot assembled at :func:`home_pose` with its workspaces;
+    right: the workspaces zoomed, with their areas. The file is PNG whatever its extension.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7.5, 7.0))
+    fig = Figure(figsize=(12.0, 7.0))
     FigureCanvasAgg(fig)
-    plot_workspaces(robot, np.radians(np.asarray(phis_deg, dtype=float)), ax=fig.add_subplot())
+    phis = np.radians(np.asarray(phis_deg, dtype=float))
+    ax_full, ax_zoom = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1]})
+    plot_workspaces(robot, phis, ax=ax_full)
+    ax_full.set_title(f"{robot.name} ({robot.architecture}): robot and workspaces")
+    ax_full.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize="small", frameon=False)
+    plot_workspaces(robot, phis, ax=ax_zoom, zoom=True)
+    ax_zoom.set_title("constant-orientation workspaces (zoom)")
+    ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize="small", frameon=False)
     fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=dpi, format="png")
+    fig.clear()
+    return path
+
+
+def save_comparison_figure(robots: list[Manipulator], path: str | Path,
+                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 130) -> Path:
+    """Side by side, one panel per robot: the robot at its home pose and its workspaces (same mm scale).
+
+    Every panel spans the same width and height (the largest robot's), so the
+    sizes of the workspaces compare at a glance; their areas are in the legends.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    n = len(robots)
+    fig = Figure(figsize=(3.6 * n, 5.4))
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(1, n))
+    phis = np.radians(np.asarray(phis_deg, dtype=float))
+    spans = []
+    for ax, robot in zip(axes, robots):
+        plot_workspaces(robot, phis, ax=ax)
+        ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize="medium")
+        handles, labels = ax.get_legend_handles_labels()
+        keep = [k for k, text in enumerate(labels) if "phi" in text]
+        ax.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
+                  bbox_to_anchor=(0.5, -0.14), fontsize="small", frameon=False)
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        spans.append(max(x1 - x0, y1 - y0))
+    half = max(spans) / 2
+    for ax in axes:
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        ax.set_xlim(cx - half, cx + half)
+        ax.set_ylim(cy - half, cy + half)
+        ax.set_aspect("equal", adjustable="box")
+    handles, labels = axes[0].get_legend_handles_labels()
+    keep = [k for k, text in enumerate(labels) if "phi" not in text]
+    fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="lower center", ncol=len(keep),
+               fontsize="small", frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     path = Path(path)
     fig.savefig(path, dpi=dpi, format="png")
     fig.clear()

@@ -1,4 +1,4 @@
-"""``pmaccuracy ik`` and ``pmaccuracy fk``: inverse and forward kinematics (Eq. 1-2)."""
+"""``pmaccuracy ik`` and ``pmaccuracy fk``: inverse and forward kinematics of any architecture."""
 
 from __future__ import annotations
 
@@ -7,13 +7,18 @@ import argparse
 import numpy as np
 
 from ..errors import NoSolutionError, OutsideJointLimitsError
-from ..kinematics import forward_kinematics, inverse_kinematics
 from . import _common
+
+IK_HELP = "inverse kinematics: actuated and passive joint values of poses (any architecture)"
+FK_HELP = "forward kinematics: every assembly mode for actuator values (any architecture)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("ik", help="inverse kinematics: joint values s, l of poses (Eq. 2a, 2b)",
-                       description="Joint values of each pose. Lengths in mm, phi in degrees.")
+    p = sub.add_parser("ik", help=IK_HELP,
+                       description="Joint values of each pose on the legs' working modes: the actuated joints q "
+                                   "(mm for a slide, deg for a revolute) and the passive joints in chain order "
+                                   "(for a 3-PPR also s and l as in the paper, Eq. 2a/2b). Lengths in mm, phi in "
+                                   "degrees.")
     _common.add_robot(p)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
                    help="a pose: x mm, y mm, phi deg (repeatable)")
@@ -21,40 +26,110 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_format(p)
     p.set_defaults(func=run_ik)
 
-    p = sub.add_parser("fk", help="forward kinematics: every assembly mode for actuator values (analytic)",
-                       description="Every pose (at most two assembly modes) for the actuated joint values s1 s2 s3 "
-                                   "in mm.")
+    p = sub.add_parser("fk", help=FK_HELP,
+                       description="Every pose (assembly mode) of the platform for the actuated joint values Q1 Q2 "
+                                   "Q3 (mm for a slide, deg for a revolute), whatever the working modes: at most "
+                                   "two for a 3-PPR, up to six for a 3-RPR. Each mode lists its pose, whether all "
+                                   "joints are within their ranges, its passive joints and each leg's working "
+                                   "mode (sign of B_ii).")
     _common.add_robot(p)
-    p.add_argument("--joints", nargs=3, type=_common.finite_float, required=True, metavar=("S1", "S2", "S3"),
-                   help="actuated joint values in mm")
+    p.add_argument("--joints", nargs=3, type=_common.finite_float, required=True, metavar=("Q1", "Q2", "Q3"),
+                   help="actuated joint values: mm for prismatic, deg for revolute actuators")
     p.add_argument("--allow-outside", action="store_true",
-                   help="accept actuator values outside their ranges (s_range of the robot)")
+                   help="accept actuator values outside their ranges")
     _common.add_format(p)
     p.set_defaults(func=run_fk)
 
 
+def _to_file_units(robot, values: np.ndarray, kinds) -> list[float]:
+    """Joint values in mm (P) or deg (R) for output."""
+    return [float(np.degrees(v)) if k == "R" else float(v) for v, k in zip(values, kinds)]
+
+
+def _passive(robot, joints: np.ndarray) -> list[list[float]]:
+    out = []
+    for chain, q in zip(robot.chains, joints):
+        i, j = chain.passive_indices
+        out.append(_to_file_units(robot, q[[i, j]], (chain.joints[i].kind, chain.joints[j].kind)))
+    return out
+
+
 def run_ik(args: argparse.Namespace) -> int:
+    from ..geometry import round_trip_degrees
+    from ..kinematics import inverse_kinematics
+
     robot = _common.load_robot(args)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     ik = inverse_kinematics(robot, poses)
-    out = [{"x": x, "y": y, "phi_deg": np.degrees(phi), "s": s, "l": l, "within_limits": ok}
-           for (x, y, phi), s, l, ok in zip(poses, ik.s, ik.l, ik.within_limits)]
-    _common.emit(out, args.format)
+    out = []
+    for k, (x, y, phi) in enumerate(poses):
+        record = {"x": x, "y": y, "phi_deg": round_trip_degrees(phi),
+                  "q": _to_file_units(robot, ik.q[k], robot.actuated_kinds),
+                  "passive": _passive(robot, ik.joints[k])}
+        if robot.is_3ppr:
+            record["s"] = ik.s[k]
+            record["l"] = ik.l[k]
+        record["within_limits"] = ik.within_limits[k]
+        out.append(record)
+    _common.emit(out, args.format, records=[_table_row(r) for r in out])
     return 0
 
 
+def _table_row(record: dict) -> dict:
+    """The table/CSV row: q1..q3, then the passive joints as p<leg>.<1|2>, without the 3-PPR duplicates."""
+    row = {k: record[k] for k in ("x", "y", "phi_deg")}
+    if "s" in record:
+        row.update({f"s{i + 1}": v for i, v in enumerate(record["s"])})
+        row.update({f"l{i + 1}": v for i, v in enumerate(record["l"])})
+    else:
+        row.update({f"q{i + 1}": v for i, v in enumerate(record["q"])})
+        for i, pair in enumerate(record["passive"], start=1):
+            row.update({f"p{i}.{m}": v for m, v in enumerate(pair, start=1)})
+    row["within_limits"] = record["within_limits"]
+    if "working_modes" in record:
+        row["working_modes"] = " ".join(f"{m:+d}" for m in record["working_modes"])
+    return row
+
+
 def run_fk(args: argparse.Namespace) -> int:
+    from ..kinematics import forward_kinematics
+
     robot = _common.load_robot(args)
-    s = np.array(args.joints)
-    outside = [f"s{i + 1}={v:g} mm not in [{lo:g}, {hi:g}]" for i, (v, (lo, hi)) in enumerate(zip(s, robot.s_range))
-               if not lo <= v <= hi]
+    kinds = robot.actuated_kinds
+    q = np.array([np.radians(v) if k == "R" else v for v, k in zip(args.joints, kinds)])
+    outside = []
+    for i, (v, (lo, hi), k) in enumerate(zip(q, robot.s_range, kinds)):
+        inside = robot.chains[i].actuated.within(v, 0.0)
+        if not inside:
+            unit, conv = ("deg", np.degrees) if k == "R" else ("mm", float)
+            name = f"s{i + 1}" if robot.is_3ppr else f"q{i + 1}"
+            outside.append(f"{name}={args.joints[i]:g} {unit} not in [{conv(lo):g}, {conv(hi):g}]")
     if outside and not args.allow_outside:
         raise OutsideJointLimitsError("actuator values outside their ranges: " + ", ".join(outside)
                                       + " (--allow-outside to solve anyway)")
-    fk = forward_kinematics(robot, s)
+    fk = forward_kinematics(robot, q)
     if not fk.valid.any():
-        raise NoSolutionError(f"no assembly mode: the legs cannot be closed with s = {args.joints} mm")
-    out = [{"x": pose[0], "y": pose[1], "phi_deg": np.degrees(pose[2]), "l": l, "within_limits": ok}
-           for pose, l, ok, valid in zip(fk.poses, fk.l, fk.within_limits, fk.valid) if valid]
-    _common.emit(out, args.format)
+        raise NoSolutionError(f"no assembly mode: the legs cannot be closed with q = {args.joints}")
+    out = []
+    for pose, joints, ok, valid, modes in zip(fk.poses, fk.joints, fk.within_limits, fk.valid, fk.working_modes):
+        if not valid:
+            continue
+        record = {"x": pose[0], "y": pose[1], "phi_deg": float(np.degrees(pose[2])),
+                  "passive": _passive(robot, joints), "working_modes": [int(m) for m in modes]}
+        if robot.is_3ppr:
+            record["l"] = joints[:, 1]
+        record["within_limits"] = ok
+        out.append(record)
+    rows = []
+    for r in out:
+        row = {k: r[k] for k in ("x", "y", "phi_deg")}
+        if "l" in r:
+            row.update({f"l{i + 1}": v for i, v in enumerate(r["l"])})
+        else:
+            for i, pair in enumerate(r["passive"], start=1):
+                row.update({f"p{i}.{m}": v for m, v in enumerate(pair, start=1)})
+        row["working_modes"] = " ".join(f"{m:+d}" for m in r["working_modes"])
+        row["within_limits"] = r["within_limits"]
+        rows.append(row)
+    _common.emit(out, args.format, records=rows)
     return 0

@@ -1,42 +1,65 @@
-"""``pmaccuracy workspace``: the exact constant-orientation workspace (paper Sec. 3, Fig. 3)."""
+"""``pmaccuracy workspace``: the exact constant-orientation workspace of any architecture (paper Sec. 3, Fig. 3)."""
 
 from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from . import _common
+
+HELP = "constant-orientation workspace: exact region bounded by segments and arcs (Sec. 3, any architecture)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "workspace", help="constant-orientation workspace: exact polygon of the 12 joint limits (Sec. 3)",
-        description="At a fixed orientation the joint limits of Eq. 2a/2b are half-planes in (x, y); prints their "
-                    "intersection (a convex polygon): area in mm^2, bounds and vertices in mm (counter-clockwise). "
-                    "An empty workspace prints area 0, null bounds and no vertices.")
+        "workspace", help=HELP,
+        description="At a fixed orientation the joint limits bound the platform centre by lines and circles; prints "
+                    "the exact region: area in mm^2 (Green's theorem over its arcs and segments), bounds and the "
+                    "corners of its boundary in mm. An empty workspace prints area 0, null bounds and no corners. "
+                    "With --compare, one row per robot and a side-by-side figure (--plot).")
     _common.add_robot(p)
     p.add_argument("--phi-deg", type=_common.finite_float, default=0.0, metavar="PHI",
                    help="platform orientation in degrees (default: 0)")
+    p.add_argument("--compare", nargs="+", metavar="ROBOT",
+                   help="compare several robots (preset names or files) instead of --robot")
     p.add_argument("--plot", metavar="FILE.png",
-                   help="also write a figure of the workspaces at PHI and at 0, 30, -30 deg with the robot")
+                   help="also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg and a "
+                        "zoom on them (with --compare: the robots side by side); missing folders are created")
     _common.add_format(p)
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from ..workspace import DEFAULT_PHIS_DEG, constant_orientation_workspace, save_workspace_figure
-
-    robot = _common.load_robot(args)
-    ws = constant_orientation_workspace(robot, np.radians(args.phi_deg))
+def _summary(robot, phi_deg: float, ws) -> tuple[dict, dict]:
     (xmin, xmax), (ymin, ymax) = ws.bounds
-    data = {"phi_deg": args.phi_deg, "area": ws.area,
-            "bounds": {"x": [xmin, xmax], "y": [ymin, ymax]},
-            "polygon": ws.vertices.tolist()}
-    record = {"phi_deg": args.phi_deg, "area": ws.area, "x_min": xmin, "x_max": xmax,
+    data = {"robot": robot.name, "architecture": robot.architecture, "phi_deg": phi_deg, "area": ws.area,
+            "bounds": {"x": [xmin, xmax], "y": [ymin, ymax]}, "polygon": ws.vertices.tolist()}
+    record = {"robot": robot.name, "phi_deg": phi_deg, "area": ws.area, "x_min": xmin, "x_max": xmax,
               "y_min": ymin, "y_max": ymax, "n_vertices": int(ws.vertices.shape[0])}
-    if args.plot:
-        phis = [args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg]
-        save_workspace_figure(robot, args.plot, phis_deg=tuple(phis))
-    _common.emit(data, args.format, records=[record])
+    return data, record
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..geometry import Manipulator
+    from ..workspace import DEFAULT_PHIS_DEG, constant_orientation_workspace
+
+    robots = [Manipulator.load(spec) for spec in args.compare] if args.compare else [_common.load_robot(args)]
+    from pathlib import Path
+
+    from .map_cmd import prepare_output
+
+    plot = Path(args.plot) if args.plot else None
+    if plot is not None:
+        prepare_output(plot, "--plot")
+    results = [_summary(robot, args.phi_deg, constant_orientation_workspace(robot, np.radians(args.phi_deg)))
+               for robot in robots]
+    phis = tuple([args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg])
+    if plot is not None:
+        from ..workspace import save_comparison_figure, save_workspace_figure
+        if args.compare:
+            save_comparison_figure(robots, plot, phis_deg=phis)
+        else:
+            save_workspace_figure(robots[0], plot, phis_deg=phis)
+    data = [d for d, _ in results] if args.compare else results[0][0]
+    _common.emit(data, args.format, records=[r for _, r in results])
     return 0
