@@ -18,9 +18,11 @@ from ..errors import PmAccuracyError
 #: The help lines let ``pmaccuracy --help`` list every command without importing any command module;
 #: ``tests/test_cli_lazy.py`` checks that they equal what each module registers.
 COMMANDS = {
-    "ik": ("kinematics_cmd", "inverse kinematics: joint values s, l of poses (Eq. 2a, 2b)"),
-    "fk": ("kinematics_cmd", "forward kinematics: every assembly mode for actuator values (analytic)"),
-    "workspace": ("workspace_cmd", "constant-orientation workspace: exact polygon of the 12 joint limits (Sec. 3)"),
+    "ik": ("kinematics_cmd", "inverse kinematics: actuated and passive joint values of poses (any architecture)"),
+    "fk": ("kinematics_cmd", "forward kinematics: every assembly mode for actuator values (any architecture)"),
+    "workspace": ("workspace_cmd",
+                  "constant-orientation workspace: exact region bounded by segments and arcs (Sec. 3, any "
+                  "architecture)"),
     "bounds": ("bounds_cmd", "maximum pose errors due to joint clearances at poses (exact, Eq. 21-22)"),
     "map": ("map_cmd", "error maps over constant-orientation workspaces (NetCDF, Zarr or CSV, optional figure)"),
     "reproduce": ("reproduce_cmd",
@@ -57,7 +59,8 @@ def build_parser(argv: list[str] | None = None, *, load_all: bool = False) -> ar
 
     parser = OneLineParser(
         prog="pmaccuracy",
-        description="Accuracy of planar 3-PPR parallel manipulators with joint clearances: kinematics, workspace, "
+        description="Accuracy of planar parallel manipulators (3-PPR of the paper, 3-RPR, 3-RRR, 3-PRR and any "
+                    "chain of R and P joints) with joint clearances: kinematics, workspace, "
                     "exact worst-case pose errors, error maps, experiments and vision measurement. Lengths in mm, "
                     "angles in degrees on the command line.")
     parser.add_argument("--version", action="version", version=f"pmaccuracy {__version__}")
@@ -90,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     except PmAccuracyError as exc:
         print(f"pmaccuracy {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback (a .zarr map resumes when run again)
+        print(f"pmaccuracy {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # output piped into e.g. `head`: not an error of ours
         sys.stderr.close()
         return 0

@@ -42,7 +42,8 @@ def positive_int(text: str) -> int:
 
 def add_robot(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="aalborg_3ppr",
-                        help="preset name (aalborg_3ppr, symmetric_3ppr) or path to a robot TOML file "
+                        help="preset name (aalborg_3ppr, symmetric_3ppr, symmetric_3rpr, symmetric_3rrr, "
+                             "symmetric_3prr) or path to a robot TOML file of any architecture "
                              "(default: aalborg_3ppr)")
 
 
