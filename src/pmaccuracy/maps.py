@@ -470,8 +470,12 @@ def _run_tasks(tasks: list, scheduler: str | None, workers: int | None, show: bo
                 if "_zarr_tile" in str(key):
                     bar.update()
 
+        # Waves of a few tasks per worker: an interruption (Ctrl-C) stops after the current wave instead of
+        # waiting for every queued tile, and a wave's tiles are recorded as soon as they are written.
+        wave = 4 * (workers or os.cpu_count() or 1)
         with _Bar():
-            dask.compute(*tasks, scheduler=scheduler or "threads", num_workers=workers)
+            for start in range(0, len(tasks), wave):
+                dask.compute(*tasks[start:start + wave], scheduler=scheduler or "threads", num_workers=workers)
 
 
 def save_map(ds: xr.Dataset, path: str | Path) -> Path:
