@@ -161,7 +161,7 @@ class Manipulator(_tomlio.TomlPresets):
         """Return self, or raise :class:`UnsupportedArchitectureError` naming ``what`` needs a 3-PPR."""
         if not self.is_3ppr:
             raise UnsupportedArchitectureError(
-                f"{what} is implemented for 3-PPR robots only (the paper's error model); {self.name!r} is a "
+                f"{what} is implemented for 3-PPR robots only so far; {self.name!r} is a "
                 f"{self.architecture} ({', '.join(c.label for c in self.chains)})", source=self.name)
         return self
 
