@@ -43,7 +43,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from .clearances import ClearanceDisplacement, ClearanceSet
 from .error_model import LINK_VARIATIONS, H_diagonals, PoseState, load_variations, pose_state
@@ -332,6 +331,8 @@ def slsqp_max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: n
 def _slsqp_pose(C: np.ndarray, kinds: list[str], legs: np.ndarray, Ew: np.ndarray, n_starts: int,
                 rng: np.random.Generator) -> np.ndarray:
     """Best local maxima of the four problems at one pose: returns [dx, dy, dphi, dp]."""
+    from scipy.optimize import minimize  # only the baseline needs it (keeps the CLI's start-up short)
+
     m = C.shape[1]
     if m == 0:
         return np.zeros(4)
