@@ -46,6 +46,7 @@ Calibration file (TOML, written by :meth:`Calibration.to_toml`)::
     [calibration.residuals]
     rms_px = 0.012                  # reprojection error, all views
     max_px = 0.04
+    systematic_px = 0.006           # per coordinate: the part of the residuals the centre noise does not explain
     plane_rms_mm = 0.0011           # reference view: dots mapped onto the plane vs their grid positions
     plane_max_mm = 0.003
     [calibration.covariance]
@@ -63,7 +64,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import ConfigError, VisionError
-from ._util import DEFAULT_SPACING_MM, MIN_CALIBRATION_DOTS, _positive, apply_homography
+from ._util import DEFAULT_SPACING_MM, MIN_CALIBRATION_DOTS, _positive
 from .camera import (CameraModel, disk_image_bias, image_to_plane, local_scale, plane_matrix, plane_to_image,
                      rotation_matrix, rotation_vector)
 from .detection import Blobs, find_blobs
@@ -451,6 +452,19 @@ def _corrected(camera: CameraModel, planes: Sequence[np.ndarray], views: Sequenc
     return [v.pixels - disk_image_bias(camera, m, v.grid_mm, radius_mm) for v, m in zip(views, planes)]
 
 
+def _systematic(residual: np.ndarray, n_free: int, views: Sequence[View]) -> float:
+    """Per-coordinate centre error (px) that the detector's noise estimate does not explain.
+
+    ``sqrt(max(s^2 - mean(sigma_k^2), 0))`` with ``s^2 = sum r^2 / (n - p)`` the
+    residual variance per coordinate of the fit and ``sigma_k`` the detector's
+    noise of each dot centre: what is left is detection bias and model misfit,
+    added to every marker centre's noise when a pose's uncertainty is stated.
+    """
+    s2 = float(np.sum(residual**2)) / max(residual.size - n_free, 1)
+    noise2 = float(np.mean(np.concatenate([v.sigma_px for v in views]) ** 2))
+    return math.sqrt(max(s2 - noise2, 0.0))
+
+
 def _fit_zhang(views: Sequence[View], centres: Sequence[np.ndarray], image_size: tuple[int, int], flags: int,
                guess: tuple[np.ndarray, np.ndarray] | None) -> tuple[CameraModel, list[np.ndarray], list[np.ndarray]]:
     """OpenCV ``calibrateCamera`` on the views; returns the camera and per-view rotation matrices and translations."""
@@ -547,7 +561,8 @@ def fit_multi_view(views: Sequence[View], image_size: tuple[int, int], *, spacin
     plane_err = np.linalg.norm(on_plane - views[0].grid_mm, axis=1)
     err = np.linalg.norm(residual, axis=1)
     residuals = {"rms_px": float(np.sqrt(np.mean(err**2))), "max_px": float(np.max(err)),
-                 "plane_rms_mm": float(np.sqrt(np.mean(plane_err**2))), "plane_max_mm": float(np.max(plane_err))}
+                 "plane_rms_mm": float(np.sqrt(np.mean(plane_err**2))), "plane_max_mm": float(np.max(plane_err)),
+                 "systematic_px": _systematic(residual, int(np.count_nonzero(free)), views)}
     return Calibration(camera, plane, model="multi-view", spacing_mm=spacing_mm, rotation=rots[0],
                        translation=trans[0], residuals=residuals, covariance=cov, n_views=len(views),
                        n_points=int(sum(len(v.grid_mm) for v in views)), dot_radius_mm=radius)
@@ -614,7 +629,8 @@ def fit_single_view(view: View, image_size: tuple[int, int], *, spacing_mm: floa
     plane_err = np.linalg.norm(image_to_plane(cam, plane, centres) - view.grid_mm, axis=1)
     err = np.linalg.norm(residual, axis=1)
     residuals = {"rms_px": float(np.sqrt(np.mean(err**2))), "max_px": float(np.max(err)),
-                 "plane_rms_mm": float(np.sqrt(np.mean(plane_err**2))), "plane_max_mm": float(np.max(plane_err))}
+                 "plane_rms_mm": float(np.sqrt(np.mean(plane_err**2))), "plane_max_mm": float(np.max(plane_err)),
+                 "systematic_px": _systematic(residual, int(np.count_nonzero(free)), [view])}
     return Calibration(cam, plane, model="single-view", spacing_mm=spacing_mm, residuals=residuals, covariance=cov,
                        n_views=1, n_points=len(view.grid_mm), dot_radius_mm=radius)
 

@@ -10,7 +10,9 @@ set of four with equal sizes that forms the square is used; none or several
 such sets is an error naming what was found.
 
 Uncertainty: the pose ``f(c, p)`` depends on the eight marker-centre
-coordinates ``c`` (noise ``sigma_k`` px each, from the detector) and on the
+coordinates ``c`` (noise ``sigma_k`` px each: the detector's estimate plus, in
+quadrature, the calibration's ``systematic_px``, the part of its dot residuals
+that the detector's noise does not explain) and on the
 calibration parameters ``p`` (covariance ``C`` from the calibration fit). With
 the Jacobians ``J_c`` ``(3, 8)`` and ``J_p`` ``(3, P)`` (central differences),
 ``Cov(x, y, phi) = J_c diag(sigma^2) J_c^T + J_p C J_p^T``; the reported
@@ -326,7 +328,10 @@ def measure_pose(image: np.ndarray, *, calibration: Any | None = None, mm_per_pi
 
     idx = select_markers(blobs, to_mm, spacing_mm=spacing, side_tolerance=side_tolerance)
     chosen = blobs.subset(idx)
+    # centre noise of each marker plus the calibration's unexplained per-centre error (see the module docstring)
+    systematic = calibration.residuals.get("systematic_px", 0.0) if calibration is not None else 0.0
+    sigma = np.sqrt(chosen.sigma_px**2 + systematic**2)
     return pose_from_markers(chosen.centres, calibration=calibration, mm_per_pixel=mm_per_pixel,
-                             image_shape=img.shape, height_mm=height_mm, sigma_px=chosen.sigma_px,
+                             image_shape=img.shape, height_mm=height_mm, sigma_px=sigma,
                              area_px=chosen.area_px if calibration is not None else None, spacing_mm=spacing,
                              side_tolerance=side_tolerance)
