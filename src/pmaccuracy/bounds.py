@@ -74,7 +74,9 @@ class PoseErrorBounds:
     dp_signs : ``(..., 3)`` the vertex ``t`` attaining ``dp_max``
     method : ``"exact"`` or ``"slsqp"``
     worst, worst_variations : maximizing clearance displacements and parameter
-        variations per quantity (with ``details=True``)
+        variations per quantity (with ``details=True``; 3-PPR clearance format)
+    worst_signs : per quantity, the signs ``t_i`` ``(..., 3)`` of each leg's share ``e_i = t_i c_i`` at the
+        maximum (per-joint sources of any architecture: each source then sits at its own extreme)
     """
 
     poses: np.ndarray
@@ -88,6 +90,7 @@ class PoseErrorBounds:
     method: str = "exact"
     worst: dict[str, ClearanceDisplacement] = field(default_factory=dict)
     worst_variations: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    worst_signs: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def dphi_max_deg(self) -> np.ndarray:
@@ -206,12 +209,28 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     ------
     SingularPoseError : a pose at or near det A = 0 (condition number > ``max_condition``)
     """
+    from .sources import ErrorSources
+
     poses = as_poses(poses)
     flat = poses.reshape(-1, 3)
+    lead = poses.shape[:-1]
+    if isinstance(clearances, ErrorSources) or not robot.is_3ppr:
+        if not isinstance(clearances, ErrorSources):
+            robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+        if tolerances:
+            raise ConfigError("give tolerances per joint in the clearance file (position, direction, length) "
+                              "for this robot", key="tolerances")
+        sources = clearances.check(robot)
+        parts = [_generic_block(robot, sources, flat[k:k + CHUNK], allow_outside, max_condition)
+                 for k in range(0, max(flat.shape[0], 1), CHUNK)]
+        cat = lambda key, tail=(): np.concatenate([p[key] for p in parts]).reshape(lead + tail)  # noqa: E731
+        signs = {q: np.concatenate([p["signs"][q] for p in parts]).reshape(lead + (3,)) for q in QUANTITIES}
+        return PoseErrorBounds(poses=poses, dx_max=cat("dx"), dy_max=cat("dy"), dphi_max=cat("dphi"),
+                               dp_max=cat("dp"), half_widths=cat("c", (3,)), generators=cat("G", (3, 3)),
+                               dp_signs=cat("t", (3,)), method="exact", worst_signs=signs)
     tolerances = _check_tolerances(tolerances or {})
     parts = [_exact_block(robot, clearances, tolerances, flat[k:k + CHUNK], allow_outside, details, max_condition)
              for k in range(0, max(flat.shape[0], 1), CHUNK)]
-    lead = poses.shape[:-1]
 
     def joined(key: str, tail: tuple[int, ...] = ()) -> np.ndarray:
         return np.concatenate([p[key] for p in parts]).reshape(lead + tail)
@@ -232,6 +251,42 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
                            worst_variations=worst_variations)
 
 
+def zonotope_maxima(A_inv: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
+    """Support functions and largest vertex norm of ``A^-1 diag(c) [-1, 1]^3`` (Eq. 21-22), ``(n, ...)``.
+
+    ``dx, dy, dphi = sum_i c_i |A^-1[row, i]|``; ``dp = max_t |(A^-1 diag(c) t)_xy|``
+    over the vertices ``t`` (one of each +-pair). Returns ``dx, dy, dphi, dp`` ``(n,)``,
+    the generators ``G`` ``(n, 3, 3)`` and the vertex ``t`` ``(n, 3)`` attaining ``dp``.
+    """
+    G = A_inv * c[:, None, :]
+    extents = np.sum(np.abs(G), axis=-1)  # (n, 3): support functions along x, y, phi
+    vertices = np.einsum("nij,vj->nvi", G[:, :2, :], _VERTEX_SIGNS)  # (n, 4, 2)
+    norms = np.hypot(vertices[..., 0], vertices[..., 1])
+    best = np.argmax(norms, axis=-1)
+    return {"dx": extents[:, 0], "dy": extents[:, 1], "dphi": extents[:, 2],
+            "dp": np.take_along_axis(norms, best[:, None], axis=-1)[:, 0], "c": c, "G": G, "t": _VERTEX_SIGNS[best]}
+
+
+def _generic_block(robot: Manipulator, sources, poses: np.ndarray, allow_outside: bool,
+                   max_condition: float) -> dict:
+    """Exact maxima of any architecture on one block: per-joint sources paired with the legs' wrenches."""
+    from .kinematics import inverse_kinematics, regular_inverse, require_regular
+    from .sources import half_widths
+
+    ik = inverse_kinematics(robot, poses)
+    if not allow_outside:
+        check_within_limits(robot, poses, ik)
+    elif not np.all(ik.reachable):
+        check_within_limits(robot, poses, ik)  # a leg that cannot reach the pose: no model at all
+    require_regular(robot, poses, max_condition)
+    A_inv = regular_inverse(robot, ik.A, poses, max_condition)
+    c = half_widths(robot, sources, ik.joints, poses)
+    out = zonotope_maxima(A_inv, c)
+    out["signs"] = {"dx": _sign(A_inv[:, 0, :]), "dy": _sign(A_inv[:, 1, :]), "dphi": _sign(A_inv[:, 2, :]),
+                    "dp": out["t"]}
+    return out
+
+
 def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[str, np.ndarray], poses: np.ndarray,
                  allow_outside: bool, details: bool, max_condition: float) -> dict:
     """:func:`max_pose_errors` on one block of poses ``(n, 3)``."""
@@ -242,13 +297,7 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[
     c = leg_half_widths(clearances, H)
     if tolerances:
         c = c + tolerance_half_widths(tolerances, H)
-    G = state.A_inv * c[:, None, :]
-    extents = np.sum(np.abs(G), axis=-1)  # (n, 3): support functions along x, y, phi
-    vertices = np.einsum("nij,vj->nvi", G[:, :2, :], _VERTEX_SIGNS)  # (n, 4, 2)
-    norms = np.hypot(vertices[..., 0], vertices[..., 1])
-    best = np.argmax(norms, axis=-1)
-    out = {"dx": extents[:, 0], "dy": extents[:, 1], "dphi": extents[:, 2],
-           "dp": np.take_along_axis(norms, best[:, None], axis=-1)[:, 0], "c": c, "G": G, "t": _VERTEX_SIGNS[best]}
+    out = zonotope_maxima(state.A_inv, c)
     if details:
         out["worst"] = {q: _worst_configuration(robot, clearances, H, _sign(state.A_inv[:, row, :]))
                         for row, q in enumerate(("dx", "dy", "dphi"))}

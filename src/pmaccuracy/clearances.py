@@ -97,6 +97,12 @@ class ClearanceSet(_tomlio.TomlPresets):
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ClearanceSet":
         """Build from the parsed TOML table."""
+        from .sources import is_per_joint
+
+        if is_per_joint(data):
+            raise ClearanceError("this file lists each leg's joints (the per-joint format of any architecture); "
+                                 "only bounds takes it so far, the maps and the report need the 3-PPR format",
+                                 source=source, key="legs")
         _tomlio.reject_unknown(data, {"name", "description", "legs"}, source=source, where="")
         columns: dict[str, list[float]] = {k: [] for k in CLEARANCE_KEYS}
         for i, table in enumerate(_tomlio.legs_table(data, source=source), start=1):

@@ -303,11 +303,13 @@ def constant_orientation_workspace(robot: Manipulator, phi: float, tol: float = 
     raw = _split(everything, lo, hi)
     if not raw:
         return _empty(robot, phi)
-    delta = 1e-7 * max(size, 1.0)
     mids = np.array([p[0] for p in raw])
     normals = np.array([p[1] for p in raw])
+    # probe each side closer than any other curve, so that a sliver thinner than the probe is never jumped
+    delta = np.minimum(1e-7 * max(size, 1.0), 0.25 * _clearance(mids, np.array([p[2].curve for p in raw]),
+                                                                   everything))
     probe = np.concatenate([mids + delta * normals, mids - delta * normals])
-    inside = _inside(robot, phi, np.column_stack([probe.real, probe.imag]), tol)
+    inside = _inside(robot, phi, np.column_stack([probe.real, probe.imag]), 0.0)
     left, right = inside[:len(raw)], inside[len(raw):]
     pieces = []
     for (mid, normal, piece), l_in, r_in in zip(raw, left, right):
@@ -327,6 +329,18 @@ def constant_orientation_workspace(robot: Manipulator, phi: float, tol: float = 
     loops, vertices = _loops(pieces, 1e-6 * max(size, 1.0))
     return Workspace(robot=robot, phi=phi, pieces=tuple(pieces), loops=tuple(loops), vertices=vertices,
                      area=area, bounds=bounds)
+
+
+def _clearance(points: np.ndarray, own: np.ndarray, curves: list[Curve]) -> np.ndarray:
+    """Distance from each point ``(n,)`` complex to the nearest curve other than its own (mm)."""
+    out = np.full(points.shape, np.inf)
+    for j, c in enumerate(curves):
+        if c.kind == "line":
+            d = np.abs(c.normal.real * points.real + c.normal.imag * points.imag + c.offset)
+        else:
+            d = np.abs(np.abs(points - c.centre) - c.radius)
+        out = np.where(own == j, out, np.minimum(out, d))
+    return out
 
 
 def _empty(robot: Manipulator, phi: float) -> Workspace:
@@ -403,8 +417,10 @@ def _loops(pieces: list[Piece], tol: float) -> tuple[list[np.ndarray], np.ndarra
         chain = [remaining.pop(0)]
         while True:
             end = chain[-1].end
-            k = next((k for k, p in enumerate(remaining) if abs(p.start - end) <= tol), None)
-            if k is None:
+            if not remaining or abs(chain[0].start - end) <= min(abs(p.start - end) for p in remaining):
+                break  # closed (the loop's own start is the nearest)
+            k = int(np.argmin([abs(p.start - end) for p in remaining]))
+            if abs(remaining[k].start - end) > tol:
                 break
             chain.append(remaining.pop(k))
         pts = np.vstack([p.sample()[:-1] for p in chain] + [chain[0].sample()[:1]])

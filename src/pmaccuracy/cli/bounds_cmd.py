@@ -19,8 +19,9 @@ COLUMNS = ("x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max")
 
 def add_clearances(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clearances", default="case1",
-                        help="clearance preset (case1, case2, all) or path to a clearance TOML file "
-                             "(default: case1)")
+                        help="clearance preset (3-PPR: case1, case2, all, none; per joint: rpr_typical, "
+                             "rrr_typical, prr_typical) or path to a clearance TOML file: the 3-PPR format or one "
+                             "listing each leg's joints for any architecture (default: case1)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -91,12 +92,15 @@ def _exact_columns(robot, clearances, poses: np.ndarray, tolerances, allow_outsi
 
 def run(args: argparse.Namespace) -> int:
     from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
-    from ..clearances import ClearanceSet
+    from ..sources import ErrorSources, load_clearances
 
     robot = _common.load_robot(args)
-    clearances = ClearanceSet.load(args.clearances)
+    clearances = load_clearances(args.clearances, robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     tolerances = load_tolerances(args.tolerances) if args.tolerances else None
+    if isinstance(clearances, ErrorSources) and (args.method == "slsqp" or args.details or tolerances):
+        raise PmAccuracyError("--method slsqp, --details and --tolerances take the 3-PPR clearance format; with "
+                              "per-joint clearance files give tolerances per joint (position, direction, length)")
     if args.method == "slsqp":
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")

@@ -1,0 +1,256 @@
+"""Error sources of every joint type, and each leg's share of ``A dX = e`` (issue 9's general method).
+
+Hold the actuators. Every error source is a small displacement (a planar twist)
+of the part of a leg beyond it. Pairing that twist with the leg's constraint
+wrench ``zeta_i = (f, m_O)`` (:meth:`pmaccuracy.legs.Chain.screws`) gives the
+source's share of row ``i`` of ``A [dp; dphi] = e``. With ``M(c) = m_O - c x f``
+the wrench's moment about a point ``c`` (mm; the pairing with a unit rotation
+about ``c``), the sources of joint ``k`` of a leg and their largest ``|e_i|``:
+
+==============  =======================================================  =======================================
+key             displacement (inserted in the chain at joint k)          largest share of ``|e_i|``
+==============  =======================================================  =======================================
+``radial``      R clearance: the distal part translates, ``|delta| <= eps``  ``eps |f|``
+``angular``     P tilt ``|tau| <= eps`` about the slide's origin ``c_k``     ``eps |M(c_k)|``
+``lateral``     guide play: shift ``sigma`` normal to the rail and tilt      ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
+                ``tau`` about the carriage centre ``b_k = c_k + q_k e_k``
+                in the rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
+``actuator``    actuated joint error ``|dq| <= eps`` (mm or rad)            ``eps |B_ii|``
+``position``    tolerance: the joint's centre moved, ``|delta| <= t``       ``t |f|``
+``direction``   tolerance: the joint turned about its centre, ``|tau|<=t``  ``t |M(c_k)|``
+``length``      tolerance: the link after joint k longer by ``|dl| <= t``   ``t |f . unit(link_k)|``
+==============  =======================================================  =======================================
+
+The sources of a leg are independent and symmetric, so ``e_i`` fills
+``[-c_i, c_i]`` with ``c_i`` the sum of the shares (:func:`half_widths`), and
+the reachable pose errors are the parallelepiped ``A^-1 diag(c) [-1, 1]^3``
+(:func:`pmaccuracy.bounds.max_pose_errors` for every architecture).
+
+For the paper's 3-PPR (Sec. 4.2) the bearing tilt ``delta theta_i`` about
+``C_i`` is ``angular`` on the second joint, the guide play on the actuated
+guide is ``lateral`` (shift normal to the rail, tilt about ``B_i``), and the
+revolute clearance at ``D_i`` is ``radial`` on the third joint:
+``c_i = eps_theta l_i + max(eps_g |H_d|, 2 eps_g |H_gamma| / L_g) + eps_r``.
+
+Clearance files list each leg's joints, base to platform (lengths mm, angles rad)::
+
+    name = "rpr_demo"
+    [[legs]]                        # exactly three
+    joints = [
+      { radial = 0.02 },
+      { actuator = 0.005, angular = 0.0005 },
+      { radial = 0.02 },
+    ]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar
+
+import numpy as np
+
+from . import _tomlio
+from .errors import ClearanceError, ConfigError
+from .screws import cross, dot
+
+#: Keys of one joint's table and the joint types they apply to ("A": the actuated joint).
+KEYS = {"radial": "RP", "actuator": "A", "angular": "P", "lateral": "P", "block_length": "P",
+        "position": "RP", "direction": "RP", "length": "RP"}
+#: Units of the keys, for messages.
+UNITS = {"radial": "mm", "actuator": "mm or rad", "angular": "rad", "lateral": "mm", "block_length": "mm",
+         "position": "mm", "direction": "rad", "length": "mm"}
+#: Default guide block length L (mm), as in the 3-PPR clearance files.
+DEFAULT_BLOCK_LENGTH = 50.0
+
+
+@dataclass(frozen=True)
+class JointErrors:
+    """Half-widths of the error sources of one joint (module docstring); all 0 by default.
+
+    radial, lateral, position, length : mm;  angular, direction : rad;
+    actuator : mm (P) or rad (R);  block_length : mm (the guide's L, with ``lateral``)
+    """
+
+    radial: float = 0.0
+    actuator: float = 0.0
+    angular: float = 0.0
+    lateral: float = 0.0
+    block_length: float = DEFAULT_BLOCK_LENGTH
+    position: float = 0.0
+    direction: float = 0.0
+    length: float = 0.0
+
+    def scaled(self, factor: float) -> "JointErrors":
+        """Every half-width times ``factor`` (the block length is kept)."""
+        return JointErrors(**{f.name: getattr(self, f.name) * (1.0 if f.name == "block_length" else factor)
+                              for f in fields(self)})
+
+
+@dataclass(frozen=True)
+class ErrorSources:
+    """The error sources of a robot: three legs of three :class:`JointErrors`, base to platform."""
+
+    legs: tuple[tuple[JointErrors, JointErrors, JointErrors], ...]
+    name: str = "custom"
+    KIND: ClassVar[str] = "clearance"
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ErrorSources":
+        """Parse the per-joint clearance/tolerance format (module docstring)."""
+        _tomlio.reject_unknown(data, {"name", "description", "legs"}, source=source, where="")
+        legs = []
+        for i, table in enumerate(_tomlio.legs_table(data, source=source), start=1):
+            where = f"legs[{i}]"
+            _tomlio.reject_unknown(table, {"joints"}, source=source, where=where)
+            joints = table.get("joints")
+            if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
+                raise ClearanceError("must be a list of three tables {key = value, ...}, base to platform",
+                                     source=source, key=f"{where}.joints")
+            if len(joints) != 3:
+                raise ClearanceError(f"exactly three joints are needed (base to platform), found {len(joints)}",
+                                     source=source, key=f"{where}.joints")
+            parsed = []
+            for k, jt in enumerate(joints, start=1):
+                jw = f"{where}.joints[{k}]"
+                _tomlio.reject_unknown(jt, set(KEYS), source=source, where=jw)
+                values = {}
+                for key in jt:
+                    values[key] = _tomlio.number(jt, key, source=source, where=jw, nonnegative=True)
+                if "block_length" in values and values["block_length"] <= 0:
+                    raise ClearanceError("must be positive", source=source, key=f"{jw}.block_length")
+                parsed.append(JointErrors(**values))
+            legs.append(tuple(parsed))
+        name = data.get("name", source)
+        if not isinstance(name, str):
+            raise ConfigError("must be a string", source=source, key="name")
+        return cls(legs=tuple(legs), name=name)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The TOML table (only non-default keys)."""
+        default = JointErrors()
+        legs = []
+        for leg in self.legs:
+            joints = []
+            for j in leg:
+                joints.append({f.name: getattr(j, f.name) for f in fields(j)
+                               if getattr(j, f.name) != getattr(default, f.name)})
+            legs.append({"joints": joints})
+        return {"name": self.name, "legs": legs}
+
+    @classmethod
+    def from_clearance_set(cls, clearances, tolerances: dict[str, np.ndarray] | None = None) -> "ErrorSources":
+        """The 3-PPR clearance format (guide, bearing, revolute per leg) as per-joint sources."""
+        legs = []
+        for i in range(3):
+            legs.append((
+                JointErrors(lateral=float(clearances.guide_lateral[i]),
+                            block_length=float(clearances.guide_block_length[i])),
+                JointErrors(angular=float(clearances.bearing_angle[i])),
+                JointErrors(radial=float(clearances.revolute_radial[i])),
+            ))
+        return cls(legs=tuple(legs), name=clearances.name)
+
+    def scaled(self, factor: float) -> "ErrorSources":
+        return ErrorSources(legs=tuple(tuple(j.scaled(factor) for j in leg) for leg in self.legs), name=self.name)
+
+    def check(self, robot) -> "ErrorSources":
+        """Refuse sources that do not fit the robot's joints (a key on the wrong joint type), naming leg and joint."""
+        if len(self.legs) != 3:
+            raise ClearanceError(f"exactly three legs are needed, found {len(self.legs)}", source=self.name,
+                                 key="legs")
+        for i, (chain, leg) in enumerate(zip(robot.chains, self.legs), start=1):
+            for k, (joint, errs) in enumerate(zip(chain.joints, leg), start=1):
+                for key, allowed in KEYS.items():
+                    value = getattr(errs, key)
+                    if not math.isfinite(value) or value < 0:
+                        raise ClearanceError(f"must be finite and >= 0, got {value}", source=self.name,
+                                             key=f"legs[{i}].joints[{k}].{key}")
+                    if key == "block_length" or value == 0:
+                        continue
+                    ok = (joint.actuated if allowed == "A" else joint.kind in allowed)
+                    if not ok:
+                        what = "the actuated joint" if allowed == "A" else \
+                            {"P": "prismatic joints", "RP": "any joint"}[allowed]
+                        raise ClearanceError(
+                            f"{key} applies to {what}; joint {k} of leg {i} is a "
+                            f"{'actuated ' if joint.actuated else 'passive '}{joint.kind} joint",
+                            source=self.name, key=f"legs[{i}].joints[{k}].{key}")
+        return self
+
+
+def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """``c_i`` (mm), shape ``(..., 3)``: the largest ``|e_i|`` of each leg's sources (module docstring).
+
+    ``joints`` ``(..., 3, 3)`` are the joint values at the poses ``(..., 3)``
+    (:func:`pmaccuracy.kinematics.inverse_kinematics`).
+    """
+    poses = np.asarray(poses, dtype=float)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    out = []
+    for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
+        q = joints[..., i, :]
+        centres, dirs, angle, end = chain.frames(q)
+        A_row, B = chain.screws(q, poses)
+        f = A_row[..., 0] + 1j * A_row[..., 1]
+        m_P = A_row[..., 2]
+
+        def moment(c):
+            # moment about c = m_O - c x f = m_P + (P - c) x f  (m_P = m_O - P x f)
+            return m_P + cross(pz - c, f)
+
+        c = np.zeros(poses.shape[:-1])
+        for k, (joint, e) in enumerate(zip(chain.joints, leg)):
+            if e.radial or e.position:
+                c = c + (e.radial + e.position) * np.abs(f)
+            if e.angular or e.direction:
+                c = c + (e.angular + e.direction) * np.abs(moment(centres[..., k]))
+            if e.lateral:
+                carriage = centres[..., k] + q[..., k] * dirs[..., k]
+                shift = e.lateral * np.abs(dot(f, 1j * dirs[..., k]))
+                tilt = 2 * e.lateral * np.abs(moment(carriage)) / e.block_length
+                c = c + np.maximum(shift, tilt)
+            if e.actuator:
+                c = c + e.actuator * np.abs(B)
+            if e.length and joint.link != (0.0, 0.0):
+                link_dir = dirs[..., k] * joint.link_z / abs(joint.link_z)
+                c = c + e.length * np.abs(dot(f, link_dir))
+        out.append(c)
+    return np.stack(out, axis=-1)
+
+
+def is_per_joint(data: dict[str, Any]) -> bool:
+    """True when a parsed clearance file lists each leg's ``joints`` (this module's format)."""
+    legs = data.get("legs")
+    return isinstance(legs, list) and any(isinstance(leg, dict) and "joints" in leg for leg in legs)
+
+
+def load_clearances(spec, robot):
+    """Clearances for ``robot`` from a preset name, a TOML file, or an object.
+
+    A file listing each leg's ``joints`` gives :class:`ErrorSources` (any
+    architecture); the 3-PPR format (``bearing_angle``, ``guide_lateral``,
+    ``revolute_radial`` per leg) gives a :class:`~pmaccuracy.clearances.ClearanceSet`
+    and needs a 3-PPR robot. Either is checked against the robot's joints.
+    """
+    from .clearances import ClearanceSet
+
+    if isinstance(spec, ErrorSources):
+        return spec.check(robot)
+    if isinstance(spec, ClearanceSet):
+        robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+        return spec
+    data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
+    if is_per_joint(data):
+        sources = ErrorSources.from_dict(data, source=source)
+        try:
+            return sources.check(robot)
+        except ClearanceError as exc:
+            raise ClearanceError(exc.message, source=source, key=exc.key) from None
+    if not robot.is_3ppr:
+        raise ClearanceError(
+            f"this file uses the 3-PPR clearance format (bearing_angle, guide_lateral, revolute_radial per leg) but "
+            f"{robot.name!r} is a {robot.architecture}: list each leg's joints instead, e.g. joints = "
+            "[{radial = 0.02}, {actuator = 0.005}, {radial = 0.02}]", source=source, key="legs")
+    return ClearanceSet.from_dict(data, source=source)
