@@ -97,15 +97,16 @@ def displace(p, d):
     """Clearance displacements applied to the loop equations (Sec. 4.2, Eq. 6-8).
 
     ``d`` maps tau_b (rad), sigma_g (mm), tau_g (rad), rho (mm) and varphi (rad) to arrays ``(3,)``.
-    Returns the displaced parameters (``d_i + dsigma_g``, ``gamma_i + dtau_g``,
-    ``theta_i + dtau_b``; the others unchanged) and the revolute offsets
-    ``drho_i vec(varphi_i)`` ``(3, 2)`` (mm, base frame) for :func:`solve_loop_closure`.
+    Returns the displaced parameters (``gamma_i + dtau_g``, ``theta_i + dtau_b``; the others
+    unchanged) and the offsets ``drho_i vec(varphi_i) + dsigma_g,i E u_i`` ``(3, 2)`` (mm, base frame)
+    for :func:`solve_loop_closure`: the guide's lateral play shifts the carriage normal to the rail
+    (issue 9; the paper's ``delta d_i`` along ``v_i`` is the same only for gamma_i = +-90 deg).
     """
     q = dict(p)
-    q["d"] = p["d"] + d["sigma_g"]
     q["gamma"] = p["gamma"] + d["tau_g"]
     q["theta"] = p["theta"] + d["tau_b"]
-    return q, d["rho"][:, None] * vec(d["varphi"])
+    u = vec(p["alpha"] + p["beta"])
+    return q, d["rho"][:, None] * vec(d["varphi"]) + d["sigma_g"][:, None] * rot90(u)
 
 
 def solve_loop_closure(p, s, pose0, offsets=None, l0=None, tol=1e-14, max_iter=60):

@@ -8,7 +8,9 @@ are used as containers):
   (plus the revolute directions varphi_i) to ``[dx, dy, dphi]``, built from Eq. 8
   and Appendix A as the paper states them: ``A [dp; dphi] = e`` with rows
   ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` (Eq. 4a) and
-  ``e_i = l_i dtau_b + (w^T E^T v) dsigma_g + (d w^T v + l) dtau_g + (w^T E^T n) drho``
+  ``e_i = l_i dtau_b + (w^T E^T E u) dsigma_g + (d w^T v + l) dtau_g + (w^T E^T n) drho`` (the guide's
+  lateral shift acts normal to the rail, issue 9; the paper's ``delta d`` along ``v`` is the same for
+  gamma = +-90 deg)
   (H_theta, H_d, H_gamma, H_rho of A-1). ``l_i`` comes from a 2x2 solve of Eq. 1
   (``reference_model.own_ik``). It is itself validated against finite differences
   of the independent Newton loop-closure solver ``reference_model.solve_loop_closure``
@@ -51,13 +53,13 @@ class FirstOrder:
 
     def __init__(self, robot, pose):
         p = leg_params(robot)
-        _, _, v, w = directions(p)
+        _, u, v, w = directions(p)
         self.s, self.l = own_ik(p, pose)
         self.Ew = rot90(w)
         self.A = own_A(p, pose)
         self.A_inv = np.linalg.inv(self.A)
         self.H_theta = self.l
-        self.H_d = np.sum(self.Ew * v, axis=1)
+        self.H_d = np.sum(self.Ew * rot90(u), axis=1)   # guide shift normal to the rail: (E w) . (E u)
         self.H_gamma = p["d"] * np.sum(w * v, axis=1) + self.l
 
     def H_rho(self, i, varphi):

@@ -5,7 +5,7 @@ Independent computations written in this file and in ``reference_model``:
 * ``own_exact_error``: Newton's method on the six loop equations of Eq. 1
   (``reference_model.solve_loop_closure``) with the clearance displacements
   applied as the paper's Sec. 4.2 says (``reference_model.displace``:
-  ``d_i + dsigma_g``, ``gamma_i + dtau_g``, ``theta_i + dtau_b``, platform point
+  ``dsigma_g E u_i`` (normal to the rail), ``gamma_i + dtau_g``, ``theta_i + dtau_b``, platform point
   offset by ``drho vec(varphi)``) and the actuators locked; the library's
   analytic loop closure must agree with it to 1e-10.
 * ``own_first_order``: ``A^-1 e`` with ``A`` from Eq. 4a and ``e_i`` from Eq. 8 /
@@ -51,11 +51,11 @@ def own_exact_error(robot, pose, d=None, variations=None):
 
 def own_first_order(robot, pose, d):
     p = leg_params(robot)
-    _, _, v, w = directions(p)
+    _, u, v, w = directions(p)
     _, l = own_ik(p, pose)
     Ew = rot90(w)
     A = own_A(p, pose)
-    e = (l * d["tau_b"] + np.sum(Ew * v, axis=1) * d["sigma_g"] + (p["d"] * np.sum(w * v, axis=1) + l) * d["tau_g"]
+    e = (l * d["tau_b"] + np.sum(Ew * rot90(u), axis=1) * d["sigma_g"] + (p["d"] * np.sum(w * v, axis=1) + l) * d["tau_g"]
          + np.sum(Ew * vec(d["varphi"]), axis=1) * d["rho"])
     return np.linalg.solve(A, e)
 

@@ -8,13 +8,15 @@ exactly and in closed form.
 Why it is exact. By Eq. 8 each leg ``i`` adds one scalar to the right-hand
 side of ``A [dp; dphi] = ...``::
 
-    e_i = H_theta,i dtau_b,i + H_d,i dsigma_g,i + H_gamma,i dtau_g,i + H_rho,i drho_i
+    e_i = H_theta,i dtau_b,i + H_sigma,i dsigma_g,i + H_gamma,i dtau_g,i + H_rho,i drho_i
 
-The four clearances of a leg are independent of the other legs' and each set
+(``H_sigma = w_i . u_i``: the guide's lateral shift acts normal to the rail,
+:func:`guide_shift`; the paper's ``H_d`` along ``v_i`` is the same when
+``gamma_i = +-90 deg``). The four clearances of a leg are independent of the other legs' and each set
 is symmetric, so ``e_i`` ranges over ``[-c_i, c_i]`` with the half-width::
 
     c_i = eps_theta,i |l_i|                                      bearing (Eq. 17)
-        + max(eps_g,i |H_d,i|, 2 eps_g,i |H_gamma,i| / L_g,i)    guide rhombus (Eq. 16): its best vertex
+        + max(eps_g,i |H_sigma,i|, 2 eps_g,i |H_gamma,i| / L_g,i)  guide rhombus (Eq. 16): its best vertex
         + eps_r,i                                                revolute disk (Eq. 18): n_i = +-E w_i
 
 (the revolute offset acts only through its component normal to the bearing
@@ -106,6 +108,19 @@ class PoseErrorBounds:
                 for p, a, b, c, d in zip(poses, *cols)]
 
 
+def guide_shift(robot: Manipulator, H: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``H`` with ``H["shift"] = (E w_i) . (E u_i) = w_i . u_i``: the guide's lateral shift acts normal to the rail.
+
+    The paper shifts the carriage along ``v_i`` (its ``delta d_i``, ``H_d``); that
+    is the rail normal ``E u_i`` only when ``gamma_i = +-90 deg`` (both presets,
+    which give identical numbers). Physically the play moves the carriage
+    normal to the rail, whatever the offset's direction.
+    """
+    out = dict(H)
+    out["shift"] = np.broadcast_to(np.sum(robot.w * robot.u, axis=-1), np.shape(H["theta"]))
+    return out
+
+
 def leg_half_widths(clearances: ClearanceSet, H: dict[str, np.ndarray]) -> np.ndarray:
     """``c_i`` (mm), shape ``(..., 3)``: the largest |e_i| the clearances of leg i allow (module docstring).
 
@@ -113,7 +128,7 @@ def leg_half_widths(clearances: ClearanceSet, H: dict[str, np.ndarray]) -> np.nd
     """
     eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
     L = clearances.guide_block_length
-    guide = np.maximum(eps_g * np.abs(H["d"]), 2 * eps_g * np.abs(H["gamma"]) / L)
+    guide = np.maximum(eps_g * np.abs(H["shift"]), 2 * eps_g * np.abs(H["gamma"]) / L)
     return eps_b * np.abs(H["theta"]) + guide + eps_r
 
 
@@ -172,8 +187,8 @@ def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, H: dict[s
     L = clearances.guide_block_length
     tau_b = t * eps_b * _sign(H["theta"])
     # Rhombus vertex: pure shift (+-eps_g, 0) or pure tilt (0, +-2 eps_g / L), whichever moves e_i more.
-    shift_wins = eps_g * np.abs(H["d"]) >= 2 * eps_g * np.abs(H["gamma"]) / L
-    sigma_g = np.where(shift_wins, t * eps_g * _sign(H["d"]), 0.0)
+    shift_wins = eps_g * np.abs(H["shift"]) >= 2 * eps_g * np.abs(H["gamma"]) / L
+    sigma_g = np.where(shift_wins, t * eps_g * _sign(H["shift"]), 0.0)
     tau_g = np.where(shift_wins, 0.0, t * 2 * eps_g / L * _sign(H["gamma"]))
     n = t[..., None] * perp(robot.w)  # n_i = t_i E w_i gives H_rho = t_i
     varphi = np.arctan2(n[..., 1], n[..., 0])
@@ -293,7 +308,7 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[
     state = pose_state(robot, poses, max_condition)
     if not allow_outside:
         check_within_limits(robot, poses, state)
-    H = H_diagonals(robot, state)  # once per block: every half-width and argmax below uses it
+    H = guide_shift(robot, H_diagonals(robot, state))  # once per block: every half-width and argmax uses it
     c = leg_half_widths(clearances, H)
     if tolerances:
         c = c + tolerance_half_widths(tolerances, H)
@@ -313,8 +328,8 @@ def first_order_pose_error(robot: Manipulator, poses: np.ndarray | PoseState,
                            displacement: ClearanceDisplacement) -> np.ndarray:
     """Pose error ``J^c_err delta^c`` (Eq. 19, 20) for given clearance displacements, ``(..., 3)`` [mm, mm, rad]."""
     state = poses if isinstance(poses, PoseState) else pose_state(robot, poses)
-    H = H_diagonals(robot, state, varphi=displacement.varphi)
-    e = (H["theta"] * displacement.tau_b + H["d"] * displacement.sigma_g + H["gamma"] * displacement.tau_g
+    H = guide_shift(robot, H_diagonals(robot, state, varphi=displacement.varphi))
+    e = (H["theta"] * displacement.tau_b + H["shift"] * displacement.sigma_g + H["gamma"] * displacement.tau_g
          + H["rho"] * displacement.rho)
     return np.einsum("...ij,...j->...i", state.A_inv, e)
 
@@ -337,7 +352,7 @@ def _leg_coefficients(clearances: ClearanceSet, state: PoseState, H: dict[str, n
         if eps_b[i] > 0:
             cols.append(A_inv[:, i] * H["theta"][index, i] * eps_b[i]); kinds.append("b"); legs.append(i)
         if eps_g[i] > 0:
-            cols.append(A_inv[:, i] * H["d"][index, i] * eps_g[i]); kinds.append("s"); legs.append(i)
+            cols.append(A_inv[:, i] * H["shift"][index, i] * eps_g[i]); kinds.append("s"); legs.append(i)
             cols.append(A_inv[:, i] * H["gamma"][index, i] * 2 * eps_g[i] / L[i]); kinds.append("t"); legs.append(i)
         if eps_r[i] > 0:
             cols.append(A_inv[:, i] * eps_r[i]); kinds.append("r"); legs.append(i)
@@ -368,7 +383,7 @@ def slsqp_max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: n
     rng = np.random.default_rng(seed)
     Ew = perp(robot.w)
     out = np.zeros((flat.shape[0], 4))
-    H = H_diagonals(robot, state)
+    H = guide_shift(robot, H_diagonals(robot, state))
     for k in range(flat.shape[0]):
         C, kinds, legs = _leg_coefficients(clearances, state, H, k)
         out[k] = _slsqp_pose(C, kinds, legs, Ew, n_starts, rng)

@@ -4,7 +4,7 @@ The first-order model of :mod:`pmaccuracy.error_model` and :mod:`pmaccuracy.boun
 linearizes Eq. 1. Here the perturbed chain of every leg is closed exactly with
 the actuators locked at their nominal values ``s_i``::
 
-    p = a'_i h'_i + (s_i + ds_i) u'_i + (d'_i + dsigma_g,i) v''_i + l_i w''_i + drho_i n_i + r'_i vec(phi + psi'_i)
+    p = a'_i h'_i + (s_i + ds_i) u'_i + dsigma_g,i E u'_i + d'_i v''_i + l_i w''_i + drho_i n_i + r'_i vec(phi + psi'_i)
 
 where primes are the varied link parameters (Eq. 6), ``v''`` carries the guide
 tilt ``dtau_g`` and ``w''`` the guide and bearing tilts ``dtau_g + dtau_b``
@@ -57,7 +57,8 @@ def displaced_pose(robot: Manipulator, poses: np.ndarray, displacement: Clearanc
     theta_p = gamma_p + robot.theta + dv("theta") + disp.tau_b
     c = ((robot.a + dv("a"))[..., None] * unit(alpha)
          + (s + dv("s"))[..., None] * unit(beta_p)
-         + (robot.d + dv("d") + disp.sigma_g)[..., None] * unit(gamma_p)
+         + (robot.d + dv("d"))[..., None] * unit(gamma_p)
+         + np.asarray(disp.sigma_g, float)[..., None] * unit(beta_p + np.pi / 2)   # guide play: normal to the rail
          + np.asarray(disp.rho, float)[..., None] * unit(disp.varphi))
     solution = solve_loop_closure(c, unit(theta_p), robot.r + dv("r"), robot.psi + dv("psi"))
     joints = np.stack([np.zeros_like(solution[2]), solution[2], np.zeros_like(solution[2])], axis=-1)

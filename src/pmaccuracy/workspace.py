@@ -221,13 +221,15 @@ def _intersections(a: Curve, b: Curve) -> list[complex]:
         bq = 2 * (d.conjugate() * w).real
         cq = abs(w) ** 2 - b.radius ** 2
         disc = bq * bq - 4 * cq
-        if disc < -1e-12 * max(1.0, bq * bq):
+        # a tangency (e.g. a leg's limit circle touching its own branch line) computed a hair apart is kept
+        if disc < -1e-10 * (4 * b.radius ** 2 + bq * bq):
             return []
         r = np.sqrt(max(disc, 0.0))
         return [p0 + d * (-bq + r) / 2, p0 + d * (-bq - r) / 2]
     dz = b.centre - a.centre
     dist = abs(dz)
-    if dist < 1e-12 or dist > a.radius + b.radius + 1e-12 or dist < abs(a.radius - b.radius) - 1e-12:
+    tol = 1e-10 * (a.radius + b.radius)
+    if dist < 1e-12 or dist > a.radius + b.radius + tol or dist < abs(a.radius - b.radius) - tol:
         return []
     along = (a.radius ** 2 - b.radius ** 2 + dist ** 2) / (2 * dist)
     h = np.sqrt(max(a.radius ** 2 - along ** 2, 0.0))
