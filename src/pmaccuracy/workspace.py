@@ -531,9 +531,11 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
         if not np.all(np.isfinite(q)):
             continue
         centres, dirs, _, end = chain.frames(q)
-        # frame origins after each joint
+        # the leg as drawn: each joint's centre, a slide's carriage (centre + q e), then the link to the next
         origins = [complex(*chain.base)]
-        for k in range(3):
+        for k, joint in enumerate(chain.joints):
+            if joint.kind == "P":
+                origins.append(centres[k] + q[k] * dirs[k])
             origins.append(centres[k + 1] if k < 2 else end)
         path = np.array(origins)
         ax.plot(path.real, path.imag, color="0.25", linewidth=1.6, zorder=3,
