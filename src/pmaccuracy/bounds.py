@@ -202,7 +202,8 @@ CHUNK = 8192
 
 def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndarray, *,
                     tolerances: Mapping[str, Any] | None = None, allow_outside: bool = False,
-                    details: bool = False, max_condition: float = DEFAULT_MAX_CONDITION) -> PoseErrorBounds:
+                    details: bool = False, max_condition: float = DEFAULT_MAX_CONDITION,
+                    singular: str = "raise") -> PoseErrorBounds:
     """Exact ``dx_max, dy_max, dphi_max, dp_max`` at every pose (Eq. 21, 22), vectorized.
 
     Parameters
@@ -220,9 +221,17 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
         ``+dzeta_max`` in its quantity, its negative by ``-dzeta_max``) and, with
         ``tolerances``, the maximizing parameter variations in ``.worst_variations``
 
+    singular : ``"raise"`` (default) or ``"nan"``: NaN at poses near a singularity instead of an error
+        (per-joint sources and architectures other than the 3-PPR; a 3-PPR's singularity is a whole
+        orientation, refused up front)
+
+    Any architecture: with per-joint :class:`~pmaccuracy.sources.ErrorSources` (or any robot that is
+    not a 3-PPR) each leg's half-width comes from its sources paired with its constraint wrench
+    (:func:`pmaccuracy.sources.half_widths`); ``worst_signs`` then gives the maximizing signs.
+
     Raises
     ------
-    SingularPoseError : a pose at or near det A = 0 (condition number > ``max_condition``)
+    SingularPoseError : a pose at or near det A = 0 (condition number > ``max_condition``) or B_ii = 0
     """
     from .sources import ErrorSources
 
@@ -236,7 +245,7 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
             raise ConfigError("give tolerances per joint in the clearance file (position, direction, length) "
                               "for this robot", key="tolerances")
         sources = clearances.check(robot)
-        parts = [_generic_block(robot, sources, flat[k:k + CHUNK], allow_outside, max_condition)
+        parts = [_generic_block(robot, sources, flat[k:k + CHUNK], allow_outside, max_condition, singular)
                  for k in range(0, max(flat.shape[0], 1), CHUNK)]
         cat = lambda key, tail=(): np.concatenate([p[key] for p in parts]).reshape(lead + tail)  # noqa: E731
         signs = {q: np.concatenate([p["signs"][q] for p in parts]).reshape(lead + (3,)) for q in QUANTITIES}
@@ -283,18 +292,27 @@ def zonotope_maxima(A_inv: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _generic_block(robot: Manipulator, sources, poses: np.ndarray, allow_outside: bool,
-                   max_condition: float) -> dict:
-    """Exact maxima of any architecture on one block: per-joint sources paired with the legs' wrenches."""
-    from .kinematics import inverse_kinematics, regular_inverse, require_regular
+                   max_condition: float, singular: str) -> dict:
+    """Exact maxima of any architecture on one block: per-joint sources paired with the legs' wrenches.
+
+    ``singular="raise"`` refuses a pose near a type-1 or type-2 singularity
+    (:class:`~pmaccuracy.errors.SingularPoseError`); ``"nan"`` returns NaN there.
+    """
+    from .kinematics import _condition, _raise_serial, _raise_singular, _transmission, inverse_3x3, inverse_kinematics
     from .sources import half_widths
 
     ik = inverse_kinematics(robot, poses)
-    if not allow_outside:
-        check_within_limits(robot, poses, ik)
-    elif not np.all(ik.reachable):
-        check_within_limits(robot, poses, ik)  # a leg that cannot reach the pose: no model at all
-    require_regular(robot, poses, max_condition)
-    A_inv = regular_inverse(robot, ik.A, poses, max_condition)
+    if not allow_outside or not np.all(ik.reachable):
+        check_within_limits(robot, poses, ik)  # (a leg that cannot reach a pose: no model at all)
+    A_inv, _ = inverse_3x3(ik.A)
+    cond = _condition(robot, ik.A, A_inv)
+    trans = _transmission(robot, ik, poses)
+    regular = (cond <= max_condition) & np.all(trans >= 1.0 / max_condition, axis=-1)
+    if singular == "raise" and not np.all(regular):
+        if np.any(cond > max_condition):
+            _raise_singular(robot, poses, cond <= max_condition, cond, max_condition)
+        _raise_serial(poses, trans, max_condition)
+    A_inv = np.where(regular[:, None, None], A_inv, np.nan)
     c = half_widths(robot, sources, ik.joints, poses)
     out = zonotope_maxima(A_inv, c)
     out["signs"] = {"dx": _sign(A_inv[:, 0, :]), "dy": _sign(A_inv[:, 1, :]), "dphi": _sign(A_inv[:, 2, :]),

@@ -87,7 +87,8 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     """One block of a map: grid rows ``y_rows`` at orientation ``phi`` (rad) -> ``(rows, len(x), 4)``.
 
     Values ``[dx_max mm, dy_max mm, dphi_max deg, dp_max mm]``, NaN where the
-    pose is outside the joint ranges. The block builds its own poses from the
+    pose is outside the joint ranges or near a singularity (other architectures
+    than the 3-PPR have singular curves inside their workspaces). The block builds its own poses from the
     grid vectors, so a Dask task carries only two short vectors (picklable for
     dask.distributed).
     """
@@ -96,7 +97,8 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     inside = inverse_kinematics(robot, poses).within_limits
     out = np.full(X.shape + (4,), np.nan)
     if inside.any():
-        b = max_pose_errors(robot, clearances, poses[inside], allow_outside=True, max_condition=max_condition)
+        b = max_pose_errors(robot, clearances, poses[inside], allow_outside=True, max_condition=max_condition,
+                            singular="nan")
         out[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max_deg, b.dp_max])
     return out
 
@@ -161,12 +163,15 @@ def estimate_seconds(robot: Manipulator, clearances: ClearanceSet, phis: np.ndar
 
 def _prepare(robot, clearances, phis, n: int, max_condition: float):
     """Load and check the inputs of a map; returns ``robot, clearances, phis (rad), x, y``."""
+    from .sources import load_clearances
+
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     phis = np.atleast_1d(np.asarray(phis, dtype=float))
     if not np.all(np.isfinite(phis)):
         raise ConfigError("orientations must be finite", key="phi")
-    require_regular(robot, np.column_stack([np.zeros_like(phis), np.zeros_like(phis), phis]), max_condition)
+    if robot.is_3ppr:  # A depends on phi only: a whole layer is singular or none is
+        require_regular(robot, np.column_stack([np.zeros_like(phis), np.zeros_like(phis), phis]), max_condition)
     x, y = map_grid(robot, phis, n)
     return robot, clearances, phis, x, y
 

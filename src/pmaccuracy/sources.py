@@ -152,6 +152,11 @@ class ErrorSources:
             ))
         return cls(legs=tuple(legs), name=clearances.name)
 
+    def to_toml(self) -> str:
+        """The per-joint clearance file as TOML text."""
+        import tomli_w
+        return tomli_w.dumps(self.to_dict())
+
     def scaled(self, factor: float) -> "ErrorSources":
         return ErrorSources(legs=tuple(tuple(j.scaled(factor) for j in leg) for leg in self.legs), name=self.name)
 

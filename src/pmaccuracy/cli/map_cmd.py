@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .. import maps
-    from ..clearances import ClearanceSet
+    from ..sources import load_clearances
 
     out = Path(args.out)
     suffix = out.suffix.lower()
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if args.workers and suffix != ".zarr":
         raise ConfigError("--workers applies to .zarr maps (use --dask for an in-memory map)", key="--workers")
     robot = _common.load_robot(args)
-    clearances = ClearanceSet.load(args.clearances)
+    clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)
     if suffix != ".zarr":
