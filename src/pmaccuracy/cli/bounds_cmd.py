@@ -34,6 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
                    help="a pose: x mm, y mm, phi deg (repeatable)")
     p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    p.add_argument("--joints", nargs="+", type=_common.finite_float, action="append", metavar="Q",
+                   help="serial arms (architecture = \"serial\", preset planar_3r_arm) instead of --pose: the joint "
+                        "values base to tip, deg for R, mm for P (repeatable)")
     p.add_argument("--tolerances", metavar="FILE",
                    help="tolerance half-widths on link parameters (TOML with keys like d_mm, theta_rad per leg, "
                         "or preset example_tolerances): worst case over clearances and tolerances together; "
@@ -94,6 +97,10 @@ def run(args: argparse.Namespace) -> int:
     from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
     from ..sources import ErrorSources, load_clearances
 
+    from . import serial_cmd
+    if serial_cmd.is_serial_robot(args.robot):  # architecture = "serial": joint values instead of poses
+        return serial_cmd.run(args)
+    serial_cmd.refuse_joints(args)
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
