@@ -1,0 +1,112 @@
+"""``pmaccuracy compare-designs``: workspace areas, errors over each workspace and ratios over the shared region."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import _common
+
+HELP = "compare designs of any architectures: workspace areas, mean/max errors, error ratios on the shared region"
+#: Columns of the three blocks of the table format (JSON and CSV carry every column in one record).
+TABLE_BLOCKS = (
+    ("robot", "clearances", "phi_deg", "area_mm2", "points", "singular", "dx_mean", "dx_max", "dy_mean", "dy_max",
+     "dphi_mean_deg", "dphi_max_deg", "dp_mean", "dp_max"),
+    ("robot", "phi_deg", "dx_argmax_x", "dx_argmax_y", "dy_argmax_x", "dy_argmax_y", "dphi_argmax_x",
+     "dphi_argmax_y", "dp_argmax_x", "dp_argmax_y"),
+    ("robot", "phi_deg", "shared_points", "dx_ratio_mean", "dx_ratio_min", "dx_ratio_max", "dy_ratio_mean",
+     "dy_ratio_min", "dy_ratio_max", "dphi_ratio_mean", "dphi_ratio_min", "dphi_ratio_max", "dp_ratio_mean",
+     "dp_ratio_min", "dp_ratio_max"),
+)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "compare-designs", help=HELP,
+        description="For each robot and orientation: the exact workspace area (mm^2) and, over an N x N grid of "
+                    "the workspace (points near a singularity excluded and counted), the mean and max of the exact "
+                    "worst-case dx_max, dy_max, dp_max (mm) and dphi_max (deg) with the position of each max; then, "
+                    "over the region shared by every workspace (N x N grid of the shared bounding box), the ratios "
+                    "of each robot's errors to the first robot's (mean, min, max). The table format prints three "
+                    "blocks (errors, positions of the maxima, ratios); json and csv one record per robot and "
+                    "orientation.")
+    p.add_argument("--robot", action="append", required=True, metavar="ROBOT",
+                   help="preset name or robot TOML file (repeat: at least two; the first is the reference)")
+    p.add_argument("--clearances", action="append", required=True, metavar="C",
+                   help="clearance preset or file: once for every robot, or once per robot in the order of --robot")
+    p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
+                   help="platform orientation in degrees (repeatable)")
+    p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N",
+                   help="grid points per axis over each workspace and over the shared region (default: 101)")
+    p.add_argument("--plot", metavar="FILE.png",
+                   help="figure: per orientation the workspaces overlaid, the dp_max ratio maps and bars of the "
+                        "mean/max errors; missing folders are created")
+    p.add_argument("--out", metavar="FILE.csv", help="also write the full table as CSV (exact floats)")
+    _common.add_format(p)
+    p.set_defaults(func=run)
+
+
+def _check_options(args: argparse.Namespace) -> list[str]:
+    """Refuse inconsistent options before loading anything; returns one clearance spec per robot."""
+    from ..errors import ConfigError
+
+    if len(args.robot) < 2:
+        raise ConfigError("give at least two robots (--robot A --robot B ...); the first is the reference",
+                          key="--robot")
+    if len(args.clearances) not in (1, len(args.robot)):
+        raise ConfigError(f"give --clearances once (for every robot) or once per robot: {len(args.robot)} robots, "
+                          f"{len(args.clearances)} --clearances", key="--clearances")
+    if args.grid < 2:
+        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
+    seen = set()
+    for phi in args.phi_deg:
+        if phi in seen:
+            raise ConfigError(f"orientation {phi:g} deg given twice", key="--phi-deg")
+        seen.add(phi)
+    if args.out is not None and not args.out.lower().endswith(".csv"):
+        raise ConfigError("the table is written as CSV: give a .csv file", source=args.out, key="--out")
+    return list(args.clearances) * len(args.robot) if len(args.clearances) == 1 else list(args.clearances)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import numpy as np
+
+    from ..designs import compare_designs, save_comparison_figure
+    from ..errors import ConfigError
+    from ..geometry import Manipulator
+    from ..sources import load_clearances
+    from .map_cmd import prepare_output
+
+    specs = _check_options(args)
+    for path, option in ((args.plot, "--plot"), (args.out, "--out")):
+        if path is not None:
+            prepare_output(Path(path), option)
+    robots = [Manipulator.load(spec) for spec in args.robot]
+    clearances = []
+    for spec, robot in zip(specs, robots):
+        try:
+            clearances.append(load_clearances(spec, robot))
+        except ConfigError as exc:  # several robots: say which one the file does not fit
+            raise type(exc)(f"{exc.message} (--robot {robot.name})", source=exc.source, key=exc.key) from None
+    result = compare_designs(robots, clearances, np.radians(args.phi_deg), args.grid)
+    for phi_deg, region in zip(args.phi_deg, result.shared):
+        if region.is_empty:
+            print(f"pmaccuracy compare-designs: the workspaces share no region at phi = {phi_deg:g} deg "
+                  "(no grid point inside all of them and regular for every robot): ratios are null",
+                  file=sys.stderr)
+    records = result.records()
+    if args.out is not None:
+        with open(args.out, "w", encoding="utf-8", newline="") as fh:
+            _common.emit(records, "csv", stream=fh)
+    if args.plot is not None:
+        save_comparison_figure(result, args.plot)
+    if args.format == "table":
+        for b, columns in enumerate(TABLE_BLOCKS):
+            if b:
+                sys.stdout.write("\n")
+            _common.emit(None, "table", records=[{k: r[k] for k in columns} for r in records])
+    else:
+        _common.emit(records, args.format)
+    return 0
