@@ -25,6 +25,8 @@ COMMANDS = {
                   "architecture)"),
     "bounds": ("bounds_cmd", "maximum pose errors due to joint clearances at poses (exact, Eq. 21-22)"),
     "map": ("map_cmd", "error maps over constant-orientation workspaces (NetCDF, Zarr or CSV, optional figure)"),
+    "compare-designs": ("designs_cmd", "compare designs of any architectures: workspace areas, mean/max errors, "
+                                       "error ratios on the shared region"),
     "reproduce": ("reproduce_cmd",
                   "reproduce the paper: workspace, error maps, paper check, sources, design comparison"),
     "experiment": ("experiment_cmd",
