@@ -77,3 +77,84 @@ def displaced_pose_error(robot: Manipulator, poses: np.ndarray, displacement: Cl
     err = displaced_pose(robot, poses, displacement, variations) - poses
     err[..., 2] = np.angle(np.exp(1j * err[..., 2]))
     return err
+
+
+# ====================================================================== any architecture
+def _perturbed_end(chain, q: np.ndarray, config, leg: int) -> tuple[np.ndarray, np.ndarray]:
+    """End frame ``(angle, origin)`` of a leg chain with its joints at ``q (..., 3)`` and the source values
+    of ``config`` (:class:`~pmaccuracy.sources.JointDisplacements`) inserted (module docstring of
+    :mod:`pmaccuracy.sources`): before joint k a translation ``shift`` and a turn ``turn`` about its
+    centre; inside a slide, after the slide, the lateral shift ``sigma`` normal to the rail and the tilt
+    ``tau`` about the carriage; ``dq`` on the actuated joint; the link ``dl`` longer."""
+    angle = np.full(q.shape[:-1], float(chain.base_angle))
+    pos = np.full(q.shape[:-1], chain.base_z, dtype=complex)
+    for k, joint in enumerate(chain.joints):
+        pos = pos + config.shift[..., leg, k]
+        angle = angle + config.turn[..., leg, k]
+        value = q[..., k] + (config.dq[..., leg, k] if joint.actuated else 0.0)
+        link = joint.link_z
+        if abs(link) > 0:
+            link = link * (1 + config.dl[..., leg, k] / abs(link))
+        if joint.kind == "R":
+            angle = angle + joint.offset + value
+        else:
+            angle = angle + joint.offset
+            e = np.exp(1j * angle)
+            pos = pos + value * e + config.sigma[..., leg, k] * 1j * e
+            angle = angle + config.tau[..., leg, k]
+        pos = pos + np.exp(1j * angle) * link
+    return angle, pos
+
+
+def _closure_residual(robot: Manipulator, z: np.ndarray, q_act: np.ndarray, config) -> np.ndarray:
+    """Loop-closure residuals ``(..., 9)`` of unknowns ``z = [x, y, phi, passive joints (3 x 2)]``."""
+    pz = z[..., 0] + 1j * z[..., 1]
+    phi = z[..., 2]
+    out = []
+    for i, chain in enumerate(robot.chains):
+        a = chain.actuated_index
+        pi, pj = chain.passive_indices
+        q = np.empty(z.shape[:-1] + (3,))
+        q[..., a] = q_act[..., i]
+        q[..., pi] = z[..., 3 + 2 * i]
+        q[..., pj] = z[..., 4 + 2 * i]
+        angle, pos = _perturbed_end(chain, q, config, i)
+        target = pz + np.exp(1j * phi) * chain.platform_z
+        d_angle = np.angle(np.exp(1j * (angle - phi - chain.platform_angle)))
+        out += [pos.real - target.real, pos.imag - target.imag, d_angle * robot.characteristic_length]
+    return np.stack(out, axis=-1)
+
+
+def joint_displaced_pose(robot: Manipulator, poses: np.ndarray, config, iterations: int = 8) -> np.ndarray:
+    """The exact pose ``(..., 3)`` [mm, mm, rad] of any architecture with the actuators held at the
+    commanded poses' values and the error sources at ``config`` (a virtual prototype).
+
+    Solves the three perturbed loop closures (:func:`_perturbed_end`) for the
+    pose and the six passive joints by Newton's method from the commanded
+    configuration (Jacobian by central differences, ``iterations`` steps);
+    raises :class:`NoSolutionError` where the loops cannot be closed.
+    """
+    poses = as_poses(poses)
+    ik = inverse_kinematics(robot, poses)
+    if not np.all(ik.reachable):
+        raise NoSolutionError("a commanded pose cannot be reached by every leg")
+    q_act = ik.q
+    z = np.concatenate([poses, ik.passive.reshape(poses.shape[:-1] + (6,))], axis=-1)
+    h = 1e-7
+    for _ in range(iterations):
+        r = _closure_residual(robot, z, q_act, config)
+        J = np.empty(z.shape[:-1] + (9, 9))
+        for m in range(9):
+            dz = np.zeros(9)
+            dz[m] = h
+            J[..., :, m] = (_closure_residual(robot, z + dz, q_act, config)
+                            - _closure_residual(robot, z - dz, q_act, config)) / (2 * h)
+        with np.errstate(invalid="ignore"):
+            step = np.linalg.solve(J, r[..., None])[..., 0]
+        z = z - step
+    r = _closure_residual(robot, z, q_act, config)
+    if not np.all(np.abs(r) < 1e-8):
+        raise NoSolutionError("the perturbed loops cannot be closed: the errors are too large for this pose")
+    out = z[..., :3].copy()
+    out[..., 2] = np.angle(np.exp(1j * out[..., 2]))
+    return out

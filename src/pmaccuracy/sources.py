@@ -259,3 +259,118 @@ def load_clearances(spec, robot):
             f"{robot.name!r} is a {robot.architecture}: list each leg's joints instead, e.g. joints = "
             "[{radial = 0.02}, {actuator = 0.005}, {radial = 0.02}]", source=source, key="legs")
     return ClearanceSet.from_dict(data, source=source)
+
+
+@dataclass(frozen=True)
+class JointDisplacements:
+    """Values of the error sources of every joint, arrays ``(..., 3 legs, 3 joints)`` (a configuration).
+
+    shift : complex mm, translation of the distal part inserted before the joint (``radial``, ``position``)
+    turn : rad, rotation about the joint's centre inserted before it (``angular``, ``direction``)
+    sigma, tau : mm and rad, a slide's lateral shift normal to the rail and tilt about the carriage
+        (``lateral``), inside the joint after the slide
+    dq : mm or rad, actuator error (``actuator``)
+    dl : mm, change of the link length after the joint (``length``)
+    """
+
+    shift: np.ndarray
+    turn: np.ndarray
+    sigma: np.ndarray
+    tau: np.ndarray
+    dq: np.ndarray
+    dl: np.ndarray
+
+    @classmethod
+    def zeros(cls, shape: tuple[int, ...] = ()) -> "JointDisplacements":
+        z = lambda: np.zeros(shape + (3, 3))  # noqa: E731 - a separate array for each field
+        return cls(shift=z().astype(complex), turn=z(), sigma=z(), tau=z(), dq=z(), dl=z())
+
+    def scaled(self, factor) -> "JointDisplacements":
+        """Every value times ``factor`` (a scalar or an array broadcasting against ``(..., 1, 1)``)."""
+        f = np.asarray(factor, dtype=float)
+        f = f[..., None, None] if f.ndim else f
+        return JointDisplacements(*(getattr(self, k) * f for k in ("shift", "turn", "sigma", "tau", "dq", "dl")))
+
+    def __neg__(self) -> "JointDisplacements":
+        return self.scaled(-1.0)
+
+
+def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray,
+                        signs: np.ndarray) -> JointDisplacements:
+    """The source values making each leg's share ``e_i = t_i c_i`` for signs ``t`` ``(..., 3)``.
+
+    Each source sits at the extreme of its set that moves ``e_i`` the most in the
+    direction ``t_i`` (module docstring): a translation along ``t_i f``, a turn
+    of sign ``t_i sign(M(c))``, the guide rhombus vertex that wins (pure shift
+    or pure tilt), ``dq = t_i eps sign(B_ii)``, ``dl = t_i t sign(f . link)``.
+    ``joints`` ``(..., 3, 3)`` are the joint values at the poses ``(..., 3)``.
+    With the signs of a row of ``A^-1`` this is the configuration attaining
+    that quantity's maximum (``max_pose_errors(...).worst_signs``).
+    """
+    poses = np.asarray(poses, dtype=float)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    shape = poses.shape[:-1]
+    out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float)
+           for k in ("shift", "turn", "sigma", "tau", "dq", "dl")}
+    sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
+    for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
+        q = joints[..., i, :]
+        centres, dirs, _, _ = chain.frames(q)
+        A_row, B = chain.screws(q, poses)
+        f = A_row[..., 0] + 1j * A_row[..., 1]
+        m_P = A_row[..., 2]
+        t = signs[..., i]
+        unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
+        for k, (joint, e) in enumerate(zip(chain.joints, leg)):
+            if e.radial or e.position:
+                out["shift"][..., i, k] = t * (e.radial + e.position) * unit_f
+            if e.angular or e.direction:
+                out["turn"][..., i, k] = t * (e.angular + e.direction) * sgn(m_P + cross(pz - centres[..., k], f))
+            if e.lateral:
+                carriage = centres[..., k] + q[..., k] * dirs[..., k]
+                a = dot(f, 1j * dirs[..., k])
+                b = m_P + cross(pz - carriage, f)
+                shift_wins = e.lateral * np.abs(a) >= 2 * e.lateral * np.abs(b) / e.block_length
+                out["sigma"][..., i, k] = np.where(shift_wins, t * e.lateral * sgn(a), 0.0)
+                out["tau"][..., i, k] = np.where(shift_wins, 0.0, t * 2 * e.lateral / e.block_length * sgn(b))
+            if e.actuator:
+                out["dq"][..., i, k] = t * e.actuator * sgn(B)
+            if e.length and joint.link != (0.0, 0.0):
+                link_dir = dirs[..., k] * joint.link_z / abs(joint.link_z)
+                out["dl"][..., i, k] = t * e.length * sgn(dot(f, link_dir))
+    return JointDisplacements(**out)
+
+
+def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: JointDisplacements) -> np.ndarray:
+    """Pose error ``A^-1 e`` ``(..., 3)`` [mm, mm, rad] of given source values (first order).
+
+    ``e_i`` pairs each source's twist with leg ``i``'s constraint wrench
+    (module docstring); ``joints`` ``(..., 3, 3)`` at the poses ``(..., 3)``.
+    """
+    from .kinematics import inverse_3x3
+
+    poses = np.asarray(poses, dtype=float)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    rows, es = [], []
+    for i, chain in enumerate(robot.chains):
+        q = joints[..., i, :]
+        centres, dirs, _, _ = chain.frames(q)
+        A_row, B = chain.screws(q, poses)
+        f = A_row[..., 0] + 1j * A_row[..., 1]
+        m_P = A_row[..., 2]
+        e = np.zeros(poses.shape[:-1])
+        for k, joint in enumerate(chain.joints):
+            e = e + dot(f, config.shift[..., i, k])
+            e = e + config.turn[..., i, k] * (m_P + cross(pz - centres[..., k], f))
+            carriage = centres[..., k] + q[..., k] * dirs[..., k]
+            e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[..., k])
+            e = e + config.tau[..., i, k] * (m_P + cross(pz - carriage, f))
+            if joint.actuated:
+                e = e + config.dq[..., i, k] * B
+            if joint.link != (0.0, 0.0):
+                e = e + config.dl[..., i, k] * dot(f, dirs[..., k] * joint.link_z / abs(joint.link_z))
+        rows.append(A_row)
+        es.append(e)
+    A = np.stack(rows, axis=-2)
+    A_inv, _ = inverse_3x3(A)
+    return np.einsum("...ij,...j->...i", A_inv, np.stack(es, axis=-1))
