@@ -100,8 +100,8 @@ class ClearanceSet(_tomlio.TomlPresets):
         from .sources import is_per_joint
 
         if is_per_joint(data):
-            raise ClearanceError("this file lists each leg's joints (the per-joint format of any architecture); "
-                                 "only bounds takes it so far, the maps and the report need the 3-PPR format",
+            raise ClearanceError("this file lists each leg's joints (the per-joint format of any architecture): "
+                                 "read it with pmaccuracy.sources.load_clearances(spec, robot)",
                                  source=source, key="legs")
         _tomlio.reject_unknown(data, {"name", "description", "legs"}, source=source, where="")
         columns: dict[str, list[float]] = {k: [] for k in CLEARANCE_KEYS}

@@ -80,6 +80,7 @@ from matplotlib.figure import Figure
 from . import figures
 from .bounds import PoseErrorBounds, first_order_pose_error, max_pose_errors
 from .clearances import ClearanceDisplacement, ClearanceSet
+from .sources import ErrorSources, load_clearances
 from .document import Document
 from .error_model import pose_state
 from .errors import ConfigError, MeasurementFileError, OutsideJointLimitsError
@@ -587,7 +588,7 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     SingularPoseError : a nominal pose at or near det A = 0
     """
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     if not isinstance(measurements, Measurements):
         measurements = load_measurements(measurements)
     for name, value in (("accuracy_mm", accuracy_mm), ("accuracy_deg", accuracy_deg)):
@@ -695,16 +696,20 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     from .nonlinear import displaced_pose
 
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     _check_simulation(float(take_up), float(noise_mm), float(noise_deg), model)
     poses = as_poses(poses).reshape(-1, 3)
-    bounds = max_pose_errors(robot, clearances, poses, details=True)
-    pushes = push_configurations(bounds, float(take_up))
-    if model == "first_order":
-        state = pose_state(robot, poses)
-        readings = np.stack([poses + first_order_pose_error(robot, state, d) for d in pushes], axis=1)
+    if isinstance(clearances, ErrorSources):  # any architecture: per-joint sources
+        readings = _generic_pushes(robot, clearances, poses, float(take_up), model)
     else:
-        readings = np.stack([displaced_pose(robot, poses, d) for d in pushes], axis=1)
+        bounds = max_pose_errors(robot, clearances, poses, details=True)
+        pushes = push_configurations(bounds, float(take_up))
+        if model == "first_order":
+            state = pose_state(robot, poses)
+            readings = np.stack([poses + first_order_pose_error(robot, state, d) for d in pushes], axis=1)
+        else:
+            readings = np.stack([displaced_pose(robot, poses, d) for d in pushes], axis=1)
+    if model != "first_order":
         # Keep phi next to the nominal value (displaced_pose wraps to (-pi, pi]).
         readings[..., 2] = poses[:, None, 2] + np.angle(np.exp(1j * (readings[..., 2] - poses[:, None, 2])))
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
@@ -713,6 +718,32 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     if labels is None:
         labels = [str(k + 1) for k in range(poses.shape[0])]
     return Measurements(points=np.asarray(labels, dtype=str), nominal=poses, readings=readings, source=source)
+
+
+def _generic_pushes(robot: Manipulator, sources: ErrorSources, poses: np.ndarray, take_up: float,
+                    model: str) -> np.ndarray:
+    """Readings ``(n, 6, 3)`` of the six pushes with per-joint sources (any architecture).
+
+    A push along ``+x`` puts every source at the extreme that moves the platform
+    furthest in +x (:func:`pmaccuracy.sources.worst_configuration` with the signs
+    of ``max_pose_errors(...).worst_signs["dx"]``), ``-x`` at the opposite one
+    (the sets are symmetric), likewise y and the rotation; scaled by ``take_up``.
+    """
+    from .kinematics import inverse_kinematics
+    from .nonlinear import joint_displaced_pose
+    from .sources import first_order_error, worst_configuration
+
+    bounds = max_pose_errors(robot, sources, poses)
+    joints = inverse_kinematics(robot, poses).joints
+    readings = []
+    for q in ("dx", "dy", "dphi"):
+        cfg = worst_configuration(robot, sources, joints, poses, bounds.worst_signs[q]).scaled(take_up)
+        for c in (cfg, -cfg):
+            if model == "first_order":
+                readings.append(poses + first_order_error(robot, joints, poses, c))
+            else:
+                readings.append(joint_displaced_pose(robot, poses, c))
+    return np.stack(readings, axis=1)
 
 
 def grid_poses(robot: Manipulator, phi: float, grid: int) -> np.ndarray:
@@ -741,7 +772,7 @@ def simulate_experiment(robot: Manipulator | str, clearances: ClearanceSet | str
     See :func:`simulate_readings` for the readings; write them with :func:`write_measurements`.
     """
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     _check_simulation(float(take_up), float(noise_mm), float(noise_deg), model)
     poses = grid_poses(robot, phi, grid)
     return simulate_readings(robot, clearances, poses, take_up=take_up, noise_mm=noise_mm, noise_deg=noise_deg,
@@ -837,7 +868,7 @@ def plot_measured_maps(robot: Manipulator | str, clearances: ClearanceSet | str,
     Returns ``{phi_deg: Figure}``.
     """
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     out = {}
     for phi_deg, sub in comparison.by_orientation().items():
         ds = error_map(robot, clearances, math.radians(phi_deg), n=grid, progress=False)
@@ -1003,7 +1034,7 @@ def virtual_experiment_section(robot: Manipulator | str, clearances: ClearanceSe
     the JSON file also lists every point (:meth:`Comparison.records`).
     """
     robot = Manipulator.load(robot)
-    clearances = ClearanceSet.load(clearances)
+    clearances = load_clearances(clearances, robot)
     phis = [float(p) for p in np.atleast_1d(np.asarray(phi, dtype=float))]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

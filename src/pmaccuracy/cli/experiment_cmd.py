@@ -19,7 +19,7 @@ import math
 import sys
 
 from .. import experiment
-from ..clearances import ClearanceSet
+from ..sources import load_clearances
 from . import _common
 from .bounds_cmd import add_clearances
 
@@ -92,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run_simulate(args: argparse.Namespace) -> int:
     robot = _common.load_robot(args)
-    clearances = ClearanceSet.load(args.clearances)
+    clearances = load_clearances(args.clearances, robot)
     measurements = experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
         noise_deg=args.noise_deg, model=args.model, seed=args.seed)
@@ -108,7 +108,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     robot = _common.load_robot(args)
-    clearances = ClearanceSet.load(args.clearances)
+    clearances = load_clearances(args.clearances, robot)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
