@@ -231,15 +231,27 @@ def test_cli_table_has_three_blocks_and_one_clearance_for_all(capsys):
     assert all(v == "1" for line in blocks[2].splitlines()[1:] for v in line.split()[3:])
 
 
-def test_cli_empty_shared_region_says_so_in_one_line(capsys):
+def test_cli_empty_shared_region_says_so_in_one_line(capsys, tmp_path):
+    # at 60 deg the 3-PRR reaches nothing; at -30 deg the symmetric 3-RPR is singular at every position
+    plot = tmp_path / "empty.png"
     status, text, err = _cli(capsys, "--robot", "symmetric_3rpr", "--robot", "symmetric_3prr", "--clearances",
-                             "rpr_typical", "--clearances", "prr_typical", "--phi-deg", "60", "--grid", "9",
-                             "--format", "json")
-    assert status == 0
-    assert len(err.strip().splitlines()) == 1 and "share no region" in err and "60 deg" in err
+                             "rpr_typical", "--clearances", "prr_typical", "--phi-deg", "60", "--phi-deg", "-30",
+                             "--grid", "9", "--format", "json", "--plot", str(plot))
+    assert status == 0 and plot.exists()
+    lines = err.strip().splitlines()
+    assert len(lines) == 2
+    assert "60 deg" in lines[0] and "share no region" in lines[0]
+    assert "-30 deg" in lines[1] and "near a singularity" in lines[1]
     records = json.loads(text)
-    assert all(r["dp_ratio_mean"] is None for r in records)
+    assert all(r["dp_ratio_mean"] is None and r["shared_points"] == 0 for r in records)
     assert records[1]["area_mm2"] == 0.0 and records[1]["dp_max"] is None
+    rpr = records[2]
+    assert rpr["area_mm2"] > 0 and rpr["points"] > 0 and rpr["singular"] == rpr["points"] and rpr["dp_mean"] is None
+    # and the 3-RPR is indeed singular there (condition number of A, not the grid mask)
+    robot = Manipulator.load("symmetric_3rpr")
+    from pmaccuracy.kinematics import singularity
+    poses = np.array([[0.0, 0.0, math.radians(-30)], [20.0, -10.0, math.radians(-30)]])
+    assert np.all(singularity(robot, poses).condition > 100)
 
 
 @pytest.fixture

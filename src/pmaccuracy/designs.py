@@ -389,6 +389,23 @@ def _ratio_ticks(m: float) -> np.ndarray:
     return np.array(sorted({1.0, *ups, *(1.0 / f for f in ups)}))
 
 
+def _bar_scale(ax, values: np.ndarray) -> str:
+    """Linear axis from 0, or logarithmic (bottom at half the smallest value) when the values span more than 20x;
+    returns the note for the axis label."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    v = values[np.isfinite(values) & (values > 0)]
+    if v.size and v.max() > 20 * v.min():
+        ax.set_yscale("log")
+        ax.set_ylim(v.min() / 2, v.max() * 1.6)
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        return ", log scale"
+    ax.set_ylim(0, (v.max() if v.size else 1.0) * 1.08)
+    return ""
+
+
 def plot_comparison(result: DesignComparison):
     """The comparison figure: one row of panels per orientation.
 
@@ -397,15 +414,15 @@ def plot_comparison(result: DesignComparison):
     ``dp_max^k / dp_max^reference`` over the shared region on one logarithmic
     diverging scale centred on 1 (so 2x and 0.5x are equally strong); (last
     two) bars of the mean (filled) and max (outline) of dx_max, dy_max, dp_max
-    (mm) and of dphi_max (deg) per robot, on logarithmic axes (maxima near a
-    singularity can be orders of magnitude above the means). Axes are placed at
+    (mm) and of dphi_max (deg) per robot, on a linear axis from 0 or, when the
+    values span more than 20x (maxima near a singularity), a logarithmic one. Axes are placed at
     fixed positions in inches (no layout engine), colour bars glued to their
     maps. Returns a :class:`matplotlib.figure.Figure` (no pyplot state).
     """
     from matplotlib.colors import LogNorm
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
-    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter, NullLocator
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
     from mpl_toolkits.axes_grid1 import make_axes_locatable
 
     K, P = len(result.robots), len(result.phis)
@@ -460,7 +477,9 @@ def plot_comparison(result: DesignComparison):
             ax.set_title(f"δp_max ratio at φ = {phi_deg:g}°\n{result.labels[k]} / {result.labels[0]}",
                          fontsize="small")
             if region.is_empty:
-                ax.text(0.5, 0.5, "no shared region", transform=ax.transAxes, ha="center", va="center")
+                why = ("no shared region" if not region.inside.any() else
+                       "every shared grid point is\nnear a singularity of some robot")
+                ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center")
                 ax.set_xticks([])
                 ax.set_yticks([])
                 continue
@@ -486,7 +505,7 @@ def plot_comparison(result: DesignComparison):
             ax.text(0.5, -0.2, f"mean {row.ratio_mean[3]:.3g}×, min {row.ratio_min[3]:.3g}×, "
                                f"max {row.ratio_max[3]:.3g}× ({row.n_shared} points)",
                     transform=ax.transAxes, ha="center", va="top", fontsize="small")
-        # bars: mean (filled) and max (outline) per robot, log scale
+        # bars: mean (filled) and max (outline) per robot
         rows = [result.row(p, k) for k in range(K)]
         ax_mm, ax_deg = axes_at(p, K), axes_at(p, K + 1)
         step = 0.8 / K
@@ -500,20 +519,20 @@ def plot_comparison(result: DesignComparison):
             ax_deg.bar([offs], [np.degrees(row.max[2])], step * 0.9, facecolor="none", edgecolor=color,
                        linewidth=1.4)
             ax_deg.bar([offs], [np.degrees(row.mean[2])], step * 0.55, color=color)
-        for a in (ax_mm, ax_deg):
-            a.set_yscale("log")
-            a.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-            a.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-            a.yaxis.set_minor_formatter(NullFormatter())
-            a.grid(True, axis="y", which="both", alpha=0.25)
+        for a, idx, unit in ((ax_mm, [0, 1, 3], "mm"), (ax_deg, [2], "deg")):
+            note = _bar_scale(a, np.degrees(np.concatenate([np.concatenate([r.mean[idx], r.max[idx]]) for r in rows]))
+                              if unit == "deg" else np.concatenate([np.concatenate([r.mean[idx], r.max[idx]])
+                                                                    for r in rows]))
+            a.set_ylabel(f"worst-case error ({unit}{note})")
+            a.grid(True, axis="y", alpha=0.25)
             a.tick_params(labelsize="small")
         ax_mm.set_xticks(range(3), ["δx_max", "δy_max", "δp_max"])
-        ax_mm.set_ylabel("worst-case error (mm, log scale)")
         ax_mm.set_title(f"over each workspace, φ = {phi_deg:g}°\nmean (filled), max (outline)", fontsize="small")
         ax_deg.set_xticks([0], ["δφ_max"])
         ax_deg.set_xlim(-0.55, 0.55)
-        ax_deg.set_ylabel("worst-case error (deg, log scale)")
-        handles = [Patch(color=_COLORS[k % len(_COLORS)], label=result.labels[k]) for k in range(K)]
+        handles = [Patch(color=_COLORS[k % len(_COLORS)], label=result.labels[k] + (
+            "" if np.isfinite(rows[k].mean[3]) else ": empty workspace" if rows[k].n_points == 0
+            else ": every point near a singularity")) for k in range(K)]
         ax_mm.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.13), fontsize="small",
                      frameon=False)
     return fig

@@ -93,9 +93,9 @@ def run(args: argparse.Namespace) -> int:
     result = compare_designs(robots, clearances, np.radians(args.phi_deg), args.grid)
     for phi_deg, region in zip(args.phi_deg, result.shared):
         if region.is_empty:
-            print(f"pmaccuracy compare-designs: the workspaces share no region at phi = {phi_deg:g} deg "
-                  "(no grid point inside all of them and regular for every robot): ratios are null",
-                  file=sys.stderr)
+            why = (f"all {int(region.inside.sum())} grid points they share are near a singularity of some robot"
+                   if region.inside.any() else "the workspaces share no region")
+            print(f"pmaccuracy compare-designs: at phi = {phi_deg:g} deg {why}: ratios are null", file=sys.stderr)
     records = result.records()
     if args.out is not None:
         with open(args.out, "w", encoding="utf-8", newline="") as fh:
