@@ -537,7 +537,8 @@ class SerialErrorBounds:
     worst : with ``details=True``, per quantity (``dx, dy, dphi, dp``) the value of
         each source at the maximum (``+dx_max`` etc.): ``"joints[k].<key>"`` ->
         ``(...)`` mm or rad, ``(..., 2)`` ``(sigma mm, tau rad)`` for ``lateral``,
-        ``(..., 2)`` ``(dx, dy)`` mm for disks (0 for dphi, which disks do not change)
+        ``(..., 2)`` ``(dx, dy)`` mm for disks (0 for dphi, which disks do not change); a segment source
+        that does not change the quantity sits at ``+`` its half-width (any value attains the maximum)
     """
 
     joints: np.ndarray
