@@ -86,7 +86,7 @@ from .error_model import pose_state
 from .errors import ConfigError, MeasurementFileError, OutsideJointLimitsError
 from .geometry import Manipulator
 from .maps import error_map
-from .kinematics import DEFAULT_MAX_CONDITION, as_poses, check_within_limits, inverse_kinematics
+from .kinematics import DEFAULT_MAX_CONDITION, as_poses, check_within_limits, inverse_kinematics, regular_mask
 
 #: Push directions, in the order of the readings' second axis.
 PUSHES = ("+x", "-x", "+y", "-y", "+r", "-r")
@@ -751,7 +751,8 @@ def grid_poses(robot: Manipulator, phi: float, grid: int) -> np.ndarray:
 
     The points of a ``grid x grid`` lattice over the bounding box of the
     constant-orientation workspace at ``phi`` that lie inside it
-    (:meth:`pmaccuracy.workspace.Workspace.grid`), ordered by y, then x;
+    (:meth:`pmaccuracy.workspace.Workspace.grid`) and are not near a singularity
+    (:func:`pmaccuracy.kinematics.regular_mask`), ordered by y, then x;
     coordinates rounded to 1e-10 mm.
     """
     from .workspace import constant_orientation_workspace
@@ -760,7 +761,9 @@ def grid_poses(robot: Manipulator, phi: float, grid: int) -> np.ndarray:
         raise ConfigError(f"the grid needs at least 2 points per axis, got {grid}", key="grid")
     x, y, inside = constant_orientation_workspace(robot, float(phi)).require_nonempty().grid(int(grid))
     X, Y = np.meshgrid(np.round(x, 10), np.round(y, 10))  # tidy -2e-14 into 0; 5e-11 mm is far below the limit slack
-    return np.column_stack([X[inside], Y[inside], np.full(int(inside.sum()), float(phi))])
+    poses = np.column_stack([X[inside], Y[inside], np.full(int(inside.sum()), float(phi))])
+    # points on a singular curve inside the workspace (other architectures than the 3-PPR) cannot be measured
+    return poses[regular_mask(robot, poses)]
 
 
 def simulate_experiment(robot: Manipulator | str, clearances: ClearanceSet | str, phi: float, grid: int = 5, *,

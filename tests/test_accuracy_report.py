@@ -1,0 +1,49 @@
+"""The accuracy report of any robot and clearance set (``reproduce --robot R --clearances C``)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pmaccuracy.cli import main
+from pmaccuracy.maps import error_map, summarize
+from pmaccuracy.sources import load_clearances
+
+CASES = [("symmetric_3rpr", "rpr_typical"), ("symmetric_3rrr", "rrr_typical"), ("symmetric_3prr", "prr_typical"),
+         ("aalborg_3ppr", "all")]
+
+
+@pytest.mark.parametrize("robot,clear", CASES)
+def test_reproduce_any_robot(robot, clear, tmp_path, capsys):
+    out = tmp_path / "rep"
+    code = main(["reproduce", "--robot", robot, "--clearances", clear, "--grid", "21", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    for name in ("report.html", "report.md", "results.json", "workspace.png", "map.nc", "map_phi0.png",
+                 "map_phi30.png", "experiment/measurements.csv"):
+        assert (out / name).is_file(), name
+    res = json.loads((out / "results.json").read_text())
+    assert res["robot"] == robot and res["grid"] == 21
+    # the maps' summary is the library's error map
+    from pmaccuracy.geometry import Manipulator
+    r = Manipulator.preset(robot)
+    want = summarize(error_map(r, load_clearances(clear, r), np.radians([0.0, 30.0]), 21, progress=False))
+    got = res["cases"][res["clearances"]]
+    for phi in want:
+        for q in want[phi]:
+            np.testing.assert_allclose(got[phi][q], want[phi][q], rtol=1e-12)
+    # the exact virtual prototype stays within a few % of the first-order maxima at well-conditioned points
+    for c in res["nonlinear_check"]:
+        assert abs(c["exact"] - c["first_order"]) <= 0.05 * c["first_order"]
+    # the width-consistent RMSD of the virtual experiment is at the level of the camera noise (0.01 mm, deg)
+    assert all(v < 0.05 for v in res["experiment"]["rmsd_width_consistent"].values())
+    html = (out / "report.html").read_text()
+    assert "Virtual experiment" in html and "nonlinear" in html
+
+
+def test_reproduce_other_architecture_needs_clearances(tmp_path, capsys):
+    code = main(["reproduce", "--robot", "symmetric_3rpr", "--out", str(tmp_path / "x")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--clearances" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
