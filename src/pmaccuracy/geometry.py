@@ -178,8 +178,13 @@ class Manipulator(_tomlio.TomlPresets):
         Also refuses geometries that can reach no pose at all within their joint
         ranges (:func:`check_reachable`).
         """
-        _tomlio.reject_unknown(data, {"architecture", "name", "description", "legs"}, source=source, where="")
         arch = data.get("architecture", "3-PPR")
+        if arch == "serial":
+            raise UnsupportedArchitectureError(
+                "this is a planar serial arm: it works with 'pmaccuracy bounds --joints Q1 Q2 ...' "
+                "(pmaccuracy.serial.SerialArm); the other commands take parallel robots", source=source,
+                key="architecture")
+        _tomlio.reject_unknown(data, {"architecture", "name", "description", "legs"}, source=source, where="")
         leg_type = LEG_TYPES.get(arch) if isinstance(arch, str) else None
         if leg_type is None:
             raise ConfigError(f"unknown architecture {arch!r} (expected one of {', '.join(LEG_TYPES)})",

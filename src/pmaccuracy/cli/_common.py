@@ -43,7 +43,8 @@ def positive_int(text: str) -> int:
 def add_robot(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="aalborg_3ppr",
                         help="preset name (aalborg_3ppr, symmetric_3ppr, symmetric_3rpr, symmetric_3rrr, "
-                             "symmetric_3prr) or path to a robot TOML file of any architecture "
+                             "symmetric_3prr; serial arm for bounds --joints: planar_3r_arm) or path to a robot "
+                             "TOML file of any architecture "
                              "(default: aalborg_3ppr)")
 
 
