@@ -211,11 +211,11 @@ def write_table_columns(columns: Mapping[str, np.ndarray], stream: IO[str], bloc
     arrays = [np.asarray(columns[n], dtype=float).reshape(-1) for n in names]
     widths = [max(len(n), _g6_width(a)) for n, a in zip(names, arrays)]
     stream.write("  ".join(n.rjust(w) for n, w in zip(names, widths)) + "\n")
-    row = "  ".join(f"{{:>{w}.6g}}" for w in widths) + "\n"
+    row = "  ".join(f"%{w}.6g" for w in widths) + "\n"   # printf-style: about twice as fast as str.format
     n_rows = len(arrays[0]) if arrays else 0
     for start in range(0, n_rows, block):
         lists = [a[start:start + block].tolist() for a in arrays]
-        stream.write("".join(row.format(*r) for r in zip(*lists)))
+        stream.write("".join([row % r for r in zip(*lists)]))
 
 
 def format_columns(columns: Mapping[str, np.ndarray], fmt: str, stream: IO[str]) -> None:

@@ -792,7 +792,8 @@ def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, titl
     """
     names = list(datasets)
     values = [(d if isinstance(d, MeasuredErrors) else measured_errors(d)).values() for d in datasets.values()]
-    fig = Figure(figsize=(10, 7.5), layout="constrained")
+    fig = Figure(figsize=(10, 7.5))
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.92, wspace=0.28, hspace=0.3)  # no layout engine
     for ax, q in zip(fig.subplots(2, 2).ravel(), QUANTITIES):
         ax.boxplot([v[q] for v in values])
         ax.set_xticks(range(1, len(names) + 1))
@@ -811,7 +812,8 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     m = measurements.measurements if isinstance(measurements, Comparison) else measurements
     errors = measured_errors(m)
     n = len(m)
-    fig = Figure(figsize=(max(6.0, min(0.28 * n + 3, 18.0)), 6), layout="constrained")
+    fig = Figure(figsize=(max(6.0, min(0.28 * n + 3, 18.0)), 6))
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.13, top=0.9, hspace=0.12)
     ax_p, ax_r = fig.subplots(2, 1, sharex=True)
     pos = np.arange(n)
     ax_p.bar(pos, errors.dp, color="tab:blue")
@@ -835,7 +837,8 @@ def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str |
     """
     meas, pred = comparison.measured_values(), comparison.predicted_values(factor)
     half, band, reg = comparison.band_halfwidths(), comparison.band(factor), comparison.regression(factor)
-    fig = Figure(figsize=(10, 9), layout="constrained")
+    fig = Figure(figsize=(10, 9))
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.92, wspace=0.3, hspace=0.3)
     for ax, q in zip(fig.subplots(2, 2).ravel(), QUANTITIES):
         x, y = meas[q], pred[q]
         lo = float(min(x.min(), y.min())) - 2 * half[q]

@@ -643,7 +643,7 @@ def save_workspace_figure(robot: Manipulator, path: str | Path,
     plot_workspaces(robot, phis, ax=ax_zoom, zoom=True)
     ax_zoom.set_title("constant-orientation workspaces (zoom)")
     ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize="small", frameon=False)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.2, top=0.94, wspace=0.22)  # fixed: no layout pass
     path = Path(path)
     fig.savefig(path, dpi=dpi, format="png")
     fig.clear()
@@ -688,7 +688,7 @@ def save_comparison_figure(robots: list[Manipulator], path: str | Path,
     keep = [k for k, text in enumerate(labels) if "phi" not in text]
     fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="lower center", ncol=len(keep),
                fontsize="small", frameon=False)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.24, top=0.9, wspace=0.3)
     path = Path(path)
     fig.savefig(path, dpi=dpi, format="png")
     fig.clear()
