@@ -185,6 +185,14 @@ class ErrorSources:
         return self
 
 
+def _leg_screws(chain, q: np.ndarray, poses: np.ndarray):
+    """Joint centres and directions, the constraint force ``f`` (complex), its moment ``m_P`` about P and
+    ``B_ii`` of one leg at joint values ``q (..., 3)`` (:meth:`pmaccuracy.legs.Chain.screws`)."""
+    centres, dirs, _, _ = chain.frames(q)
+    A_row, B = chain.screws(q, poses)
+    return centres, dirs, A_row[..., 0] + 1j * A_row[..., 1], A_row[..., 2], B, A_row
+
+
 def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """``c_i`` (mm), shape ``(..., 3)``: the largest ``|e_i|`` of each leg's sources (module docstring).
 
@@ -196,10 +204,7 @@ def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndar
     out = []
     for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
         q = joints[..., i, :]
-        centres, dirs, angle, end = chain.frames(q)
-        A_row, B = chain.screws(q, poses)
-        f = A_row[..., 0] + 1j * A_row[..., 1]
-        m_P = A_row[..., 2]
+        centres, dirs, f, m_P, B, _ = _leg_screws(chain, q, poses)
 
         def moment(c):
             # moment about c = m_O - c x f = m_P + (P - c) x f  (m_P = m_O - P x f)
@@ -315,10 +320,7 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
     sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
     for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
         q = joints[..., i, :]
-        centres, dirs, _, _ = chain.frames(q)
-        A_row, B = chain.screws(q, poses)
-        f = A_row[..., 0] + 1j * A_row[..., 1]
-        m_P = A_row[..., 2]
+        centres, dirs, f, m_P, B, _ = _leg_screws(chain, q, poses)
         t = signs[..., i]
         unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
@@ -354,10 +356,7 @@ def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: Join
     rows, es = [], []
     for i, chain in enumerate(robot.chains):
         q = joints[..., i, :]
-        centres, dirs, _, _ = chain.frames(q)
-        A_row, B = chain.screws(q, poses)
-        f = A_row[..., 0] + 1j * A_row[..., 1]
-        m_P = A_row[..., 2]
+        centres, dirs, f, m_P, B, A_row = _leg_screws(chain, q, poses)
         e = np.zeros(poses.shape[:-1])
         for k, joint in enumerate(chain.joints):
             e = e + dot(f, config.shift[..., i, k])
