@@ -1,4 +1,4 @@
-"""pmaccuracy: exact worst-case pose errors of planar 3-PPR parallel manipulators with joint clearances.
+"""pmaccuracy: exact worst-case pose errors of planar parallel manipulators (any architecture) with joint clearances.
 
 Implements and extends G. Wu, S. Bai, J. A. Kepler, S. Caro, "Error Modelling and
 Experimental Validation of a Planar 3-PPR Parallel Manipulator with Joint
