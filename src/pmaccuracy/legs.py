@@ -453,9 +453,11 @@ class Chain:
         """
         poses = np.asarray(poses, dtype=float)
         branches = self.ik_branches(poses)  # (..., 2, 3)
-        A_rows, Bs = self.screws(branches, poses[..., None, :])
         if self.n_branches == 1:
-            return branches[..., 0, :], A_rows[..., 0, :], Bs[..., 0]
+            q = branches[..., 0, :]
+            A_row, B = self.screws(q, poses)
+            return q, A_row, B
+        A_rows, Bs = self.screws(branches, poses[..., None, :])
         pick = np.where(np.sign(Bs[..., 0]) == self.working_mode, 0, 1)
         q = np.take_along_axis(branches, pick[..., None, None], axis=-2)[..., 0, :]
         A_row = np.take_along_axis(A_rows, pick[..., None, None], axis=-2)[..., 0, :]
