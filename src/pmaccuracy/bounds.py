@@ -299,7 +299,7 @@ def _generic_block(robot: Manipulator, sources, poses: np.ndarray, allow_outside
     (:class:`~pmaccuracy.errors.SingularPoseError`); ``"nan"`` returns NaN there.
     """
     from .kinematics import _condition, _raise_serial, _raise_singular, _transmission, inverse_3x3, inverse_kinematics
-    from .sources import half_widths
+    from .sources import states_half_widths
 
     ik = inverse_kinematics(robot, poses)
     if not allow_outside or not np.all(ik.reachable):
@@ -313,7 +313,7 @@ def _generic_block(robot: Manipulator, sources, poses: np.ndarray, allow_outside
             _raise_singular(robot, poses, cond <= max_condition, cond, max_condition)
         _raise_serial(poses, trans, max_condition)
     A_inv = np.where(regular[:, None, None], A_inv, np.nan)
-    c = half_widths(robot, sources, ik.joints, poses)
+    c = states_half_widths(robot, sources, ik.states, poses)
     out = zonotope_maxima(A_inv, c)
     out["signs"] = {"dx": _sign(A_inv[:, 0, :]), "dy": _sign(A_inv[:, 1, :]), "dphi": _sign(A_inv[:, 2, :]),
                     "dp": out["t"]}

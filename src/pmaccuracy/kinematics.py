@@ -12,7 +12,7 @@ every function broadcasts over the leading axes. Actuated joint values are mm
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -64,6 +64,8 @@ class IKSolution:
     within_limits: np.ndarray
     A: np.ndarray
     B: np.ndarray
+    #: The legs' :class:`~pmaccuracy.legs.LegState` (joint geometry and wrenches) behind these values.
+    states: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def q(self) -> np.ndarray:
@@ -117,21 +119,33 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     [-15.0, -15.0, 0.0]
     """
     poses = as_poses(poses)
-    joints, rows, Bs, ok = [], [], [], []
-    for chain in robot.chains:
-        q, A_row, B = chain.inverse_kinematics(poses)
-        joints.append(q)
-        rows.append(A_row)
-        Bs.append(B)
-        ok.append(chain.within_limits(q, tol))
-    joints = np.stack(joints, axis=-2)
-    A = np.stack(rows, axis=-2)
-    B = np.zeros(poses.shape[:-1] + (3, 3))
-    idx = np.arange(3)
-    B[..., idx, idx] = np.stack(Bs, axis=-1)
-    within = np.all(np.stack(ok, axis=-1), axis=-1) & np.all(np.isfinite(joints), axis=(-2, -1))
+    return ik_from_states(robot, leg_states(robot, poses), tol)
+
+
+def leg_states(robot: Manipulator, poses: np.ndarray) -> tuple:
+    """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.legs.LegState` (one pass per leg,
+    ``exp(i phi)`` shared)."""
+    phi = poses[..., 2]
+    e_phi = np.cos(phi) + 1j * np.sin(phi)
+    return tuple(chain.state(poses, e_phi) for chain in robot.chains)
+
+
+def ik_from_states(robot: Manipulator, states: tuple, tol: float = LIMIT_TOLERANCE) -> IKSolution:
+    """:class:`IKSolution` of the legs' states (:func:`leg_states`): joint values, limits, A and B."""
+    joints = np.stack([st.q for st in states], axis=-2)
+    shape = joints.shape[:-2]
+    A = np.empty(shape + (3, 3))
+    B = np.zeros(shape + (3, 3))
+    within = np.ones(shape, dtype=bool)
+    for i, (chain, st) in enumerate(zip(robot.chains, states)):
+        A[..., i, 0] = st.f.real
+        A[..., i, 1] = st.f.imag
+        A[..., i, 2] = st.m_P
+        B[..., i, i] = st.B
+        within &= chain.within_limits(st.q, tol)
+    within &= np.all(np.isfinite(joints), axis=(-2, -1))
     act = np.array([c.actuated_index for c in robot.chains])
-    return IKSolution(joints=joints, actuated_index=act, within_limits=within, A=A, B=B)
+    return IKSolution(joints=joints, actuated_index=act, within_limits=within, A=A, B=B, states=states)
 
 
 @dataclass(frozen=True)
@@ -610,21 +624,24 @@ def _condition(robot: Manipulator, A: np.ndarray, A_inv: np.ndarray) -> np.ndarr
 
 
 def _transmission(robot: Manipulator, ik: IKSolution, poses: np.ndarray) -> np.ndarray:
+    """Each leg's transmission index ``(..., 3)`` in [0, 1]: ``|B_ii|`` normalized by the actuated joint's
+    moment arm (1 for a pure couple); 0 where undefined."""
+    states = ik.states if ik.states is not None else \
+        tuple(chain.state_at(ik.joints[..., i, :], poses) for i, chain in enumerate(robot.chains))
     out = []
-    for i, chain in enumerate(robot.chains):
-        B = ik.B[..., i, i]
+    for i, (chain, st) in enumerate(zip(robot.chains, states)):
+        B = np.broadcast_to(st.B, ik.B.shape[:-2])
         if chain.actuated.kind == "P":
             out.append(np.abs(B))
             continue
-        centres, _, _, _ = chain.frames(ik.joints[..., i, :])
         a = chain.actuated_index
         pi, pj = chain.passive_indices
         kinds = chain.joints[pi].kind + chain.joints[pj].kind
         if kinds == "PP":
             out.append(np.ones(B.shape))
             continue
-        line_point = centres[..., pi] if chain.joints[pi].kind == "R" else centres[..., pj]
-        arm = np.abs(line_point - centres[..., a])
+        line_point = st.centres[pi] if chain.joints[pi].kind == "R" else st.centres[pj]
+        arm = np.abs(line_point - st.centres[a])
         with np.errstate(invalid="ignore", divide="ignore"):
             out.append(np.where(arm > 0, np.abs(B) / np.where(arm > 0, arm, 1.0), 0.0))
     t = np.stack(out, axis=-1)

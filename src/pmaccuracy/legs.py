@@ -199,6 +199,44 @@ class Curve:
 
 
 @dataclass(frozen=True)
+class LegState:
+    """One leg evaluated at a batch of poses (the data of one evaluation; :meth:`Chain.state`).
+
+    Attributes (leading shape ``(...)`` of the poses)
+    -------------------------------------------------
+    q : ``(..., 3)`` joint values base to platform (mm for P, rad for R in ``(-pi, pi]``), NaN out of reach
+    centres : three ``(...)`` complex (mm): the frame origin before each joint (an R joint's centre), base frame
+    dirs : three ``(...)`` complex unit vectors: each joint's x-axis (a P joint's direction), base frame
+    f : ``(...)`` complex: the unit constraint force of the two passive joints (0 for two passive slides)
+    m_P : ``(...)`` mm: its moment about the platform centre P (1 for a pure couple)
+    B : ``(...)``: ``B_ii``, its pairing with the actuated joint's unit twist (mm for R, 1 for P)
+
+    Row ``i`` of ``A`` is ``[f_x, f_y, m_P]`` (:attr:`A_row`), so ``A [dp; dphi] = B_ii dq_actuated``.
+    Arrays may be broadcast views (read-only) or plain complex scalars where a quantity is constant.
+    """
+
+    q: np.ndarray
+    centres: tuple
+    dirs: tuple
+    f: np.ndarray
+    m_P: np.ndarray
+    B: np.ndarray
+
+    @property
+    def A_row(self) -> np.ndarray:
+        """``(..., 3)``: ``[f_x, f_y, m_P]``, the leg's row of ``A`` (Eq. 4a in general form)."""
+        return np.stack([self.f.real, self.f.imag, self.m_P], axis=-1)
+
+    def where(self, mask: np.ndarray, other: "LegState") -> "LegState":
+        """This state where ``mask`` is False and ``other`` where it is True (elementwise)."""
+        pick = lambda a, b: np.where(mask, b, a)  # noqa: E731
+        return LegState(q=np.where(mask[..., None], other.q, self.q),
+                        centres=tuple(pick(a, b) for a, b in zip(self.centres, other.centres)),
+                        dirs=tuple(pick(a, b) for a, b in zip(self.dirs, other.dirs)),
+                        f=pick(self.f, other.f), m_P=pick(self.m_P, other.m_P), B=pick(self.B, other.B))
+
+
+@dataclass(frozen=True)
 class Chain:
     """A leg as a chain of three one-DOF joints (general form; module docstring).
 
@@ -445,24 +483,174 @@ class Chain:
                 q[..., :, 2] = wrap(S[..., None] - q1 - q2)   # q1 + q2 + q3 = gamma - o1 - o2 - o3 = S
         return q
 
+    # ------------------------------------------------------------------ one evaluation (lean path)
+    @cached_property
+    def _branch(self) -> float:
+        """The sign of the square root (``+1`` or ``-1`` in :meth:`ik_branches`) whose branch has
+        ``sign(B_ii) = working_mode``.
+
+        ``B_ii`` vanishes only where the two branches merge, so the sign is the
+        same on a whole branch: it is read once at a pose built by forward
+        evaluation of generic joint values. :meth:`state` still checks every pose
+        and takes the other root where this guess does not hold.
+        """
+        if self.n_branches == 1:
+            return 1.0
+        scale = self._scale()
+        q = np.array([0.61 if j.kind == "R" else 0.37 * scale for j in self.joints])
+        _, _, angle, origin = self.frames(q)
+        attach = complex(origin) - np.exp(1j * (float(angle) - self.platform_angle)) * self.platform_z
+        pose = np.array([attach.real, attach.imag, float(angle) - self.platform_angle])
+        for sigma in (1.0, -1.0):
+            B = self._solve(pose[None, :], sigma).B
+            if np.isfinite(B[0]) and B[0] * self.working_mode > 0:
+                return sigma
+        return 1.0
+
+    def _solve(self, poses: np.ndarray, sigma: float, e_phi: np.ndarray | None = None) -> "LegState":
+        """The IK branch with root sign ``sigma`` and its geometry, without trigonometry beyond one ``arctan2``
+        per revolute angle (:meth:`state`)."""
+        x, y, phi = poses[..., 0], poses[..., 1], poses[..., 2]
+        if e_phi is None:
+            e_phi = np.cos(phi) + 1j * np.sin(phi)
+        pz = x + 1j * y
+        eb = complex(np.exp(1j * self.base_angle))
+        g = eb.conjugate() * (pz + e_phi * self.platform_z - self.base_z)       # end origin, leg frame
+        E_g = e_phi * complex(np.exp(1j * (self.platform_angle - self.base_angle)))  # exp(i gamma)
+        oc = self._offsets_cum
+        links = self._links
+        rot = [complex(np.exp(1j * o)) for o in oc]
+        E_S = E_g * rot[2].conjugate()                                           # exp(i S), S = gamma - o1-o2-o3
+        S = phi + (self.platform_angle - self.base_angle - oc[2])
+        rs = [k for k, joint in enumerate(self.joints) if joint.kind == "R"]
+        q: list[Any] = [None, None, None]
+        d: list[Any] = [None, None, None]   # joint directions in the leg frame
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if len(rs) == 1:
+                m = rs[0]
+                d = [rot[k] * E_S if k >= m else rot[k] for k in range(3)]
+                rhs = g - sum(d[k] * links[k] for k in range(3))
+                a, b = (k for k in range(3) if k != m)
+                den = cross(d[a], d[b])
+                den = np.where(np.abs(den) > 1e-12, den, np.nan)
+                q[a] = cross(rhs, d[b]) / den
+                q[b] = cross(d[a], rhs) / den
+                q[m] = wrap(S)
+            elif len(rs) == 2:
+                m, n = rs
+                k = 3 - m - n
+                fixed = sum(rot[j] * links[j] for j in range(m)) + \
+                    sum(rot[j] * links[j] for j in range(n, 3)) * E_S
+                V = self._rotating_part(m, n)
+                W = g - fixed
+                if m <= k < n:
+                    ek = rot[k]
+                    W2 = W.real ** 2 + W.imag ** 2
+                    root = np.sqrt(_clip_disc(W2 - cross(V, ek) ** 2, W2))
+                    qk = -dot(V, ek) + sigma * root
+                    E_t = W * np.conj(V + qk * ek) / W2
+                else:
+                    ek = rot[k] * E_S if k >= n else rot[k]
+                    V2 = abs(V) ** 2
+                    root = np.sqrt(_clip_disc(V2 - cross(W, ek) ** 2, V2))
+                    qk = dot(W, ek) + sigma * root
+                    E_t = (W - qk * ek) * V.conjugate() / V2
+                q[k] = qk
+                q[m] = np.angle(E_t)
+                q[n] = wrap(S - q[m])
+                d = [rot[j] if j < m else rot[j] * E_t if j < n else rot[j] * E_S for j in range(3)]
+            else:
+                l1, l2, l3 = links
+                L1, L2 = abs(l1), abs(l2)
+                W = g - E_g * l3
+                W2 = W.real ** 2 + W.imag ** 2
+                c = (W2 - L1 ** 2 - L2 ** 2) / (2 * L1 * L2)
+                c = np.where(np.abs(c) <= 1 + 1e-12, np.clip(c, -1.0, 1.0), np.nan)
+                beta = sigma * np.arccos(c)
+                E_rel = (c + 1j * (sigma * np.sqrt(1.0 - c * c))) * complex(l1 / L1 * (l2 / L2).conjugate())
+                E_t1 = W * np.conj(l1 + E_rel * l2) / W2
+                q[0] = np.angle(E_t1 * rot[0].conjugate())
+                q[1] = wrap(beta + (np.angle(l1) - np.angle(l2) - self.joints[1].offset))
+                q[2] = wrap(S - q[0] - q[1])
+                d = [E_t1, E_t1 * E_rel, E_g * rot[2].conjugate() * rot[2]]
+        dirs = tuple(eb * dk for dk in d)
+        centres = []
+        pos: Any = self.base_z
+        for k, joint in enumerate(self.joints):
+            centres.append(pos)
+            pos = pos + dirs[k] * ((q[k] + joint.link_z) if joint.kind == "P" else joint.link_z)
+        shape = phi.shape
+        qs = np.stack([np.broadcast_to(v, shape) for v in q], axis=-1)
+        return self._screw_state(qs, tuple(centres), dirs, pz)
+
+    def _screw_state(self, q: np.ndarray, centres: tuple, dirs: tuple, pz: np.ndarray) -> "LegState":
+        """:class:`LegState` from joint values, centres and directions: the constraint wrench of the passive
+        joints (:func:`~pmaccuracy.screws.constraint_wrench`), its moment about P and ``B_ii``."""
+        i, j = self.passive_indices
+        ki, kj = self.joints[i].kind, self.joints[j].kind
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if ki == "R" and kj == "R":
+                line = centres[i]
+                dvec = centres[j] - centres[i]
+                f = dvec / np.abs(dvec)
+            elif ki == "P" and kj == "P":
+                line = None
+                f = np.zeros(np.shape(pz), dtype=complex)
+            else:
+                line = centres[i] if ki == "R" else centres[j]
+                f = 1j * (dirs[j] if ki == "R" else dirs[i])
+        a = self.actuated_index
+        if line is None:                       # a pure couple: m = 1 about every point
+            m_P = np.ones(np.shape(pz))
+            B = m_P if self.joints[a].kind == "R" else np.zeros(np.shape(pz))
+        else:
+            m_P = cross(line - pz, f)
+            B = cross(line - centres[a], f) if self.joints[a].kind == "R" else dot(f, dirs[a])
+        f = np.broadcast_to(f, np.shape(pz))
+        return LegState(q=q, centres=centres, dirs=dirs, f=f, m_P=np.broadcast_to(m_P, np.shape(pz)),
+                        B=np.broadcast_to(B, np.shape(pz)))
+
+    def state(self, poses: np.ndarray, e_phi: np.ndarray | None = None) -> "LegState":
+        """The leg at poses ``(..., 3)`` on its working mode: joint values, joint geometry and wrench.
+
+        The closed forms of :meth:`ik_branches` written for one branch, with every
+        joint direction obtained from the solution's vectors instead of
+        ``exp(i angle)``: one IK, the joint centres and directions, the
+        constraint wrench ``(f, m_P)`` and ``B_ii`` (Eq. 2-4 in general form) in
+        one pass. ``e_phi`` may pass ``exp(i phi)`` ``(...)`` shared by the legs.
+        NaN where the leg cannot reach the pose.
+
+        >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")), platform=(0.0, 0.0))
+        >>> st = chain.state(np.array([3.0, 4.0, 0.0]))
+        >>> st.q.round(6).tolist(), complex(st.f), float(st.B)
+        ([0.927295, 5.0, -0.927295], (0.6+0.8j), 1.0)
+        """
+        poses = np.asarray(poses, dtype=float)
+        st = self._solve(poses, self._branch, e_phi)
+        if self.n_branches == 2:
+            wrong = st.B * self.working_mode < 0
+            if np.any(wrong):
+                other = self._solve(poses, -self._branch, e_phi)
+                st = st.where(wrong, other)
+        return st
+
+    def state_at(self, q: np.ndarray, poses: np.ndarray) -> "LegState":
+        """:class:`LegState` at given joint values ``q (..., 3)`` and poses ``(..., 3)`` (no IK)."""
+        q = np.asarray(q, dtype=float)
+        centres, dirs, _, _ = self.frames(q)
+        p = np.asarray(poses, dtype=float)
+        pz = p[..., 0] + 1j * p[..., 1]
+        return self._screw_state(q, tuple(centres[..., k] for k in range(3)), tuple(dirs[..., k] for k in range(3)),
+                                 pz)
+
     def inverse_kinematics(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Joint values on the working mode's branch: ``q (..., 3)``, ``A_row (..., 3)``, ``B (...)``.
 
         For legs with two branches the branch with ``sign(B_ii) = working_mode``
         is taken (module docstring); NaN where the pose is out of reach.
         """
-        poses = np.asarray(poses, dtype=float)
-        branches = self.ik_branches(poses)  # (..., 2, 3)
-        if self.n_branches == 1:
-            q = branches[..., 0, :]
-            A_row, B = self.screws(q, poses)
-            return q, A_row, B
-        A_rows, Bs = self.screws(branches, poses[..., None, :])
-        pick = np.where(np.sign(Bs[..., 0]) == self.working_mode, 0, 1)
-        q = np.take_along_axis(branches, pick[..., None, None], axis=-2)[..., 0, :]
-        A_row = np.take_along_axis(A_rows, pick[..., None, None], axis=-2)[..., 0, :]
-        B = np.take_along_axis(Bs, pick[..., None], axis=-1)[..., 0]
-        return q, A_row, B
+        st = self.state(poses)
+        return st.q, st.A_row, np.asarray(st.B)
 
     def within_limits(self, q: np.ndarray, tol: float) -> np.ndarray:
         """True where every joint value ``q (..., 3)`` is within its range (slack ``tol``)."""

@@ -185,12 +185,9 @@ class ErrorSources:
         return self
 
 
-def _leg_screws(chain, q: np.ndarray, poses: np.ndarray):
-    """Joint centres and directions, the constraint force ``f`` (complex), its moment ``m_P`` about P and
-    ``B_ii`` of one leg at joint values ``q (..., 3)`` (:meth:`pmaccuracy.legs.Chain.screws`)."""
-    centres, dirs, _, _ = chain.frames(q)
-    A_row, B = chain.screws(q, poses)
-    return centres, dirs, A_row[..., 0] + 1j * A_row[..., 1], A_row[..., 2], B, A_row
+def _leg_states(robot, joints: np.ndarray, poses: np.ndarray) -> tuple:
+    """Each leg's :class:`~pmaccuracy.legs.LegState` at joint values ``joints (..., 3, 3)`` and poses ``(..., 3)``."""
+    return tuple(chain.state_at(joints[..., i, :], poses) for i, chain in enumerate(robot.chains))
 
 
 def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -200,34 +197,39 @@ def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndar
     (:func:`pmaccuracy.kinematics.inverse_kinematics`).
     """
     poses = np.asarray(poses, dtype=float)
+    return states_half_widths(robot, sources, _leg_states(robot, joints, poses), poses)
+
+
+def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.ndarray) -> np.ndarray:
+    """:func:`half_widths` from the legs' states (:func:`pmaccuracy.kinematics.leg_states`), ``(..., 3)`` mm.
+
+    Per joint ``k`` with centre ``c_k``, direction ``e_k`` and the leg's wrench
+    ``(f, m_P)``: ``M(c) = m_P + (P - c) x f`` is the moment about ``c``, and the
+    shares of the table in the module docstring add up.
+    """
     pz = poses[..., 0] + 1j * poses[..., 1]
-    out = []
-    for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
-        q = joints[..., i, :]
-        centres, dirs, f, m_P, B, _ = _leg_screws(chain, q, poses)
-
-        def moment(c):
-            # moment about c = m_O - c x f = m_P + (P - c) x f  (m_P = m_O - P x f)
-            return m_P + cross(pz - c, f)
-
-        c = np.zeros(poses.shape[:-1])
+    out = np.zeros(poses.shape[:-1] + (3,))
+    for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, states)):
+        f, m_P = st.f, st.m_P
+        c = out[..., i]
+        abs_f = None
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if e.radial or e.position:
-                c = c + (e.radial + e.position) * np.abs(f)
+                abs_f = np.abs(f) if abs_f is None else abs_f
+                c += (e.radial + e.position) * abs_f
             if e.angular or e.direction:
-                c = c + (e.angular + e.direction) * np.abs(moment(centres[..., k]))
+                c += (e.angular + e.direction) * np.abs(m_P + cross(pz - st.centres[k], f))
             if e.lateral:
-                carriage = centres[..., k] + q[..., k] * dirs[..., k]
-                shift = e.lateral * np.abs(dot(f, 1j * dirs[..., k]))
-                tilt = 2 * e.lateral * np.abs(moment(carriage)) / e.block_length
-                c = c + np.maximum(shift, tilt)
+                carriage = st.centres[k] + st.q[..., k] * st.dirs[k]
+                shift = e.lateral * np.abs(dot(f, 1j * st.dirs[k]))
+                tilt = (2 * e.lateral / e.block_length) * np.abs(m_P + cross(pz - carriage, f))
+                c += np.maximum(shift, tilt)
             if e.actuator:
-                c = c + e.actuator * np.abs(B)
+                c += e.actuator * np.abs(st.B)
             if e.length and joint.link != (0.0, 0.0):
-                link_dir = dirs[..., k] * joint.link_z / abs(joint.link_z)
-                c = c + e.length * np.abs(dot(f, link_dir))
-        out.append(c)
-    return np.stack(out, axis=-1)
+                link_dir = st.dirs[k] * (joint.link_z / abs(joint.link_z))
+                c += e.length * np.abs(dot(f, link_dir))
+    return out
 
 
 def is_per_joint(data: dict[str, Any]) -> bool:
@@ -318,19 +320,19 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
     out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float)
            for k in ("shift", "turn", "sigma", "tau", "dq", "dl")}
     sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
-    for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
-        q = joints[..., i, :]
-        centres, dirs, f, m_P, B, _ = _leg_screws(chain, q, poses)
+    for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, _leg_states(robot, joints, poses))):
+        q = st.q
+        centres, dirs, f, m_P, B = st.centres, st.dirs, st.f, st.m_P, st.B
         t = signs[..., i]
         unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if e.radial or e.position:
                 out["shift"][..., i, k] = t * (e.radial + e.position) * unit_f
             if e.angular or e.direction:
-                out["turn"][..., i, k] = t * (e.angular + e.direction) * sgn(m_P + cross(pz - centres[..., k], f))
+                out["turn"][..., i, k] = t * (e.angular + e.direction) * sgn(m_P + cross(pz - centres[k], f))
             if e.lateral:
-                carriage = centres[..., k] + q[..., k] * dirs[..., k]
-                a = dot(f, 1j * dirs[..., k])
+                carriage = centres[k] + q[..., k] * dirs[k]
+                a = dot(f, 1j * dirs[k])
                 b = m_P + cross(pz - carriage, f)
                 shift_wins = e.lateral * np.abs(a) >= 2 * e.lateral * np.abs(b) / e.block_length
                 out["sigma"][..., i, k] = np.where(shift_wins, t * e.lateral * sgn(a), 0.0)
@@ -338,7 +340,7 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
             if e.actuator:
                 out["dq"][..., i, k] = t * e.actuator * sgn(B)
             if e.length and joint.link != (0.0, 0.0):
-                link_dir = dirs[..., k] * joint.link_z / abs(joint.link_z)
+                link_dir = dirs[k] * joint.link_z / abs(joint.link_z)
                 out["dl"][..., i, k] = t * e.length * sgn(dot(f, link_dir))
     return JointDisplacements(**out)
 
@@ -354,20 +356,20 @@ def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: Join
     poses = np.asarray(poses, dtype=float)
     pz = poses[..., 0] + 1j * poses[..., 1]
     rows, es = [], []
-    for i, chain in enumerate(robot.chains):
-        q = joints[..., i, :]
-        centres, dirs, f, m_P, B, A_row = _leg_screws(chain, q, poses)
+    for i, (chain, st) in enumerate(zip(robot.chains, _leg_states(robot, joints, poses))):
+        q = st.q
+        centres, dirs, f, m_P, B, A_row = st.centres, st.dirs, st.f, st.m_P, st.B, st.A_row
         e = np.zeros(poses.shape[:-1])
         for k, joint in enumerate(chain.joints):
             e = e + dot(f, config.shift[..., i, k])
-            e = e + config.turn[..., i, k] * (m_P + cross(pz - centres[..., k], f))
-            carriage = centres[..., k] + q[..., k] * dirs[..., k]
-            e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[..., k])
+            e = e + config.turn[..., i, k] * (m_P + cross(pz - centres[k], f))
+            carriage = centres[k] + q[..., k] * dirs[k]
+            e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[k])
             e = e + config.tau[..., i, k] * (m_P + cross(pz - carriage, f))
             if joint.actuated:
                 e = e + config.dq[..., i, k] * B
             if joint.link != (0.0, 0.0):
-                e = e + config.dl[..., i, k] * dot(f, dirs[..., k] * joint.link_z / abs(joint.link_z))
+                e = e + config.dl[..., i, k] * dot(f, dirs[k] * joint.link_z / abs(joint.link_z))
         rows.append(A_row)
         es.append(e)
     A = np.stack(rows, axis=-2)
