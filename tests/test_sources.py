@@ -91,7 +91,7 @@ def test_worst_configurations_attain_the_maxima_and_close_to_second_order(name, 
     if not isinstance(sources, ErrorSources):
         sources = ErrorSources.from_clearance_set(sources)
     poses = _inside_poses(robot, np.random.default_rng(1), 6, spread=15.0, dphi=0.2)
-    b = max_pose_errors(robot, sources, poses)
+    b = max_pose_errors(robot, sources, poses, details=True)
     ik = inverse_kinematics(robot, poses)
     for row, q in enumerate(QUANTITIES):
         cfg = worst_configuration(robot, sources, ik.joints, poses, b.worst_signs[q])

@@ -177,7 +177,7 @@ def _nonlinear_section(doc, robot, sources, ds, results) -> None:
             continue
         j, i = np.unravel_index(np.nanargmax(dp), dp.shape)
         pose = poses[j, i][None]
-        b = max_pose_errors(robot, sources, pose)
+        b = max_pose_errors(robot, sources, pose, details=True)
         joints = inverse_kinematics(robot, pose).joints
         from .nonlinear import joint_displaced_pose
         for q, row in (("dx", 0), ("dy", 1), ("dphi", 2), ("dp", None)):

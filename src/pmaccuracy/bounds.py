@@ -41,7 +41,7 @@ tolerances together keep this form (:func:`tolerance_half_widths`).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -50,7 +50,7 @@ from .clearances import ClearanceDisplacement, ClearanceSet
 from .error_model import LINK_VARIATIONS, H_diagonals, PoseState, load_variations, pose_state
 from .errors import ConfigError
 from .geometry import Manipulator, perp
-from .kinematics import DEFAULT_MAX_CONDITION, as_poses, check_within_limits
+from .kinematics import DEFAULT_MAX_CONDITION, LIMIT_TOLERANCE, as_poses, check_within_limits
 
 #: The four quantities of Eq. 21-22, in output order.
 QUANTITIES = ("dx", "dy", "dphi", "dp")
@@ -196,7 +196,7 @@ def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, H: dict[s
     return ClearanceDisplacement(tau_b=tau_b, sigma_g=sigma_g, tau_g=tau_g, rho=rho, varphi=varphi)
 
 
-#: Poses per internal block: keeps the (n, 3, 3) temporaries in cache (measured 2.4x faster than one block).
+#: Poses per internal block: keeps every temporary in cache (measured 2.4x faster than one block).
 CHUNK = 8192
 
 
@@ -209,49 +209,68 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     Parameters
     ----------
     poses : ``(..., 3)`` [x mm, y mm, phi rad]
-    tolerances : optional tolerance intervals on link parameters (manufacturing
+    tolerances : optional tolerance intervals on link parameters of a 3-PPR (manufacturing
         or assembly), ``{name: half-widths (3,)}`` in mm/rad, e.g. ``{"theta":
         [1e-3] * 3, "d": [0.05] * 3}``: worst case over clearances and tolerances
         together (:func:`tolerance_half_widths`); ``ClearanceSet()`` for
-        tolerances alone
+        tolerances alone (per-joint sources carry their tolerances themselves)
     allow_outside : evaluate poses outside the joint ranges too (otherwise
         :class:`~pmaccuracy.errors.OutsideJointLimitsError`)
-    details : also return the maximizing clearance configurations in ``.worst``
-        (keys ``"dx", "dy", "dphi", "dp"``; each moves the platform by
+    details : also return, per pose, the half-widths ``c``, the generators, the
+        vertex attaining ``dp`` and the maximizing signs ``worst_signs`` of every
+        quantity (any architecture; with :func:`pmaccuracy.sources.worst_configuration`
+        they give the maximizing source values), and for the 3-PPR clearance format
+        the maximizing clearance displacements ``.worst`` (each moves the platform by
         ``+dzeta_max`` in its quantity, its negative by ``-dzeta_max``) and, with
-        ``tolerances``, the maximizing parameter variations in ``.worst_variations``
-
+        ``tolerances``, the maximizing parameter variations ``.worst_variations``.
+        Without it only the four result arrays are built (memory: 32 bytes a pose)
     singular : ``"raise"`` (default) or ``"nan"``: NaN at poses near a singularity instead of an error
-        (per-joint sources and architectures other than the 3-PPR; a 3-PPR's singularity is a whole
-        orientation, refused up front)
 
-    Any architecture: with per-joint :class:`~pmaccuracy.sources.ErrorSources` (or any robot that is
-    not a 3-PPR) each leg's half-width comes from its sources paired with its constraint wrench
-    (:func:`pmaccuracy.sources.half_widths`); ``worst_signs`` then gives the maximizing signs.
+    Any architecture: each leg's half-width comes from its per-joint
+    :class:`~pmaccuracy.sources.ErrorSources` paired with its constraint wrench
+    (:func:`pmaccuracy.sources.states_half_widths`). A 3-PPR clearance set without
+    details or tolerances takes the same path through
+    :meth:`~pmaccuracy.sources.ErrorSources.from_clearance_set` (the same numbers as
+    the paper's Eq. 19-20, to rounding).
 
     Raises
     ------
     SingularPoseError : a pose at or near det A = 0 (condition number > ``max_condition``) or B_ii = 0
+    OutsideJointLimitsError : a pose outside the joint ranges (unless ``allow_outside``)
+
+    Example
+    -------
+    >>> b = max_pose_errors(Manipulator.preset("aalborg_3ppr"), ClearanceSet.load("case1"), [0.0, 0.0, 0.0])
+    >>> round(float(b.dy_max), 6), round(float(b.dphi_max_deg), 4)
+    (0.099851, 0.2202)
     """
     from .sources import ErrorSources
 
+    if singular not in ("raise", "nan"):
+        raise ConfigError(f"must be 'raise' or 'nan', got {singular!r}", key="singular")
     poses = as_poses(poses)
     flat = poses.reshape(-1, 3)
     lead = poses.shape[:-1]
-    if isinstance(clearances, ErrorSources) or not robot.is_3ppr:
-        if not isinstance(clearances, ErrorSources):
-            robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+    per_joint = isinstance(clearances, ErrorSources)
+    if not per_joint:
+        robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+    if per_joint or not tolerances:
         if tolerances:
             raise ConfigError("give tolerances per joint in the clearance file (position, direction, length) "
                               "for this robot", key="tolerances")
-        sources = clearances.check(robot)
-        parts = [_generic_block(robot, sources, flat[k:k + CHUNK], allow_outside, max_condition, singular)
-                 for k in range(0, max(flat.shape[0], 1), CHUNK)]
-        cat = lambda key, tail=(): np.concatenate([p[key] for p in parts]).reshape(lead + tail)  # noqa: E731
-        signs = {q: np.concatenate([p["signs"][q] for p in parts]).reshape(lead + (3,)) for q in QUANTITIES}
-        return PoseErrorBounds(poses=poses, dx_max=cat("dx"), dy_max=cat("dy"), dphi_max=cat("dphi"),
-                               dp_max=cat("dp"), half_widths=cat("c", (3,)), generators=cat("G", (3, 3)),
-                               dp_signs=cat("t", (3,)), method="exact", worst_signs=signs)
+        sources = clearances.check(robot) if per_joint else ErrorSources.from_clearance_set(clearances)
+        result = _generic_bounds(robot, sources, poses, flat, allow_outside, details, max_condition, singular)
+        if details and not per_joint:  # the paper's clearance displacements at the same signs (Eq. 16-18)
+            H = guide_shift(robot, H_diagonals(robot, pose_state(robot, flat, max_condition)))
+            worst = {q: _worst_configuration(robot, clearances, H, t.reshape(-1, 3))
+                     for q, t in result.worst_signs.items()}
+            worst = {q: ClearanceDisplacement(*(np.reshape(getattr(d, f), lead + (3,)) for f in
+                                                ("tau_b", "sigma_g", "tau_g", "rho", "varphi")))
+                     for q, d in worst.items()}
+            result = replace(result, worst=worst)
+        return result
+    if singular != "raise":
+        raise ConfigError("singular='nan' needs per-joint sources or no details/tolerances", key="singular")
     tolerances = _check_tolerances(tolerances or {})
     parts = [_exact_block(robot, clearances, tolerances, flat[k:k + CHUNK], allow_outside, details, max_condition)
              for k in range(0, max(flat.shape[0], 1), CHUNK)]
@@ -269,10 +288,11 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     if details and tolerances:
         worst_variations = {q: {name: np.concatenate([p["worst_variations"][q][name] for p in parts]).reshape(lead + (3,))
                                 for name in tolerances} for q in QUANTITIES}
+    signs = {q: joined(f"s_{q}", (3,)) for q in QUANTITIES} if details else {}
     return PoseErrorBounds(poses=poses, dx_max=joined("dx"), dy_max=joined("dy"), dphi_max=joined("dphi"),
                            dp_max=joined("dp"), half_widths=joined("c", (3,)), generators=joined("G", (3, 3)),
                            dp_signs=joined("t", (3,)), method="exact", worst=worst,
-                           worst_variations=worst_variations)
+                           worst_variations=worst_variations, worst_signs=signs)
 
 
 def zonotope_maxima(A_inv: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
@@ -291,32 +311,158 @@ def zonotope_maxima(A_inv: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
             "dp": np.take_along_axis(norms, best[:, None], axis=-1)[:, 0], "c": c, "G": G, "t": _VERTEX_SIGNS[best]}
 
 
-def _generic_block(robot: Manipulator, sources, poses: np.ndarray, allow_outside: bool,
-                   max_condition: float, singular: str) -> dict:
-    """Exact maxima of any architecture on one block: per-joint sources paired with the legs' wrenches.
+@dataclass(frozen=True)
+class _Block:
+    """One block of :func:`bounds_kernel` (internal data of one evaluation)."""
 
-    ``singular="raise"`` refuses a pose near a type-1 or type-2 singularity
-    (:class:`~pmaccuracy.errors.SingularPoseError`); ``"nan"`` returns NaN there.
+    dx: np.ndarray
+    dy: np.ndarray
+    dphi: np.ndarray
+    dp: np.ndarray
+    within: np.ndarray
+    reachable: np.ndarray
+    condition: np.ndarray
+    transmission: np.ndarray
+    states: tuple
+    details: dict | None = None
+
+
+def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool = False) -> _Block:
+    """Exact maxima of one block of poses ``(n, 3)`` [mm, mm, rad] of any architecture, with no checks.
+
+    The legs' rows ``r_i = [f_x, f_y, m_P]`` of ``A`` give the columns of
+    ``A^-1`` as ``X_0 = r_1 x r_2, X_1 = r_2 x r_0, X_2 = r_0 x r_1`` over
+    ``det A = r_0 . X_0``, so with the half-widths ``c_i``::
+
+        dx = sum_i c_i |X_i,x| / |det A|      (likewise dy, dphi: Eq. 21)
+        dp = max over t in {+-1}^3 of |sum_i t_i c_i (X_i,x, X_i,y)| / |det A|   (Eq. 22)
+
+    Also returns the joint-limit mask ``within``, ``reachable``, the condition
+    number of the homogenized ``A`` (:data:`~pmaccuracy.kinematics.DEFAULT_MAX_CONDITION`)
+    and the legs' transmission indices, for the caller to refuse or blank poses.
     """
-    from .kinematics import _condition, _raise_serial, _raise_singular, _transmission, inverse_3x3, inverse_kinematics
-    from .sources import states_half_widths
+    from .kinematics import leg_states
 
-    ik = inverse_kinematics(robot, poses)
-    if not allow_outside or not np.all(ik.reachable):
-        check_within_limits(robot, poses, ik)  # (a leg that cannot reach a pose: no model at all)
-    A_inv, _ = inverse_3x3(ik.A)
-    cond = _condition(robot, ik.A, A_inv)
-    trans = _transmission(robot, ik, poses)
-    regular = (cond <= max_condition) & np.all(trans >= 1.0 / max_condition, axis=-1)
+    states = leg_states(robot, poses)
+    n = poses.shape[0]
+    within = np.ones(n, dtype=bool)
+    reachable = np.ones(n, dtype=bool)
+    for chain, st in zip(robot.chains, states):
+        fin = np.isfinite(st.q).all(axis=-1)
+        reachable &= fin
+        within &= chain.within_limits(st.q, LIMIT_TOLERANCE)
+    within &= reachable
+    (a0, b0, c0), (a1, b1, c1), (a2, b2, c2) = [(st.f.real, st.f.imag, st.m_P) for st in states]
+    X = ((b1 * c2 - c1 * b2, c1 * a2 - a1 * c2, a1 * b2 - b1 * a2),
+         (b2 * c0 - c2 * b0, c2 * a0 - a2 * c0, a2 * b0 - b2 * a0),
+         (b0 * c1 - c0 * b1, c0 * a1 - a0 * c1, a0 * b1 - b0 * a1))
+    det = a0 * X[0][0] + b0 * X[0][1] + c0 * X[0][2]
+    L = robot.characteristic_length
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        inv_abs_det = 1.0 / np.abs(det)
+        abs_X = [[np.abs(v) for v in col] for col in X]
+        norm_A = np.maximum(np.maximum(np.abs(a0) + np.abs(a1) + np.abs(a2), np.abs(b0) + np.abs(b1) + np.abs(b2)),
+                            (np.abs(c0) + np.abs(c1) + np.abs(c2)) / L)
+        norm_inv = np.maximum(np.maximum(abs_X[0][0] + abs_X[0][1] + L * abs_X[0][2],
+                                         abs_X[1][0] + abs_X[1][1] + L * abs_X[1][2]),
+                              abs_X[2][0] + abs_X[2][1] + L * abs_X[2][2])
+        cond = norm_A * norm_inv * inv_abs_det
+        cond = np.where(np.isfinite(cond), cond, np.inf)
+    from .kinematics import IKSolution, _transmission
+    B = np.zeros((n, 3, 3))
+    for i, st in enumerate(states):
+        B[:, i, i] = st.B
+    trans = _transmission(robot, IKSolution(joints=None, actuated_index=None, within_limits=None, A=None, B=B,
+                                            states=states), poses)
+    from .sources import states_half_widths
+    c = states_half_widths(robot, sources, states, poses)
+    with np.errstate(invalid="ignore", over="ignore"):
+        w = [c[:, i] * inv_abs_det for i in range(3)]
+        dx = w[0] * abs_X[0][0] + w[1] * abs_X[1][0] + w[2] * abs_X[2][0]
+        dy = w[0] * abs_X[0][1] + w[1] * abs_X[1][1] + w[2] * abs_X[2][1]
+        dphi = w[0] * abs_X[0][2] + w[1] * abs_X[1][2] + w[2] * abs_X[2][2]
+        gx = [w[i] * X[i][0] for i in range(3)]
+        gy = [w[i] * X[i][1] for i in range(3)]
+        sx, sy = gx[0] + gx[1], gy[0] + gy[1]
+        ex, ey = gx[0] - gx[1], gy[0] - gy[1]
+        norms2 = np.stack([(sx + gx[2]) ** 2 + (sy + gy[2]) ** 2, (sx - gx[2]) ** 2 + (sy - gy[2]) ** 2,
+                           (ex + gx[2]) ** 2 + (ey + gy[2]) ** 2, (ex - gx[2]) ** 2 + (ey - gy[2]) ** 2], axis=-1)
+        dp = np.sqrt(np.max(norms2, axis=-1))
+    extra = None
+    if details:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            A_inv = np.stack([np.stack(col, axis=-1) for col in X], axis=-1) / det[:, None, None]
+        best = np.argmax(norms2, axis=-1)
+        extra = {"c": c, "G": A_inv * c[:, None, :], "t": _VERTEX_SIGNS[best],
+                 "s_dx": _sign(A_inv[:, 0, :]), "s_dy": _sign(A_inv[:, 1, :]), "s_dphi": _sign(A_inv[:, 2, :]),
+                 "s_dp": _VERTEX_SIGNS[best]}
+    return _Block(dx=dx, dy=dy, dphi=dphi, dp=dp, within=within, reachable=reachable, condition=cond,
+                  transmission=trans, states=states, details=extra)
+
+
+def _regular(block: _Block, max_condition: float) -> np.ndarray:
+    return (block.condition <= max_condition) & np.all(block.transmission >= 1.0 / max_condition, axis=-1)
+
+
+def _refuse(robot: Manipulator, poses: np.ndarray, block: _Block, allow_outside: bool, max_condition: float,
+            singular: str) -> np.ndarray:
+    """Raise for the first pose outside the ranges (unless allowed) or singular (``singular="raise"``);
+    returns the mask of regular poses."""
+    from .kinematics import _raise_serial, _raise_singular, ik_from_states
+
+    if not np.all(block.reachable):  # a leg that cannot reach a pose: no model at all
+        check_within_limits(robot, poses, ik_from_states(robot, block.states))
+    regular = _regular(block, max_condition)
     if singular == "raise" and not np.all(regular):
-        if np.any(cond > max_condition):
-            _raise_singular(robot, poses, cond <= max_condition, cond, max_condition)
-        _raise_serial(poses, trans, max_condition)
-    A_inv = np.where(regular[:, None, None], A_inv, np.nan)
-    c = states_half_widths(robot, sources, ik.states, poses)
-    out = zonotope_maxima(A_inv, c)
-    out["signs"] = {"dx": _sign(A_inv[:, 0, :]), "dy": _sign(A_inv[:, 1, :]), "dphi": _sign(A_inv[:, 2, :]),
-                    "dp": out["t"]}
+        ok = block.condition <= max_condition
+        if not np.all(ok):
+            _raise_singular(robot, poses, ok, block.condition, max_condition)
+        _raise_serial(poses, block.transmission, max_condition)
+    if not allow_outside and not np.all(block.within):
+        check_within_limits(robot, poses, ik_from_states(robot, block.states))
+    return regular
+
+
+def _generic_bounds(robot: Manipulator, sources, poses: np.ndarray, flat: np.ndarray, allow_outside: bool,
+                    details: bool, max_condition: float, singular: str) -> PoseErrorBounds:
+    """:func:`max_pose_errors` of any architecture: results preallocated and filled block by block."""
+    lead = poses.shape[:-1]
+    n = flat.shape[0]
+    res = {q: np.empty(n) for q in QUANTITIES}
+    shapes = {"c": (3,), "G": (3, 3), "t": (3,), **{f"s_{q}": (3,) for q in QUANTITIES}}
+    extra = {k: np.empty((n,) + tail) for k, tail in shapes.items()} if details else {}
+    for k in range(0, n, CHUNK):
+        block_poses = flat[k:k + CHUNK]
+        block = bounds_kernel(robot, sources, block_poses, details)
+        regular = _refuse(robot, block_poses, block, allow_outside, max_condition, singular)
+        for q in QUANTITIES:
+            res[q][k:k + CHUNK] = np.where(regular, getattr(block, q), np.nan)
+        for key, arr in extra.items():
+            value = block.details[key]
+            arr[k:k + CHUNK] = value if key.startswith(("s_", "t", "c")) else \
+                np.where(regular[:, None, None], value, np.nan)
+    shaped = lambda a, tail=(): a.reshape(lead + tail)  # noqa: E731
+    return PoseErrorBounds(poses=poses, dx_max=shaped(res["dx"]), dy_max=shaped(res["dy"]),
+                           dphi_max=shaped(res["dphi"]), dp_max=shaped(res["dp"]),
+                           half_widths=shaped(extra["c"], (3,)) if details else None,
+                           generators=shaped(extra["G"], (3, 3)) if details else None,
+                           dp_signs=shaped(extra["t"], (3,)) if details else None, method="exact",
+                           worst_signs={q: shaped(extra[f"s_{q}"], (3,)) for q in QUANTITIES} if details else {})
+
+
+def bounds_or_nan(robot: Manipulator, clearances, poses: np.ndarray,
+                  max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
+    """``(n, 4)`` [dx_max mm, dy_max mm, dphi_max deg, dp_max mm] at poses ``(n, 3)``, NaN outside the joint
+    ranges or near a singularity (one pass: the maps' kernel; no error is raised)."""
+    from .sources import ErrorSources
+
+    sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
+    out = np.empty((poses.shape[0], 4))
+    for k in range(0, poses.shape[0], CHUNK):
+        block = bounds_kernel(robot, sources, poses[k:k + CHUNK])
+        ok = block.within & _regular(block, max_condition)
+        for v, value in enumerate((block.dx, block.dy, np.degrees(block.dphi), block.dp)):
+            out[k:k + CHUNK, v] = np.where(ok, value, np.nan)
     return out
 
 
@@ -335,6 +481,9 @@ def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[
         out["worst"] = {q: _worst_configuration(robot, clearances, H, _sign(state.A_inv[:, row, :]))
                         for row, q in enumerate(("dx", "dy", "dphi"))}
         out["worst"]["dp"] = _worst_configuration(robot, clearances, H, out["t"])
+        for row, q in enumerate(("dx", "dy", "dphi")):
+            out[f"s_{q}"] = _sign(state.A_inv[:, row, :])
+        out["s_dp"] = out["t"]
         if tolerances:
             signs = {q: _sign(state.A_inv[:, row, :]) for row, q in enumerate(("dx", "dy", "dphi"))}
             signs["dp"] = out["t"]

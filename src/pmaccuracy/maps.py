@@ -40,11 +40,11 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .bounds import max_pose_errors
+from .bounds import bounds_or_nan
 from .clearances import ClearanceSet
 from .errors import ConfigError, EmptyWorkspaceError
 from .geometry import Manipulator, round_trip_degrees
-from .kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, require_regular
+from .kinematics import DEFAULT_MAX_CONDITION, require_regular
 from .workspace import constant_orientation_workspace
 
 #: Map variables: name -> (units, long name).
@@ -93,14 +93,8 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     dask.distributed).
     """
     X, Y = np.meshgrid(x, y_rows)
-    poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1)
-    inside = inverse_kinematics(robot, poses).within_limits
-    out = np.full(X.shape + (4,), np.nan)
-    if inside.any():
-        b = max_pose_errors(robot, clearances, poses[inside], allow_outside=True, max_condition=max_condition,
-                            singular="nan")
-        out[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max_deg, b.dp_max])
-    return out
+    poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
+    return bounds_or_nan(robot, clearances, poses, max_condition).reshape(X.shape + (4,))
 
 
 def map_nbytes(n_phi: int, n: int) -> int:
@@ -248,9 +242,9 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
               out: dict[str, np.ndarray]) -> None:
     """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
     show = sys.stderr.isatty() if progress is None else progress
-    # A block's temporaries take about 0.3 kB per point, the result 32 B per point: blocks of at most 1/80 of
+    # A block's temporaries take about 0.9 kB per point, the result 32 B per point: blocks of at most 1/200 of
     # the map keep the peak within MEMORY_FACTOR x the dataset (never below 2048 points: speed).
-    block = min(chunk_size, max(2048, len(phis) * len(y) * len(x) // 80))
+    block = min(chunk_size, max(2048, len(phis) * len(y) * len(x) // 200))
     rows = max(1, block // len(x))
     blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
     names = list(MAP_VARIABLES)

@@ -159,7 +159,7 @@ def _generic_pushes(robot: Manipulator, sources: ErrorSources, poses: np.ndarray
     from .nonlinear import joint_displaced_pose
     from .sources import first_order_error, worst_configuration
 
-    bounds = max_pose_errors(robot, sources, poses)
+    bounds = max_pose_errors(robot, sources, poses, details=True)
     joints = inverse_kinematics(robot, poses).joints
     readings = []
     for q in ("dx", "dy", "dphi"):
