@@ -1,0 +1,126 @@
+"""``pmaccuracy statistics``: the distribution of the pose error beside its worst case (Monte Carlo and RSS).
+
+At one pose (``--pose X Y PHI_DEG``): mean, standard deviation, percentiles of
+``|dq|`` with their 95 % order-statistic interval, exceedance probabilities with
+their binomial standard error, the analytic RSS and the worst case, per
+quantity. Over a region (``--phi-deg ... --grid N --out map.nc``): percentile
+maps as NetCDF (or CSV), optionally a figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from ..errors import ConfigError
+from . import _common
+from .bounds_cmd import add_clearances
+
+HELP = "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"
+
+
+def _threshold(text: str) -> tuple[str, float]:
+    """argparse type: ``QUANTITY=VALUE`` (dx, dy, dp in mm; dphi_deg in deg)."""
+    key, sep, value = text.partition("=")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"expected QUANTITY=VALUE (e.g. dp=0.2), got {text!r}")
+    key = key.strip()
+    if key not in ("dx", "dy", "dp", "dphi_deg"):
+        raise argparse.ArgumentTypeError(f"unknown quantity {key!r} (dx, dy, dp in mm; dphi_deg in deg)")
+    return key, _common.finite_float(value)
+
+
+def _percentile(text: str) -> float:
+    value = _common.finite_float(text)
+    if not 0 < value < 100:
+        raise argparse.ArgumentTypeError(f"must lie strictly between 0 and 100: {text!r}")
+    return value
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "statistics", help=HELP,
+        description="Every error source takes independent random values inside its set (uniform by default: "
+                    "disks uniform by area, guide rhombi uniform, intervals uniform; other laws per source with "
+                    "--distribution). The first-order pose error of each sample gives Monte Carlo statistics "
+                    "(with their Monte Carlo error) beside the analytic RSS and the worst case. Lengths mm, angles "
+                    "deg. Percentiles are of |dq|.")
+    _common.add_robot(p)
+    add_clearances(p)
+    p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
+                   help="one pose: x mm, y mm, phi deg")
+    p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
+                   help="orientation of a percentile map in degrees (repeatable; needs --out)")
+    p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
+                   help="grid points per axis of a map (default: 21)")
+    p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv")
+    p.add_argument("--plot", metavar="FILE.png", help="figure of a map's first orientation: percentile, worst case "
+                                                      "and their ratio for |dp| and |dphi|")
+    p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
+                   help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
+    p.add_argument("--seed", type=int, default=0, help="seed of numpy.random.default_rng (default: 0)")
+    p.add_argument("--threshold", type=_threshold, action="append", metavar="Q=V",
+                   help="P(|Q| > V) with Q one of dx, dy, dp (mm), dphi_deg (deg), e.g. dp=0.2 (repeatable)")
+    p.add_argument("--percentile", type=_percentile, action="append", metavar="P",
+                   help="percentile of |dq| in (0, 100) (repeatable; default: 95 and 99 at a pose, 95 for a map)")
+    p.add_argument("--distribution", metavar="FILE",
+                   help="laws of the sources: uniform, truncnormal or boundary for every source, or a TOML file "
+                        "with one law per source key (default: uniform)")
+    p.add_argument("--exact-samples", type=int, default=0, metavar="M",
+                   help="at a pose: also close the loops exactly for M samples and report the largest difference "
+                        "from the first-order errors (default: 0)")
+    _common.add_format(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .. import distributions
+
+    if (args.pose is None) == (args.phi_deg is None):
+        raise ConfigError("give either --pose X Y PHI_DEG or --phi-deg PHI (with --out) for a map",
+                          key="--pose/--phi-deg")
+    if args.pose is not None and (args.out or args.plot):
+        raise ConfigError("--out and --plot go with a map (--phi-deg), not with --pose", key="--out")
+    if args.phi_deg is not None and not args.out:
+        raise ConfigError("a map needs --out FILE (.nc or .csv)", key="--out")
+    if args.grid < 2:
+        raise ConfigError(f"the grid needs at least 2 points per axis, got {args.grid}", key="--grid")
+    if args.exact_samples < 0 or (args.exact_samples and args.pose is None):
+        raise ConfigError("must be a whole number >= 0, with --pose", key="--exact-samples")
+    thresholds = dict(args.threshold or [])
+    distribution = distributions.Distribution.load(args.distribution)
+    robot = _common.load_robot(args)
+    if args.pose is not None:
+        pose = np.array([args.pose[0], args.pose[1], math.radians(args.pose[2])])
+        result = distributions.pose_statistics(
+            robot, args.clearances, pose, samples=args.samples or 100_000, seed=args.seed,
+            distribution=distribution, percentiles=args.percentile or (95.0, 99.0), thresholds=thresholds,
+            exact_samples=args.exact_samples)
+        if args.format == "json":
+            _common.emit(result, "json")
+        else:
+            rows = [{"quantity": q, **stats} for q, stats in result["quantities"].items()]
+            _common.emit(rows, args.format)
+        return 0
+
+    from .map_cmd import prepare_output
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".nc", ".csv"):
+        raise ConfigError(f"unknown map file type {out.suffix!r}: use .nc or .csv", source=args.out, key="--out")
+    prepare_output(out, "--out")
+    if args.plot:
+        prepare_output(Path(args.plot), "--plot")
+    ds = distributions.region_statistics(
+        robot, args.clearances, np.radians(args.phi_deg), args.grid, samples=args.samples or 10_000,
+        seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds)
+    distributions.save_region_statistics(ds, out)
+    if args.plot:
+        distributions.save_percentile_map_figure(ds, args.plot)
+    summary = distributions.summarize_region(ds)
+    rows = [{"phi_deg": float(phi), **ranges} for phi, ranges in summary["orientations"].items()]
+    _common.emit(rows if args.format != "json" else {**summary, "out": str(out)}, args.format)
+    return 0
