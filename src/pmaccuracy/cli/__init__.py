@@ -32,6 +32,7 @@ COMMANDS = {
     "experiment": ("experiment_cmd",
                    "experimental validation: simulate the push protocol, compare measurements with the model"),
     "vision": ("vision_cmd", "vision measurement: calibrate a camera, measure the platform pose"),
+    "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
 }
 #: Modules of ``pmaccuracy.cli`` that register commands, in help order.
 COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
