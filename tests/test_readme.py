@@ -1,0 +1,257 @@
+"""The README's examples run verbatim and print what the README shows.
+
+Rules (also stated in the README's "Command line" section):
+
+* Every ```` ```console ```` block is a sequence of ``$ COMMAND`` lines, each followed by the
+  exact output it prints (stdout and stderr together, as a terminal shows them), up to the next
+  ``$`` line or the end of the block. A command line ending in ``\\`` continues on the next line.
+  Blank lines between examples are not output; trailing spaces are ignored. Text must match
+  exactly; numbers must agree to a relative 1e-5 (:func:`same_output`): the camera calibration
+  (OpenCV) varies in the seventh significant digit from run to run, everything else is exact.
+* Every command runs through ``bash`` exactly as written (``# ...`` comments included), with the
+  test environment's ``pmaccuracy`` first on ``PATH``, in ONE temporary working folder shared by
+  all blocks, in README order: a later example may read a file an earlier one wrote (``m.csv``,
+  ``cal.toml``, ...). The exit status is not checked, the printed text is.
+* A command whose comment contains ``not run by tests`` (with the reason: minutes of run time,
+  50 GB of disk) is skipped; the test counts the skipped lines and checks that they are exactly
+  the marked ones.
+* Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in the same folder
+  after the console blocks (so ``map.nc`` etc. may be overwritten freely).
+
+The whole module takes about 40 s (most of it the vision examples).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+SKIP_MARK = "not run by tests"
+
+
+@dataclass(frozen=True)
+class Example:
+    """One ``$`` command of a console block and the output lines the README shows after it."""
+
+    line: int          # README line of the ``$``
+    command: str       # continuation lines joined with newlines (bash understands ``\\`` + newline)
+    expected: tuple[str, ...]
+
+    @property
+    def skipped(self) -> bool:
+        return SKIP_MARK in self.command
+
+
+def _blocks(text: str, lang: str) -> list[tuple[int, list[str]]]:
+    """``(first line number, lines)`` of every fenced block of language ``lang``."""
+    out, lines = [], text.splitlines()
+    k = 0
+    while k < len(lines):
+        if lines[k].strip() == f"```{lang}":
+            start = k + 1
+            end = start
+            while lines[end].strip() != "```":
+                end += 1
+            out.append((start + 1, lines[start:end]))
+            k = end
+        k += 1
+    return out
+
+
+def console_examples(text: str) -> list[Example]:
+    """Parse every ```` ```console ```` block of ``text`` into :class:`Example` s, in order."""
+    examples: list[Example] = []
+    for first, lines in _blocks(text, "console"):
+        k = 0
+        while k < len(lines):
+            if not lines[k].startswith("$ "):
+                if lines[k].strip():
+                    raise AssertionError(f"README line {first + k}: output before any '$' command: {lines[k]!r}")
+                k += 1
+                continue
+            start = k
+            cmd = [lines[k][2:]]
+            while cmd[-1].rstrip().endswith("\\"):
+                k += 1
+                cmd.append(lines[k])
+            k += 1
+            out = []
+            while k < len(lines) and not lines[k].startswith("$ "):
+                out.append(lines[k].rstrip())
+                k += 1
+            while out and not out[-1]:
+                out.pop()
+            examples.append(Example(first + start, "\n".join(cmd), tuple(out)))
+    return examples
+
+
+def python_blocks(text: str) -> list[tuple[int, str]]:
+    return [(first, "\n".join(lines)) for first, lines in _blocks(text, "python")]
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+#: Relative tolerance on numbers (see the module docstring).
+RTOL = 1e-5
+
+
+def same_output(got: tuple[str, ...] | list[str], expected: tuple[str, ...] | list[str]) -> bool:
+    """Equal line by line, the text between numbers exactly and the numbers to a relative :data:`RTOL`."""
+    if len(got) != len(expected):
+        return False
+    for a, b in zip(got, expected):
+        if a == b:
+            continue
+        if _NUMBER.split(a) != _NUMBER.split(b):
+            return False
+        na, nb = _NUMBER.findall(a), _NUMBER.findall(b)
+        if len(na) != len(nb) or any(abs(float(x) - float(y)) > RTOL * max(abs(float(x)), abs(float(y)))
+                                     for x, y in zip(na, nb)):
+            return False
+    return True
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    bindir = str(Path(sys.executable).parent)
+    env["PATH"] = bindir + os.pathsep + env.get("PATH", "")
+    env["COLUMNS"] = "100"
+    env.pop("PMACCURACY_PROGRESS", None)
+    return env
+
+
+def _run(example: Example, cwd: Path) -> list[str]:
+    proc = subprocess.run(["bash", "-c", example.command], cwd=cwd, env=_env(), stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=300)
+    lines = [ln.rstrip() for ln in proc.stdout.splitlines()]
+    while lines and not lines[-1]:
+        lines.pop()
+    return lines
+
+
+def test_parser_on_a_made_up_block():
+    text = ("x\n```console\n$ pmaccuracy a \\\n    --b 1   # c\n out 1\n\n out 2\n\n$ pmaccuracy d  # not run by tests: slow\n"
+            "```\n```python\nx = 1\n```\n")
+    ex = console_examples(text)
+    assert [e.command for e in ex] == ["pmaccuracy a \\\n    --b 1   # c", "pmaccuracy d  # not run by tests: slow"]
+    assert ex[0].expected == (" out 1", "", " out 2") and ex[1].expected == ()
+    assert [e.skipped for e in ex] == [False, True]
+    assert python_blocks(text) == [(12, "x = 1")]
+
+
+def test_same_output_tolerates_only_last_digits():
+    assert same_output(["a 0.000750904  x"], ["a 0.000750905  x"])
+    assert not same_output(["a 0.00075090  x"], ["a 0.00075190  x"])
+    assert not same_output(["a 1  x"], ["a 1 x"])          # spacing is text
+    assert not same_output(["a 1"], ["b 1"]) and not same_output(["1"], ["1", ""])
+
+
+def test_readme_examples_run_verbatim(tmp_path):
+    text = README.read_text(encoding="utf-8")
+    examples = console_examples(text)
+    assert len(examples) > 20
+    skipped = [e for e in examples if e.skipped]
+    # the only examples left out: the 50 GB map and the full reports (each minutes or gigabytes)
+    assert len(skipped) <= 4, [e.command for e in skipped]
+    assert all(re.search(r"#.*not run by tests: \S", e.command) for e in skipped)
+    failures = []
+    for ex in examples:
+        if ex.skipped:
+            continue
+        got = _run(ex, tmp_path)
+        if not same_output(got, ex.expected):
+            failures.append(f"README line {ex.line}: $ {ex.command}\n--- README\n" + "\n".join(ex.expected)
+                            + "\n--- printed\n" + "\n".join(got))
+    assert not failures, "\n\n".join(failures)
+
+    for first, code in python_blocks(text):
+        cwd = os.getcwd()
+        os.chdir(tmp_path)
+        try:
+            exec(compile(code, f"README.md (python block at line {first})", "exec"), {"__name__": "readme"})
+        finally:
+            os.chdir(cwd)
+
+
+def _leaf_parsers() -> dict[str, argparse.ArgumentParser]:
+    """``{"bounds": parser, "experiment simulate": parser, ...}``: every command that runs something."""
+    from pmaccuracy.cli import build_parser
+
+    out = {}
+
+    def walk(parser: argparse.ArgumentParser, prefix: str) -> None:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs:
+            out[prefix.strip()] = parser
+        for action in subs:
+            for name, child in action.choices.items():
+                walk(child, f"{prefix} {name}")
+
+    walk(build_parser([], load_all=True), "")
+    return out
+
+
+def _names(fragment: str) -> set[str]:
+    """Command names in backticks, ``a b|c`` standing for ``a b`` and ``a c``."""
+    names = set()
+    for name in re.findall(r"`([a-z][a-z |-]*)`", fragment.replace("\n", " ")):
+        head, _, alts = name.rpartition(" ")
+        names |= {f"{head} {a}".strip() for a in alts.split("|")}
+    return names
+
+
+def test_readme_statement_of_common_options_is_exact():
+    """The "Command line" section names the commands with --robot and those without --format: check both lists."""
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    robot = re.search(r"The commands about a robot \((.*?)\) take `--robot`", text)
+    no_format = re.search(r"`--format table\|json\|csv` \(default `table`\): all but (.*?)\.", text)
+    assert robot and no_format, "the README's sentences on --robot and --format changed: update this test"
+    parsers = _leaf_parsers()
+
+    def has(parser: argparse.ArgumentParser, option: str) -> bool:
+        return any(option in a.option_strings for a in parser._actions)
+
+    assert {n for n, p in parsers.items() if has(p, "--robot")} == _names(robot.group(1))
+    assert {n for n, p in parsers.items() if not has(p, "--format")} == _names(no_format.group(1))
+    assert all(has(p, "--help") for p in parsers.values())
+
+
+def _update(folder: Path) -> None:
+    """Re-generate the README's outputs by running every example (``python tests/test_readme.py --update DIR``)."""
+    lines = README.read_text(encoding="utf-8").split("\n")
+    replacements = []
+    for ex in console_examples("\n".join(lines)):
+        if ex.skipped:
+            continue
+        got = _run(ex, folder)
+        if not same_output(got, ex.expected):
+            start = ex.line - 1 + ex.command.count("\n") + 1     # first line after the command
+            replacements.append((start, start + len(ex.expected), got))
+            print(f"README line {ex.line}: $ {ex.command}: output updated")
+    for start, stop, got in reversed(replacements):
+        lines[start:stop] = got
+    README.write_text("\n".join(lines), encoding="utf-8")
+
+
+if __name__ == "__main__":  # python tests/test_readme.py [--update] DIR: show (or write back) every example's output
+    update = "--update" in sys.argv
+    folder = Path([a for a in sys.argv[1:] if a != "--update"][0])
+    folder.mkdir(parents=True, exist_ok=True)
+    if update:
+        _update(folder)
+        sys.exit(0)
+    for ex in console_examples(README.read_text(encoding="utf-8")):
+        print(f"### line {ex.line}: $ {ex.command}")
+        if ex.skipped:
+            print("(skipped)")
+            continue
+        got = _run(ex, folder)
+        print("\n".join(got))
+        print("### " + ("SAME" if same_output(got, ex.expected) else "DIFFERENT"))
