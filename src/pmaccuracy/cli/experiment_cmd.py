@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from .. import experiment
 from ..sources import load_clearances
@@ -24,6 +25,9 @@ from . import _common
 from .bounds_cmd import add_clearances
 
 _QUANTITIES = experiment.QUANTITIES
+#: Columns of the ISO 9283 table of ``compare --repeats``.
+_ISO_TABLE = ("point", "n", "ap_p", "ap_phi_deg", "rp_l", "rp_l_model", "rp_l_model_lo", "rp_l_model_hi",
+              "rp_phi_deg", "rp_phi_model_deg", "rp_phi_model_lo_deg", "rp_phi_model_hi_deg")
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -63,6 +67,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="readings from the exact loop closure (default) or the first-order model (Eq. 19)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the noise (default: 0)")
     sp.add_argument("--out", required=True, metavar="M.csv", help="measurement CSV file to write")
+    sp.add_argument("--repeats", type=_common.positive_int, default=None, metavar="N",
+                    help="also a virtual ISO 9283 test: N attained poses per point, each cycle a fresh random "
+                         "clearance state inside the sets (N >= 2), written to --repeats-out")
+    sp.add_argument("--repeats-out", metavar="R.csv",
+                    help="repeated-pose CSV (point,x_nom,y_nom,phi_nom_deg,cycle,x,y,phi_deg) of --repeats "
+                         "(default: M_repeats.csv beside --out)")
+    sp.add_argument("--distribution", metavar="FILE",
+                    help="laws of the clearance states of --repeats: uniform (default), truncnormal, boundary or "
+                         "a TOML file (see pmaccuracy statistics)")
     _common.add_format(sp)
     sp.set_defaults(func=run_simulate)
 
@@ -86,13 +99,30 @@ def register(sub: argparse._SubParsersAction) -> None:
                          "accuracy)")
     cp.add_argument("--map-grid", type=int, default=41, metavar="N",
                     help="grid of the background error maps with --out (default: 41)")
+    cp.add_argument("--repeats", metavar="R.csv",
+                    help="repeated attained poses (point,x_nom,y_nom,phi_nom_deg,cycle,x,y,phi_deg): ISO 9283 "
+                         "AP and RP per point beside the RP the clearance model predicts (fresh clearance state "
+                         "each cycle, camera noise of sd --accuracy-mm/--accuracy-deg)")
+    cp.add_argument("--distribution", metavar="FILE",
+                    help="laws of the clearance states for the predicted RP: uniform (default), truncnormal, "
+                         "boundary or a TOML file (see pmaccuracy statistics)")
     _common.add_format(cp)
     cp.set_defaults(func=run_compare)
 
 
 def run_simulate(args: argparse.Namespace) -> int:
+    from ..errors import ConfigError
+
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
+    if args.repeats is not None and args.repeats < 2:
+        raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {args.repeats}", key="--repeats")
+    if args.repeats_out and args.repeats is None:
+        raise ConfigError("goes with --repeats N", key="--repeats-out")
+    if args.repeats is not None:
+        from ..distributions import Distribution
+
+        distribution = Distribution.load(args.distribution)
     measurements = experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
         noise_deg=args.noise_deg, model=args.model, seed=args.seed)
@@ -100,6 +130,19 @@ def run_simulate(args: argparse.Namespace) -> int:
     record = {"out": str(path), "points": len(measurements), "rows": len(measurements) * len(experiment.PUSHES),
               "phi_deg": args.phi_deg, "model": args.model, "take_up": args.take_up, "noise_mm": args.noise_mm,
               "noise_deg": args.noise_deg, "seed": args.seed}
+    if args.repeats is not None:
+        import numpy as np
+
+        from .. import iso9283
+
+        out = Path(args.repeats_out) if args.repeats_out else path.with_name(f"{path.stem}_repeats.csv")
+        repeats = iso9283.simulate_repeats(robot, clearances, measurements.nominal, args.repeats,
+                                           distribution=distribution, noise_mm=args.noise_mm,
+                                           noise_deg=args.noise_deg, model=args.model,
+                                           seed=np.random.default_rng((args.seed, 9283)),
+                                           labels=measurements.points)
+        iso9283.write_repeats(out, repeats)
+        record.update({"repeats_out": str(out), "repeats": args.repeats, "repeat_rows": len(repeats) * args.repeats})
     _common.emit(record, args.format)
     return 0
 
@@ -111,12 +154,28 @@ def run_compare(args: argparse.Namespace) -> int:
     clearances = load_clearances(args.clearances, robot)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
+    repeats = None
+    if args.repeats:
+        from .. import iso9283
+        from ..distributions import Distribution
+
+        repeats = iso9283.load_repeats(args.repeats)  # before the long computations
+        distribution = Distribution.load(args.distribution)
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
                                     accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm)
     summary = comparison.summary()
+    if repeats is not None:
+        summary["iso9283"] = iso9283.compare_repeatability(robot, clearances, repeats, distribution=distribution,
+                                                           noise_mm=args.accuracy_mm, noise_deg=args.accuracy_deg)
     if args.out:
         files = experiment.write_report(robot, clearances, comparison, args.out, map_grid=args.map_grid)
         summary["files"] = {k: str(p) for k, p in files.items()}
+        if repeats is not None:
+            import json
+
+            iso_path = Path(args.out) / "iso9283.json"
+            iso_path.write_text(json.dumps(_common._plain(summary["iso9283"]), indent=2) + "\n")
+            summary["files"]["iso9283"] = str(iso_path)
     if args.format == "json":
         _common.emit(summary, "json")
     elif args.format == "csv":
@@ -129,6 +188,9 @@ def run_compare(args: argparse.Namespace) -> int:
                                   ("rmsd (measured - 2 max)", "rmsd_width_consistent"),
                                   ("ssd of measured", "ssd"))]
         _common.emit(rows, "table")
+        if repeats is not None:
+            sys.stdout.write("\nISO 9283 (mm, deg; model: mean [5-95 % of one test])\n")
+            _common.emit([{k: r[k] for k in _ISO_TABLE} for r in summary["iso9283"]["points"]], "table")
         if args.out:
             sys.stdout.write(f"\nreport: {summary['files']['report']}\n")
     return 0
