@@ -628,21 +628,31 @@ def save_region_statistics(ds, path: str | Path) -> Path:
 
 
 def summarize_region(ds) -> dict[str, Any]:
-    """What a report section needs from :func:`region_statistics`: per orientation (deg) and variable the
-    ``[min, max]`` over the workspace, the mean ratio ``p{p} / max`` (how far the typical error is from the
-    worst case), and the attributes (samples, seed, distribution)."""
+    """What a report section needs from :func:`region_statistics`, JSON-ready.
+
+    ``samples, seed, distribution`` and ``orientations``: per orientation (deg, as text) and quantity
+    (``dx, dy, dp`` in mm, ``dphi_deg`` in deg) the ``[min, max]`` over the workspace of ``std, rss``, each
+    percentile ``p{p}``, ``exceed`` (with a threshold) and ``max`` (the worst case), and
+    ``p{p}_over_max``: the mean over the workspace of percentile / worst case.
+    """
+    pct = sorted({name.split("_p", 1)[1] for name in ds.data_vars if name.startswith("dp_p")}, key=float)
     layers = {}
-    pct = sorted({name.split("_p")[1] for name in ds.data_vars if "_p" in name})
     for phi in ds.phi.values:
         layer = ds.sel(phi=phi)
-        entry = {name: [float(layer[name].min()), float(layer[name].max())] for name in ds.data_vars}
+        entry = {}
         for q in QUANTITIES:
+            rec = {}
+            for stat in ("std", "rss", *(f"p{p}" for p in pct), "exceed", "max"):
+                name = f"{q}_{stat}"
+                if name in ds.data_vars:
+                    rec[stat] = [float(layer[name].min()), float(layer[name].max())]
             for p in pct:
-                ratio = layer[f"{q}_p{p}"] / layer[f"{q}_max"]
-                entry[f"{q}_p{p}_over_max_mean"] = float(ratio.mean())
+                rec[f"p{p}_over_max"] = float((layer[f"{q}_p{p}"] / layer[f"{q}_max"]).mean())
+            entry["dphi_deg" if q == "dphi" else q] = rec
         layers[f"{phi:g}"] = entry
     seed = ds.attrs.get("seed")
-    return {"samples": int(ds.attrs.get("samples", 0)), "seed": int(seed) if str(seed).lstrip("-").isdigit() else seed,
+    return {"samples": int(ds.attrs.get("samples", 0)),
+            "seed": int(seed) if str(seed).lstrip("-").isdigit() else seed,
             "distribution": ds.attrs.get("distribution"), "orientations": layers}
 
 

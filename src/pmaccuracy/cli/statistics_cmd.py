@@ -20,6 +20,18 @@ from .bounds_cmd import add_clearances
 HELP = "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"
 
 
+#: Columns of the table at a pose (besides the percentiles; json and csv have every statistic).
+_TABLE = ("quantity", "mean", "std", "rss", "max_abs", "worst", "exceed", "se_exceed", "threshold")
+
+
+def _table_order(key: str) -> tuple[int, float]:
+    if key[:1] == "p" and key[1:2].isdigit():
+        return (3, float(key[1:]))
+    order = {"quantity": 0, "mean": 1, "std": 1.5, "rss": 2, "max_abs": 4, "worst": 5, "exceed": 6,
+             "se_exceed": 7, "threshold": 8}
+    return (0 if order[key] < 3 else 4, order[key])
+
+
 def _threshold(text: str) -> tuple[str, float]:
     """argparse type: ``QUANTITY=VALUE`` (dx, dy, dp in mm; dphi_deg in deg)."""
     key, sep, value = text.partition("=")
@@ -103,6 +115,10 @@ def run(args: argparse.Namespace) -> int:
             _common.emit(result, "json")
         else:
             rows = [{"quantity": q, **stats} for q, stats in result["quantities"].items()]
+            if args.format == "table":
+                rows = [{k: v for k, v in r.items() if k in _TABLE or (k[:1] == "p" and k[1:2].isdigit()
+                                                                       and "_" not in k)} for r in rows]
+                rows = [{k: r[k] for k in sorted(r, key=_table_order)} for r in rows]
             _common.emit(rows, args.format)
         return 0
 
@@ -121,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         distributions.save_percentile_map_figure(ds, args.plot)
     summary = distributions.summarize_region(ds)
-    rows = [{"phi_deg": float(phi), **ranges} for phi, ranges in summary["orientations"].items()]
+    rows = [{"phi_deg": float(phi), "quantity": q, **stats} for phi, layer in summary["orientations"].items()
+            for q, stats in layer.items()]
     _common.emit(rows if args.format != "json" else {**summary, "out": str(out)}, args.format)
     return 0
