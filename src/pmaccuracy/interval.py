@@ -1,0 +1,672 @@
+"""Vectorized interval arithmetic and interval enclosures of the closed forms over pose boxes.
+
+A real interval is a pair of arrays ``lo <= hi`` (:class:`Iv`), a complex one a
+pair of real intervals (:class:`Cv`, a rectangle in the plane); every operation
+works elementwise on arrays of boxes ``(n,)`` and returns an enclosure of every
+value the operation takes over its arguments (inclusion property). Dependency
+makes the enclosures wider than the true ranges, by a factor that shrinks
+linearly with the boxes' widths, which is what branch and bound
+(:mod:`pmaccuracy.global_worst`) needs.
+
+:func:`leg_box_state` runs a leg's closed-form inverse kinematics
+(:meth:`pmaccuracy.legs.Chain.state`, same cases: one, two or three revolute
+joints) on boxes of poses ``[x0, x1] x [y0, y1] x [phi0, phi1]`` (mm, rad):
+joint values, directions, the vectors between joint centres, the constraint
+wrench ``(f, m_P)`` and ``B_ii`` as intervals. Everything that holds at every
+*feasible* pose of the box (leg reaches it, joints within their ranges, the
+working mode's sign of ``B_ii``) is used to narrow the intervals, so the
+enclosures bound the feasible part of a box straddling the workspace boundary;
+a box proven to hold no feasible pose is flagged. :func:`box_maxima` turns the
+legs' enclosures into upper bounds of ``dx, dy, dphi, dp`` (Eq. 21-22, the
+zonotope of :func:`pmaccuracy.bounds.zonotope_maxima`) with ``A^-1 = adj(A) /
+det(A)`` (``+inf`` where the determinant's interval contains 0).
+
+Rounding: numpy rounds to nearest; callers widen the final bounds by a relative
+``1e-9`` (far above the accumulated rounding of these few dozen operations).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .sources import ErrorSources
+
+TWO_PI = 2.0 * np.pi
+
+
+class Iv:
+    """Real intervals ``[lo, hi]`` (arrays of one shape, or scalars), with the interval extensions of + - * /.
+
+    >>> a = Iv(np.array([1.0]), np.array([2.0]))
+    >>> p = a * (a - 3.0)
+    >>> (float(p.lo[0]), float(p.hi[0]))
+    (-4.0, -1.0)
+    """
+
+    __slots__ = ("lo", "hi")
+
+    def __init__(self, lo, hi=None):
+        self.lo = np.asarray(lo, dtype=float)
+        self.hi = self.lo if hi is None else np.asarray(hi, dtype=float)
+
+    @staticmethod
+    def _wrap(other) -> "Iv":
+        return other if isinstance(other, Iv) else Iv(other)
+
+    def __add__(self, other):
+        if isinstance(other, (Cv, complex)):
+            return Cv._wrap(other) + self
+        o = Iv._wrap(other)
+        return Iv(self.lo + o.lo, self.hi + o.hi)
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Iv(-self.hi, -self.lo)
+
+    def __sub__(self, other):
+        o = Iv._wrap(other)
+        return Iv(self.lo - o.hi, self.hi - o.lo)
+
+    def __rsub__(self, other):
+        return Iv._wrap(other) - self
+
+    def __mul__(self, other):
+        if isinstance(other, (Cv, complex)):
+            return Cv(self, Iv(0.0)) * other
+        if not isinstance(other, Iv):
+            s = np.asarray(other, dtype=float)
+            return Iv(np.where(s >= 0, s * self.lo, s * self.hi), np.where(s >= 0, s * self.hi, s * self.lo))
+        p = (self.lo * other.lo, self.lo * other.hi, self.hi * other.lo, self.hi * other.hi)
+        with np.errstate(invalid="ignore"):  # 0 * inf: the product's bound is then 0 or inf, see below
+            lo = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3]))
+            hi = np.maximum(np.maximum(p[0], p[1]), np.maximum(p[2], p[3]))
+        return Iv(np.where(np.isnan(lo), -np.inf, lo), np.where(np.isnan(hi), np.inf, hi))
+
+    __rmul__ = __mul__
+
+    def reciprocal(self) -> "Iv":
+        """``1 / x``; ``(-inf, inf)`` where the interval contains 0."""
+        zero = self.contains_zero()
+        with np.errstate(divide="ignore"):
+            return Iv(np.where(zero, -np.inf, 1.0 / self.hi), np.where(zero, np.inf, 1.0 / self.lo))
+
+    def __truediv__(self, other):
+        if not isinstance(other, Iv):
+            return self * (1.0 / np.asarray(other, dtype=float))
+        return self * other.reciprocal()
+
+    def contains_zero(self) -> np.ndarray:
+        return (self.lo <= 0.0) & (self.hi >= 0.0)
+
+    @property
+    def width(self) -> np.ndarray:
+        return self.hi - self.lo
+
+    @property
+    def mid(self) -> np.ndarray:
+        return 0.5 * (self.lo + self.hi)
+
+    def empty(self) -> np.ndarray:
+        """True where ``lo > hi`` (an intersection found nothing)."""
+        return self.lo > self.hi
+
+
+def iv_abs(a: Iv) -> Iv:
+    """``|x|``: ``[0, max]`` when the interval contains 0."""
+    m = np.maximum(np.abs(a.lo), np.abs(a.hi))
+    lo = np.where(a.lo >= 0, a.lo, np.where(a.hi <= 0, -a.hi, 0.0))
+    return Iv(lo, m)
+
+
+def iv_sqr(a: Iv) -> Iv:
+    """``x^2`` (tighter than ``x * x``)."""
+    b = iv_abs(a)
+    return Iv(b.lo * b.lo, b.hi * b.hi)
+
+
+def iv_sqrt(a: Iv) -> Iv:
+    """``sqrt(x)`` over the part ``x >= 0`` of the interval (the caller checks ``hi >= 0``)."""
+    return Iv(np.sqrt(np.maximum(a.lo, 0.0)), np.sqrt(np.maximum(a.hi, 0.0)))
+
+
+def iv_max(a: Iv, b: Iv) -> Iv:
+    """``max(x, y)`` elementwise."""
+    return Iv(np.maximum(a.lo, b.lo), np.maximum(a.hi, b.hi))
+
+
+def iv_intersect(a: Iv, lo, hi) -> Iv:
+    """``a`` cut to ``[lo, hi]`` (empty where ``lo > hi`` afterwards: :meth:`Iv.empty`)."""
+    return Iv(np.maximum(a.lo, lo), np.minimum(a.hi, hi))
+
+
+def iv_cos(a: Iv) -> Iv:
+    """``cos(x)``: the endpoint values, widened to 1 (-1) where a multiple of 2 pi (pi plus one) lies inside."""
+    c0, c1 = np.cos(a.lo), np.cos(a.hi)
+    lo, hi = np.minimum(c0, c1), np.maximum(c0, c1)
+    has_max = TWO_PI * np.ceil(a.lo / TWO_PI) <= a.hi
+    has_min = TWO_PI * np.ceil((a.lo - np.pi) / TWO_PI) + np.pi <= a.hi
+    full = (a.hi - a.lo) >= TWO_PI
+    return Iv(np.where(has_min | full, -1.0, lo), np.where(has_max | full, 1.0, hi))
+
+
+def iv_sin(a: Iv) -> Iv:
+    """``sin(x) = cos(x - pi/2)``."""
+    return iv_cos(a - np.pi / 2)
+
+
+def iv_arccos(a: Iv) -> Iv:
+    """``arccos(x)`` on ``[-1, 1]`` (decreasing; the interval is cut to ``[-1, 1]``)."""
+    return Iv(np.arccos(np.clip(a.hi, -1.0, 1.0)), np.arccos(np.clip(a.lo, -1.0, 1.0)))
+
+
+class Cv:
+    """Complex intervals (rectangles ``re x im``), plane vectors of :mod:`pmaccuracy.screws` over boxes."""
+
+    __slots__ = ("re", "im")
+
+    def __init__(self, re, im):
+        self.re = re if isinstance(re, Iv) else Iv(re)
+        self.im = im if isinstance(im, Iv) else Iv(im)
+
+    @staticmethod
+    def const(z: complex) -> "Cv":
+        z = complex(z)
+        return Cv(Iv(z.real), Iv(z.imag))
+
+    @staticmethod
+    def _wrap(other) -> "Cv":
+        if isinstance(other, Cv):
+            return other
+        if isinstance(other, Iv):
+            return Cv(other, Iv(0.0))
+        return Cv.const(other)
+
+    def __add__(self, other):
+        o = Cv._wrap(other)
+        return Cv(self.re + o.re, self.im + o.im)
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Cv(-self.re, -self.im)
+
+    def __sub__(self, other):
+        o = Cv._wrap(other)
+        return Cv(self.re - o.re, self.im - o.im)
+
+    def __rsub__(self, other):
+        return Cv._wrap(other) - self
+
+    def __mul__(self, other):
+        if isinstance(other, Iv) or np.isrealobj(other) and not isinstance(other, Cv):
+            return Cv(self.re * other, self.im * other)
+        if not isinstance(other, Cv):  # a complex constant: each part is a linear form of re and im
+            z = complex(other)
+            return Cv(self.re * z.real - self.im * z.imag, self.re * z.imag + self.im * z.real)
+        return Cv(self.re * other.re - self.im * other.im, self.re * other.im + self.im * other.re)
+
+    __rmul__ = __mul__
+
+    def conj(self) -> "Cv":
+        return Cv(self.re, -self.im)
+
+    def abs2(self) -> Iv:
+        return iv_sqr(self.re) + iv_sqr(self.im)
+
+    def abs(self) -> Iv:
+        return iv_sqrt(self.abs2())
+
+    def contains_zero(self) -> np.ndarray:
+        return self.re.contains_zero() & self.im.contains_zero()
+
+
+def cv_cross(a: Cv, b: Cv) -> Iv:
+    """``a x b = a_x b_y - a_y b_x`` (:func:`pmaccuracy.screws.cross`)."""
+    return a.re * b.im - a.im * b.re
+
+
+def cv_dot(a: Cv, b: Cv) -> Iv:
+    """``a . b`` (:func:`pmaccuracy.screws.dot`)."""
+    return a.re * b.re + a.im * b.im
+
+
+def cv_expi(t: Iv) -> Cv:
+    """``exp(i t)`` as ``(cos t, sin t)`` intervals."""
+    return Cv(iv_cos(t), iv_sin(t))
+
+
+def cv_angle(z: Cv) -> Iv:
+    """An interval of ``arg z`` (rad; not wrapped, width < 2 pi) over the rectangle, ``[-pi, 3 pi]`` wide
+    (no information) where the rectangle contains 0.
+
+    A rectangle off the origin sees its extreme rays through corners; if it
+    crosses the negative real axis the corner angles are taken in ``[0, 2 pi)``.
+    """
+    xs = (z.re.lo, z.re.hi, z.re.lo, z.re.hi)
+    ys = (z.im.lo, z.im.lo, z.im.hi, z.im.hi)
+    ang = np.stack([np.arctan2(y + 0 * x, x + 0 * y) for x, y in zip(xs, ys)])
+    crosses = (z.re.hi < 0) & (z.im.lo < 0) & (z.im.hi >= 0)
+    ang = np.where(crosses, np.mod(ang, TWO_PI), ang)
+    zero = z.contains_zero()
+    return Iv(np.where(zero, -np.pi, ang.min(axis=0)), np.where(zero, 3 * np.pi, ang.max(axis=0)))
+
+
+def unit_cv(z: Cv) -> Cv:
+    """``z`` cut to the square ``[-1, 1]^2`` (for unit vectors)."""
+    return Cv(iv_intersect(z.re, -1.0, 1.0), iv_intersect(z.im, -1.0, 1.0))
+
+
+def angle_meets_range(t: Iv, lo: float, hi: float, tol: float) -> np.ndarray:
+    """True where some angle of ``t`` lies in ``[lo, hi]`` modulo 2 pi (an R joint's range), slack ``tol``."""
+    full = (t.hi - t.lo) >= TWO_PI - 1e-12
+    shift = TWO_PI * np.floor((t.lo - (lo - tol)) / TWO_PI)  # t.lo - shift in [lo - tol, lo - tol + 2 pi)
+    a = t.lo - shift
+    b = t.hi - shift
+    return full | (a <= hi + tol) | (b >= lo - tol + TWO_PI)
+
+
+# ---------------------------------------------------------------------------------------------- phasors
+class Vec:
+    """A plane vector over boxes as a sum of phasor terms ``m * z * exp(i k . v)``.
+
+    Each term has a multiplier ``m`` (an :class:`Iv`, or None for 1), a complex
+    constant ``z`` and integer coefficients ``k`` of the leg's angle variables
+    ``v`` (:class:`Iv`: ``phi``, the IK angles ``t``, ``u``, a force angle ``w``).
+    Cross and dot products pair the terms and add the constants of pairs with
+    the same multipliers and angle difference first: ``sum_j r_j sin(theta + c_j)
+    = R sin(theta + C)`` exactly, so a sum of rotating constants (a rigid
+    vector turning with phi) has its exact range, and ``x``, ``y`` (multipliers)
+    enter once each.
+    """
+
+    __slots__ = ("terms",)
+
+    def __init__(self, terms):
+        self.terms = [t for t in terms if t[2] != 0]
+
+    @staticmethod
+    def const(z: complex, coef=(0, 0, 0, 0)) -> "Vec":
+        return Vec([(None, tuple(coef), complex(z))])
+
+    def __add__(self, other: "Vec") -> "Vec":
+        return Vec(self.terms + (other.terms if isinstance(other, Vec) else Vec.const(other).terms))
+
+    def __neg__(self) -> "Vec":
+        return Vec([(m, k, -z) for m, k, z in self.terms])
+
+    def __sub__(self, other: "Vec") -> "Vec":
+        return self + (-other if isinstance(other, Vec) else Vec.const(-complex(other)))
+
+    def scale(self, s) -> "Vec":
+        """Times a complex constant or a real :class:`Iv`."""
+        if isinstance(s, Iv):
+            return Vec([(s if m is None else m * s, k, z) for m, k, z in self.terms])
+        return Vec([(m, k, z * complex(s)) for m, k, z in self.terms])
+
+    def turn(self, coef, z: complex = 1.0) -> "Vec":
+        """Times the phasor ``z exp(i coef . v)``."""
+        return Vec([(m, tuple(a + b for a, b in zip(k, coef)), w * complex(z)) for m, k, w in self.terms])
+
+
+def _angle(coef, var) -> Iv | float:
+    out = 0.0
+    for c, v in zip(coef, var):
+        if c:
+            out = v * float(c) + out
+    return out
+
+
+def _mult(a, b):
+    if a is None:
+        return b
+    if b is None:
+        return a
+    if a is b:
+        return iv_sqr(a)
+    return a * b
+
+
+def _pair(a: Vec, b: Vec, var, fn) -> Iv:
+    """``sum over term pairs of m_a m_b fn(angle)`` with constants of equal keys added first
+    (``fn = iv_sin``: cross; ``iv_cos``: dot)."""
+    groups: dict = {}
+    for ma, ka, za in a.terms:
+        for mb, kb, zb in b.terms:
+            dk = tuple(q - p for p, q in zip(ka, kb))
+            key = (id(ma), id(mb), dk)
+            if key in groups:
+                groups[key][2] += np.conj(za) * zb
+            else:
+                groups[key] = [ma, mb, np.conj(za) * zb, dk]
+    total = Iv(0.0)
+    for ma, mb, w, dk in groups.values():
+        if abs(w) == 0:
+            continue
+        th = _angle(dk, var)
+        val = fn(th + float(np.angle(w))) * abs(w) if isinstance(th, Iv) else \
+            Iv(float(np.imag(w) if fn is iv_sin else np.real(w)))
+        m = _mult(ma, mb)
+        total = total + (val if m is None else val * m)
+    return total
+
+
+def v_cross(a: Vec, b: Vec, var) -> Iv:
+    """``a x b`` over the boxes (tight for sums of rotating constants)."""
+    return _pair(a, b, var, iv_sin)
+
+
+def v_dot(a: Vec, b: Vec, var) -> Iv:
+    return _pair(a, b, var, iv_cos)
+
+
+def v_cv(a: Vec, var) -> Cv:
+    """The rectangle of ``a``: real and imaginary parts, each a grouped sum of ``m R cos/sin(k . v + C)``."""
+    groups: dict = {}
+    for m, k, z in a.terms:
+        key = (id(m), k)
+        if key in groups:
+            groups[key][2] += z
+        else:
+            groups[key] = [m, k, z]
+    re, im = Iv(0.0), Iv(0.0)
+    for m, k, z in groups.values():
+        th = _angle(k, var)
+        if isinstance(th, Iv):
+            cr, ci = iv_cos(th + float(np.angle(z))) * abs(z), iv_sin(th + float(np.angle(z))) * abs(z)
+        else:
+            cr, ci = Iv(z.real), Iv(z.imag)
+        re = re + (cr if m is None else cr * m)
+        im = im + (ci if m is None else ci * m)
+    return Cv(re, im)
+
+
+# ---------------------------------------------------------------------------------------------- legs
+@dataclass(frozen=True)
+class LegBox:
+    """One leg's closed forms enclosed over boxes of poses ``(n,)``.
+
+    q : three :class:`Iv` joint values (mm or rad; R values not wrapped)
+    dirs : three :class:`Vec` unit directions of the joints (base frame)
+    seg : four :class:`Vec` mm: ``seg[k]`` from joint centre ``k`` to the next (``seg[3] = 0``);
+        centre 3 is the end frame's origin
+    to_p : four :class:`Vec` mm: joint centre ``k`` (3: end origin) minus the platform centre P
+    f : :class:`Vec` unit constraint force (0 for a pure couple); m_P : :class:`Iv` mm, its moment about P;
+    B : :class:`Iv` ``B_ii``;  var : the angle variables of the phasors
+    infeasible : bool ``(n,)``: no pose of the box is reachable within the joint ranges on the working mode
+    line : the index of the joint centre on the constraint line (None for a couple)
+    """
+
+    q: tuple
+    dirs: tuple
+    seg: tuple
+    to_p: tuple
+    f: Vec
+    m_P: Iv
+    B: Iv
+    var: tuple
+    infeasible: np.ndarray
+    line: int | None
+
+    def between(self, a: int, b: int) -> Vec:
+        """Centre ``b`` minus centre ``a`` (``0..3``), as a sum of segments (no absolute positions)."""
+        lo, hi = min(a, b), max(a, b)
+        total = Vec([])
+        for k in range(lo, hi):
+            total = total + self.seg[k]
+        return total if a <= b else -total
+
+
+PHI, T, U, W = (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)
+ZERO = (0, 0, 0, 0)
+
+
+def leg_box_state(chain, x: Iv, y: Iv, phi: Iv, sigma: float, tol: float = 1e-9) -> LegBox:
+    """Interval version of the leg's inverse kinematics on branch ``sigma`` (:meth:`Chain.state`) over boxes.
+
+    Mirrors the closed forms of :meth:`pmaccuracy.legs.Chain.ik_branches` (one R:
+    two slides from a 2x2 system; two R: a quadratic in the slide, then the
+    turning angle ``t`` from the angles of the matched vectors; three R: law of
+    cosines, angles ``t`` and ``u``), vectors as phasor sums (:class:`Vec`).
+    Narrowing at feasible poses: slide values cut to their ranges (slack
+    ``tol``), discriminants to ``>= 0``, the law-of-cosines argument to
+    ``[-1, 1]``, ``B_ii`` to the working mode's sign; R values checked against
+    their ranges modulo 2 pi. Where a cut leaves nothing the box is infeasible.
+    """
+    n = x.lo.shape[0]
+    joints = chain.joints
+    infeasible = np.zeros(n, dtype=bool)
+    var = [phi, Iv(np.zeros(n)), Iv(np.zeros(n)), Iv(np.zeros(n))]
+    eb = complex(np.exp(1j * chain.base_angle))
+    base_z = complex(*chain.base)
+    platform_z = complex(*chain.platform)
+    pz = Vec([(x, ZERO, 1.0 + 0j), (y, ZERO, 1j)])
+    att = Vec.const(platform_z, PHI)                       # exp(i phi) platform, base frame
+    g = (pz + att - base_z).scale(eb.conjugate())            # end origin in the leg frame
+    dang = chain.platform_angle - chain.base_angle
+    oc = np.cumsum([j.offset for j in joints])
+    links = [complex(*j.link) for j in joints]
+    rot = [complex(np.exp(1j * o)) for o in oc]
+    S = phi + (dang - oc[2])
+    e_S = complex(np.exp(1j * (dang - oc[2])))             # exp(i S) = e_S exp(i phi)
+    rs = [k for k, j in enumerate(joints) if j.kind == "R"]
+    q: list = [None, None, None]
+
+    def cut_slide(k: int, val: Iv) -> Iv:
+        nonlocal infeasible
+        lo, hi = joints[k].range
+        out = iv_intersect(val, lo - tol, hi + tol)
+        infeasible = infeasible | out.empty()
+        return out
+
+    def disc_root(disc: Iv) -> Iv:
+        nonlocal infeasible
+        infeasible = infeasible | (disc.hi < 0)
+        return iv_sqrt(disc)
+
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        if len(rs) == 1:
+            m = rs[0]
+            d = [Vec.const(rot[k] * e_S, PHI) if k >= m else Vec.const(rot[k]) for k in range(3)]
+            rhs = g
+            for k in range(3):
+                rhs = rhs - d[k].scale(links[k])
+            a, b = (k for k in range(3) if k != m)
+            den = v_cross(d[a], d[b], var)
+            q[a] = cut_slide(a, v_cross(rhs, d[b], var) / den)
+            q[b] = cut_slide(b, v_cross(d[a], rhs, var) / den)
+            q[m] = S
+        elif len(rs) == 2:
+            m, nn = rs
+            k = 3 - m - nn
+            fixed = Vec.const(sum(rot[j] * links[j] for j in range(m)) + 0j) + \
+                Vec.const(sum(rot[j] * links[j] for j in range(nn, 3)) * e_S + 0j, PHI)
+            V = complex(sum(np.exp(1j * oc[j]) * links[j] for j in range(m, nn)))
+            Wv = g - fixed
+            if m <= k < nn:
+                ek = Vec.const(rot[k])
+                root = disc_root(v_dot(Wv, Wv, var) - (V.real * rot[k].imag - V.imag * rot[k].real) ** 2)
+                qk = cut_slide(k, root * sigma + (-(V.real * rot[k].real + V.imag * rot[k].imag)))
+                t = cv_angle(v_cv(Wv, var)) - cv_angle(v_cv(Vec.const(V) + ek.scale(qk), var))
+            else:
+                ek = Vec.const(rot[k] * e_S, PHI) if k >= nn else Vec.const(rot[k])
+                root = disc_root(abs(V) ** 2 - iv_sqr(v_cross(Wv, ek, var)))
+                qk = cut_slide(k, v_dot(Wv, ek, var) + root * sigma)
+                t = cv_angle(v_cv(Wv - ek.scale(qk), var)) - float(np.angle(V))
+            var[1] = t
+            q[k] = qk
+            q[m] = t
+            q[nn] = S - t
+            d = [Vec.const(rot[j]) if j < m else Vec.const(rot[j], T) if j < nn else Vec.const(rot[j] * e_S, PHI)
+                 for j in range(3)]
+        else:
+            l1, l2, l3 = links
+            L1, L2 = abs(l1), abs(l2)
+            Wv = g - Vec.const(l3 * complex(np.exp(1j * dang)), PHI)
+            c = (v_dot(Wv, Wv, var) - (L1 ** 2 + L2 ** 2)) / (2 * L1 * L2)
+            c = iv_intersect(c, -1.0 - 1e-12, 1.0 + 1e-12)
+            infeasible = infeasible | c.empty()
+            ac = iv_arccos(c)
+            rel = (ac if sigma > 0 else -ac) + (float(np.angle(l1)) - float(np.angle(l2)))
+            var[2] = rel
+            t1 = cv_angle(v_cv(Wv, var)) - cv_angle(v_cv(Vec.const(l1) + Vec.const(l2, U), var))
+            var[1] = t1
+            q[0] = t1 - oc[0]
+            q[1] = rel - joints[1].offset
+            q[2] = S - q[0] - q[1]
+            d = [Vec.const(1.0, T), Vec.const(1.0, (0, 1, 1, 0)), Vec.const(complex(np.exp(1j * dang)), PHI)]
+        for k, joint in enumerate(joints):
+            if joint.kind == "R" and joint.limited:
+                lo, hi = joint.range
+                infeasible = infeasible | ~angle_meets_range(q[k], lo, hi, tol)
+        dirs = tuple(dk.scale(eb) for dk in d)
+        seg = []
+        for k, joint in enumerate(joints):
+            if joint.kind == "P":
+                seg.append(dirs[k].scale(q[k]) + dirs[k].scale(links[k]))
+            else:
+                seg.append(dirs[k].scale(links[k]))
+        seg.append(Vec([]))
+        to_p = [None, None, None, att]
+        for k in (2, 1, 0):
+            to_p[k] = to_p[k + 1] - seg[k]
+        lb = LegBox(q=tuple(q), dirs=dirs, seg=tuple(seg), to_p=tuple(to_p), f=Vec([]), m_P=Iv(0.0), B=Iv(0.0),
+                    var=tuple(var), infeasible=infeasible, line=None)
+        return _wrench(chain, lb, n)
+
+
+def _wrench(chain, lb: LegBox, n: int) -> LegBox:
+    """The constraint wrench of the passive joints and ``B_ii`` (:meth:`Chain._screw_state` over boxes)."""
+    i, j = chain.passive_indices
+    ki, kj = chain.joints[i].kind, chain.joints[j].kind
+    a = chain.actuated_index
+    act_R = chain.joints[a].kind == "R"
+    infeasible = lb.infeasible
+    var = list(lb.var)
+    if ki == "P" and kj == "P":
+        return LegBox(q=lb.q, dirs=lb.dirs, seg=lb.seg, to_p=lb.to_p, f=Vec([]), m_P=Iv(np.ones(n)),
+                      B=Iv(np.ones(n) if act_R else np.zeros(n)), var=lb.var, infeasible=infeasible, line=None)
+    if ki == "R" and kj == "R":
+        segs = [k for k in range(i, j) if lb.seg[k].terms]
+        k = segs[0] if len(segs) == 1 else None
+        slide = k is not None and chain.joints[k].kind == "P" and chain.joints[k].link == (0.0, 0.0)
+        if k is not None and chain.joints[k].kind == "R":   # one rigid link: f along it
+            f = lb.dirs[k].scale(links_unit(chain, k))
+        elif slide and np.all((lb.q[k].lo > 0) | lb.infeasible):   # one slide of positive length: f along it
+            f = lb.dirs[k]
+        elif slide and np.all((lb.q[k].hi < 0) | lb.infeasible):
+            f = lb.dirs[k].scale(-1.0)
+        else:
+            var[3] = cv_angle(v_cv(lb.between(i, j), var))
+            f = Vec.const(1.0, W)
+        line = i
+    else:
+        line = i if ki == "R" else j
+        f = (lb.dirs[j] if ki == "R" else lb.dirs[i]).scale(1j)
+    var = tuple(var)
+    m_P = v_cross(lb.to_p[line], f, var)
+    B = v_cross(lb.between(a, line), f, var) if act_R else v_dot(f, lb.dirs[a], var)
+    if chain.n_branches == 2:   # on the working mode's branch sign(B_ii) = working_mode
+        B = iv_intersect(B, 0.0, np.inf) if chain.working_mode > 0 else iv_intersect(B, -np.inf, 0.0)
+        infeasible = infeasible | B.empty()
+    return LegBox(q=lb.q, dirs=lb.dirs, seg=lb.seg, to_p=lb.to_p, f=f, m_P=m_P, B=B, var=var,
+                  infeasible=infeasible, line=line)
+
+
+def links_unit(chain, k: int) -> complex:
+    lz = complex(*chain.joints[k].link)
+    return lz / abs(lz)
+
+
+def leg_half_width_box(chain, leg_sources, lb: LegBox) -> Iv:
+    """Interval of the leg's half-width ``c_i`` (mm): :func:`pmaccuracy.sources.states_half_widths` over boxes.
+
+    Each joint moment ``m_P + (P - c) x f`` is written ``(line - c) x f`` with the
+    vector between the two joint centres as a sum of segments.
+    """
+    n = lb.infeasible.shape[0]
+    couple = lb.line is None
+    var = lb.var
+    c = Iv(np.zeros(n))
+    abs_f = 0.0 if couple else 1.0
+    for k, (joint, e) in enumerate(zip(chain.joints, leg_sources)):
+        if e.radial or e.position:
+            c = c + (e.radial + e.position) * abs_f
+        if e.angular or e.direction:
+            mom = Iv(np.ones(n)) if couple else iv_abs(v_cross(lb.between(k, lb.line), lb.f, var))
+            c = c + mom * (e.angular + e.direction)
+        if e.lateral:
+            shift = iv_abs(v_dot(lb.f, lb.dirs[k].scale(1j), var)) * e.lateral
+            if couple:
+                tilt = Iv(np.ones(n))
+            else:  # carriage b_k = centre k + q_k e_k: (line - b_k) x f
+                tilt = iv_abs(v_cross(lb.between(k, lb.line) - lb.dirs[k].scale(lb.q[k]), lb.f, var))
+            c = c + iv_max(shift, tilt * (2 * e.lateral / e.block_length))
+        if e.actuator:
+            c = c + iv_abs(lb.B) * e.actuator
+        if e.length and joint.link != (0.0, 0.0):
+            c = c + iv_abs(v_dot(lb.f, lb.dirs[k].scale(links_unit(chain, k)), var)) * e.length
+    return c
+
+
+def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[float, float, float],
+               tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Upper bounds of ``dx, dy, dphi, dp`` (mm, mm, rad, mm) over boxes of poses.
+
+    Parameters
+    ----------
+    boxes : ``(n, 6)`` ``[x0, x1, y0, y1, phi0, phi1]`` mm, mm, rad
+    sigmas : each leg's IK branch (the root sign of its working mode)
+
+    Returns ``upper (n, 4)`` (``+inf`` where ``det A`` may vanish), ``infeasible (n,)``
+    (no pose of the box is in the workspace) and ``det_has_zero (n,)``.
+    With ``c_i`` the half-width intervals and ``A^-1 = adj(A) / det A``::
+
+        dx <= sum_i c_i^hi |A^-1[0, i]|^hi                  (likewise dy, dphi)
+        dp <= max over t of sqrt(max v_x^2 + max v_y^2),  v = sum_i t_i c_i A^-1[:2, i]
+    """
+    x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
+    n = boxes.shape[0]
+    infeasible = np.zeros(n, dtype=bool)
+    rows, cs = [], []
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        for chain, leg, sigma in zip(robot.chains, sources.legs, sigmas):
+            lb = leg_box_state(chain, x, y, phi, sigma, tol)
+            infeasible |= lb.infeasible
+            fc = v_cv(lb.f, lb.var)
+            rows.append((fc.re, fc.im, lb.m_P))
+            cs.append(leg_half_width_box(chain, leg, lb))
+        A = rows
+
+        def minor(r0, r1, c0, c1):
+            return A[r0][c0] * A[r1][c1] - A[r0][c1] * A[r1][c0]
+
+        # adj(A)[r, i] = cofactor of A[i, r]
+        adj = [[None] * 3 for _ in range(3)]
+        for i in range(3):
+            ri = [k for k in range(3) if k != i]
+            for r in range(3):
+                cc = [k for k in range(3) if k != r]
+                m = minor(ri[0], ri[1], cc[0], cc[1])
+                adj[r][i] = m if (i + r) % 2 == 0 else -m
+        det = A[0][0] * adj[0][0] + A[0][1] * adj[1][0] + A[0][2] * adj[2][0]
+        det_zero = det.contains_zero() | ~np.isfinite(det.lo) | ~np.isfinite(det.hi)
+        inv = [[adj[r][i] / det for i in range(3)] for r in range(3)]
+        upper = np.zeros((n, 4))
+        for r in range(3):
+            total = np.zeros(n)
+            for i in range(3):
+                total = total + cs[i].hi * iv_abs(inv[r][i]).hi
+            upper[:, r] = total
+        best = np.zeros(n)
+        for t in ((1, 1, 1), (1, 1, -1), (1, -1, 1), (1, -1, -1)):
+            vx, vy = Iv(0.0), Iv(0.0)
+            for i in range(3):
+                vx = vx + cs[i] * inv[0][i] * float(t[i])
+                vy = vy + cs[i] * inv[1][i] * float(t[i])
+            best = np.maximum(best, np.sqrt(iv_sqr(vx).hi + iv_sqr(vy).hi))
+        upper[:, 3] = best
+    upper = np.where(det_zero[:, None] | np.isnan(upper), np.inf, upper)
+    return upper, infeasible, det_zero
