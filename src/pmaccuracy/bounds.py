@@ -348,9 +348,11 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
     within = np.ones(n, dtype=bool)
     reachable = np.ones(n, dtype=bool)
     for chain, st in zip(robot.chains, states):
-        fin = np.isfinite(st.q).all(axis=-1)
-        reachable &= fin
-        within &= chain.within_limits(st.q, LIMIT_TOLERANCE)
+        q0, q1, q2 = st.qs
+        reachable &= np.isfinite(q0 + q1 + q2)
+        for joint, qk in zip(chain.joints, st.qs):
+            if joint.limited:
+                within &= joint.within(qk, LIMIT_TOLERANCE)
     within &= reachable
     (a0, b0, c0), (a1, b1, c1), (a2, b2, c2) = [(st.f.real, st.f.imag, st.m_P) for st in states]
     X = ((b1 * c2 - c1 * b2, c1 * a2 - a1 * c2, a1 * b2 - b1 * a2),
@@ -368,12 +370,8 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
                               abs_X[2][0] + abs_X[2][1] + L * abs_X[2][2])
         cond = norm_A * norm_inv * inv_abs_det
         cond = np.where(np.isfinite(cond), cond, np.inf)
-    from .kinematics import IKSolution, _transmission
-    B = np.zeros((n, 3, 3))
-    for i, st in enumerate(states):
-        B[:, i, i] = st.B
-    trans = _transmission(robot, IKSolution(joints=None, actuated_index=None, within_limits=None, A=None, B=B,
-                                            states=states), poses)
+    from .kinematics import states_transmission
+    trans = states_transmission(robot, states, (n,))
     from .sources import states_half_widths
     c = states_half_widths(robot, sources, states, poses)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -385,14 +383,14 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
         gy = [w[i] * X[i][1] for i in range(3)]
         sx, sy = gx[0] + gx[1], gy[0] + gy[1]
         ex, ey = gx[0] - gx[1], gy[0] - gy[1]
-        norms2 = np.stack([(sx + gx[2]) ** 2 + (sy + gy[2]) ** 2, (sx - gx[2]) ** 2 + (sy - gy[2]) ** 2,
-                           (ex + gx[2]) ** 2 + (ey + gy[2]) ** 2, (ex - gx[2]) ** 2 + (ey - gy[2]) ** 2], axis=-1)
-        dp = np.sqrt(np.max(norms2, axis=-1))
+        norms2 = ((sx + gx[2]) ** 2 + (sy + gy[2]) ** 2, (sx - gx[2]) ** 2 + (sy - gy[2]) ** 2,
+                  (ex + gx[2]) ** 2 + (ey + gy[2]) ** 2, (ex - gx[2]) ** 2 + (ey - gy[2]) ** 2)
+        dp = np.sqrt(np.maximum(np.maximum(norms2[0], norms2[1]), np.maximum(norms2[2], norms2[3])))
     extra = None
     if details:
         with np.errstate(divide="ignore", invalid="ignore"):
             A_inv = np.stack([np.stack(col, axis=-1) for col in X], axis=-1) / det[:, None, None]
-        best = np.argmax(norms2, axis=-1)
+        best = np.argmax(np.stack(norms2, axis=-1), axis=-1)
         extra = {"c": c, "G": A_inv * c[:, None, :], "t": _VERTEX_SIGNS[best],
                  "s_dx": _sign(A_inv[:, 0, :]), "s_dy": _sign(A_inv[:, 1, :]), "s_dphi": _sign(A_inv[:, 2, :]),
                  "s_dp": _VERTEX_SIGNS[best]}
@@ -435,8 +433,9 @@ def _generic_bounds(robot: Manipulator, sources, poses: np.ndarray, flat: np.nda
         block_poses = flat[k:k + CHUNK]
         block = bounds_kernel(robot, sources, block_poses, details)
         regular = _refuse(robot, block_poses, block, allow_outside, max_condition, singular)
+        every = bool(np.all(regular))
         for q in QUANTITIES:
-            res[q][k:k + CHUNK] = np.where(regular, getattr(block, q), np.nan)
+            res[q][k:k + CHUNK] = getattr(block, q) if every else np.where(regular, getattr(block, q), np.nan)
         for key, arr in extra.items():
             value = block.details[key]
             arr[k:k + CHUNK] = value if key.startswith(("s_", "t", "c")) else \

@@ -126,8 +126,13 @@ def leg_states(robot: Manipulator, poses: np.ndarray) -> tuple:
     """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.legs.LegState` (one pass per leg,
     ``exp(i phi)`` shared)."""
     phi = poses[..., 2]
-    e_phi = np.cos(phi) + 1j * np.sin(phi)
-    return tuple(chain.state(poses, e_phi) for chain in robot.chains)
+    if phi.size > 1 and phi.min() == phi.max():   # one orientation (a map's layer): its rotation once
+        phi = float(phi.flat[0])
+        e_phi = complex(np.cos(phi), np.sin(phi))
+    else:
+        e_phi = np.cos(phi) + 1j * np.sin(phi)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    return tuple(chain.state(poses, e_phi, pz, phi) for chain in robot.chains)
 
 
 def ik_from_states(robot: Manipulator, states: tuple, tol: float = LIMIT_TOLERANCE) -> IKSolution:
@@ -628,9 +633,14 @@ def _transmission(robot: Manipulator, ik: IKSolution, poses: np.ndarray) -> np.n
     moment arm (1 for a pure couple); 0 where undefined."""
     states = ik.states if ik.states is not None else \
         tuple(chain.state_at(ik.joints[..., i, :], poses) for i, chain in enumerate(robot.chains))
+    return states_transmission(robot, states, ik.B.shape[:-2])
+
+
+def states_transmission(robot: Manipulator, states: tuple, shape: tuple) -> np.ndarray:
+    """Transmission indices ``(*shape, 3)`` of the legs' states (:func:`_transmission`)."""
     out = []
     for i, (chain, st) in enumerate(zip(robot.chains, states)):
-        B = np.broadcast_to(st.B, ik.B.shape[:-2])
+        B = np.broadcast_to(st.B, shape)
         if chain.actuated.kind == "P":
             out.append(np.abs(B))
             continue

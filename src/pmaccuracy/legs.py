@@ -115,7 +115,8 @@ class Joint:
         if not self.limited:
             return np.isfinite(q)
         if self.kind == "R":
-            shifted = lo + np.mod(q - lo + tol, 2 * np.pi) - tol  # in [lo - tol, lo + 2 pi - tol)
+            u = q - lo + tol
+            shifted = lo + (u - (2 * np.pi) * np.floor(u * (0.5 / np.pi))) - tol  # in [lo - tol, lo + 2 pi - tol)
             return shifted <= hi + tol
         return (q >= lo - tol) & (q <= hi + tol)
 
@@ -204,7 +205,8 @@ class LegState:
 
     Attributes (leading shape ``(...)`` of the poses)
     -------------------------------------------------
-    q : ``(..., 3)`` joint values base to platform (mm for P, rad for R in ``(-pi, pi]``), NaN out of reach
+    qs : three ``(...)`` joint values base to platform (mm for P, rad for R in ``(-pi, pi]``), NaN out of
+        reach; :attr:`q` stacks them ``(..., 3)``
     centres : three ``(...)`` complex (mm): the frame origin before each joint (an R joint's centre), base frame
     dirs : three ``(...)`` complex unit vectors: each joint's x-axis (a P joint's direction), base frame
     f : ``(...)`` complex: the unit constraint force of the two passive joints (0 for two passive slides)
@@ -215,12 +217,18 @@ class LegState:
     Arrays may be broadcast views (read-only) or plain complex scalars where a quantity is constant.
     """
 
-    q: np.ndarray
+    qs: tuple
     centres: tuple
     dirs: tuple
     f: np.ndarray
     m_P: np.ndarray
     B: np.ndarray
+
+    @cached_property
+    def q(self) -> np.ndarray:
+        """``(..., 3)`` the joint values stacked."""
+        shape = np.broadcast_shapes(*(np.shape(v) for v in self.qs), np.shape(self.B))
+        return np.stack([np.broadcast_to(v, shape) for v in self.qs], axis=-1)
 
     @property
     def A_row(self) -> np.ndarray:
@@ -230,7 +238,7 @@ class LegState:
     def where(self, mask: np.ndarray, other: "LegState") -> "LegState":
         """This state where ``mask`` is False and ``other`` where it is True (elementwise)."""
         pick = lambda a, b: np.where(mask, b, a)  # noqa: E731
-        return LegState(q=np.where(mask[..., None], other.q, self.q),
+        return LegState(qs=tuple(pick(a, b) for a, b in zip(self.qs, other.qs)),
                         centres=tuple(pick(a, b) for a, b in zip(self.centres, other.centres)),
                         dirs=tuple(pick(a, b) for a, b in zip(self.dirs, other.dirs)),
                         f=pick(self.f, other.f), m_P=pick(self.m_P, other.m_P), B=pick(self.B, other.B))
@@ -507,13 +515,16 @@ class Chain:
                 return sigma
         return 1.0
 
-    def _solve(self, poses: np.ndarray, sigma: float, e_phi: np.ndarray | None = None) -> "LegState":
+    def _solve(self, poses: np.ndarray, sigma: float, e_phi: np.ndarray | None = None,
+               pz: np.ndarray | None = None, phi: np.ndarray | float | None = None) -> "LegState":
         """The IK branch with root sign ``sigma`` and its geometry, without trigonometry beyond one ``arctan2``
         per revolute angle (:meth:`state`)."""
-        x, y, phi = poses[..., 0], poses[..., 1], poses[..., 2]
+        if phi is None:
+            phi = poses[..., 2]
         if e_phi is None:
             e_phi = np.cos(phi) + 1j * np.sin(phi)
-        pz = x + 1j * y
+        if pz is None:
+            pz = poses[..., 0] + 1j * poses[..., 1]
         eb = complex(np.exp(1j * self.base_angle))
         g = eb.conjugate() * (pz + e_phi * self.platform_z - self.base_z)       # end origin, leg frame
         E_g = e_phi * complex(np.exp(1j * (self.platform_angle - self.base_angle)))  # exp(i gamma)
@@ -546,15 +557,15 @@ class Chain:
                 if m <= k < n:
                     ek = rot[k]
                     W2 = W.real ** 2 + W.imag ** 2
-                    root = np.sqrt(_clip_disc(W2 - cross(V, ek) ** 2, W2))
+                    root = _root(W2 - cross(V, ek) ** 2, W2)
                     qk = -dot(V, ek) + sigma * root
-                    E_t = W * np.conj(V + qk * ek) / W2
+                    E_t = W * np.conj(V + qk * ek) * (1.0 / W2)     # (no complex division: slow)
                 else:
                     ek = rot[k] * E_S if k >= n else rot[k]
                     V2 = abs(V) ** 2
-                    root = np.sqrt(_clip_disc(V2 - cross(W, ek) ** 2, V2))
+                    root = _root(V2 - cross(W, ek) ** 2, V2)
                     qk = dot(W, ek) + sigma * root
-                    E_t = (W - qk * ek) * V.conjugate() / V2
+                    E_t = (W - qk * ek) * (V.conjugate() / V2)
                 q[k] = qk
                 q[m] = np.angle(E_t)
                 q[n] = wrap(S - q[m])
@@ -568,22 +579,21 @@ class Chain:
                 c = np.where(np.abs(c) <= 1 + 1e-12, np.clip(c, -1.0, 1.0), np.nan)
                 beta = sigma * np.arccos(c)
                 E_rel = (c + 1j * (sigma * np.sqrt(1.0 - c * c))) * complex(l1 / L1 * (l2 / L2).conjugate())
-                E_t1 = W * np.conj(l1 + E_rel * l2) / W2
+                E_t1 = W * np.conj(l1 + E_rel * l2) * (1.0 / W2)
                 q[0] = np.angle(E_t1 * rot[0].conjugate())
                 q[1] = wrap(beta + (np.angle(l1) - np.angle(l2) - self.joints[1].offset))
                 q[2] = wrap(S - q[0] - q[1])
                 d = [E_t1, E_t1 * E_rel, E_g * rot[2].conjugate() * rot[2]]
         dirs = tuple(eb * dk for dk in d)
-        centres = []
-        pos: Any = self.base_z
-        for k, joint in enumerate(self.joints):
-            centres.append(pos)
-            pos = pos + dirs[k] * ((q[k] + joint.link_z) if joint.kind == "P" else joint.link_z)
-        shape = phi.shape
-        qs = np.stack([np.broadcast_to(v, shape) for v in q], axis=-1)
-        return self._screw_state(qs, tuple(centres), dirs, pz)
+        centres: list[Any] = [self.base_z]
+        for k, joint in enumerate(self.joints[:2]):
+            if joint.kind == "P":
+                centres.append(centres[-1] + dirs[k] * (q[k] + joint.link_z))
+            else:
+                centres.append(centres[-1] + dirs[k] * joint.link_z if joint.link_z != 0 else centres[-1])
+        return self._screw_state(tuple(q), tuple(centres), dirs, pz)
 
-    def _screw_state(self, q: np.ndarray, centres: tuple, dirs: tuple, pz: np.ndarray) -> "LegState":
+    def _screw_state(self, qs: tuple, centres: tuple, dirs: tuple, pz: np.ndarray) -> "LegState":
         """:class:`LegState` from joint values, centres and directions: the constraint wrench of the passive
         joints (:func:`~pmaccuracy.screws.constraint_wrench`), its moment about P and ``B_ii``."""
         i, j = self.passive_indices
@@ -592,7 +602,7 @@ class Chain:
             if ki == "R" and kj == "R":
                 line = centres[i]
                 dvec = centres[j] - centres[i]
-                f = dvec / np.abs(dvec)
+                f = dvec * (1.0 / np.abs(dvec))
             elif ki == "P" and kj == "P":
                 line = None
                 f = np.zeros(np.shape(pz), dtype=complex)
@@ -607,17 +617,19 @@ class Chain:
             m_P = cross(line - pz, f)
             B = cross(line - centres[a], f) if self.joints[a].kind == "R" else dot(f, dirs[a])
         f = np.broadcast_to(f, np.shape(pz))
-        return LegState(q=q, centres=centres, dirs=dirs, f=f, m_P=np.broadcast_to(m_P, np.shape(pz)),
+        return LegState(qs=qs, centres=centres, dirs=dirs, f=f, m_P=np.broadcast_to(m_P, np.shape(pz)),
                         B=np.broadcast_to(B, np.shape(pz)))
 
-    def state(self, poses: np.ndarray, e_phi: np.ndarray | None = None) -> "LegState":
+    def state(self, poses: np.ndarray, e_phi: np.ndarray | None = None, pz: np.ndarray | None = None,
+              phi: np.ndarray | float | None = None) -> "LegState":
         """The leg at poses ``(..., 3)`` on its working mode: joint values, joint geometry and wrench.
 
         The closed forms of :meth:`ik_branches` written for one branch, with every
         joint direction obtained from the solution's vectors instead of
         ``exp(i angle)``: one IK, the joint centres and directions, the
         constraint wrench ``(f, m_P)`` and ``B_ii`` (Eq. 2-4 in general form) in
-        one pass. ``e_phi`` may pass ``exp(i phi)`` ``(...)`` shared by the legs.
+        one pass. ``e_phi``, ``pz`` and ``phi`` may pass ``exp(i phi)``, ``x + i y`` and ``phi`` shared by the
+        legs (``phi`` and ``e_phi`` scalars when every pose has the same orientation).
         NaN where the leg cannot reach the pose.
 
         >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")), platform=(0.0, 0.0))
@@ -626,11 +638,11 @@ class Chain:
         ([0.927295, 5.0, -0.927295], (0.6+0.8j), 1.0)
         """
         poses = np.asarray(poses, dtype=float)
-        st = self._solve(poses, self._branch, e_phi)
+        st = self._solve(poses, self._branch, e_phi, pz, phi)
         if self.n_branches == 2:
             wrong = st.B * self.working_mode < 0
             if np.any(wrong):
-                other = self._solve(poses, -self._branch, e_phi)
+                other = self._solve(poses, -self._branch, e_phi, pz, phi)
                 st = st.where(wrong, other)
         return st
 
@@ -640,8 +652,8 @@ class Chain:
         centres, dirs, _, _ = self.frames(q)
         p = np.asarray(poses, dtype=float)
         pz = p[..., 0] + 1j * p[..., 1]
-        return self._screw_state(q, tuple(centres[..., k] for k in range(3)), tuple(dirs[..., k] for k in range(3)),
-                                 pz)
+        return self._screw_state(tuple(q[..., k] for k in range(3)), tuple(centres[..., k] for k in range(3)),
+                                 tuple(dirs[..., k] for k in range(3)), pz)
 
     def inverse_kinematics(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Joint values on the working mode's branch: ``q (..., 3)``, ``A_row (..., 3)``, ``B (...)``.
@@ -745,6 +757,18 @@ class Chain:
                     curves.append(Curve("line", normal=complex(normal), offset=float(cross(c, e) - s * abs(V)),
                                         label="branch"))
         return curves
+
+
+def _root(disc: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
+    """``sqrt(disc)`` where a discriminant that rounding pushed just below 0 counts as 0 and a clearly
+    negative one gives NaN (as :func:`_clip_disc`, without temporaries of the whole size)."""
+    root = np.sqrt(np.maximum(disc, 0.0))
+    bad = disc < -1e-12 * np.maximum(scale, 1.0)
+    if np.ndim(root) == 0:
+        return np.float64(np.nan) if bad else root
+    if bad.any():
+        root[bad] = np.nan
+    return root
 
 
 def _clip_disc(disc: np.ndarray, scale: np.ndarray | float) -> np.ndarray:

@@ -208,27 +208,33 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
     shares of the table in the module docstring add up.
     """
     pz = poses[..., 0] + 1j * poses[..., 1]
-    out = np.zeros(poses.shape[:-1] + (3,))
+    out = np.empty(poses.shape[:-1] + (3,))
     for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, states)):
         f, m_P = st.f, st.m_P
-        c = out[..., i]
-        abs_f = None
+        i_, j_ = chain.passive_indices
+        couple = chain.joints[i_].kind == "P" and chain.joints[j_].kind == "P"
+        const = 0.0          # shares that do not depend on the pose
+        terms = []
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
-            if e.radial or e.position:
-                abs_f = np.abs(f) if abs_f is None else abs_f
-                c += (e.radial + e.position) * abs_f
+            if (e.radial or e.position) and not couple:   # |f| = 1 (a pure couple has f = 0)
+                const += e.radial + e.position
             if e.angular or e.direction:
-                c += (e.angular + e.direction) * np.abs(m_P + cross(pz - st.centres[k], f))
+                terms.append((e.angular + e.direction) * np.abs(m_P + cross(pz - st.centres[k], f)))
             if e.lateral:
-                carriage = st.centres[k] + st.q[..., k] * st.dirs[k]
-                shift = e.lateral * np.abs(dot(f, 1j * st.dirs[k]))
+                # the carriage b_k = c_k + q_k e_k is the next frame's origin less the joint's link
+                carriage = st.centres[k + 1] if k < 2 and joint.link_z == 0 else st.centres[k] + st.qs[k] * st.dirs[k]
+                shift = e.lateral * np.abs(cross(st.dirs[k], f))      # f . (E e_k) = e_k x f
                 tilt = (2 * e.lateral / e.block_length) * np.abs(m_P + cross(pz - carriage, f))
-                c += np.maximum(shift, tilt)
+                terms.append(np.maximum(shift, tilt))
             if e.actuator:
-                c += e.actuator * np.abs(st.B)
+                terms.append(e.actuator * np.abs(st.B))
             if e.length and joint.link != (0.0, 0.0):
                 link_dir = st.dirs[k] * (joint.link_z / abs(joint.link_z))
-                c += e.length * np.abs(dot(f, link_dir))
+                terms.append(e.length * np.abs(dot(f, link_dir)))
+        c = const
+        for term in terms:
+            c = c + term
+        out[..., i] = c
     return out
 
 
