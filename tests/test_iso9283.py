@@ -233,7 +233,11 @@ def test_cli_simulate_and_compare_with_repeats(tmp_path, capsys):
     # refusals: one line, exit 2
     bad = tmp_path / "bad.csv"
     bad.write_text(HEADER + "a,0,0,0,1,0.1,0,0\n")
+    far = tmp_path / "far.csv"
+    far.write_text(HEADER + "a,0,0,0,1,0.1,0,0\nb,100,0,0,1,100,0,0\nb,100,0,0,2,100.1,0,0\na,0,0,0,2,0,0,0\n")
     for args, word in ((("experiment", "compare", "--measurements", str(m), "--repeats", str(bad)), "line 2"),
+                       (("experiment", "compare", "--measurements", str(m), "--repeats", str(far)),
+                        "line 3: point b: the commanded pose is outside the joint ranges"),
                        (("experiment", "simulate", "--out", str(m), "--repeats", "1"), "--repeats"),
                        (("experiment", "simulate", "--out", str(m), "--repeats-out", str(bad)), "--repeats-out")):
         code, out, err = _run(capsys, *args)

@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError, MeasurementFileError
+from .errors import ConfigError, MeasurementFileError, SingularPoseError
 
 #: Header of a repeated-pose CSV file.
 REPEAT_COLUMNS = ("point", "x_nom", "y_nom", "phi_nom_deg", "cycle", "x", "y", "phi_deg")
@@ -392,8 +392,15 @@ def compare_repeatability(robot, clearances, repeats: RepeatedPoses | str | Path
     if bad.size:
         k = int(bad[0])
         raise MeasurementFileError(f"point {repeats.points[k]}: the commanded pose is outside the joint ranges",
-                                   source=repeats.source, key=f"line {int(repeats.lines[k].max())}"
+                                   source=repeats.source, key=f"line {int(repeats.lines[k][repeats.lines[k] > 0].min())}"
                                    if repeats.lines[k].max() else None)
+    from .bounds import max_pose_errors
+    from .distributions import as_sources
+
+    try:  # a commanded pose at or near a singularity has no model: refused, naming the point
+        max_pose_errors(robot, as_sources(robot, clearances), repeats.nominal, allow_outside=True)
+    except SingularPoseError as exc:
+        raise SingularPoseError(f"{repeats.source}: commanded poses: {exc}") from None
     distribution = Distribution.load(distribution)
     measured = iso_figures(repeats.attained, repeats.nominal)
     counts = repeats.counts
