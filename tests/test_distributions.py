@@ -133,6 +133,11 @@ def test_case1_at_home_is_a_sum_of_three_uniforms():
         cdf = lambda x: dref.cdf_sum_uniforms(x, uniforms)  # noqa: E731
         top = sum(uniforms)
         _assert_cdf_close(E[:, q], cdf, np.linspace(-top, top, 41))
+        # Kolmogorov-Smirnov distance below the DKW bound P(sup |F_n - F| > e) <= 2 exp(-2 n e^2) = 1e-4
+        v = np.sort(E[:, q])
+        F = cdf(v)
+        ks = max(np.max(np.arange(1, N + 1) / N - F), np.max(F - np.arange(N) / N))
+        assert ks <= math.sqrt(math.log(2 / 1e-4) / (2 * N)), ks
         scale = math.degrees(1) if name == "dphi" else 1.0
         rec = res["quantities"]["dphi_deg" if name == "dphi" else name]
         # RSS = the analytic std; the Monte Carlo std within 4 of its standard errors
