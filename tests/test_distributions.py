@@ -387,3 +387,12 @@ def test_cli_map_csv(tmp_path, capsys):
     assert code == 0, err
     header = out.read_text().splitlines()[0].split(",")
     assert header[:3] == ["x", "y", "phi_deg"] and "dphi_p95_deg" in header and "dp_rss" in header
+
+
+def test_statistics_section_for_a_report(tmp_path):
+    out = D.statistics_section("aalborg_3ppr", "case1", 0.0, grid=5, samples=500, pose_samples=2000,
+                               figure=tmp_path / "s.png")
+    assert out["threshold_dp"] == pytest.approx(round(0.5 * out["pose"]["quantities"]["dp"]["worst"], 4))
+    assert out["region"]["orientations"]["0"]["dp"]["exceed"][1] >= 0
+    assert (tmp_path / "s.png").stat().st_size > 10_000
+    json.dumps(out)

@@ -683,3 +683,32 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
                               suptitle=f"{ds.attrs.get('robot', '')}, {ds.attrs.get('clearances', '')}: "
                                        f"phi = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} samples")
     return figures.save(fig, path)
+
+
+def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, samples: int = 10_000,
+                       pose_samples: int = 100_000, seed: int | None = 0, pose=None,
+                       distribution: Distribution | str | None = None, threshold_dp: float | None = None,
+                       figure: str | Path | None = None) -> dict[str, Any]:
+    """Everything a report section on the error statistics needs, JSON-ready.
+
+    At ``pose`` ``(3,)`` [mm, mm, rad] (default: the commanded pose ``(0, 0, phi)``) the
+    :func:`pose_statistics` with ``pose_samples`` samples; over the workspace at ``phi`` (rad) the
+    :func:`summarize_region` of an ``grid x grid`` percentile map (95th percentile) with ``samples``
+    samples; ``threshold_dp`` (mm, default: the worst case of dp at the pose, halved) for the exceedance
+    probabilities; with ``figure`` the :func:`save_percentile_map_figure` written there.
+    Returns ``{"pose": ..., "region": ..., "figure": path or None}``.
+    """
+    pose = np.array([0.0, 0.0, phi]) if pose is None else np.asarray(pose, dtype=float)
+    if threshold_dp is None:
+        from .bounds import max_pose_errors
+        from .geometry import Manipulator
+
+        robot = Manipulator.load(robot)
+        threshold_dp = round(0.5 * float(max_pose_errors(robot, as_sources(robot, clearances), pose).dp_max), 4)
+    at_pose = pose_statistics(robot, clearances, pose, samples=pose_samples, seed=seed, distribution=distribution,
+                              thresholds={"dp": threshold_dp})
+    ds = region_statistics(robot, clearances, [phi], grid, samples=samples, seed=seed, distribution=distribution,
+                           percentiles=(95.0,), thresholds={"dp": threshold_dp})
+    path = save_percentile_map_figure(ds, figure) if figure is not None else None
+    return {"pose": at_pose, "region": summarize_region(ds), "threshold_dp": threshold_dp,
+            "figure": None if path is None else str(path)}
