@@ -499,7 +499,7 @@ def plot_comparison(result: DesignComparison):
             cbar.ax.yaxis.set_major_locator(FixedLocator(ticks))
             cbar.ax.yaxis.set_minor_locator(NullLocator())
             cbar.ax.yaxis.set_major_formatter(factor)
-            cbar.ax.tick_params(labelsize="x-small")
+            cbar.ax.tick_params(labelsize="small")
             cbar.set_label("δp_max ratio (factor)", fontsize="small")
             row = result.row(p, k)
             ax.text(0.5, -0.2, f"mean {row.ratio_mean[3]:.3g}×, min {row.ratio_min[3]:.3g}×, "

@@ -624,30 +624,61 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
 
 
 def save_workspace_figure(robot: Manipulator, path: str | Path,
-                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 150) -> Path:
-    """Write the workspaces at ``phis_deg`` (deg) to ``path`` as a PNG; returns the path.
-
-    Left: the whole robot assembled at :func:`home_pose` with its workspaces;
-    right: the workspaces zoomed, with their areas. The file is PNG whatever its extension.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(12.0, 7.0))
-    FigureCanvasAgg(fig)
-    phis = np.radians(np.asarray(phis_deg, dtype=float))
-    ax_full, ax_zoom = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1]})
-    plot_workspaces(robot, phis, ax=ax_full)
-    ax_full.set_title(f"{robot.name} ({robot.architecture}): robot and workspaces")
-    ax_full.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize="small", frameon=False)
-    plot_workspaces(robot, phis, ax=ax_zoom, zoom=True)
-    ax_zoom.set_title("constant-orientation workspaces (zoom)")
-    ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize="small", frameon=False)
-    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.2, top=0.94, wspace=0.22)  # fixed: no layout pass
+                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
+    """Write :func:`workspace_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+    fig = workspace_figure(robot, phis_deg)
     path = Path(path)
     fig.savefig(path, dpi=dpi, format="png")
     fig.clear()
     return path
+
+
+def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
+    """The workspaces at ``phis_deg`` (deg) as a :class:`matplotlib.figure.Figure` (with an Agg canvas).
+
+    Left, large: the workspaces, zoomed to their union (8 % margin) at equal scales, their areas in
+    the legend under the axes. Right, small: the whole robot assembled at :func:`home_pose` with the
+    same workspaces and the zoomed region outlined (dashed), and the legend of its symbols under it.
+    Nothing is drawn over the data. 10 in wide (its natural size in the report), as high as the zoom
+    needs. Lengths in mm.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    fig = Figure(figsize=(10.0, 6.0))
+    FigureCanvasAgg(fig)
+    phis = np.radians(np.asarray(phis_deg, dtype=float))
+    ax_zoom = fig.add_axes((0.08, 0.2, 0.52, 0.7))
+    plot_workspaces(robot, phis, ax=ax_zoom, zoom=True)
+    # size the figure to the zoomed box (equal scales): main axes at most 5.6 x 5.0 in
+    (x0, x1), (y0, y1) = ax_zoom.get_xlim(), ax_zoom.get_ylim()
+    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    w_in = 5.6
+    h_in = w_in * aspect
+    if h_in > 5.0:
+        h_in, w_in = 5.0, 5.0 / aspect
+    side = 2.9                                         # the whole-robot panel, square
+    height = max(h_in, side + 0.6) + 1.45              # title above; x label and legend below
+    fig.set_size_inches(10.0, height)
+    ax_zoom.set_position((0.8 / 10.0, 1.05 / height, w_in / 10.0, h_in / height))
+    ax_full = fig.add_axes((6.85 / 10.0, (height - 0.45 - side) / height, side / 10.0, side / height))
+    ax_zoom.set_title(f"{robot.name} ({robot.architecture}): constant-orientation workspaces", fontsize=11)
+    ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.5 / h_in), ncol=min(len(phis), 3),
+                   fontsize=9, frameon=False)
+    plot_workspaces(robot, phis, ax=ax_full)
+    (x0, x1), (y0, y1) = ax_zoom.get_xlim(), ax_zoom.get_ylim()
+    ax_full.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, linestyle="--", linewidth=1.0,
+                                edgecolor="k", zorder=7, label="zoomed region (left)"))
+    ax_full.set_title("whole robot at a pose inside", fontsize=10)
+    ax_full.tick_params(labelsize=8)
+    ax_full.xaxis.label.set_fontsize(9)
+    ax_full.yaxis.label.set_fontsize(9)
+    handles, labels = ax_full.get_legend_handles_labels()
+    keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
+    ax_full.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
+                   bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=8, frameon=False)
+    return fig
 
 
 def save_comparison_figure(robots: list[Manipulator], path: str | Path,
