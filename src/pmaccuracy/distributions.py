@@ -448,13 +448,13 @@ def sample_statistics(values: np.ndarray, *, percentiles=(95.0, 99.0), threshold
     std = np.sqrt(m2 * n / max(n - 1, 1))
     with np.errstate(invalid="ignore", divide="ignore"):
         se_std = np.where(std > 0, np.sqrt(np.maximum(m4 - m2 ** 2, 0.0) / n) / (2 * np.where(std > 0, std, 1)), 0.0)
-    a = np.sort(np.abs(v), axis=0)
-    out = {"mean": mean, "se_mean": std / math.sqrt(n), "std": std, "se_std": se_std, "max_abs": a[-1]}
+    a = np.sort(np.moveaxis(np.abs(v), 0, -1), axis=-1)  # samples last: a contiguous sort per pose
+    out = {"mean": mean, "se_mean": std / math.sqrt(n), "std": std, "se_std": se_std, "max_abs": a[..., -1]}
     for p in percentiles:
         key = f"p{p:g}"
-        out[key] = np.quantile(a, p / 100.0, axis=0)
+        out[key] = np.quantile(a, p / 100.0, axis=-1)
         lo, hi = order_statistic_interval(n, p / 100.0)
-        out[f"{key}_lo"], out[f"{key}_hi"] = a[lo], a[hi]
+        out[f"{key}_lo"], out[f"{key}_hi"] = a[..., lo], a[..., hi]
     if thresholds is not None:
         p_ex = np.mean(np.abs(v) > np.asarray(thresholds), axis=0)
         out["exceed"] = p_ex
