@@ -48,6 +48,8 @@ from .sources import ErrorSources
 DEFAULT_GAP = 1e-3
 #: Relative widening of every interval upper bound (covers floating-point rounding).
 ROUNDING = 1e-9
+#: Length (in characteristic lengths) that turns a box's phi width into mm when choosing the side to split.
+PHI_SCALE = 3.0
 
 
 class SingularRegionError(SingularPoseError):
@@ -215,6 +217,26 @@ def _check_regular(robot: Manipulator, poses: np.ndarray, region: Region, max_co
             "errors are unbounded there: narrow --phi-deg or --region")
 
 
+def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray:
+    """Corners of the constant-orientation workspaces at the orientations ``phis`` not in ``seen`` (which
+    they are added to), inside the region's box: maxima often sit there (for a 3-PPR at fixed phi the
+    half-widths are affine in the position, the maxima convex, so a maximum is at a corner)."""
+    from .workspace import constant_orientation_workspace
+
+    out = [np.zeros((0, 3))]
+    for phi in np.asarray(phis, dtype=float).ravel():
+        if not np.isfinite(phi) or float(phi) in seen:
+            continue
+        seen.add(float(phi))
+        ws = constant_orientation_workspace(robot, float(phi))
+        v = ws.vertices
+        if v.shape[0]:
+            keep = (v[:, 0] >= region.x[0]) & (v[:, 0] <= region.x[1]) & (v[:, 1] >= region.y[0]) & \
+                (v[:, 1] <= region.y[1])
+            out.append(np.column_stack([v[keep], np.full(int(keep.sum()), float(phi))]))
+    return np.vstack(out)
+
+
 def _corners_and_centres(boxes: np.ndarray) -> np.ndarray:
     """Centres and the 8 corners of boxes ``(n, 6)``: poses ``(9 n, 3)``."""
     xs = (boxes[:, 0], boxes[:, 1])
@@ -230,7 +252,8 @@ def _corners_and_centres(boxes: np.ndarray) -> np.ndarray:
 
 def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float = DEFAULT_GAP,
                  max_condition: float = DEFAULT_MAX_CONDITION, max_boxes: int = 2_000_000,
-                 min_size: float | None = None, grid: int = 21) -> GlobalWorst:
+                 min_size: float | None = None, grid: int = 21, candidates: np.ndarray | None = None
+                 ) -> GlobalWorst:
     """Certified maxima of ``dx, dy, dphi, dp`` over ``region`` (module docstring), within relative ``gap``.
 
     Parameters
@@ -244,6 +267,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     min_size : mm, boxes are not split below it (default ``1e-7`` of the
         characteristic length); a singular box that small raises
     grid : ``grid x grid x (grid or 1)`` initial samples for the lower bounds and the singularity check
+    candidates : optional poses ``(k, 3)`` of the region also tried for the lower bounds (e.g. the best
+        poses of a grid, :func:`grid_best`)
 
     Returns :class:`GlobalWorst`. Raises :class:`EmptyWorkspaceError` when no
     sampled pose of the region lies in the workspace and the bounds cannot prove
@@ -261,13 +286,23 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     sources = as_sources(robot, clearances)
     L = robot.characteristic_length
     min_size = 1e-7 * L if min_size is None else float(min_size)
-    scale = np.array([1.0, 1.0, L])
+    scale = np.array([1.0, 1.0, L * PHI_SCALE])
     # Initial samples: lower bounds, a pose for the branches, the singularity check.
     nphi = 1 if region.phi[0] == region.phi[1] else grid
     gx, gy, gp = (np.linspace(*region.x, grid), np.linspace(*region.y, grid), np.linspace(*region.phi, nphi))
     samples = np.stack(np.meshgrid(gx, gy, gp, indexing="ij"), axis=-1).reshape(-1, 3)
+    if candidates is not None:
+        c = np.asarray(candidates, dtype=float).reshape(-1, 3)
+        c = c[np.all(np.isfinite(c), axis=1)]
+        lo = np.array([region.x[0], region.y[0], region.phi[0]])
+        hi = np.array([region.x[1], region.y[1], region.phi[1]])
+        samples = np.vstack([samples, c[np.all((c >= lo) & (c <= hi), axis=1)]])
     values, inside = _exact(robot, clearances, samples)
     _check_regular(robot, samples[inside], region, max_condition)
+    seen: set[float] = set()
+    extra = _vertices(robot, region, gp, seen)
+    ev, ei = _exact(robot, clearances, extra)
+    samples, values, inside = np.vstack([samples, extra]), np.vstack([values, ev]), np.concatenate([inside, ei])
     lower = np.zeros(4)
     lower_pose = np.full((4, 3), np.nan)
     if np.any(inside):
@@ -292,7 +327,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         boxes, active, upper, det_zero = boxes[keep], active[keep], upper[keep], det_zero[keep]
         if not boxes.shape[0]:
             break
-        pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])   # centres
+        pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])   # centres, and the workspace's corners at the best phis
+        pts = np.vstack([pts, _vertices(robot, region, lower_pose[:, 2], seen)])
         vals, ins = _exact(robot, clearances, pts)
         if np.any(ins):
             k = np.nanargmax(np.where(np.isnan(vals), -np.inf, vals), axis=0)
@@ -340,3 +376,38 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
                                converged=bool(converged[i] and g <= gap))
     return GlobalWorst(quantities=out, boxes=n_boxes, iterations=iterations, seconds=time.perf_counter() - t0,
                        target_gap=gap, region=region)
+
+
+def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_phi: int = 7
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The best values on a grid of the region, for comparison with the certificate.
+
+    At ``n_phi`` orientations evenly spaced over the interval (1 if it is a
+    point), an ``n x n`` grid over the region's box cut to the workspace's
+    bounds at that orientation; poses outside the workspace are skipped. Returns
+    the maxima ``(4,)`` (``dx, dy, dphi, dp``; mm, rad) and their poses ``(4, 3)``
+    (NaN when no grid pose is in the workspace).
+    """
+    from .workspace import constant_orientation_workspace
+
+    phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
+    best = np.full(4, -np.inf)
+    poses = np.full((4, 3), np.nan)
+    for phi in phis:
+        ws = constant_orientation_workspace(robot, float(phi))
+        if ws.is_empty:
+            continue
+        (wx0, wx1), (wy0, wy1) = ws.bounds
+        x0, x1 = max(region.x[0], wx0), min(region.x[1], wx1)
+        y0, y1 = max(region.y[0], wy0), min(region.y[1], wy1)
+        if x0 > x1 or y0 > y1:
+            continue
+        X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
+        pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)])
+        vals, _ = _exact(robot, clearances, pts)
+        vals = np.where(np.isnan(vals), -np.inf, vals)
+        k = np.argmax(vals, axis=0)
+        better = vals[k, range(4)] > best
+        best = np.where(better, vals[k, range(4)], best)
+        poses = np.where(better[:, None], pts[k], poses)
+    return np.where(np.isfinite(best), best, np.nan), poses

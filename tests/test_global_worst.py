@@ -1,0 +1,159 @@
+"""The certified global worst case against dense grids, random samples and a closed form.
+
+References: :func:`max_pose_errors` at grid and random poses of the region that
+:func:`inverse_kinematics` puts inside the joint ranges (the certificate must
+never be below them, and its lower bound must be attained), and, for the
+Aalborg 3-PPR at a fixed orientation, the vertices of the exact workspace
+polygon: there A is constant and each leg's half-width is affine in the
+position, so each maximum (a norm or support function of an affine map) is
+convex in the position and attained at a vertex of the (convex) square.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.cli import main
+from pmaccuracy.errors import ConfigError, EmptyWorkspaceError
+from pmaccuracy.geometry import Manipulator
+from pmaccuracy.global_worst import SingularRegionError, global_worst, grid_best, make_region
+from pmaccuracy.kinematics import inverse_kinematics
+from pmaccuracy.sources import load_clearances
+from pmaccuracy.workspace import constant_orientation_workspace, home_pose
+
+AALBORG = Manipulator.preset("aalborg_3ppr")
+CASE1 = load_clearances("case1", AALBORG)
+RNG = np.random.default_rng(11)
+
+
+def sampled_maxima(robot, clearances, region, n=41, n_phi=5, n_random=3000):
+    """Largest exact values over a grid and random poses of the region's box that are in the workspace."""
+    phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
+    X, Y, P = np.meshgrid(np.linspace(*region.x, n), np.linspace(*region.y, n), phis, indexing="ij")
+    grid = np.column_stack([X.ravel(), Y.ravel(), P.ravel()])
+    lo = np.array([region.x[0], region.y[0], region.phi[0]])
+    hi = np.array([region.x[1], region.y[1], region.phi[1]])
+    rand = lo + RNG.uniform(size=(n_random, 3)) * (hi - lo)
+    pts = np.vstack([grid, rand])
+    pts = pts[inverse_kinematics(robot, pts).within_limits]
+    b = max_pose_errors(robot, clearances, pts, singular="nan", max_condition=np.inf)
+    return np.nanmax(np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max]), axis=0), pts.shape[0]
+
+
+def check_certificate(robot, clearances, res, gap):
+    vals, count = sampled_maxima(robot, clearances, res.region)
+    assert count > 100
+    for i, (q, w) in enumerate(res.quantities.items()):
+        assert w.upper >= vals[i] * (1 - 1e-12), q          # never below a sample
+        assert w.lower <= w.upper
+        assert (w.upper - w.lower) / w.lower <= gap * (1 + 1e-9), q
+        assert w.converged
+        # the lower bound is attained at its pose, which is in the region and the workspace
+        assert inverse_kinematics(robot, w.pose).within_limits
+        b = max_pose_errors(robot, clearances, w.pose[None])
+        exact = [b.dx_max, b.dy_max, b.dphi_max, b.dp_max][i][0]
+        assert exact == pytest.approx(w.lower, rel=1e-12)
+
+
+def test_closed_form_fixed_orientation_square():
+    region = make_region(AALBORG, (0.0, 0.0), None)
+    res = global_worst(AALBORG, CASE1, region)
+    ws = constant_orientation_workspace(AALBORG, 0.0)
+    assert ws.vertices.shape[0] == 4
+    v = np.column_stack([ws.vertices, np.zeros(4)])
+    b = max_pose_errors(AALBORG, CASE1, v)
+    exact = np.max(np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max]), axis=0)
+    for i, q in enumerate(("dx", "dy", "dphi", "dp")):
+        assert res[q].lower <= exact[i] * (1 + 1e-12) and res[q].upper >= exact[i] * (1 - 1e-12), q
+        assert res[q].gap <= 1e-3
+    check_certificate(AALBORG, CASE1, res, 1e-3)
+
+
+def test_orientation_interval_on_the_workspace():
+    region = make_region(AALBORG, (np.radians(-30), np.radians(30)), None)
+    res = global_worst(AALBORG, CASE1, region)
+    check_certificate(AALBORG, CASE1, res, 1e-3)
+    grid, _ = grid_best(AALBORG, CASE1, region, 31, 3)
+    assert np.all([res[q].upper >= grid[i] for i, q in enumerate(("dx", "dy", "dphi", "dp"))])
+
+
+def test_a_spent_budget_still_gives_valid_bounds():
+    region = make_region(AALBORG, (np.radians(-10), np.radians(10)), None)
+    res = global_worst(AALBORG, CASE1, region, max_boxes=20_000)
+    vals, _ = sampled_maxima(AALBORG, CASE1, region, n=31, n_phi=5, n_random=2000)
+    for i, w in enumerate(res.quantities.values()):
+        assert not w.converged and w.gap > 1e-3
+        assert w.lower <= vals[i] * (1 + 1e-12) or w.lower <= w.upper
+        assert w.upper >= vals[i] * (1 - 1e-12)
+
+
+@pytest.mark.parametrize("rname,cname,gap", [
+    ("symmetric_3ppr", "all", 1e-3), ("symmetric_3rpr", "rpr_typical", 1e-3), ("symmetric_3prr", "prr_typical", 1e-2),
+    ("symmetric_3rrr", "rrr_typical", 1e-2), ("aalborg_3ppr", "case2", 1e-3)])
+def test_every_architecture_on_a_small_region(rname, cname, gap):
+    robot = Manipulator.preset(rname)
+    cl = load_clearances(cname, robot)
+    h = home_pose(robot)
+    region = make_region(robot, (np.radians(-1), np.radians(1)), (h[0] - 5, h[0] + 5, h[1] - 5, h[1] + 5))
+    res = global_worst(robot, cl, region, gap=gap)
+    check_certificate(robot, cl, res, gap)
+
+
+def test_box_partly_outside_the_workspace_is_cut_to_it():
+    # the phi = 0 workspace is the square |x|, |y| <= 25: half of this box lies outside
+    region = make_region(AALBORG, (0.0, 0.0), (0.0, 60.0, -10.0, 10.0))
+    res = global_worst(AALBORG, CASE1, region)
+    check_certificate(AALBORG, CASE1, res, 1e-3)
+    assert all(w.pose[0] <= 25 + 1e-9 for w in res.quantities.values())
+
+
+def test_bad_regions():
+    with pytest.raises(ConfigError, match="reversed"):
+        make_region(AALBORG, (0.2, 0.1), None)
+    with pytest.raises(ConfigError, match="reversed"):
+        make_region(AALBORG, (0.0, 0.0), (5.0, 1.0, 0.0, 1.0))
+    with pytest.raises(EmptyWorkspaceError):
+        global_worst(AALBORG, CASE1, make_region(AALBORG, (0.0, 0.0), (100.0, 200.0, 100.0, 200.0)))
+    rpr = Manipulator.preset("symmetric_3rpr")
+    with pytest.raises(SingularRegionError, match="singularity"):
+        global_worst(rpr, load_clearances("rpr_typical", rpr), make_region(rpr, (np.radians(-32), np.radians(-28)),
+                                                                           None))
+
+
+def run(argv, capsys):
+    try:
+        status = main(argv)
+    except SystemExit as exc:
+        status = exc.code
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
+def test_cli_json(capsys):
+    import json
+
+    status, out, err = run(["worst", "--phi-deg", "0", "0", "--grid", "21", "1", "--format", "json"], capsys)
+    assert status == 0, err
+    data = json.loads(out)
+    rows = {r["quantity"]: r for r in data["quantities"]}
+    assert set(rows) == {"dx", "dy", "dphi_deg", "dp"}
+    res = global_worst(AALBORG, CASE1, make_region(AALBORG, (0.0, 0.0), None))
+    assert rows["dphi_deg"]["upper"] == pytest.approx(np.degrees(res["dphi"].upper), rel=1e-3)
+    for r in rows.values():
+        assert r["grid_best"] <= r["upper"] and r["lower"] >= r["grid_best"] * (1 - 1e-12) and r["certified"]
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--phi-deg", "10", "0"], "--phi-deg"),
+    (["--phi-deg", "0", "0", "--region", "100,200,100,200"], "no pose of the region"),
+    (["--phi-deg", "0", "0", "--region", "1,2,x,4"], "--region"),
+    (["--phi-deg", "0", "0", "--gap-pct", "0"], "--gap-pct"),
+    (["--robot", "symmetric_3rpr", "--phi-deg", "-30", "-30"], "singularity"),
+    (["--phi-deg", "0"], "--phi-deg"),
+])
+def test_cli_bad_input_exits_2_with_one_line(capsys, argv, needle):
+    status, out, err = run(["worst", *argv], capsys)
+    assert status == 2
+    assert err.count("\n") == 1 and needle in err

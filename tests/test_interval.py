@@ -1,0 +1,169 @@
+"""Interval arithmetic and the interval closed forms against brute-force sampling.
+
+Every enclosure must contain the values of the function at random points of its
+arguments (the points are evaluated with plain numpy, or with the legs' own
+inverse kinematics :meth:`Chain.state` and :func:`max_pose_errors`, which the
+interval code does not use).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.geometry import Manipulator
+from pmaccuracy.global_worst import as_sources, leg_branches
+from pmaccuracy.interval import (Cv, Iv, angle_meets_range, box_maxima, cv_angle, iv_abs, iv_arccos, iv_cos,
+                                 iv_sin, iv_sqr, iv_sqrt, leg_box_state, v_cv)
+from pmaccuracy.kinematics import inverse_kinematics
+from pmaccuracy.sources import load_clearances
+from pmaccuracy.workspace import home_pose
+
+RNG = np.random.default_rng(7)
+
+
+def random_intervals(n=400, scale=3.0):
+    a = RNG.uniform(-scale, scale, n)
+    b = a + RNG.exponential(scale / 2, n) * (RNG.uniform(size=n) > 0.1)   # some point intervals
+    return Iv(a, b)
+
+
+def samples(iv: Iv, k=200):
+    t = RNG.uniform(size=(k,) + iv.lo.shape)
+    t[0], t[1] = 0.0, 1.0
+    return iv.lo + t * (iv.hi - iv.lo)
+
+
+def contains(iv: Iv, values, rel=1e-12):
+    pad = rel * (1 + np.maximum(np.abs(iv.lo), np.abs(iv.hi)))
+    return np.all((values >= iv.lo - pad) & (values <= iv.hi + pad))
+
+
+@pytest.mark.parametrize("op,fn", [
+    (lambda a, b: a + b, lambda a, b: a + b),
+    (lambda a, b: a - b, lambda a, b: a - b),
+    (lambda a, b: a * b, lambda a, b: a * b),
+    (lambda a, b: a / b, lambda a, b: a / b),
+    (lambda a, b: iv_sqr(a) - b * 2.5, lambda a, b: a * a - 2.5 * b),
+])
+def test_binary_operations_enclose_samples(op, fn):
+    a, b = random_intervals(), random_intervals()
+    out = op(a, b)
+    assert contains(out, fn(samples(a), samples(b)))
+
+
+@pytest.mark.parametrize("op,fn,dom", [
+    (iv_abs, np.abs, None), (iv_cos, np.cos, None), (iv_sin, np.sin, None),
+    (iv_sqrt, np.sqrt, (0, 9)), (iv_arccos, np.arccos, (-1, 1)),
+])
+def test_unary_operations_enclose_samples(op, fn, dom):
+    a = random_intervals(scale=8.0)
+    if dom is not None:
+        a = Iv(np.clip(a.lo, *dom), np.clip(a.hi, *dom))
+    assert contains(op(a), fn(samples(a)))
+
+
+def test_cos_is_exact_for_monotone_pieces_and_full_turns():
+    out = iv_cos(Iv(np.array([0.1, -0.2, 0.0]), np.array([0.5, 0.2, 7.0])))
+    assert np.allclose(out.lo, [np.cos(0.5), np.cos(0.2), -1.0]) and np.allclose(out.hi, [np.cos(0.1), 1.0, 1.0])
+
+
+def test_complex_angle_encloses_samples_including_the_negative_real_axis():
+    re, im = random_intervals(scale=2.0), random_intervals(scale=2.0)
+    re = Iv(re.lo - 2.5, re.hi - 2.5)           # many rectangles left of the origin, crossing the -x axis
+    ang = cv_angle(Cv(re, im))
+    z = samples(re) + 1j * samples(im)
+    a = np.angle(z)
+    shifted = np.where(a < ang.lo - 1e-12, a + 2 * np.pi, a)   # the samples' angles, up to a turn
+    assert contains(ang, shifted)
+    off = ~(re.contains_zero() & im.contains_zero())
+    assert off.sum() > 100 and np.all((ang.hi - ang.lo)[off] < 2 * np.pi)   # informative off the origin
+
+
+def test_angle_range_test_is_modulo_two_pi():
+    t = Iv(np.array([0.1, 3.0, -7.0]), np.array([0.2, 3.1, -6.9]))
+    # [0.1, 0.2] meets [-0.5, 0.15]; [3, 3.1] + 2pi k never meets [-0.5, 0.15]; -7 + 2pi*1 = -0.72 .. -0.62: no
+    assert angle_meets_range(t, -0.5, 0.15, 0.0).tolist() == [True, False, False]
+    assert angle_meets_range(t, -0.75, -0.7, 0.0).tolist() == [False, False, True]
+
+
+ROBOTS = [("aalborg_3ppr", "case2"), ("symmetric_3ppr", "all"), ("symmetric_3rpr", "rpr_typical"),
+          ("symmetric_3rrr", "rrr_typical"), ("symmetric_3prr", "prr_typical")]
+
+
+def _boxes_and_points(robot, half=(3.0, 3.0, np.radians(1.0)), n_boxes=40, k=60):
+    home = home_pose(robot)
+    centres = home + RNG.uniform(-1, 1, (n_boxes, 3)) * np.array([25.0, 25.0, np.radians(8)])
+    h = np.array(half)
+    boxes = np.column_stack([centres[:, 0] - h[0], centres[:, 0] + h[0], centres[:, 1] - h[1],
+                             centres[:, 1] + h[1], centres[:, 2] - h[2], centres[:, 2] + h[2]])
+    pts = centres[:, None, :] + RNG.uniform(-1, 1, (n_boxes, k, 3)) * h
+    pts[:, 0] = centres - h          # a corner of every box
+    return boxes, pts
+
+
+@pytest.mark.parametrize("rname,cname", ROBOTS)
+def test_leg_enclosures_contain_the_legs_state(rname, cname):
+    robot = Manipulator.preset(rname)
+    boxes, pts = _boxes_and_points(robot)
+    sigmas = leg_branches(robot, home_pose(robot))
+    x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
+    inside = inverse_kinematics(robot, pts.reshape(-1, 3)).within_limits.reshape(pts.shape[:2])
+    for chain, sigma in zip(robot.chains, sigmas):
+        lb = leg_box_state(chain, x, y, phi, sigma)
+        st = chain.state(pts.reshape(-1, 3))
+        f = np.broadcast_to(st.f, (inside.size,)).reshape(inside.shape)
+        m_P = np.broadcast_to(st.m_P, (inside.size,)).reshape(inside.shape)
+        fc = v_cv(lb.f, lb.var)
+        for b in range(boxes.shape[0]):
+            ok = inside[b]
+            if not ok.any():
+                continue
+            assert not lb.infeasible[b]
+            sub = lambda iv: Iv(np.broadcast_to(iv.lo, (boxes.shape[0],))[b],  # noqa: E731
+                                np.broadcast_to(iv.hi, (boxes.shape[0],))[b])
+            assert contains(sub(fc.re), f[b, ok].real, 1e-9) and contains(sub(fc.im), f[b, ok].imag, 1e-9)
+            assert contains(sub(lb.m_P), m_P[b, ok], 1e-9)
+            q = st.q.reshape(inside.shape + (3,))[b, ok]
+            for k, joint in enumerate(chain.joints):
+                if joint.kind == "P":
+                    assert contains(sub(lb.q[k]), q[:, k], 1e-9)
+
+
+@pytest.mark.parametrize("rname,cname", ROBOTS)
+def test_box_maxima_bound_every_sample_and_flag_only_empty_boxes(rname, cname):
+    robot = Manipulator.preset(rname)
+    cl = load_clearances(cname, robot)
+    boxes, pts = _boxes_and_points(robot)
+    upper, infeasible, _ = box_maxima(robot, as_sources(robot, cl), boxes, leg_branches(robot, home_pose(robot)))
+    flat = pts.reshape(-1, 3)
+    inside = inverse_kinematics(robot, flat).within_limits
+    vals = np.full((flat.shape[0], 4), -np.inf)
+    b = max_pose_errors(robot, cl, flat[inside], singular="nan", max_condition=np.inf)
+    vals[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max])
+    best = np.max(vals.reshape(pts.shape[:2] + (4,)), axis=1)
+    has = np.isfinite(best[:, 0])
+    assert has.sum() >= 10
+    assert not np.any(infeasible & has)
+    assert np.all(upper[has] >= best[has] * (1 - 1e-9))
+
+
+def test_point_boxes_reproduce_the_exact_maxima():
+    robot = Manipulator.preset("aalborg_3ppr")
+    cl = load_clearances("case2", robot)
+    p = home_pose(robot) + RNG.uniform(-1, 1, (50, 3)) * np.array([20, 20, 0.2])
+    p = p[inverse_kinematics(robot, p).within_limits]
+    boxes = np.repeat(p, 2, axis=1)
+    upper, infeasible, _ = box_maxima(robot, as_sources(robot, cl), boxes, (1.0, 1.0, 1.0))
+    b = max_pose_errors(robot, cl, p)
+    ref = np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max])
+    assert not infeasible.any()
+    np.testing.assert_allclose(upper, ref, rtol=1e-9)
+
+
+def test_boxes_outside_the_workspace_are_proven_empty():
+    robot = Manipulator.preset("aalborg_3ppr")
+    boxes = np.array([[300.0, 310.0, 300.0, 310.0, 0.0, 0.1], [-5.0, 5.0, -5.0, 5.0, 0.0, 0.0]])
+    _, infeasible, _ = box_maxima(robot, as_sources(robot, load_clearances("case1", robot)), boxes, (1.0, 1.0, 1.0))
+    assert infeasible.tolist() == [True, False]
