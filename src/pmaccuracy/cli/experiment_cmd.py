@@ -9,7 +9,9 @@ Sub-commands:
   (Eq. 21-22) at the same nominal poses: RMSD (paper convention and twice the
   maxima), sample standard deviations, ISO 9283 accuracy (Eq. 24), the band
   check of Fig. 15; with ``--out DIR`` also figures, ``comparison.json`` and a
-  self-contained ``report.html``.
+  self-contained ``report.html``; with ``--repeats R.csv`` (repeated attained poses, ``simulate --repeats N``)
+  also ISO 9283 pose accuracy and repeatability beside the repeatability the clearance model predicts
+  (:mod:`pmaccuracy.iso9283`).
 """
 
 from __future__ import annotations
@@ -117,8 +119,9 @@ def run_simulate(args: argparse.Namespace) -> int:
     clearances = load_clearances(args.clearances, robot)
     if args.repeats is not None and args.repeats < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {args.repeats}", key="--repeats")
-    if args.repeats_out and args.repeats is None:
-        raise ConfigError("goes with --repeats N", key="--repeats-out")
+    for option, value in (("--repeats-out", args.repeats_out), ("--distribution", args.distribution)):
+        if value and args.repeats is None:
+            raise ConfigError("goes with --repeats N", key=option)
     if args.repeats is not None:
         from ..distributions import Distribution
 
@@ -155,6 +158,8 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     repeats = None
+    if args.distribution and not args.repeats:
+        raise ConfigError("goes with --repeats R.csv (the model's predicted repeatability)", key="--distribution")
     if args.repeats:
         from .. import iso9283
         from ..distributions import Distribution
