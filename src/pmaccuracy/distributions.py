@@ -678,7 +678,7 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
         pv, mv = layer[f"{q}_{key}"].values, layer[f"{q}_max"].values
         panels += [(x, y, pv, f"{key[1:]}th percentile of {label}", unit),
                    (x, y, mv, f"worst case of {label}", unit),
-                   (x, y, pv / mv, f"ratio percentile / worst case, {label}", "-")]
+                   (x, y, pv / mv, f"percentile / worst case, {label}", "ratio")]
     fig = figures.plot_panels(panels, ncols=3,
                               suptitle=f"{ds.attrs.get('robot', '')}, {ds.attrs.get('clearances', '')}: "
                                        f"phi = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} samples")
