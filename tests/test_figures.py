@@ -402,3 +402,18 @@ def test_workspace_figure_zooms_to_the_workspace_with_the_whole_robot_beside():
     (fx0, fx1), (fy0, fy1) = full.get_xlim(), full.get_ylim()
     assert np.all((bases[:, 0] > fx0) & (bases[:, 0] < fx1) & (bases[:, 1] > fy0) & (bases[:, 1] < fy1))
     assert (fx1 - fx0) > 4 * (ax1 - ax0)
+
+
+def test_workspace_comparison_has_a_common_scale_for_robots_and_for_workspaces():
+    from pmaccuracy.workspace import comparison_figure
+
+    robots = [Manipulator.preset(r) for r in ("aalborg_3ppr", "symmetric_3rrr")]
+    fig = comparison_figure(robots)
+    assert_readable(fig, max_width_in=3.3 * 5 + 0.4)                  # sized for five robots side by side
+    axes = _data_axes(fig)
+    assert len(axes) == 4
+    spans = [(np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())) for ax in axes]
+    assert spans[0] == pytest.approx(spans[1]) and spans[2] == pytest.approx(spans[3])   # per row
+    ws = constant_orientation_workspace(robots[1], 0.0)                # the largest workspace fits the zoom row
+    (x0, x1), (y0, y1) = ws.bounds
+    assert spans[2][0] >= x1 - x0 and spans[2][1] >= y1 - y0 and spans[2][0] < spans[0][0]

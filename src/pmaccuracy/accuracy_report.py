@@ -138,7 +138,8 @@ def _maps_section(doc, ds, sources, out, renderer) -> None:
     doc.table(["phi [deg]", "dx_max [mm]", "dy_max [mm]", "dphi_max [deg]", "dp_max [mm]"], rows)
     for phi in ds.phi.values:
         path = renderer.submit(out / f"map_phi{phi:g}.png", figures.plot_error_map, ds.sel(phi=[phi]), float(phi),
-                               title=f"{sources.name}: maximum pose errors at phi = {phi:g} deg")
+                               title=f"{ds.attrs.get('robot', '')}, clearances {sources.name}: maximum pose "
+                                     f"errors at phi = {phi:g} deg")
         doc.figure(path, f"phi = {phi:g} deg: dx_max, dy_max, dp_max (mm) and dphi_max (deg).")
 
 

@@ -214,8 +214,11 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         ax.set_ylabel("y [mm]", fontsize=9)
         ax.tick_params(labelsize=8)
     if measured is not None:
-        handles, labels = cells[0][0].get_legend_handles_labels()
-        fig.legend(handles, ["measured points (filled with the measured value, same colour scale)"],
+        from matplotlib.lines import Line2D
+
+        handles = [Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
+                          markeredgecolor="black")]
+        fig.legend(handles, ["measured points, filled with the measured value on the map's colour scale"],
                    loc="upper center", bbox_to_anchor=(0.5, 1 - 0.5 / fig.get_figheight()), frameon=False,
                    fontsize=9)
     fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}, "

@@ -299,7 +299,7 @@ def _assembly_section(doc: Document, robot: Manipulator, phis: np.ndarray, grid:
                                                      ("dphi", "deg", np.degrees(1.0)))):
                 Z = np.full(X.shape, np.nan)
                 Z[inside] = lin[:, j] * conv
-                panels.append((x, y, Z, f"{name} offset at phi = 0", units))
+                panels.append((x, y, Z, f"{name} offset at phi = 0 deg", units))
     results["assembly"] = asm_json
     doc.paragraph("First-order offsets (Eq. 14) over each workspace, and the largest difference from the exact "
                   "nonlinear loop closure with the same errors:")
@@ -324,7 +324,7 @@ def _design_cell(robot: Manipulator, other: Manipulator, case: str, phi: float, 
                           "dp_max_mean": float(layer.dp_max.mean()), "dp_max_max": float(layer.dp_max.max()),
                           "dphi_max_mean": float(layer.dphi_max.mean()),
                           "dphi_max_max": float(layer.dphi_max.max())}
-        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, f"{rb.name}, phi = {key}",
+        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, f"{rb.name}, phi = {key} deg",
                        "dp_max [mm]"))
     stats["common_region"] = _common_region(robot, other, cs, float(phi), grid)
     return stats, panels

@@ -682,45 +682,59 @@ def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_P
 
 
 def save_comparison_figure(robots: list[Manipulator], path: str | Path,
-                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 130) -> Path:
-    """Side by side, one panel per robot: the robot at its home pose and its workspaces (same mm scale).
+                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
+    """Write :func:`comparison_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+    fig = comparison_figure(robots, phis_deg)
+    path = Path(path)
+    fig.savefig(path, dpi=dpi, format="png")
+    fig.clear()
+    return path
 
-    Every panel spans the same width and height (the largest robot's), so the
-    sizes of the workspaces compare at a glance; their areas are in the legends.
+
+def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
+    """One column per robot (a :class:`matplotlib.figure.Figure`, Agg canvas; lengths in mm).
+
+    Top row: the robot at its home pose with its workspaces, every panel spanning the same width and
+    height (the largest robot's), so the robots' sizes compare at a glance. Bottom row: the workspaces
+    alone, zoomed, again on one common scale (the largest workspace's span), so the workspaces'
+    sizes compare too; their areas are in the legends under the panels.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     n = len(robots)
-    fig = Figure(figsize=(3.6 * n, 5.4))
+    fig = Figure(figsize=(3.3 * n + 0.4, 8.6))
     FigureCanvasAgg(fig)
-    axes = np.atleast_1d(fig.subplots(1, n))
+    axes = np.atleast_2d(np.array(fig.subplots(2, n))).reshape(2, n)
     phis = np.radians(np.asarray(phis_deg, dtype=float))
-    spans = []
-    for ax, robot in zip(axes, robots):
+    spans, zoom_spans = [], []
+    for ax, zax, robot in zip(axes[0], axes[1], robots):
         plot_workspaces(robot, phis, ax=ax)
-        ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize="medium")
-        handles, labels = ax.get_legend_handles_labels()
-        keep = [k for k, text in enumerate(labels) if "phi" in text]
-        ax.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
-                  bbox_to_anchor=(0.5, -0.14), fontsize="small", frameon=False)
+        ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize=10)
         x0, x1 = ax.get_xlim()
         y0, y1 = ax.get_ylim()
         spans.append(max(x1 - x0, y1 - y0))
-    half = max(spans) / 2
-    for ax in axes:
-        x0, x1 = ax.get_xlim()
-        y0, y1 = ax.get_ylim()
-        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        ax.set_xlim(cx - half, cx + half)
-        ax.set_ylim(cy - half, cy + half)
-        ax.set_aspect("equal", adjustable="box")
-    handles, labels = axes[0].get_legend_handles_labels()
-    keep = [k for k, text in enumerate(labels) if "phi" not in text]
-    fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="lower center", ncol=len(keep),
-               fontsize="small", frameon=False)
-    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.24, top=0.9, wspace=0.3)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
-    fig.clear()
-    return path
+        plot_workspaces(robot, phis, ax=zax, zoom=True)
+        handles, labels = zax.get_legend_handles_labels()
+        zax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=8, frameon=False)
+        zax.set_title("workspaces (common scale)", fontsize=9)
+        x0, x1 = zax.get_xlim()
+        y0, y1 = zax.get_ylim()
+        zoom_spans.append(max(x1 - x0, y1 - y0))
+    for row, span in ((axes[0], max(spans)), (axes[1], max(zoom_spans))):
+        for ax in row:
+            x0, x1 = ax.get_xlim()
+            y0, y1 = ax.get_ylim()
+            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            ax.set_xlim(cx - span / 2, cx + span / 2)
+            ax.set_ylim(cy - span / 2, cy + span / 2)
+            ax.set_aspect("equal", adjustable="box")
+            ax.tick_params(labelsize=8)
+            ax.xaxis.label.set_fontsize(9)
+            ax.yaxis.label.set_fontsize(9)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
+    fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
+               bbox_to_anchor=(0.5, 0.535), ncol=len(keep), fontsize=8, frameon=False)
+    fig.subplots_adjust(left=0.9 / (3.3 * n + 0.4), right=0.99, bottom=0.17, top=0.93, wspace=0.45, hspace=0.55)
+    return fig
