@@ -32,6 +32,9 @@ COMMANDS = {
     "experiment": ("experiment_cmd",
                    "experimental validation: simulate the push protocol, compare measurements with the model"),
     "vision": ("vision_cmd", "vision measurement: calibrate a camera, measure the platform pose"),
+    "worst": ("worst_cmd", "certified global worst case of dx, dy, dphi, dp over a region of poses (branch and bound)"),
+    "synthesize": ("synthesize_cmd",
+                   "tolerance synthesis: largest clearances per joint meeting worst-case targets everywhere in a region"),
     "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
 }
 #: Modules of ``pmaccuracy.cli`` that register commands, in help order.
