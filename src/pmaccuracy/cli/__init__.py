@@ -2,15 +2,23 @@
 
 Each command lives in its own module with a ``register(subparsers)`` function.
 Every :class:`~pmaccuracy.errors.PmAccuracyError` (bad files, poses outside the
-joint ranges, singular poses, negative clearances, ...) and every argument
-error ends the program with exit status 2 and one line on stderr.
+joint ranges, singular poses, negative clearances, ...), every argument error
+and every other failure (file system, memory, an unexpected internal error)
+ends the program with exit status 2 and one line on stderr,
+``pmaccuracy CMD: error: ...``; set ``PMACCURACY_DEBUG=1`` to get the traceback
+of the failures that are not the user's input errors. Plausibility warnings
+(:mod:`pmaccuracy.plausibility`) and other warnings are printed one line each,
+``pmaccuracy CMD: warning: ...``, unless ``--quiet`` (an option of every command).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import re
 import sys
+import warnings
 
 from ..errors import PmAccuracyError
 
@@ -41,8 +49,27 @@ COMMANDS = {
 COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
 
 
+#: What argparse takes for a negative number rather than an option: also exponent forms (``-1.5e-3``), a
+#: trailing dot (``-2.``), ``-inf``/``-nan`` (refused later as not finite). Python < 3.14 knows only ``-12``
+#: and ``-1.5``, so ``--pose -1.5e-3 0 0`` failed with "expected 3 arguments".
+NEGATIVE_NUMBER = re.compile(r"^-(?:\d[\d_]*\.?[\d_]*|\.\d[\d_]*)(?:[eE][-+]?\d+)?$|^-(?:inf|infinity|nan)$",
+                             re.IGNORECASE)
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """argparse, but an argument error is a single line ``pmaccuracy CMD: error: ...`` and exit 2."""
+    """argparse, but an argument error is a single line ``pmaccuracy CMD: error: ...`` and exit 2.
+
+    Every parser (the program's, each command's) also takes ``--quiet``, and
+    negative numbers in any float notation are values, not options.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse (3.11-3.13) reads this attribute in _parse_optional; our options never look like numbers
+        self._negative_number_matcher = NEGATIVE_NUMBER
+        self.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS,
+                          help="no warnings on stderr (values in unlikely units, results beyond the linear "
+                               "model, long runs); errors are still printed")
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -90,24 +117,88 @@ def build_parser(argv: list[str] | None = None, *, load_all: bool = False) -> ar
     return parser
 
 
+def _one_line(text: object) -> str:
+    """A message on one line (newlines and runs of spaces folded)."""
+    return " ".join(str(text).split())
+
+
+def _os_error(exc: OSError) -> str:
+    """``FILE: problem`` of a file-system error, or just the problem when it names no file."""
+    what = exc.strerror or str(exc) or type(exc).__name__
+    names = [str(n) for n in (exc.filename, getattr(exc, "filename2", None)) if n not in (None, "")]
+    return ": ".join([" -> ".join(names), what] if names else [what])
+
+
+def _show_warning(command: str):
+    """A ``warnings.showwarning`` printing ``pmaccuracy CMD: warning: ...`` on one line."""
+    from ..plausibility import PlausibilityWarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        kind = "" if issubclass(category, PlausibilityWarning) else f" ({category.__name__})"
+        print(f"pmaccuracy {command}: warning: {_one_line(message)}{kind}", file=sys.stderr)
+    return show
+
+
+def _option_warnings(args: argparse.Namespace) -> None:
+    """Plausibility of the orientations given as options (``--phi-deg``, ``--pose X Y PHI_DEG``)."""
+    from ..plausibility import orientation_messages, warn
+
+    phi = getattr(args, "phi_deg", None)
+    if isinstance(phi, (int, float)) and not isinstance(phi, bool):
+        phi = [phi]
+    if isinstance(phi, list) and all(isinstance(v, (int, float)) for v in phi):
+        warn(orientation_messages([v for v in phi if v], "--phi-deg"))
+    pose = getattr(args, "pose", None)
+    if isinstance(pose, list) and pose:
+        rows = pose if isinstance(pose[0], list) else [pose]
+        warn(orientation_messages([r[2] for r in rows if len(r) == 3], "--pose phi"))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pmaccuracy`` console script; returns the exit status."""
     parser = build_parser(argv)
     args = parser.parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except PmAccuracyError as exc:
-        print(f"pmaccuracy {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback (a .zarr map resumes when run again)
-        print(f"pmaccuracy {args.command}: interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:  # output piped into e.g. `head`: not an error of ours
-        sys.stderr.close()
-        return 0
-    except OSError as exc:
-        print(f"pmaccuracy {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
-        return 2
+    debug = os.environ.get("PMACCURACY_DEBUG", "") not in ("", "0")
+    command = args.command
+    error = f"pmaccuracy {command}: error:"
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning(command)
+        if getattr(args, "quiet", False):
+            warnings.simplefilter("ignore")
+        else:
+            from ..plausibility import PlausibilityWarning
+
+            warnings.simplefilter("always", PlausibilityWarning)
+        try:
+            _option_warnings(args)
+            return int(args.func(args) or 0)
+        except PmAccuracyError as exc:
+            print(f"{error} {_one_line(exc)}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:  # Ctrl-C: one line, no traceback (a .zarr map resumes when run again)
+            print(f"pmaccuracy {command}: interrupted", file=sys.stderr)
+            return 130
+        except BrokenPipeError:  # output piped into e.g. `head`: not an error of ours
+            sys.stderr.close()
+            return 0
+        except MemoryError as exc:
+            if debug:
+                raise
+            detail = f" ({_one_line(exc)})" if str(exc) else ""
+            print(f"{error} out of memory{detail}: use fewer poses, a smaller --grid or a .zarr map",
+                  file=sys.stderr)
+            return 2
+        except OSError as exc:
+            if debug:
+                raise
+            print(f"{error} {_one_line(_os_error(exc))}", file=sys.stderr)
+            return 2
+        except Exception as exc:  # noqa: BLE001 - the last line of defence: still one line, exit 2
+            if debug:
+                raise
+            print(f"{error} internal error ({type(exc).__name__}: {_one_line(exc)}); please report it with the "
+                  f"command line (PMACCURACY_DEBUG=1 shows the traceback)", file=sys.stderr)
+            return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -7,8 +7,10 @@ import csv
 import io
 import json
 import math
+import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -16,6 +18,56 @@ import numpy as np
 from ..csvio import read_poses_csv  # noqa: F401  (columnar reader; kept importable from here)
 from ..errors import ConfigError, PmAccuracyError
 from ..geometry import Manipulator
+
+
+#: File types of figure options (``--plot``): what matplotlib writes without extra packages.
+PLOT_TYPES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
+#: The folder policy of every output option, as said in each ``--help``.
+FOLDER_POLICY = "missing parent folders are created"
+
+
+def prepare_output(path: str | os.PathLike, option: str = "--out", kinds: Sequence[str] | None = None, *,
+                   folder: bool = False) -> Path:
+    """Check an output path before anything is computed, and create its missing parent folders.
+
+    The policy of every command: missing folders are created (the path's parents,
+    or with ``folder=True`` the path itself, an output folder). Refused with a
+    :class:`~pmaccuracy.errors.ConfigError` naming ``option`` and the path: an
+    empty path, a suffix not in ``kinds`` (lower-case, e.g. ``(".nc", ".csv")``;
+    ``None``: any), a parent that is a file, a folder that cannot be created or
+    written, an existing folder where a file is wanted (a ``.zarr`` store is a
+    folder) or a file where a folder is wanted, an existing file not writable.
+    """
+    text = os.fspath(path)
+    if not str(text).strip():
+        raise ConfigError("empty path", key=option)
+    path = Path(text)
+    where = str(path)
+    suffix = path.suffix.lower()
+    if kinds is not None and suffix not in kinds:
+        got = f"{path.suffix!r}" if path.suffix else "no file type"
+        raise ConfigError(f"unsupported file type {got}: use {', '.join(kinds)}", source=where, key=option)
+    target = path if folder else path.parent
+    target = target if str(target) else Path(".")
+    ancestor = target
+    while not ancestor.exists() and ancestor != ancestor.parent:  # the deepest existing folder (or file)
+        ancestor = ancestor.parent
+    if ancestor.exists() and not ancestor.is_dir():
+        raise ConfigError(f"cannot create the folder {target}: {ancestor} is a file", source=where, key=option)
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create the folder {target} ({exc.strerror or exc})", source=where,
+                          key=option) from None
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise ConfigError(f"the folder {target} is not writable", source=where, key=option)
+    if not folder and path.is_dir() and suffix != ".zarr":
+        raise ConfigError("is a folder, not a file", source=where, key=option)
+    if folder and path.exists() and not path.is_dir():
+        raise ConfigError("is a file, not a folder", source=where, key=option)
+    if path.exists() and not path.is_dir() and not os.access(path, os.W_OK):
+        raise ConfigError("is not writable", source=where, key=option)
+    return path
 
 
 def finite_float(text: str) -> float:

@@ -28,14 +28,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(p)
     add_clearances(p)
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
-                   help="platform orientation in degrees (repeatable)")
+                   help="platform orientation in degrees (repeatable, each value once)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
     p.add_argument("--out", required=True, metavar="FILE",
                    help="output map: .nc or .csv (in memory) or .zarr (streamed, resumable; open with "
                         "xarray.open_zarr); missing parent folders are created")
     p.add_argument("--plot", metavar="FILE.png",
                    help="four-panel figure; with several orientations one file per orientation, FILE-<phi>deg.png "
-                        "(large maps are drawn from every k-th grid point)")
+                        "(large maps are drawn from every k-th grid point; .png, .pdf, .svg, ...); missing parent folders "
+                        "are created")
     p.add_argument("--chunk-size", type=_common.positive_int, default=None, metavar="K",
                    help="grid points per computed block (default: 65536)")
     p.add_argument("--tile", type=_common.positive_int, default=None, metavar="T",
@@ -53,19 +54,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def prepare_output(path: Path, option: str) -> None:
-    """Create the missing parent folders of ``path`` and check that it can be written there (ConfigError if not)."""
-    parent = path.parent if str(path.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"cannot create the folder {parent} ({exc.strerror or exc})", source=str(path),
-                          key=option) from None
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(f"the folder {parent} is not writable", source=str(path), key=option)
-    if path.exists() and path.is_dir() and path.suffix.lower() != ".zarr":
-        raise ConfigError("is a folder", source=str(path), key=option)
-    if path.exists() and not os.access(path, os.W_OK):
-        raise ConfigError("is not writable", source=str(path), key=option)
+    """:func:`pmaccuracy.cli._common.prepare_output` (kept here for the commands importing it from this module)."""
+    _common.prepare_output(path, option)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -77,24 +67,33 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     suffix = out.suffix.lower()
     if suffix not in OUT_TYPES:
-        raise ConfigError(f"unknown map file type {out.suffix!r}: use .nc, .csv or .zarr", source=args.out)
+        raise ConfigError(f"unsupported file type {out.suffix or 'none'!r}: use .nc, .csv or .zarr", source=args.out,
+                          key="--out")
+    if args.plot and Path(args.plot).suffix.lower() not in _common.PLOT_TYPES:
+        raise ConfigError(f"unsupported figure type {Path(args.plot).suffix or 'none'!r}: use "
+                          f"{', '.join(_common.PLOT_TYPES)}", source=args.plot, key="--plot")
     if args.grid < 2:
-        raise ConfigError("--grid needs at least 2 points per axis")
+        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     if args.workers and suffix != ".zarr":
         raise ConfigError("--workers applies to .zarr maps (use --dask for an in-memory map)", key="--workers")
+    _check_unique(args.phi_deg)
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)
     if suffix != ".zarr":
         maps.check_fits_in_memory(n_phi, args.grid)  # before anything is computed or created
-    prepare_output(out, "--out")
+    else:
+        _check_disk(maps, out, n_phi, args.grid)
+    _common.prepare_output(out, "--out", OUT_TYPES)
     if args.plot:
-        prepare_output(Path(args.plot), "--plot")
+        _common.prepare_output(Path(args.plot), "--plot", _common.PLOT_TYPES)
     chunk = args.chunk_size or maps.DEFAULT_CHUNK
     show = sys.stderr.isatty() if args.progress is None else args.progress
     if show:
         _announce(maps, robot, clearances, phis, args, suffix)
+    elif args.grid > LONG_GRID:
+        _warn_if_long(maps, robot, clearances, phis, args, suffix)
     if suffix == ".zarr":
         result = maps.write_zarr_map(out, robot, clearances, phis, args.grid, tile=args.tile or maps.DEFAULT_ZARR_TILE,
                                      chunk_size=chunk, scheduler=args.scheduler, workers=args.workers,
@@ -114,6 +113,51 @@ def run(args: argparse.Namespace) -> int:
     rows = [{"phi_deg": float(key), **ranges} for key, ranges in summary.items()]
     _common.emit(rows, args.format)
     return 0
+
+
+#: Grids above this many points per axis get a time estimate before computing (a warning when long).
+LONG_GRID = 500
+#: Estimated run time (s) above which ``map`` warns before computing.
+LONG_SECONDS = 600.0
+
+
+def _check_unique(phis_deg: list[float]) -> None:
+    """Refuse an orientation given twice (the map would have two layers of the same coordinate)."""
+    seen = set()
+    for phi in phis_deg:
+        if phi in seen:
+            raise ConfigError(f"orientation {phi:g} deg given twice", key="--phi-deg")
+        seen.add(phi)
+
+
+def _check_disk(maps, out: Path, n_phi: int, n: int) -> None:
+    """Refuse a Zarr store that cannot fit on its disk (the results uncompressed; checked before writing)."""
+    import shutil
+
+    need = maps.map_nbytes(n_phi, n)
+    where = out.resolve()
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    try:
+        free = shutil.disk_usage(where).free
+    except OSError:
+        return
+    if need > free:
+        raise ConfigError(f"a {n_phi} x {n} x {n} map needs up to {maps.format_bytes(need)} on disk but only "
+                          f"{maps.format_bytes(free)} is free at {where}: use a smaller --grid", key="--grid")
+
+
+def _warn_if_long(maps, robot, clearances, phis, args, suffix: str) -> None:
+    """A plausibility warning before a long run (the estimate is timed on a sparse sub-grid)."""
+    from ..plausibility import warn
+
+    x, y = maps.map_grid(robot, phis, args.grid)
+    workers = (args.workers or os.cpu_count() or 1) if suffix == ".zarr" else 1
+    seconds = maps.estimate_seconds(robot, clearances, phis, x, y, workers=workers)
+    if seconds > LONG_SECONDS:
+        size = maps.format_bytes(maps.map_nbytes(len(phis), args.grid))
+        warn([f"--grid {args.grid}: about {_duration(seconds)} of computing for {size} of results (estimate); "
+              f"Ctrl-C stops it" + (" and the same command resumes it" if suffix == ".zarr" else "")])
 
 
 def _in_memory(maps, robot, clearances, phis, args, chunk, show):

@@ -1,0 +1,141 @@
+"""Plausibility checks: values that are valid but almost surely in the wrong unit or outside the model's range.
+
+These are warnings, not errors: the value is used as given. Each check is a
+pure function returning a list of one-line messages (empty when all is well);
+:func:`warn` issues them as :class:`PlausibilityWarning` (a :class:`UserWarning`)
+through :mod:`warnings`, which is how the library reports them (loaders of
+clearance and tolerance files, poses read from CSV). The command line prints
+each as one line ``pmaccuracy CMD: warning: ...`` on stderr, or nothing with
+``--quiet``; in Python, silence them with
+``warnings.simplefilter("ignore", PlausibilityWarning)``.
+
+Rules (the physical ranges of joint clearances and tolerances in precision
+mechanisms are micrometres and milliradians):
+
+* a clearance or tolerance **length** (mm) above :data:`MAX_LENGTH_MM` = 1 mm
+  (``revolute_radial = 39`` is 39 um typed as mm);
+* a clearance or tolerance **angle** (rad) above :data:`MAX_ANGLE_RAD` = 0.01
+  rad = 0.57 deg (``bearing_angle = 0.0688`` is 0.0012 rad typed in degrees);
+* a guide **block length** outside [1, 1000] mm;
+* an **orientation in degrees that looks like radians**: ``0 < |phi_deg| <=
+  2 pi`` and within :data:`RADIAN_MATCH` = 5e-4 of a multiple of pi/12, pi/8
+  or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
+  0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
+  to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
+* a **first-order result beyond the linear model's validity**: a worst-case
+  ``dphi_max`` above :data:`MAX_LINEAR_DPHI_DEG` = 1 deg. The error model
+  (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
+  term is about ``dphi / 2`` (``1 - cos dphi`` against ``dphi``), 0.9 % at
+  1 deg, and the loop closures bend further near a singularity, which is where
+  such values appear.
+
+Example
+-------
+>>> clearance_messages({"legs[1].revolute_radial": (39.0, "mm")})
+['legs[1].revolute_radial = 39 mm is above 1 mm: clearances are usually micrometres (is it in um?)']
+>>> orientation_messages([0.5236], "--phi-deg")
+['--phi-deg 0.5236 looks like radians (30 deg = 0.5236 rad); orientations are in degrees']
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+#: Largest plausible clearance / tolerance length, mm.
+MAX_LENGTH_MM = 1.0
+#: Largest plausible clearance / tolerance angle, rad (0.57 deg).
+MAX_ANGLE_RAD = 0.01
+#: Plausible guide block lengths, mm.
+BLOCK_LENGTH_RANGE_MM = (1.0, 1000.0)
+#: Distance (in the value's unit) to k pi/12, k pi/8 or k pi/18 below which a degree value looks like radians.
+RADIAN_MATCH = 5e-4
+#: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
+MAX_LINEAR_DPHI_DEG = 1.0
+#: Largest share of the values listed in one message.
+_SHOWN = 3
+
+
+class PlausibilityWarning(UserWarning):
+    """A value is accepted but is almost surely in the wrong unit or outside the model's range of validity."""
+
+
+def warn(messages: Iterable[str], stacklevel: int = 2) -> None:
+    """Issue each message as a :class:`PlausibilityWarning`."""
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=stacklevel + 1)
+
+
+def _g(value: float) -> str:
+    return f"{value:.6g}"
+
+
+def clearance_messages(values: Mapping[str, tuple[float, str]], what: str = "clearances") -> list[str]:
+    """Messages for half-widths ``{name: (value, unit)}`` with unit ``"mm"``, ``"rad"`` or ``"block"`` (mm).
+
+    ``what`` names the kind of value in the message (``"clearances"`` or ``"tolerances"``).
+    """
+    out = []
+    for name, (value, unit) in values.items():
+        value = float(value)
+        if not math.isfinite(value):
+            continue
+        if unit == "mm" and value > MAX_LENGTH_MM:
+            out.append(f"{name} = {_g(value)} mm is above {_g(MAX_LENGTH_MM)} mm: {what} are usually micrometres "
+                       f"(is it in um?)")
+        elif unit == "rad" and value > MAX_ANGLE_RAD:
+            out.append(f"{name} = {_g(value)} rad ({_g(math.degrees(value))} deg) is above {_g(MAX_ANGLE_RAD)} rad: "
+                       f"{what} are usually milliradians (is it in degrees?)")
+        elif unit == "block" and not BLOCK_LENGTH_RANGE_MM[0] <= value <= BLOCK_LENGTH_RANGE_MM[1]:
+            lo, hi = BLOCK_LENGTH_RANGE_MM
+            out.append(f"{name} = {_g(value)} mm is outside [{_g(lo)}, {_g(hi)}] mm, the range of guide blocks "
+                       f"(is it in m or um?)")
+    return out
+
+
+def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:
+    """True where a value given in degrees looks like an angle in radians (module docstring), same shape."""
+    v = np.abs(np.asarray(phi_deg, dtype=float))
+    hit = np.zeros(v.shape, dtype=bool)
+    for step in (math.pi / 12, math.pi / 8, math.pi / 18):
+        k = np.rint(v / step)
+        hit |= (k >= 1) & (np.abs(v - k * step) <= RADIAN_MATCH)
+    return hit & (v > 0) & (v <= 2 * math.pi + RADIAN_MATCH) & np.isfinite(v)
+
+
+def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str) -> list[str]:
+    """One message if some of the orientations (deg) look like radians; ``where`` names the option or file."""
+    values = np.asarray(phi_deg, dtype=float).reshape(-1)
+    hits = values[looks_like_radians(values)]
+    if hits.size == 0:
+        return []
+    first = float(hits[0])
+    example = f"{_g(first)} looks like radians ({_g(round(math.degrees(first), 1))} deg = {_g(first)} rad)"
+    if values.size == 1 or hits.size == 1 and values.size <= _SHOWN:
+        return [f"{where} {example}; orientations are in degrees"]
+    return [f"{where}: {hits.size} of {values.size} orientations look like radians, e.g. {example}; orientations "
+            f"are in degrees"]
+
+
+def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None, what: str = "dphi_max") -> list[str]:
+    """One message if a worst-case ``dphi_max`` (deg) exceeds :data:`MAX_LINEAR_DPHI_DEG`.
+
+    ``poses`` ``(N, 3)`` [mm, mm, rad], if given, names the worst pose.
+    """
+    d = np.asarray(dphi_max_deg, dtype=float).reshape(-1)
+    finite = np.isfinite(d)
+    if not finite.any() or d[finite].max() <= MAX_LINEAR_DPHI_DEG:
+        return []
+    k = int(np.nanargmax(np.where(finite, d, -np.inf)))
+    count = int((d[finite] > MAX_LINEAR_DPHI_DEG).sum())
+    at = ""
+    if poses is not None:
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)[k]
+        at = f" at x = {_g(p[0])} mm, y = {_g(p[1])} mm, phi = {_g(math.degrees(p[2]))} deg"
+    many = f" ({count} of {d.size} values)" if d.size > 1 else ""
+    return [f"{what} = {_g(d[k])} deg{at}{many} is beyond the first-order model's validity (about "
+            f"{_g(MAX_LINEAR_DPHI_DEG)} deg; relative second-order error ~ dphi/2): the worst case is only "
+            f"indicative there (near a singularity or clearances too large)"]

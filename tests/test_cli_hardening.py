@@ -1,0 +1,132 @@
+"""Issue 12 (hardening): the CLI's error boundary, output paths, --quiet, negative numbers, plausibility warnings.
+
+Every case of the issue's list is run in-process through ``pmaccuracy.cli.main``:
+an error exits 2 with exactly one line on stderr naming its option/file, a
+plausibility warning is one line ``pmaccuracy CMD: warning: ...`` (none with
+``--quiet``), and no case prints a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import traceback
+
+import numpy as np
+import pytest
+
+from pmaccuracy.cli import NEGATIVE_NUMBER, main
+
+
+def run(argv, capsys):
+    """(status, stdout, stderr); an escaping exception is status "exception" with its traceback."""
+    try:
+        status = main([str(a) for a in argv])
+    except SystemExit as exc:
+        status = exc.code
+    except BaseException:  # noqa: BLE001 - reported by the assertions
+        out = capsys.readouterr()
+        return "exception", out.out, out.err + traceback.format_exc()
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
+def assert_error(result, command, *needles):
+    status, out, err = result
+    assert status == 2, (status, err)
+    assert "Traceback" not in err, err
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"pmaccuracy {command}: error:"), err
+    for needle in needles:
+        assert str(needle) in lines[0], (needle, err)
+    assert out == ""
+
+
+def warnings_of(err):
+    return [line for line in err.splitlines() if ": warning: " in line]
+
+
+# ----------------------------------------------------------------------------------- negative numbers
+@pytest.mark.parametrize("text", ["-1", "-1.5", "-.5", "-2.", "-1.5e-3", "-2E+4", "-1e5", "-1_000.5", "-inf", "-NaN"])
+def test_negative_number_forms_are_values(text):
+    assert NEGATIVE_NUMBER.match(text)
+
+
+@pytest.mark.parametrize("text", ["--pose", "-x", "--phi-deg", "-e5", "-1e", "-1.5e-"])
+def test_options_are_not_numbers(text):
+    assert not NEGATIVE_NUMBER.match(text)
+
+
+def test_exponent_negative_numbers_on_the_command_line(capsys):
+    status, out, err = run(["ik", "--pose", 1, "-2e-3", 0, "--format", "json"], capsys)
+    assert status == 0, err
+    assert json.loads(out)[0]["y"] == -2e-3
+    status, out, err = run(["bounds", "--pose", "-1.5e-3", 0, 0, "--format", "json"], capsys)
+    assert status == 0, err
+    assert json.loads(out)[0]["x"] == -1.5e-3
+    assert_error(run(["ik", "--pose", 1, "-inf", 0], capsys), "ik", "--pose", "finite")
+
+
+# ----------------------------------------------------------------------------------- output paths
+def test_map_duplicate_orientation_refused_with_or_without_plot(tmp_path, capsys):
+    for extra in ([], ["--plot", tmp_path / "d.png"]):
+        argv = ["map", "--phi-deg", 0, "--phi-deg", 0, "--grid", 11, "--out", tmp_path / "a.nc", *extra]
+        assert_error(run(argv, capsys), "map", "--phi-deg", "twice")
+    assert not (tmp_path / "a.nc").exists()
+
+
+def test_map_unsupported_plot_format_refused_before_computing(tmp_path, capsys):
+    argv = ["map", "--phi-deg", 0, "--grid", 11, "--out", tmp_path / "a.nc", "--plot", tmp_path / "p.xyz"]
+    assert_error(run(argv, capsys), "map", "--plot", "p.xyz", ".png")
+    assert not (tmp_path / "a.nc").exists()
+
+
+def test_map_out_under_a_file(tmp_path, capsys):
+    blocker = tmp_path / "hostname"
+    blocker.write_text("x")
+    argv = ["map", "--phi-deg", 0, "--grid", 11, "--out", blocker / "m.csv"]
+    assert_error(run(argv, capsys), "map", "--out", str(blocker / "m.csv"), "is a file")
+
+
+def test_map_missing_folders_are_created(tmp_path, capsys):
+    out = tmp_path / "new" / "deeper" / "m.csv"
+    status, _, err = run(["map", "--phi-deg", 0, "--grid", 5, "--out", out], capsys)
+    assert status == 0, err
+    assert out.read_text().startswith("x,y,phi_deg")
+
+
+def test_map_zarr_larger_than_the_disk_refused(tmp_path, capsys):
+    assert_error(run(["map", "--phi-deg", 0, "--grid", 10_000_000, "--out", tmp_path / "m.zarr"], capsys),
+                 "map", "--grid", "disk")
+    assert not (tmp_path / "m.zarr").exists()
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere")
+def test_unwritable_folder(tmp_path, capsys):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        assert_error(run(["map", "--phi-deg", 0, "--grid", 5, "--out", locked / "m.nc"], capsys), "map",
+                     "--out", "not writable")
+    finally:
+        locked.chmod(0o700)
+
+
+# ----------------------------------------------------------------------------------- warnings and --quiet
+def test_orientation_in_radians_warns_once_and_quiet_silences(capsys):
+    status, out, err = run(["ik", "--pose", 10, -5, 0.5236], capsys)
+    assert status == 0 and out
+    (line,) = warnings_of(err)
+    assert line.startswith("pmaccuracy ik: warning:") and "0.5236" in line and "radians" in line
+    for argv in (["ik", "--pose", 10, -5, 0.5236, "--quiet"], ["--quiet", "ik", "--pose", 10, -5, 0.5236]):
+        status, out, err = run(argv, capsys)
+        assert status == 0 and out and err == ""
+
+
+@pytest.mark.parametrize("phi", [0, 1, 1.5, 2, 3, 10, 30, -30, 0.5, 45])
+def test_plain_degree_orientations_do_not_warn(phi, capsys):
+    status, _, err = run(["ik", "--pose", 0, 0, phi], capsys)
+    assert status == 0 and warnings_of(err) == []
