@@ -380,17 +380,18 @@ def test_million_point_map():
 
 # ----------------------------------------------------------------------------- memory
 def test_peak_memory_within_1_3_of_the_dataset():
-    """Block-by-block filling of preallocated arrays: tracemalloc's peak (numpy included) <= 1.3 x the dataset."""
+    """Block-by-block filling of preallocated arrays: tracemalloc's peak (numpy included) <= 1.3 x the dataset
+    (a map of 24 MB: below ~20 MB a block's ~7 MB of temporaries is the larger part)."""
     import tracemalloc
 
     error_map(AALBORG, CASE2, 0.0, 11)  # imports and caches outside the measurement
     tracemalloc.start()
     try:
-        ds = error_map(AALBORG, CASE2, PHIS, 300)
+        ds = error_map(AALBORG, CASE2, PHIS, 500)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    assert ds.nbytes == pytest.approx(3 * 300 * 300 * 4 * 8, rel=0.01)
+    assert ds.nbytes == pytest.approx(3 * 500 * 500 * 4 * 8, rel=0.01)
     assert peak <= 1.3 * ds.nbytes, (peak, ds.nbytes)
 
 

@@ -322,7 +322,7 @@ class _Block:
     within: np.ndarray
     reachable: np.ndarray
     condition: np.ndarray
-    transmission: np.ndarray
+    transmission: list   # each leg's unclipped index (kinematics.raw_transmission)
     states: tuple
     details: dict | None = None
 
@@ -354,7 +354,7 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
             if joint.limited:
                 within &= joint.within(qk, LIMIT_TOLERANCE)
     within &= reachable
-    (a0, b0, c0), (a1, b1, c1), (a2, b2, c2) = [(st.f.real, st.f.imag, st.m_P) for st in states]
+    (a0, b0, c0), (a1, b1, c1), (a2, b2, c2) = [(np.real(st.f), np.imag(st.f), st.m_P) for st in states]
     X = ((b1 * c2 - c1 * b2, c1 * a2 - a1 * c2, a1 * b2 - b1 * a2),
          (b2 * c0 - c2 * b0, c2 * a0 - a2 * c0, a2 * b0 - b2 * a0),
          (b0 * c1 - c0 * b1, c0 * a1 - a0 * c1, a0 * b1 - b0 * a1))
@@ -370,13 +370,13 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
                               abs_X[2][0] + abs_X[2][1] + L * abs_X[2][2])
         cond = norm_A * norm_inv * inv_abs_det
         cond = np.where(np.isfinite(cond), cond, np.inf)
-    from .kinematics import states_transmission
-    trans = states_transmission(robot, states, (n,))
+    from .kinematics import raw_transmission
+    trans = raw_transmission(robot, states)
     from .sources import states_half_widths
     c = states_half_widths(robot, sources, states, poses)
     with np.errstate(invalid="ignore", over="ignore"):
         w = [c[:, i] * inv_abs_det for i in range(3)]
-        dx = w[0] * abs_X[0][0] + w[1] * abs_X[1][0] + w[2] * abs_X[2][0]
+        dx = np.broadcast_to(w[0] * abs_X[0][0] + w[1] * abs_X[1][0] + w[2] * abs_X[2][0], (n,))
         dy = w[0] * abs_X[0][1] + w[1] * abs_X[1][1] + w[2] * abs_X[2][1]
         dphi = w[0] * abs_X[0][2] + w[1] * abs_X[1][2] + w[2] * abs_X[2][2]
         gx = [w[i] * X[i][0] for i in range(3)]
@@ -389,17 +389,22 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
     extra = None
     if details:
         with np.errstate(divide="ignore", invalid="ignore"):
-            A_inv = np.stack([np.stack(col, axis=-1) for col in X], axis=-1) / det[:, None, None]
-        best = np.argmax(np.stack(norms2, axis=-1), axis=-1)
-        extra = {"c": c, "G": A_inv * c[:, None, :], "t": _VERTEX_SIGNS[best],
+            A_inv = np.stack([np.stack(np.broadcast_arrays(*col, np.empty(n))[:3], axis=-1) for col in X],
+                             axis=-1) / np.broadcast_to(det, (n,))[:, None, None]
+        best = np.argmax(np.stack(np.broadcast_arrays(*norms2, np.empty(n))[:4], axis=-1), axis=-1)
+        extra = {"c": c, "G": A_inv * c[:, None, :], "t": _VERTEX_SIGNS[best],  # (norms2 may hold scalars)
                  "s_dx": _sign(A_inv[:, 0, :]), "s_dy": _sign(A_inv[:, 1, :]), "s_dphi": _sign(A_inv[:, 2, :]),
                  "s_dp": _VERTEX_SIGNS[best]}
+    dy, dphi, dp, cond = (np.broadcast_to(v, (n,)) for v in (dy, dphi, dp, cond))
     return _Block(dx=dx, dy=dy, dphi=dphi, dp=dp, within=within, reachable=reachable, condition=cond,
                   transmission=trans, states=states, details=extra)
 
 
 def _regular(block: _Block, max_condition: float) -> np.ndarray:
-    return (block.condition <= max_condition) & np.all(block.transmission >= 1.0 / max_condition, axis=-1)
+    ok = block.condition <= max_condition
+    for t in block.transmission:            # NaN (undefined) compares False: not regular
+        ok = ok & (t >= 1.0 / max_condition)
+    return ok
 
 
 def _refuse(robot: Manipulator, poses: np.ndarray, block: _Block, allow_outside: bool, max_condition: float,
@@ -415,7 +420,8 @@ def _refuse(robot: Manipulator, poses: np.ndarray, block: _Block, allow_outside:
         ok = block.condition <= max_condition
         if not np.all(ok):
             _raise_singular(robot, poses, ok, block.condition, max_condition)
-        _raise_serial(poses, block.transmission, max_condition)
+        trans = np.stack([np.broadcast_to(t, block.condition.shape) for t in block.transmission], axis=-1)
+        _raise_serial(poses, np.where(np.isfinite(trans), np.minimum(trans, 1.0), 0.0), max_condition)
     if not allow_outside and not np.all(block.within):
         check_within_limits(robot, poses, ik_from_states(robot, block.states))
     return regular

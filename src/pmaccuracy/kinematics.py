@@ -130,8 +130,12 @@ def leg_states(robot: Manipulator, poses: np.ndarray) -> tuple:
         phi = float(phi.flat[0])
         e_phi = complex(np.cos(phi), np.sin(phi))
     else:
-        e_phi = np.cos(phi) + 1j * np.sin(phi)
-    pz = poses[..., 0] + 1j * poses[..., 1]
+        e_phi = np.empty(phi.shape, dtype=complex)
+        np.cos(phi, out=e_phi.real)
+        np.sin(phi, out=e_phi.imag)
+    pz = np.empty(phi.shape if np.ndim(phi) else poses.shape[:-1], dtype=complex)
+    pz.real = poses[..., 0]
+    pz.imag = poses[..., 1]
     return tuple(chain.state(poses, e_phi, pz, phi) for chain in robot.chains)
 
 
@@ -143,8 +147,8 @@ def ik_from_states(robot: Manipulator, states: tuple, tol: float = LIMIT_TOLERAN
     B = np.zeros(shape + (3, 3))
     within = np.ones(shape, dtype=bool)
     for i, (chain, st) in enumerate(zip(robot.chains, states)):
-        A[..., i, 0] = st.f.real
-        A[..., i, 1] = st.f.imag
+        A[..., i, 0] = np.real(st.f)
+        A[..., i, 1] = np.imag(st.f)
         A[..., i, 2] = st.m_P
         B[..., i, i] = st.B
         within &= chain.within_limits(st.q, tol)
@@ -638,9 +642,16 @@ def _transmission(robot: Manipulator, ik: IKSolution, poses: np.ndarray) -> np.n
 
 def states_transmission(robot: Manipulator, states: tuple, shape: tuple) -> np.ndarray:
     """Transmission indices ``(*shape, 3)`` of the legs' states (:func:`_transmission`)."""
+    t = np.stack([np.broadcast_to(v, shape) for v in raw_transmission(robot, states)], axis=-1)
+    return np.where(np.isfinite(t), np.minimum(t, 1.0), 0.0)
+
+
+def raw_transmission(robot: Manipulator, states: tuple) -> list:
+    """Each leg's ``|B_ii|`` over the actuated joint's moment arm (scalar or ``(...)``), before clipping to
+    [0, 1] (NaN where undefined: any comparison with it is False)."""
     out = []
     for i, (chain, st) in enumerate(zip(robot.chains, states)):
-        B = np.broadcast_to(st.B, shape)
+        B = st.B
         if chain.actuated.kind == "P":
             out.append(np.abs(B))
             continue
@@ -648,14 +659,12 @@ def states_transmission(robot: Manipulator, states: tuple, shape: tuple) -> np.n
         pi, pj = chain.passive_indices
         kinds = chain.joints[pi].kind + chain.joints[pj].kind
         if kinds == "PP":
-            out.append(np.ones(B.shape))
+            out.append(1.0)
             continue
         line_point = st.centres[pi] if chain.joints[pi].kind == "R" else st.centres[pj]
-        arm = np.abs(line_point - st.centres[a])
         with np.errstate(invalid="ignore", divide="ignore"):
-            out.append(np.where(arm > 0, np.abs(B) / np.where(arm > 0, arm, 1.0), 0.0))
-    t = np.stack(out, axis=-1)
-    return np.where(np.isfinite(t), np.minimum(t, 1.0), 0.0)
+            out.append(np.abs(B) * (1.0 / np.abs(line_point - st.centres[a])))   # arm 0: inf or NaN
+    return out
 
 
 def singularity(robot: Manipulator, poses: np.ndarray) -> Singularity:

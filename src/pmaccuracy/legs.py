@@ -214,7 +214,8 @@ class LegState:
     B : ``(...)``: ``B_ii``, its pairing with the actuated joint's unit twist (mm for R, 1 for P)
 
     Row ``i`` of ``A`` is ``[f_x, f_y, m_P]`` (:attr:`A_row`), so ``A [dp; dphi] = B_ii dq_actuated``.
-    Arrays may be broadcast views (read-only) or plain complex scalars where a quantity is constant.
+    A field that does not depend on the pose (a 3-PPR's wrench force, a base joint's centre) is kept as a
+    scalar, so that the arithmetic on it stays scalar; :attr:`shape` gives the poses' shape.
     """
 
     qs: tuple
@@ -225,15 +226,21 @@ class LegState:
     B: np.ndarray
 
     @cached_property
+    def shape(self) -> tuple:
+        """The leading shape ``(...)`` of the poses (a constant field may be stored as a scalar)."""
+        return np.broadcast_shapes(*(np.shape(v) for v in (*self.qs, *self.centres, *self.dirs, self.f, self.m_P,
+                                                             self.B)))
+
+    @cached_property
     def q(self) -> np.ndarray:
         """``(..., 3)`` the joint values stacked."""
-        shape = np.broadcast_shapes(*(np.shape(v) for v in self.qs), np.shape(self.B))
-        return np.stack([np.broadcast_to(v, shape) for v in self.qs], axis=-1)
+        return np.stack([np.broadcast_to(v, self.shape) for v in self.qs], axis=-1)
 
     @property
     def A_row(self) -> np.ndarray:
         """``(..., 3)``: ``[f_x, f_y, m_P]``, the leg's row of ``A`` (Eq. 4a in general form)."""
-        return np.stack([self.f.real, self.f.imag, self.m_P], axis=-1)
+        return np.stack([np.broadcast_to(v, self.shape) for v in (np.real(self.f), np.imag(self.f), self.m_P)],
+                        axis=-1)
 
     def where(self, mask: np.ndarray, other: "LegState") -> "LegState":
         """This state where ``mask`` is False and ``other`` where it is True (elementwise)."""
@@ -526,12 +533,17 @@ class Chain:
         if pz is None:
             pz = poses[..., 0] + 1j * poses[..., 1]
         eb = complex(np.exp(1j * self.base_angle))
-        g = eb.conjugate() * (pz + e_phi * self.platform_z - self.base_z)       # end origin, leg frame
-        E_g = e_phi * complex(np.exp(1j * (self.platform_angle - self.base_angle)))  # exp(i gamma)
+        ebc = eb.conjugate()
+        # end origin in the leg frame: conj(eb) (p + e_phi platform - base), as few array operations as possible
+        g = (pz if eb == 1 else ebc * pz) + (e_phi * (ebc * self.platform_z) if self.platform_z != 0 else 0.0)
+        if self.base_z != 0:
+            g = g - ebc * self.base_z
         oc = self._offsets_cum
         links = self._links
         rot = [complex(np.exp(1j * o)) for o in oc]
-        E_S = E_g * rot[2].conjugate()                                           # exp(i S), S = gamma - o1-o2-o3
+        turn = complex(np.exp(1j * (self.platform_angle - self.base_angle)))
+        E_g = e_phi * turn                                                       # exp(i gamma)
+        E_S = e_phi * (turn * rot[2].conjugate())                                # exp(i S), S = gamma - o1-o2-o3
         S = phi + (self.platform_angle - self.base_angle - oc[2])
         rs = [k for k, joint in enumerate(self.joints) if joint.kind == "R"]
         q: list[Any] = [None, None, None]
@@ -540,7 +552,7 @@ class Chain:
             if len(rs) == 1:
                 m = rs[0]
                 d = [rot[k] * E_S if k >= m else rot[k] for k in range(3)]
-                rhs = g - sum(d[k] * links[k] for k in range(3))
+                rhs = g - sum(d[k] * links[k] for k in range(3) if links[k] != 0)
                 a, b = (k for k in range(3) if k != m)
                 den = cross(d[a], d[b])
                 den = np.where(np.abs(den) > 1e-12, den, np.nan)
@@ -591,11 +603,15 @@ class Chain:
                 centres.append(centres[-1] + dirs[k] * (q[k] + joint.link_z))
             else:
                 centres.append(centres[-1] + dirs[k] * joint.link_z if joint.link_z != 0 else centres[-1])
-        return self._screw_state(tuple(q), tuple(centres), dirs, pz)
+        return self._screw_state(tuple(q), tuple(centres), dirs, pz, tip=e_phi * self.platform_z)
 
-    def _screw_state(self, qs: tuple, centres: tuple, dirs: tuple, pz: np.ndarray) -> "LegState":
+    def _screw_state(self, qs: tuple, centres: tuple, dirs: tuple, pz: np.ndarray, tip=None) -> "LegState":
         """:class:`LegState` from joint values, centres and directions: the constraint wrench of the passive
-        joints (:func:`~pmaccuracy.screws.constraint_wrench`), its moment about P and ``B_ii``."""
+        joints (:func:`~pmaccuracy.screws.constraint_wrench`), its moment about P and ``B_ii``.
+
+        ``tip``, the end frame's origin relative to P (``Rot(phi) platform``), lets the moment about P use
+        the platform-side joint's position relative to P, which is constant at a constant orientation
+        (a 3-PPR's whole row of A is then a constant of the map's layer)."""
         i, j = self.passive_indices
         ki, kj = self.joints[i].kind, self.joints[j].kind
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -614,11 +630,14 @@ class Chain:
             m_P = np.ones(np.shape(pz))
             B = m_P if self.joints[a].kind == "R" else np.zeros(np.shape(pz))
         else:
-            m_P = cross(line - pz, f)
+            last_r = tip is not None and self.joints[2].kind == "R" and (line is centres[2] or j == 2)
+            if last_r:              # the force line passes through the last joint: P -> joint 3 = tip - link
+                link = self.joints[2].link_z
+                m_P = cross(tip - dirs[2] * link if link != 0 else tip, f)
+            else:
+                m_P = cross(line - pz, f)
             B = cross(line - centres[a], f) if self.joints[a].kind == "R" else dot(f, dirs[a])
-        f = np.broadcast_to(f, np.shape(pz))
-        return LegState(qs=qs, centres=centres, dirs=dirs, f=f, m_P=np.broadcast_to(m_P, np.shape(pz)),
-                        B=np.broadcast_to(B, np.shape(pz)))
+        return LegState(qs=qs, centres=centres, dirs=dirs, f=f, m_P=m_P, B=B)
 
     def state(self, poses: np.ndarray, e_phi: np.ndarray | None = None, pz: np.ndarray | None = None,
               phi: np.ndarray | float | None = None) -> "LegState":

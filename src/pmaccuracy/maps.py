@@ -243,8 +243,9 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
     """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
     show = sys.stderr.isatty() if progress is None else progress
     # A block's temporaries take about 0.9 kB per point, the result 32 B per point: blocks of at most 1/200 of
-    # the map keep the peak within MEMORY_FACTOR x the dataset (never below 2048 points: speed).
-    block = min(chunk_size, max(2048, len(phis) * len(y) * len(x) // 200))
+    # the map keep the peak within MEMORY_FACTOR x the dataset for maps of 20 MB and more; never below 8192
+    # points (the kernel's block), where a block's fixed cost (~0.3 ms of numpy calls) would dominate.
+    block = min(chunk_size, max(8192, len(phis) * len(y) * len(x) // 200))
     rows = max(1, block // len(x))
     blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
     names = list(MAP_VARIABLES)
