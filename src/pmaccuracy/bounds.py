@@ -151,12 +151,17 @@ def tolerance_half_widths(tolerances: Mapping[str, Any], H: dict[str, np.ndarray
 def load_tolerances(spec: str) -> dict[str, np.ndarray]:
     """Tolerance half-widths from a variations TOML file or preset (see
     :func:`pmaccuracy.error_model.load_variations`); negative or non-finite values are refused."""
+    from . import plausibility
+    from .error_model import VARIATION_UNITS
+
     try:
-        return _check_tolerances(load_variations(spec))
+        tolerances = _check_tolerances(load_variations(spec))
     except ConfigError as exc:
         if exc.source:
             raise
         raise ConfigError(exc.message, source=str(spec), key=exc.key) from None
+    plausibility.warn(plausibility.tolerance_messages(tolerances, VARIATION_UNITS, str(spec)))
+    return tolerances
 
 
 def _check_tolerances(tolerances: Mapping[str, Any]) -> dict[str, np.ndarray]:

@@ -116,7 +116,11 @@ class ClearanceSet(_tomlio.TomlPresets):
                 except ConfigError as exc:
                     raise ClearanceError(exc.message, source=source, key=exc.key) from None
         name = data.get("name", Path(source).stem)
-        return cls(**columns, name=str(name), description=str(data.get("description", "")))
+        result = cls(**columns, name=str(name), description=str(data.get("description", "")))
+        from . import plausibility  # values in unlikely units (um as mm, deg as rad): a warning each
+
+        plausibility.warn(plausibility.clearance_set_messages(result, source), stacklevel=2)
+        return result
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.name}

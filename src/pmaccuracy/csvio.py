@@ -32,7 +32,7 @@ POSE_COLUMNS = ("x", "y", "phi_deg")
 def _header(path: str) -> list[str]:
     """The first CSV row with each name stripped; ``[]`` for an empty file or a blank first line."""
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             return [h.strip() for h in next(csv.reader(fh), [])]
     except FileNotFoundError:
         raise ConfigError("no such file", source=path) from None
@@ -48,7 +48,8 @@ def read_poses_csv(path: str | Path) -> np.ndarray:
     """Poses from a CSV whose header names the columns ``x``, ``y``, ``phi_deg`` (mm, mm, deg) -> ``(N, 3)``.
 
     Other columns are ignored (so a map written by ``pmaccuracy map --out FILE.csv``
-    feeds back into ``pmaccuracy bounds --poses-csv``); blank lines are skipped.
+    feeds back into ``pmaccuracy bounds --poses-csv``); blank lines are skipped; a
+    UTF-8 byte-order mark (as Excel writes) is accepted.
     The values are returned exactly as written (correctly rounded doubles), still
     in degrees for ``phi_deg``.
 
@@ -87,7 +88,7 @@ def _read_fast(path: str, n_columns: int, cols: list[int]) -> np.ndarray | None:
             convert_options=pcsv.ConvertOptions(include_columns=list(dict.fromkeys(wanted)),
                                                 column_types={n: pa.float64() for n in wanted},
                                                 null_values=[], quoted_strings_can_be_null=False))
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError, UnicodeDecodeError):
+    except (pa.ArrowException, UnicodeDecodeError):  # the careful reader names the problem
         return None
     if any(table.column(n).null_count for n in wanted):
         return None
@@ -102,8 +103,9 @@ def _read_fast(path: str, n_columns: int, cols: list[int]) -> np.ndarray | None:
 def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
     """The plain :mod:`csv` reader: same result as the fast one on clean files, a precise error otherwise."""
     rows = []
+    reader = None
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             reader = csv.reader(fh)
             next(reader, None)
             for row in reader:
@@ -127,8 +129,9 @@ def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
                 rows.append(values)
     except UnicodeDecodeError:
         raise ConfigError("not a text CSV file", source=path) from None
-    except csv.Error as exc:
-        raise ConfigError(f"malformed CSV ({exc})", source=path) from None
+    except csv.Error as exc:  # e.g. a field longer than csv.field_size_limit() (131072 characters)
+        where = f"line {reader.line_num}" if reader is not None and reader.line_num else None
+        raise ConfigError(f"malformed CSV ({exc})", source=path, key=where) from None
     return np.array(rows, dtype=float).reshape(-1, 3)
 
 

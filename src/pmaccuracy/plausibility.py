@@ -139,3 +139,48 @@ def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None
     return [f"{what} = {_g(d[k])} deg{at}{many} is beyond the first-order model's validity (about "
             f"{_g(MAX_LINEAR_DPHI_DEG)} deg; relative second-order error ~ dphi/2): the worst case is only "
             f"indicative there (near a singularity or clearances too large)"]
+
+
+def _prefixed(source: str | None, messages: list[str]) -> list[str]:
+    return [f"{source}: {m}" for m in messages] if source else messages
+
+
+#: Units of the 3-PPR clearance keys and of the per-joint keys (``actuator``: mm or rad, so the looser 1).
+_SET_UNITS = {"bearing_angle": "rad", "guide_lateral": "mm", "revolute_radial": "mm", "guide_block_length": "block"}
+_JOINT_UNITS = {"radial": "mm", "angular": "rad", "lateral": "mm", "block_length": "block", "position": "mm",
+                "direction": "rad", "length": "mm", "actuator": "mm"}
+
+
+def clearance_set_messages(clearances, source: str | None = None) -> list[str]:
+    """Messages for a 3-PPR :class:`~pmaccuracy.clearances.ClearanceSet` (keys ``legs[i].<key>``)."""
+    values = {f"legs[{i + 1}].{key}": (float(getattr(clearances, key)[i]), unit)
+              for i in range(3) for key, unit in _SET_UNITS.items()}
+    return _prefixed(source, clearance_messages(values))
+
+
+def error_sources_messages(sources, source: str | None = None, what: str = "clearances") -> list[str]:
+    """Messages for per-joint :class:`~pmaccuracy.sources.ErrorSources` (keys ``legs[i].joints[k].<key>``).
+
+    An ``actuator`` error is mm or rad by the joint: it is held to the mm limit (1), a looser test.
+    """
+    values = {}
+    for i, leg in enumerate(sources.legs, start=1):
+        for k, joint in enumerate(leg, start=1):
+            for key, unit in _JOINT_UNITS.items():
+                value = float(getattr(joint, key, 0.0))
+                if key == "block_length" and not getattr(joint, "lateral", 0.0):
+                    continue  # the default block length is only used with a lateral clearance
+                if value:
+                    values[f"legs[{i}].joints[{k}].{key}"] = (value, unit)
+    return _prefixed(source, clearance_messages(values, what))
+
+
+def tolerance_messages(tolerances: Mapping[str, object], units: Mapping[str, str],
+                       source: str | None = None) -> list[str]:
+    """Messages for tolerance half-widths ``{name: (3,)}`` with ``units[name]`` ``"mm"`` or ``"rad"``."""
+    values = {}
+    for name, t in tolerances.items():
+        arr = np.broadcast_to(np.asarray(t, dtype=float), (3,))
+        for i, v in enumerate(arr, start=1):
+            values[f"legs[{i}].{name}_{units.get(name, 'mm')}"] = (float(v), units.get(name, "mm"))
+    return _prefixed(source, clearance_messages(values, "tolerances"))

@@ -125,7 +125,11 @@ class ErrorSources:
         name = data.get("name", source)
         if not isinstance(name, str):
             raise ConfigError("must be a string", source=source, key="name")
-        return cls(legs=tuple(legs), name=name)
+        result = cls(legs=tuple(legs), name=name)
+        from . import plausibility  # values in unlikely units (um as mm, deg as rad): a warning each
+
+        plausibility.warn(plausibility.error_sources_messages(result, source), stacklevel=2)
+        return result
 
     def to_dict(self) -> dict[str, Any]:
         """The TOML table (only non-default keys)."""

@@ -185,6 +185,9 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
     if pose_args:
         arr = np.array(pose_args, dtype=float)
     else:
+        from ..plausibility import orientation_messages, warn
+
         arr = read_poses_csv(csv_path)
+        warn(orientation_messages(arr[:, 2], f"{csv_path}: column phi_deg"))
     arr[:, 2] = np.radians(arr[:, 2])
     return arr

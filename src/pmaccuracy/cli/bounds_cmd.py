@@ -38,14 +38,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="serial arms (architecture = \"serial\", preset planar_3r_arm) instead of --pose: the joint "
                         "values base to tip, deg for R, mm for P (repeatable)")
     p.add_argument("--tolerances", metavar="FILE",
-                   help="tolerance half-widths on link parameters (TOML with keys like d_mm, theta_rad per leg, "
-                        "or preset example_tolerances): worst case over clearances and tolerances together; "
-                        "use --clearances none for tolerances alone (exact method only)")
+                   help="tolerance half-widths: for the 3-PPR clearance format on link parameters (TOML with keys "
+                        "like d_mm, theta_rad per leg, or preset example_tolerances; --clearances none for "
+                        "tolerances alone); with a per-joint clearance file a per-joint file of position, "
+                        "direction and length tolerances (presets rpr_tolerances, rrr_tolerances, "
+                        "prr_tolerances), added joint by joint: worst case over both together (exact method only)")
     p.add_argument("--method", choices=("exact", "slsqp"), default="exact",
                    help="exact closed form (default) or the paper-style SLSQP baseline (slow, local)")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",
-                   help="add the worst-case clearance configurations (exact method only)")
+                   help="add the worst-case configuration of each quantity: the clearance displacements (3-PPR "
+                        "format) or the value of every error source, leg<i>.joint<k>.<what> (per-joint files) "
+                        "(exact method only)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr for long runs (default: when stderr is a terminal)")
     _common.add_format(p)
@@ -104,22 +108,31 @@ def run(args: argparse.Namespace) -> int:
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
-    tolerances = load_tolerances(args.tolerances) if args.tolerances else None
-    if isinstance(clearances, ErrorSources) and (args.method == "slsqp" or args.details or tolerances):
-        raise PmAccuracyError("--method slsqp, --details and --tolerances take the 3-PPR clearance format; with "
-                              "per-joint clearance files give tolerances per joint (position, direction, length)")
+    per_joint = isinstance(clearances, ErrorSources)
+    if per_joint:
+        if args.method == "slsqp":
+            raise PmAccuracyError("--method slsqp takes the 3-PPR clearance format (the paper's baseline)")
+        if args.tolerances:  # a per-joint file of position / direction / length tolerances, added joint by joint
+            clearances = with_tolerances(clearances, load_clearances(args.tolerances, robot))
+        tolerances = None
+    else:
+        tolerances = load_tolerances(args.tolerances) if args.tolerances else None
     if args.method == "slsqp":
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")
         result = slsqp_max_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
-        _columnar_output(_columns(result), args.format)
+        _columnar_output(_linear_checked(_columns(result), poses), args.format)
         return 0
     if not args.details:
-        _columnar_output(_exact_columns(robot, clearances, poses, tolerances, args.allow_outside, args.progress),
-                         args.format)
+        _columnar_output(_linear_checked(_exact_columns(robot, clearances, poses, tolerances, args.allow_outside,
+                                                        args.progress), poses), args.format)
         return 0
     result = max_pose_errors(robot, clearances, poses, tolerances=tolerances, allow_outside=args.allow_outside,
                              details=True)
+    _linear_checked(_columns(result), poses)
+    if per_joint:
+        _common.emit(_per_joint_details(robot, clearances, result), args.format)
+        return 0
     records = result.records()
     for k, rec in enumerate(records):
         rec["worst"] = {q: _configuration(type(d)(*(np.asarray(f)[k] for f in
@@ -130,6 +143,64 @@ def run(args: argparse.Namespace) -> int:
                                        for q, var in result.worst_variations.items()}
     _common.emit(records, args.format)
     return 0
+
+
+def _linear_checked(columns: dict[str, np.ndarray], poses: np.ndarray) -> dict[str, np.ndarray]:
+    """Warn (one line) when a dphi_max is beyond the first-order model's validity; returns ``columns``."""
+    from ..plausibility import linearity_messages, warn
+
+    warn(linearity_messages(columns["dphi_max_deg"], poses))
+    return columns
+
+
+def with_tolerances(clearances, tolerances):
+    """Per-joint sources with the half-widths of a per-joint tolerance file added joint by joint (the two
+    sets are independent, so their shares add; the clearance file's guide block length is kept)."""
+    from dataclasses import fields, replace
+
+    from ..sources import ErrorSources
+
+    legs = tuple(tuple(replace(c, **{f.name: getattr(c, f.name) + getattr(t, f.name) for f in fields(c)
+                                     if f.name != "block_length"})
+                       for c, t in zip(cl, tl)) for cl, tl in zip(clearances.legs, tolerances.legs))
+    return ErrorSources(legs=legs, name=f"{clearances.name} + {tolerances.name}")
+
+
+#: Output keys of a per-joint worst configuration: JointDisplacements field -> (key, to output unit).
+_SOURCE_KEYS = {"turn": ("turn_deg", np.degrees), "sigma": ("lateral_shift_mm", None),
+                "tau": ("tilt_deg", np.degrees), "dl": ("length_mm", None)}
+
+
+def _per_joint_details(robot, sources, result) -> list[dict]:
+    """Records of ``bounds --details`` for per-joint sources: per quantity, the value of every non-zero source
+    at the maximizing configuration, keyed ``leg<i>.joint<k>.<what>`` (mm, deg; an actuated R's error in
+    deg), from :func:`pmaccuracy.sources.worst_configuration` at the maximizing signs."""
+    from ..kinematics import inverse_kinematics
+    from ..sources import worst_configuration
+
+    poses = result.poses.reshape(-1, 3)
+    joints = inverse_kinematics(robot, poses).joints
+    records = result.records()
+    for q, signs in result.worst_signs.items():
+        cfg = worst_configuration(robot, sources, joints, poses, signs.reshape(-1, 3))
+        for k, rec in enumerate(records):
+            out = {}
+            for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
+                for j, (joint, e) in enumerate(zip(chain.joints, leg)):
+                    where = f"leg{i + 1}.joint{j + 1}"
+                    if e.radial or e.position:
+                        out[f"{where}.shift_x_mm"] = cfg.shift[k, i, j].real
+                        out[f"{where}.shift_y_mm"] = cfg.shift[k, i, j].imag
+                    if e.actuator:
+                        value = cfg.dq[k, i, j]
+                        out[f"{where}.actuator_{'deg' if joint.kind == 'R' else 'mm'}"] = \
+                            np.degrees(value) if joint.kind == "R" else value
+                    for field, (key, unit) in _SOURCE_KEYS.items():
+                        value = getattr(cfg, field)[k, i, j]
+                        if value != 0:
+                            out[f"{where}.{key}"] = unit(value) if unit else value
+            rec.setdefault("worst", {})[q] = out
+    return records
 
 
 def _columnar_output(columns: dict[str, np.ndarray], fmt: str) -> None:

@@ -111,6 +111,9 @@ def run(args: argparse.Namespace) -> int:
             _plots(_thinned(ds), Path(args.plot))
         summary = maps.summarize(ds)
     rows = [{"phi_deg": float(key), **ranges} for key, ranges in summary.items()]
+    from ..plausibility import linearity_messages, warn
+
+    warn(linearity_messages([r["dphi_max_deg"][1] for r in rows], what="the map's largest dphi_max"))
     _common.emit(rows, args.format)
     return 0
 
