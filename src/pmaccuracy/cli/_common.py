@@ -178,6 +178,27 @@ def emit(data: Any, fmt: str, *, records: Sequence[dict[str, Any]] | None = None
         stream.write("  ".join(v.rjust(w) for v, w in zip(r, widths)) + "\n")
 
 
+def degrees_as_given(angles_rad: np.ndarray) -> np.ndarray:
+    """Degrees of angles (rad) for output: per element the shortest rounding that converts back to the same
+    radians (``radians(30)`` prints 30, not 29.999999999999996), so an echoed input reads as it was typed.
+
+    Vectorized :func:`pmaccuracy.geometry.round_trip_degrees`: one pass per number of decimals, over the values
+    not yet resolved.
+    """
+    rad = np.asarray(angles_rad, dtype=float)
+    deg = np.degrees(rad)
+    out = deg.copy()
+    todo = np.flatnonzero(np.isfinite(rad))
+    for digits in range(16):
+        if todo.size == 0:
+            break
+        candidate = np.round(deg.flat[todo], digits)
+        ok = np.radians(candidate) == rad.flat[todo]
+        out.flat[todo[ok]] = candidate[ok]
+        todo = todo[~ok]
+    return out
+
+
 def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -> np.ndarray:
     """Poses ``(N, 3)`` [mm, mm, rad] from repeated ``--pose X Y PHI_DEG`` or a CSV ``x,y,phi_deg``."""
     if bool(pose_args) == bool(csv_path):

@@ -64,7 +64,7 @@ def _configuration(disp) -> dict:
 def _columns(result) -> dict[str, np.ndarray]:
     """The output columns of a :class:`~pmaccuracy.bounds.PoseErrorBounds` (same values as its ``records``)."""
     poses = result.poses.reshape(-1, 3)
-    return {"x": poses[:, 0], "y": poses[:, 1], "phi_deg": np.degrees(poses[:, 2]),
+    return {"x": poses[:, 0], "y": poses[:, 1], "phi_deg": _common.degrees_as_given(poses[:, 2]),
             "dx_max": result.dx_max.reshape(-1), "dy_max": result.dy_max.reshape(-1),
             "dphi_max_deg": result.dphi_max_deg.reshape(-1), "dp_max": result.dp_max.reshape(-1)}
 
@@ -134,7 +134,9 @@ def run(args: argparse.Namespace) -> int:
         _common.emit(_per_joint_details(robot, clearances, result), args.format)
         return 0
     records = result.records()
+    shown = _common.degrees_as_given(poses[:, 2])
     for k, rec in enumerate(records):
+        rec["phi_deg"] = float(shown[k])
         rec["worst"] = {q: _configuration(type(d)(*(np.asarray(f)[k] for f in
                                                    (d.tau_b, d.sigma_g, d.tau_g, d.rho, d.varphi))))
                         for q, d in result.worst.items()}

@@ -41,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="FILE.png",
                    help="figure: per orientation the workspaces overlaid, the dp_max ratio maps and bars of the "
                         "mean/max errors; missing folders are created")
-    p.add_argument("--out", metavar="FILE.csv", help="also write the full table as CSV (exact floats)")
+    p.add_argument("--out", metavar="FILE.csv", help="also write the full table as CSV (exact floats); missing parent folders are created")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -77,12 +77,10 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
     from ..geometry import Manipulator
     from ..sources import load_clearances
-    from .map_cmd import prepare_output
-
     specs = _check_options(args)
-    for path, option in ((args.plot, "--plot"), (args.out, "--out")):
+    for path, option, kinds in ((args.plot, "--plot", _common.PLOT_TYPES), (args.out, "--out", (".csv",))):
         if path is not None:
-            prepare_output(Path(path), option)
+            _common.prepare_output(Path(path), option, kinds)
     robots = [Manipulator.load(spec) for spec in args.robot]
     clearances = []
     for spec, robot in zip(specs, robots):

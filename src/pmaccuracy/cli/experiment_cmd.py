@@ -68,13 +68,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     sp.add_argument("--model", choices=experiment.MODELS, default="exact",
                     help="readings from the exact loop closure (default) or the first-order model (Eq. 19)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the noise (default: 0)")
-    sp.add_argument("--out", required=True, metavar="M.csv", help="measurement CSV file to write")
+    sp.add_argument("--out", required=True, metavar="M.csv", help="measurement CSV file to write; missing parent folders are created")
     sp.add_argument("--repeats", type=_common.positive_int, default=None, metavar="N",
                     help="also a virtual ISO 9283 test: N attained poses per point, each cycle a fresh random "
                          "clearance state inside the sets (N >= 2), written to --repeats-out")
     sp.add_argument("--repeats-out", metavar="R.csv",
                     help="repeated-pose CSV (point,x_nom,y_nom,phi_nom_deg,cycle,x,y,phi_deg) of --repeats "
-                         "(default: M_repeats.csv beside --out)")
+                         "(default: M_repeats.csv beside --out); missing parent folders are created")
     sp.add_argument("--distribution", metavar="FILE",
                     help="laws of the clearance states of --repeats: uniform (default), truncnormal, boundary or "
                          "a TOML file (see pmaccuracy statistics)")
@@ -90,7 +90,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "csv list the points (table also the RMSD).")
     _add_common(cp)
     cp.add_argument("--measurements", required=True, metavar="M.csv", help="measurement CSV file")
-    cp.add_argument("--out", metavar="DIR", help="also write figures, comparison.json and report.html into DIR")
+    cp.add_argument("--out", metavar="DIR", help="also write figures, comparison.json and report.html into DIR (created with its missing parents)")
     cp.add_argument("--accuracy-mm", type=_common.finite_float, default=experiment.DEFAULT_ACCURACY_MM, metavar="A",
                     help="position accuracy of the measurement system, mm (Fig. 15 band +-2A; default: 0.01)")
     cp.add_argument("--accuracy-deg", type=_common.finite_float, default=experiment.DEFAULT_ACCURACY_DEG,
@@ -126,6 +126,9 @@ def run_simulate(args: argparse.Namespace) -> int:
         from ..distributions import Distribution
 
         distribution = Distribution.load(args.distribution)
+    _common.prepare_output(args.out, "--out", (".csv",))
+    if args.repeats_out:
+        _common.prepare_output(args.repeats_out, "--repeats-out", (".csv",))
     measurements = experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
         noise_deg=args.noise_deg, model=args.model, seed=args.seed)
@@ -166,6 +169,8 @@ def run_compare(args: argparse.Namespace) -> int:
 
         repeats = iso9283.load_repeats(args.repeats)  # before the long computations
         distribution = Distribution.load(args.distribution)
+    if args.out:
+        _common.prepare_output(args.out, "--out", folder=True)
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
                                     accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm)
     summary = comparison.summary()

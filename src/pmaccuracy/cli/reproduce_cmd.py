@@ -13,7 +13,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "reproduce", help="reproduce the paper: workspace, error maps, paper check, sources, design comparison",
         description="Writes DIR/report.html (self-contained), DIR/report.md, DIR/results.json, PNG figures and "
                     "NetCDF maps for the robot (default: the paper's prototype, aalborg_3ppr).")
-    p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out)")
+    p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out); created with its missing parents")
     _common.add_robot(p)
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
     p.add_argument("--seed", type=int, default=0, help="seed of the virtual experiment's camera noise")
@@ -29,6 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
+    _common.prepare_output(args.out, "--out", folder=True)
     robot = _common.load_robot(args)
     if args.clearances is not None or not robot.is_3ppr:
         from ..accuracy_report import REPORT_PHIS_DEG, accuracy_report

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from ..errors import ConfigError
 from . import _common
@@ -66,9 +65,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="orientation of a percentile map in degrees (repeatable; needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
                    help="grid points per axis of a map (default: 21)")
-    p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv")
+    p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv; missing parent "
+                                                 "folders are created")
     p.add_argument("--plot", metavar="FILE.png", help="figure of a map's first orientation: percentile, worst case "
-                                                      "and their ratio for |dp| and |dphi|")
+                                                      "and their ratio for |dp| and |dphi|; missing parent folders are created")
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
     p.add_argument("--seed", type=int, default=0, help="seed of numpy.random.default_rng (default: 0)")
@@ -122,14 +122,9 @@ def run(args: argparse.Namespace) -> int:
             _common.emit(rows, args.format)
         return 0
 
-    from .map_cmd import prepare_output
-
-    out = Path(args.out)
-    if out.suffix.lower() not in (".nc", ".csv"):
-        raise ConfigError(f"unknown map file type {out.suffix!r}: use .nc or .csv", source=args.out, key="--out")
-    prepare_output(out, "--out")
+    out = _common.prepare_output(args.out, "--out", (".nc", ".csv"))
     if args.plot:
-        prepare_output(Path(args.plot), "--plot")
+        _common.prepare_output(args.plot, "--plot", _common.PLOT_TYPES)
     ds = distributions.region_statistics(
         robot, args.clearances, np.radians(args.phi_deg), args.grid, samples=args.samples or 10_000,
         seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds)

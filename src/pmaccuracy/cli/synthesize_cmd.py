@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mode", choices=("uniform", "min-cost"), default=None,
                    help="uniform scaling of the template or per-joint minimum cost (default: uniform, min-cost "
                         "with --cost)")
-    p.add_argument("--out", metavar="FILE.toml", help="write the synthesized clearance file")
+    p.add_argument("--out", metavar="FILE.toml", help="write the synthesized clearance file; missing parent folders are created")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -43,7 +43,6 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import ConfigError
     from ..synthesis import clearance_toml, parse_targets, synthesize
-    from .map_cmd import prepare_output
 
     targets = parse_targets(args.target)
     mode = args.mode or ("min-cost" if args.cost else "uniform")
@@ -51,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("a cost file needs --mode min-cost", key="--cost")
     out = Path(args.out) if args.out else None
     if out is not None:
-        prepare_output(out, "--out")
+        _common.prepare_output(out, "--out", (".toml",))
     robot = _common.load_robot(args)
     region = parse_region(robot, args)
     res = synthesize(robot, region, targets, template=args.clearances, costs=args.cost, mode=mode,

@@ -46,11 +46,9 @@ def run(args: argparse.Namespace) -> int:
     robots = [Manipulator.load(spec) for spec in args.compare] if args.compare else [_common.load_robot(args)]
     from pathlib import Path
 
-    from .map_cmd import prepare_output
-
     plot = Path(args.plot) if args.plot else None
     if plot is not None:
-        prepare_output(plot, "--plot")
+        _common.prepare_output(plot, "--plot", _common.PLOT_TYPES)
     results = [_summary(robot, args.phi_deg, constant_orientation_workspace(robot, np.radians(args.phi_deg)))
                for robot in robots]
     phis = tuple([args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg])
