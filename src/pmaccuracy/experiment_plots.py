@@ -87,11 +87,11 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     ticks = order[::step]
     ax_r.set_xticks(pos[ticks])
     ax_r.set_xticklabels(m.points[ticks], fontsize=8, rotation=90 if step == 1 and n > 20 else 0)
-    ax_r.set_xlabel("measured point" + (f" (every {step}th labelled)" if step > 1 else ""), fontsize=10)
+    ax_r.set_xlabel("measured point" + (f" (one in {step} labelled)" if step > 1 else ""), fontsize=10)
     for ax in (ax_p, ax_r):
         ax.grid(axis="y", alpha=0.3)
         ax.tick_params(labelsize=9)
-        ax.set_xlim(-1, start - 1)
+        ax.set_xlim(-1, float(pos.max()) + 1)
     fig.legend(*ax_p.get_legend_handles_labels(), loc="upper center", bbox_to_anchor=(0.5, 0.925),
                ncol=len(groups), frameon=False, fontsize=9)
     fig.suptitle(title or f"ISO 9283 accuracy at {n} poses, $\\phi$ = {_phi_list(groups)} (Eq. 24, cf. paper Fig. 14)",
