@@ -611,7 +611,8 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
 
     b = np.zeros((N, 9))
     for _ in range(max_iterations):
-        nb = phi(b)
+        with np.errstate(all="ignore"):
+            nb = phi(b)
         if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
             b = nb
             break
@@ -636,7 +637,7 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     e0 = np.exp(1j * model.t0)
     JinvF0 = np.einsum("nij,nj->ni", Jinv, F0)
 
-    def pieces(kap: np.ndarray, rows: slice):
+    def pieces(kap: np.ndarray, rows: np.ndarray):
         """``c'_m``, ``c_m`` and the second-order model ``H`` (equation (5)) of row combinations ``kap``
         ``(N', R, 3)`` at the poses ``rows``."""
         cp = np.conj(kap[..., model.leg_of]) * e0[rows][:, None, :]  # (N', R, m)
@@ -647,7 +648,7 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
              + 0.5 * (np.einsum("nrmk,nml->nrkl", v, al) + np.einsum("nml,nrmk->nrlk", al, v)))
         return c, cp, H
 
-    def rest_of(c: np.ndarray, cp: np.ndarray, bb: np.ndarray, rows: slice) -> np.ndarray:
+    def rest_of(c: np.ndarray, cp: np.ndarray, bb: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Bound ``(N', R)`` of (true remainder) - (second-order model) over ``S`` and the box ``|w| <= bb``."""
         wt = np.einsum("nmj,nj->nm", atz[rows], bb)  # |Dt - Dt_lin|
         wr = np.einsum("nmj,nj->nm", arz[rows], bb)  # |Dr - Dr_lin|
@@ -658,25 +659,30 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
 
     # Tighter box: |w_j| <= max_s [max_S delta^T (s H_j) delta - s (J_z^-1 F0)_j] + rest_j(b), the smaller of this
     # and (3); both bound the map (2) over the box and grow with b, so b <- min(b, Phi(b)) keeps Phi(b) <= b.
-    if np.any(certified):
-        cw, cpw, Hw = pieces(np.concatenate([kappa, -kappa], axis=1), slice(None))
-        quad_w = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw) - np.concatenate([JinvF0, -JinvF0], axis=1)
+    ci = np.flatnonzero(certified)  # only certified poses are bounded further
+    if ci.size:
+        cw, cpw, Hw = pieces(np.concatenate([kappa[ci], -kappa[ci]], axis=1), ci)
+        quad_w = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw) - np.concatenate([JinvF0[ci], -JinvF0[ci]], axis=1)
+        bc = b[ci]
         for _ in range(10):
-            r = quad_w + rest_of(cw, cpw, b, slice(None))
-            nb = np.minimum(np.maximum(r[:, :9], r[:, 9:]), phi(b))
-            nb = np.where(certified[:, None], np.minimum(b, nb * (1 + 1e-9) + 1e-15 * scale), 0.0)
-            if np.all(nb >= b * (1 - 1e-3)):
-                b = nb
+            r = quad_w + rest_of(cw, cpw, bc, ci)
+            nb = np.minimum(np.maximum(r[:, :9], r[:, 9:]), phi(b)[ci])
+            nb = np.minimum(bc, nb * (1 + 1e-9) + 1e-15 * scale)
+            done = np.all(nb >= bc * (1 - 1e-3))
+            bc = nb
+            b = b.copy()
+            b[ci] = bc
+            if done:
                 break
-            b = nb
     X, D = terms(b)
 
-    def row_bound(kap: np.ndarray, g: np.ndarray, f0: np.ndarray, refine: bool = True,
-                  rows: slice = slice(None)) -> np.ndarray:
-        """Upper bound ``(N, R)`` of ``max over S of g . delta + (J_z^-1 row combination of -(F0 + R))``.
+    def row_bound(kap: np.ndarray, g: np.ndarray, f0: np.ndarray, rows: np.ndarray, refine: bool = True
+                  ) -> np.ndarray:
+        """Upper bound ``(N', R)`` of ``max over S of g . delta + (J_z^-1 row combination of -(F0 + R))`` at the
+        poses ``rows`` (indices).
 
-        ``kap`` ``(N, R, 3)``: the row combination's ``kappa`` per leg; ``g`` ``(N, R, n)`` its first-order
-        map; ``f0`` ``(N, R)`` its ``(J_z^-1 F0)``. The smaller of the term-by-term bound (4) and the
+        ``kap`` ``(N', R, 3)``: the row combination's ``kappa`` per leg; ``g`` ``(N', R, n)`` its first-order
+        map; ``f0`` ``(N', R)`` its ``(J_z^-1 F0)``. The smaller of the term-by-term bound (4) and the
         second-order model bound of :func:`dual_bound` plus its rest (equation (5)).
         """
         c, cp, H = pieces(kap, rows)
@@ -686,31 +692,36 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
         model_bound = dual_bound(sets, g, H, refine=refine) - f0 + rest_of(c, cp, b[rows], rows)
         return np.fmin(cheap, model_bound)
 
-    upper, first = {}, {}
-    kap_rows = np.stack([kappa[:, j, :] for j in range(3)] + [-kappa[:, j, :] for j in range(3)], axis=1)
-    g_rows = np.concatenate([M[:, :3, :], -M[:, :3, :]], axis=1)
-    f_rows = np.concatenate([JinvF0[:, :3], -JinvF0[:, :3]], axis=1)
-    ub = row_bound(kap_rows, g_rows, f_rows)  # (N, 6)
+    upper = {q: np.full(N, np.nan) for q in QUANTITIES}
+    first = {}
     for j, q in enumerate(("dx", "dy", "dphi")):
         first[q] = support(sets, M[:, j, :])
-        upper[q] = np.maximum(ub[:, j], ub[:, 3 + j])
-    # |dp| <= max_k u_k . p / cos(pi / K) through K directions
-    ang = 2 * np.pi * (np.arange(N_DIRECTIONS) + 0.5) / N_DIRECTIONS
-    u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)  # (K, 2)
-    kap_u = np.einsum("kr,nri->nki", u, kappa[:, :2, :])
-    g_u = np.einsum("kr,nrd->nkd", u, M[:, :2, :])
-    f_u = np.einsum("kr,nr->nk", u, JinvF0[:, :2])
-    ub = row_bound(kap_u, g_u, f_u, refine=False)  # valid for every direction; refined where it matters:
-    for k in range(N):
-        done = np.zeros(N_DIRECTIONS, dtype=bool)
-        while True:
-            top = int(np.argmax(np.where(done, -np.inf, ub[k])))
-            if done[top] or (np.any(done) and ub[k, top] <= np.max(ub[k, done])):
-                break
-            ub[k, top] = row_bound(kap_u[k:k + 1, top:top + 1], g_u[k:k + 1, top:top + 1],
-                                   f_u[k:k + 1, top:top + 1], rows=slice(k, k + 1))[0, 0]
-            done[top] = True
-    upper["dp"] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS)
+    if ci.size:
+        kap_rows = np.stack([kappa[ci, j, :] for j in range(3)] + [-kappa[ci, j, :] for j in range(3)], axis=1)
+        g_rows = np.concatenate([M[ci, :3, :], -M[ci, :3, :]], axis=1)
+        f_rows = np.concatenate([JinvF0[ci, :3], -JinvF0[ci, :3]], axis=1)
+        ub = row_bound(kap_rows, g_rows, f_rows, ci)  # (N', 6)
+        for j, q in enumerate(("dx", "dy", "dphi")):
+            upper[q][ci] = np.maximum(ub[:, j], ub[:, 3 + j])
+        # |dp| <= max_k u_k . p / cos(pi / K) through K directions: the cheap bound of every direction, then the
+        # refined one for the directions (8 at a time) whose bound exceeds the best refined one
+        ang = 2 * np.pi * (np.arange(N_DIRECTIONS) + 0.5) / N_DIRECTIONS
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)  # (K, 2)
+        kap_u = np.einsum("kr,nri->nki", u, kappa[ci, :2, :])
+        g_u = np.einsum("kr,nrd->nkd", u, M[ci, :2, :])
+        f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2])
+        ub = row_bound(kap_u, g_u, f_u, ci, refine=False)
+        for k in range(ci.size):
+            done = np.zeros(N_DIRECTIONS, dtype=bool)
+            while not np.all(done):
+                todo = np.argsort(np.where(done, np.inf, -ub[k]))[:8]
+                todo = todo[~done[todo]]
+                if np.any(done) and not np.max(ub[k, todo]) > np.max(ub[k, done]):
+                    break
+                ub[k, todo] = row_bound(kap_u[k:k + 1, todo], g_u[k:k + 1, todo], f_u[k:k + 1, todo],
+                                        ci[k:k + 1])[0]
+                done[todo] = True
+        upper["dp"][ci] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS)
     # first-order |dp|: the largest vertex norm of the zonotope (max over directions of the support, exactly)
     first["dp"] = _first_order_dp(sets, M[:, :2, :])
     for q in QUANTITIES:

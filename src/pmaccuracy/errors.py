@@ -47,6 +47,11 @@ class NoSolutionError(PoseError):
     """Forward kinematics has no real assembly mode for the given actuator values."""
 
 
+class CertificationError(PoseError):
+    """No certified worst-case bound at a pose: the remainder of the exact loop closure cannot be bounded
+    over the error set (errors too large, some configuration cannot be assembled, near a singularity)."""
+
+
 class EmptyWorkspaceError(PoseError):
     """The constant-orientation workspace is empty for the requested orientation."""
 

@@ -45,6 +45,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "prr_tolerances), added joint by joint: worst case over both together (exact method only)")
     p.add_argument("--method", choices=("exact", "slsqp"), default="exact",
                    help="exact closed form (default) or the paper-style SLSQP baseline (slow, local)")
+    p.add_argument("--certified", action="store_true",
+                   help="certified upper bounds of the exact nonlinear loop closure's worst case (never below it) "
+                        "with gap.dx ... gap.dp, the relative distance to the best feasible configuration found")
+    p.add_argument("--nonlinear", action="store_true",
+                   help="the best feasible worst case of the exact nonlinear model (local ascent from the "
+                        "first-order worst vertices), with the gap to the certified bound")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",
                    help="add the worst-case configuration of each quantity: the clearance displacements (3-PPR "
@@ -117,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
         tolerances = None
     else:
         tolerances = load_tolerances(args.tolerances) if args.tolerances else None
+    if args.certified or args.nonlinear:
+        return _certified_run(args, robot, clearances, poses, tolerances)
     if args.method == "slsqp":
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")
@@ -210,3 +218,23 @@ def _columnar_output(columns: dict[str, np.ndarray], fmt: str) -> None:
     from ..csvio import format_columns
 
     format_columns(columns, fmt, sys.stdout)
+
+
+def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarray, tolerances) -> int:
+    """``bounds --certified`` / ``--nonlinear``: the ``bounds`` keys with the certified upper bounds (or the
+    nonlinear maxima) and ``gap`` per quantity (:mod:`pmaccuracy.certified`)."""
+    from ..certified import certified_pose_errors
+
+    if args.certified and args.nonlinear:
+        raise PmAccuracyError("--certified and --nonlinear exclude each other (both report the gap between them)")
+    flag = "--certified" if args.certified else "--nonlinear"
+    if args.method == "slsqp":
+        raise PmAccuracyError(f"{flag} excludes --method slsqp")
+    if args.details:
+        raise PmAccuracyError(f"{flag} excludes --details (the worst configurations are in the Python API)")
+    if tolerances:
+        raise PmAccuracyError(f"{flag} takes per-joint sources: give tolerances per joint (position, direction, "
+                              "length) with a per-joint clearance file")
+    result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
+    _common.emit(result.records("upper" if args.certified else "lower"), args.format)
+    return 0
