@@ -123,7 +123,8 @@ def _robot_section(doc, robot, phis_deg, out, results, renderer) -> None:
                   "a line, the branch limits of the working modes add more; the region is bounded by their arcs "
                   "and segments and its area follows from Green's theorem.")
     doc.table(["phi [deg]", "area [mm^2]", "x range [mm]", "y range [mm]"], ws_rows)
-    doc.figure(path, "The robot at a pose inside its workspace, the workspaces at each orientation, and a zoom.")
+    doc.figure(path, "The workspaces at each orientation, zoomed (left), and the whole robot at a pose inside them "
+                     "with the zoomed region dashed (right).")
 
 
 def _maps_section(doc, ds, sources, out, renderer) -> None:

@@ -185,8 +185,9 @@ def _robot_section(doc: Document, robot: Manipulator, out: Path, results: dict,
     doc.paragraph("At constant orientation every joint limit is a half-plane in (x, y), so each workspace is an "
                   "exact convex polygon (Sec. 3):")
     doc.table(["phi [deg]", "area [mm^2]", "x range [mm]", "y range [mm]", "vertices"], ws_rows)
-    doc.figure(path, "Constant-orientation workspaces (paper Fig. 3 analogue) with the base, the guides and the "
-                     "platform at the centre of the phi = 0 workspace.")
+    doc.figure(path, "Constant-orientation workspaces (paper Fig. 3 analogue), zoomed (left), and the whole robot "
+                     "(base, guides, platform at the centre of the phi = 0 workspace) with the zoomed region dashed "
+                     "(right).")
 
 
 def _maps_section(doc: Document, maps: dict, out: Path, renderer: figures.Renderer) -> None:
