@@ -115,8 +115,9 @@ class Calibration:
         m = np.asarray(self.plane, dtype=float)
         if m.shape != (3, 3) or not np.all(np.isfinite(m)):
             raise ConfigError("must be a finite 3 x 3 matrix", key="plane.homography")
-        if abs(np.linalg.det(m)) <= 1e-12 * np.linalg.norm(m) ** 3:
-            raise ConfigError("is singular (maps the plane onto a line)", key="plane.homography")
+        scale = float(np.max(np.abs(m)))
+        if scale == 0.0 or abs(np.linalg.det(m / scale)) <= 1e-12 * np.linalg.norm(m / scale) ** 3:
+            raise ConfigError("is singular (all zero, or maps the plane onto a line)", key="plane.homography")
         object.__setattr__(self, "plane", _frozen(m))
         if self.model == "multi-view":
             if self.rotation is None or self.translation is None:
@@ -127,6 +128,14 @@ class Calibration:
                 raise ConfigError("must be a 3 x 3 rotation matrix", key="plane.rotation")
             if t.shape != (3,) or not np.all(np.isfinite(t)):
                 raise ConfigError("must be 3 finite numbers", key="plane.translation_mm")
+            if not t[2] > 0:
+                raise ConfigError(f"the plane's origin must lie in front of the camera (tz > 0), got tz = {t[2]:g}",
+                                  key="plane.translation_mm")
+            expected = plane_matrix(r, t)
+            a, b = m / np.linalg.norm(m), expected / np.linalg.norm(expected)
+            if min(np.max(np.abs(a - b)), np.max(np.abs(a + b))) > 1e-6:
+                raise ConfigError("does not match plane.rotation and plane.translation_mm (must be "
+                                  "[r1, r2, t] up to scale)", key="plane.homography")
             object.__setattr__(self, "rotation", _frozen(r))
             object.__setattr__(self, "translation", _frozen(t))
         spacing = float(self.spacing_mm)
@@ -138,6 +147,9 @@ class Calibration:
             n = len(self.parameter_names)
             if cov.shape != (n, n) or not np.all(np.isfinite(cov)):
                 raise ConfigError(f"must be a finite {n} x {n} matrix", key="covariance.matrix")
+            if np.any(np.diag(cov) < 0) or np.max(np.abs(cov - cov.T)) > 1e-6 * np.max(np.abs(cov)):
+                raise ConfigError("must be symmetric with a non-negative diagonal (a covariance matrix)",
+                                  key="covariance.matrix")
             object.__setattr__(self, "covariance", _frozen(cov))
         object.__setattr__(self, "residuals", {k: float(v) for k, v in dict(self.residuals).items()})
 
@@ -284,6 +296,17 @@ class Calibration:
             camera = CameraModel(matrix, dist, (int(size[0]), int(size[1])))
         except VisionError as exc:
             raise ConfigError(str(exc), source=source, key="calibration.camera_matrix") from None
+        w, h = camera.image_size
+        border = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1], [(w - 1) / 2, 0], [0, (h - 1) / 2],
+                           [(w - 1) / 2, h - 1], [w - 1, (h - 1) / 2]], dtype=float)
+        try:
+            with np.errstate(all="ignore"):
+                back = camera.distort(camera.undistort(border))
+        except VisionError:
+            back = np.full_like(border, np.nan)
+        if not np.all(np.abs(back - border) < 1e-6):
+            raise ConfigError("cannot be inverted over the whole image (lens distortion too strong for "
+                              "camera_matrix and image_size)", source=source, key="calibration.distortion")
         plane = table.get("plane")
         if not isinstance(plane, dict):
             raise ConfigError("missing [calibration.plane] table", source=source, key="calibration.plane")

@@ -46,6 +46,8 @@ from .images import as_gray
 
 #: Default largest dot diameter as a fraction of the shorter image side.
 MAX_DIAMETER_FRACTION = 0.12
+#: Largest dot diameter accepted at all, as a fraction of the shorter image side.
+MAX_DIAMETER_LIMIT = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,7 +116,8 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
 
     ``polarity``: ``"dark"`` dots on a light background or ``"light"`` ones on a
     dark background. ``max_diameter_px``: largest dot diameter (default: 12 % of
-    the shorter image side). An image without contrast gives no blobs.
+    the shorter image side; at most half of it, else :class:`VisionError`). An
+    image without contrast gives no blobs.
     """
     from scipy import ndimage
     from skimage import measure, segmentation
@@ -126,6 +129,9 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
         max_diameter_px = MAX_DIAMETER_FRACTION * min(img.shape)
     if not (math.isfinite(max_diameter_px) and max_diameter_px > 2):
         raise VisionError(f"max_diameter_px must be a number above 2, got {max_diameter_px}")
+    if max_diameter_px > MAX_DIAMETER_LIMIT * min(img.shape):
+        raise VisionError(f"max_diameter_px {max_diameter_px:g} is more than half the shorter image side "
+                          f"({min(img.shape)} px)")
     if float(np.ptp(img)) <= 1e-9:
         return _empty()
     _, s = flat_field(img, polarity, max_diameter_px)

@@ -45,22 +45,84 @@ def as_gray(image: np.ndarray) -> np.ndarray:
     return arr
 
 
-def load_image(path: str | Path) -> np.ndarray:
-    """Read an image file with :func:`skimage.io.imread` as a gray float array ``(H, W)`` in [0, 1].
+#: Largest image accepted, in pixels (width x height): 25 megapixels, e.g. 6000 x 4000. Detection needs about
+#: 100 bytes per pixel of working memory, so this keeps one image below about 2.5 GB.
+MAX_IMAGE_PIXELS = 25_000_000
 
-    A missing file or one that is not a readable image raises :class:`VisionError`.
+
+def _short(exc: BaseException) -> str:
+    """First line of an exception's message (at most 100 characters), for one-line error messages."""
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return text if len(text) <= 100 else text[:97] + "..."
+
+
+def image_size(path: str | Path) -> tuple[int, int] | None:
+    """``(width, height)`` in pixels from an image file's header, without decoding the pixels.
+
+    Uses Pillow's lazy :func:`PIL.Image.open` (reads the header only). Returns
+    None if Pillow does not know the format (the full decoder may still read
+    it); raises :class:`VisionError` naming the file if the declared size is
+    above :data:`MAX_IMAGE_PIXELS` (also when Pillow itself refuses it as a
+    decompression bomb).
+    """
+    from PIL import Image
+
+    path = Path(path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(path) as im:
+                width, height = (int(v) for v in im.size)
+    except Image.DecompressionBombError:
+        raise VisionError(f"{path}: image larger than the limit of {MAX_IMAGE_PIXELS:,} pixels "
+                          f"(declared in its header)") from None
+    except Exception:  # not a format Pillow knows, or a broken header: left to the decoder
+        return None
+    _check_pixels(path, width, height, "declared in its header")
+    return width, height
+
+
+def _check_pixels(path: Path, width: int, height: int, how: str) -> None:
+    if width * height > MAX_IMAGE_PIXELS:
+        raise VisionError(f"{path}: image of {width} x {height} pixels ({how}) is larger than the limit of "
+                          f"{MAX_IMAGE_PIXELS:,} pixels")
+
+
+def load_image(path: str | Path) -> np.ndarray:
+    """Read an image file as a gray float array ``(H, W)`` in [0, 1] (:func:`skimage.io.imread`, then :func:`as_gray`).
+
+    8- and 16-bit, grey, grey+alpha, RGB and RGBA images (PNG, TIFF, JPEG, BMP,
+    anything imageio reads) are accepted. The size in the file's header is
+    checked against :data:`MAX_IMAGE_PIXELS` before the pixels are decoded.
+    A missing, empty, truncated or unreadable file, a multi-frame file, an image
+    above the pixel limit or smaller than 3 x 3 pixels raises :class:`VisionError`
+    whose message starts with the path.
     """
     from skimage import io
 
     path = Path(path)
+    if path.is_dir():
+        raise VisionError(f"{path}: is a folder, not an image file")
     if not path.is_file():
         raise VisionError(f"{path}: no such image file")
+    try:
+        if path.stat().st_size == 0:
+            raise VisionError(f"{path}: empty file, not an image")
+    except OSError as exc:
+        raise VisionError(f"{path}: cannot read the image ({exc.strerror or exc})") from None
+    image_size(path)
     try:
         with warnings.catch_warnings():  # imageio tries its plugins in turn and some warn on foreign files
             warnings.simplefilter("ignore")
             raw = io.imread(path)
+    except MemoryError:
+        raise VisionError(f"{path}: not enough memory to decode the image") from None
     except Exception as exc:  # imageio/Pillow raise many unrelated types for unreadable files
-        raise VisionError(f"{path}: not a readable image ({type(exc).__name__})") from None
+        raise VisionError(f"{path}: not a readable image, or truncated ({type(exc).__name__}: "
+                          f"{_short(exc)})") from None
+    shape = np.shape(raw)
+    if len(shape) >= 2:
+        _check_pixels(path, int(shape[1]), int(shape[0]), "decoded")
     try:
         return as_gray(raw)
     except VisionError as exc:
