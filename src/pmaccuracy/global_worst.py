@@ -48,8 +48,8 @@ from .sources import ErrorSources
 DEFAULT_GAP = 1e-3
 #: Relative widening of every interval upper bound (covers floating-point rounding).
 ROUNDING = 1e-9
-#: Length (in characteristic lengths) that turns a box's phi width into mm when choosing the side to split.
-PHI_SCALE = 3.0
+#: Characteristic lengths per radian that turn a box's phi width into mm when choosing the side to split.
+PHI_SCALE = 1.0
 
 
 class SingularRegionError(SingularPoseError):
@@ -235,19 +235,6 @@ def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray
                 (v[:, 1] <= region.y[1])
             out.append(np.column_stack([v[keep], np.full(int(keep.sum()), float(phi))]))
     return np.vstack(out)
-
-
-def _corners_and_centres(boxes: np.ndarray) -> np.ndarray:
-    """Centres and the 8 corners of boxes ``(n, 6)``: poses ``(9 n, 3)``."""
-    xs = (boxes[:, 0], boxes[:, 1])
-    ys = (boxes[:, 2], boxes[:, 3])
-    ps = (boxes[:, 4], boxes[:, 5])
-    pts = [np.column_stack([(xs[0] + xs[1]) / 2, (ys[0] + ys[1]) / 2, (ps[0] + ps[1]) / 2])]
-    for a in xs:
-        for b in ys:
-            for c in ps:
-                pts.append(np.column_stack([a, b, c]))
-    return np.concatenate(pts)
 
 
 def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float = DEFAULT_GAP,

@@ -16,7 +16,10 @@ wrench ``(f, m_P)`` and ``B_ii`` as intervals. Everything that holds at every
 *feasible* pose of the box (leg reaches it, joints within their ranges, the
 working mode's sign of ``B_ii``) is used to narrow the intervals, so the
 enclosures bound the feasible part of a box straddling the workspace boundary;
-a box proven to hold no feasible pose is flagged. :func:`box_maxima` turns the
+a box proven to hold no feasible pose is flagged. Plane vectors are sums of
+phasors (:class:`Vec`) and scalars built from them trigonometric polynomials
+(:class:`Trig`), whose equal terms are merged before the interval evaluation,
+which removes most of the dependency on phi. :func:`box_maxima` turns the
 legs' enclosures into upper bounds of ``dx, dy, dphi, dp`` (Eq. 21-22, the
 zonotope of :func:`pmaccuracy.bounds.zonotope_maxima`) with ``A^-1 = adj(A) /
 det(A)`` (``+inf`` where the determinant's interval contains 0).
@@ -319,47 +322,154 @@ def _angle(coef, var) -> Iv | float:
     return out
 
 
-def _mult(a, b):
+class Trig:
+    """A real scalar over boxes as a sum of terms ``m_1 m_2 ... Re(z exp(i k . v))`` (a trigonometric polynomial
+    in the angle variables ``v`` with interval multipliers).
+
+    Sums and products stay in this form (``Re a Re b = (Re(a b) + Re(a conj b)) / 2``); terms with the same
+    multipliers and the same ``k`` (up to sign) are merged by adding their constants, so linear combinations
+    of sinusoids of one angle are evaluated as one sinusoid (:meth:`iv`: exact range).
+    """
+
+    __slots__ = ("terms",)
+
+    def __init__(self, terms, merge: bool = True):
+        self.terms = _merge(terms) if merge else list(terms)
+
+    @staticmethod
+    def const(c: float) -> "Trig":
+        return Trig([((), None, complex(c))])
+
+    def __add__(self, other):
+        o = other if isinstance(other, Trig) else Trig.const(other)
+        return Trig(self.terms + o.terms)
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Trig([(m, k, -z) for m, k, z in self.terms], merge=False)
+
+    def __sub__(self, other):
+        return self + (-(other if isinstance(other, Trig) else Trig.const(other)))
+
+    def __mul__(self, other):
+        if not isinstance(other, Trig):
+            c = float(other)
+            return Trig([(m, k, z * c) for m, k, z in self.terms], merge=False)
+        out = []
+        for ma, ka, za in self.terms:
+            for mb, kb, zb in other.terms:
+                m = ma + mb
+                out.append((m, _kadd(ka, kb, 1), 0.5 * za * zb))
+                out.append((m, _kadd(ka, kb, -1), 0.5 * za * np.conj(zb)))
+        return Trig(out)
+
+    __rmul__ = __mul__
+
+    def remap(self, index: tuple[int, ...], size: int) -> "Trig":
+        """Coefficients moved to a larger variable list: entry ``j`` goes to ``index[j]`` of ``size``."""
+        out = []
+        for m, k, z in self.terms:
+            if k is None:
+                out.append((m, None, z))
+                continue
+            kk = [0] * size
+            for j, c in enumerate(k):
+                kk[index[j]] += c
+            out.append((m, tuple(kk), z))
+        return Trig(out)
+
+    def iv(self, var) -> Iv:
+        """The interval of the scalar: each merged term ``|m| ... |z| cos(k . v + arg z)``."""
+        total = Iv(0.0)
+        for m, k, z in self.terms:
+            th = None if k is None else _angle(k, var)
+            val = Iv(z.real) if not isinstance(th, Iv) else iv_cos(th + float(np.angle(z))) * abs(z)
+            for factor in _powers(m):
+                val = val * factor
+            total = total + val
+        return total
+
+
+def _kadd(a, b, sign):
     if a is None:
-        return b
+        return None if b is None else tuple(sign * y for y in b)
     if b is None:
         return a
-    if a is b:
-        return iv_sqr(a)
-    return a * b
+    return tuple(x + sign * y for x, y in zip(a, b))
 
 
-def _pair(a: Vec, b: Vec, var, fn) -> Iv:
-    """``sum over term pairs of m_a m_b fn(angle)`` with constants of equal keys added first
-    (``fn = iv_sin``: cross; ``iv_cos``: dot)."""
+def _merge(terms):
+    """Terms with equal multipliers (as a multiset) and equal ``+-k`` merged; zero terms dropped."""
     groups: dict = {}
+    for m, k, z in terms:
+        if z == 0:
+            continue
+        m = tuple(sorted(m, key=id))
+        if k is not None and not any(k):
+            k = None
+        if k is not None:
+            first = next(c for c in k if c)
+            if first < 0:   # Re(z e^{ikv}) = Re(conj z e^{-ikv})
+                k, z = tuple(-c for c in k), np.conj(z)
+        if k is None:
+            z = complex(z.real)
+        key = (tuple(id(x) for x in m), k)
+        if key in groups:
+            groups[key][2] += z
+        else:
+            groups[key] = [m, k, complex(z)]
+    return [(m, k, z) for m, k, z in groups.values() if z != 0]
+
+
+def _powers(m) -> list:
+    """Interval factors of a multiplier multiset: a repeated interval squared once (tighter than x * x)."""
+    out, seen = [], {}
+    for x in m:
+        seen.setdefault(id(x), [x, 0])[1] += 1
+    for x, count in seen.values():
+        while count >= 2:
+            out.append(iv_sqr(x))
+            count -= 2
+        if count:
+            out.append(x)
+    return out
+
+
+def _pair_trig(a: Vec, b: Vec, rot: complex) -> Trig:
+    """``sum over term pairs of m_a m_b Re(rot conj(z_a) z_b exp(i (k_b - k_a) . v))``."""
+    out = []
     for ma, ka, za in a.terms:
         for mb, kb, zb in b.terms:
-            dk = tuple(q - p for p, q in zip(ka, kb))
-            key = (id(ma), id(mb), dk)
-            if key in groups:
-                groups[key][2] += np.conj(za) * zb
-            else:
-                groups[key] = [ma, mb, np.conj(za) * zb, dk]
-    total = Iv(0.0)
-    for ma, mb, w, dk in groups.values():
-        if abs(w) == 0:
-            continue
-        th = _angle(dk, var)
-        val = fn(th + float(np.angle(w))) * abs(w) if isinstance(th, Iv) else \
-            Iv(float(np.imag(w) if fn is iv_sin else np.real(w)))
-        m = _mult(ma, mb)
-        total = total + (val if m is None else val * m)
-    return total
+            m = tuple(x for x in (ma, mb) if x is not None)
+            out.append((m, tuple(q - p for p, q in zip(ka, kb)), rot * np.conj(za) * zb))
+    return Trig(out)
+
+
+def t_cross(a: Vec, b: Vec) -> Trig:
+    """``a x b = Im(conj(a) b)`` as a :class:`Trig`."""
+    return _pair_trig(a, b, -1j)
+
+
+def t_dot(a: Vec, b: Vec) -> Trig:
+    """``a . b = Re(conj(a) b)`` as a :class:`Trig`."""
+    return _pair_trig(a, b, 1.0)
+
+
+def t_parts(a: Vec) -> tuple[Trig, Trig]:
+    """Real and imaginary parts of a :class:`Vec` as :class:`Trig`."""
+    re = Trig([(() if m is None else (m,), k, z) for m, k, z in a.terms])
+    im = Trig([(() if m is None else (m,), k, -1j * z) for m, k, z in a.terms])
+    return re, im
 
 
 def v_cross(a: Vec, b: Vec, var) -> Iv:
     """``a x b`` over the boxes (tight for sums of rotating constants)."""
-    return _pair(a, b, var, iv_sin)
+    return t_cross(a, b).iv(var)
 
 
 def v_dot(a: Vec, b: Vec, var) -> Iv:
-    return _pair(a, b, var, iv_cos)
+    return t_dot(a, b).iv(var)
 
 
 def v_cv(a: Vec, var) -> Cv:
@@ -409,6 +519,7 @@ class LegBox:
     var: tuple
     infeasible: np.ndarray
     line: int | None
+    m_P_trig: Trig | None = None
 
     def between(self, a: int, b: int) -> Vec:
         """Centre ``b`` minus centre ``a`` (``0..3``), as a sum of segments (no absolute positions)."""
@@ -547,7 +658,8 @@ def _wrench(chain, lb: LegBox, n: int) -> LegBox:
     var = list(lb.var)
     if ki == "P" and kj == "P":
         return LegBox(q=lb.q, dirs=lb.dirs, seg=lb.seg, to_p=lb.to_p, f=Vec([]), m_P=Iv(np.ones(n)),
-                      B=Iv(np.ones(n) if act_R else np.zeros(n)), var=lb.var, infeasible=infeasible, line=None)
+                      B=Iv(np.ones(n) if act_R else np.zeros(n)), var=lb.var, infeasible=infeasible, line=None,
+                      m_P_trig=Trig.const(1.0))
     if ki == "R" and kj == "R":
         segs = [k for k in range(i, j) if lb.seg[k].terms]
         k = segs[0] if len(segs) == 1 else None
@@ -566,13 +678,14 @@ def _wrench(chain, lb: LegBox, n: int) -> LegBox:
         line = i if ki == "R" else j
         f = (lb.dirs[j] if ki == "R" else lb.dirs[i]).scale(1j)
     var = tuple(var)
-    m_P = v_cross(lb.to_p[line], f, var)
+    m_P_trig = t_cross(lb.to_p[line], f)
+    m_P = m_P_trig.iv(var)
     B = v_cross(lb.between(a, line), f, var) if act_R else v_dot(f, lb.dirs[a], var)
     if chain.n_branches == 2:   # on the working mode's branch sign(B_ii) = working_mode
         B = iv_intersect(B, 0.0, np.inf) if chain.working_mode > 0 else iv_intersect(B, -np.inf, 0.0)
         infeasible = infeasible | B.empty()
     return LegBox(q=lb.q, dirs=lb.dirs, seg=lb.seg, to_p=lb.to_p, f=f, m_P=m_P, B=B, var=var,
-                  infeasible=infeasible, line=line)
+                  infeasible=infeasible, line=line, m_P_trig=m_P_trig)
 
 
 def links_unit(chain, k: int) -> complex:
@@ -630,17 +743,22 @@ def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[fl
     x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
     n = boxes.shape[0]
     infeasible = np.zeros(n, dtype=bool)
-    rows, cs = [], []
+    rows, rows_iv, cs = [], [], []
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        for chain, leg, sigma in zip(robot.chains, sources.legs, sigmas):
+        gvar = [phi]
+        for i, (chain, leg, sigma) in enumerate(zip(robot.chains, sources.legs, sigmas)):
             lb = leg_box_state(chain, x, y, phi, sigma, tol)
             infeasible |= lb.infeasible
+            index = (0, 1 + 3 * i, 2 + 3 * i, 3 + 3 * i)
+            gvar.extend(lb.var[1:])
+            fx, fy = t_parts(lb.f)
+            rows.append(tuple(t.remap(index, 10) for t in (fx, fy, lb.m_P_trig)))
             fc = v_cv(lb.f, lb.var)
-            rows.append((fc.re, fc.im, lb.m_P))
+            rows_iv.append((fc.re, fc.im, lb.m_P))
             cs.append(leg_half_width_box(chain, leg, lb))
         A = rows
 
-        def minor(r0, r1, c0, c1):
+        def minor(r0, r1, c0, c1):   # a trigonometric polynomial: one interval evaluation at the end
             return A[r0][c0] * A[r1][c1] - A[r0][c1] * A[r1][c0]
 
         # adj(A)[r, i] = cofactor of A[i, r]
@@ -651,7 +769,22 @@ def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[fl
                 cc = [k for k in range(3) if k != r]
                 m = minor(ri[0], ri[1], cc[0], cc[1])
                 adj[r][i] = m if (i + r) % 2 == 0 else -m
-        det = A[0][0] * adj[0][0] + A[0][1] * adj[1][0] + A[0][2] * adj[2][0]
+        # the same with interval products; both enclose the true values, so their intersection does
+        B_ = rows_iv
+        adj_iv = [[None] * 3 for _ in range(3)]
+        for i in range(3):
+            ri = [k for k in range(3) if k != i]
+            for r in range(3):
+                cc = [k for k in range(3) if k != r]
+                m = B_[ri[0]][cc[0]] * B_[ri[1]][cc[1]] - B_[ri[0]][cc[1]] * B_[ri[1]][cc[0]]
+                adj_iv[r][i] = m if (i + r) % 2 == 0 else -m
+        det_iv = B_[0][0] * adj_iv[0][0] + B_[0][1] * adj_iv[1][0] + B_[0][2] * adj_iv[2][0]
+
+        def meet(a: Iv, b: Iv) -> Iv:
+            return Iv(np.maximum(a.lo, b.lo), np.minimum(a.hi, b.hi))
+
+        det = meet((A[0][0] * adj[0][0] + A[0][1] * adj[1][0] + A[0][2] * adj[2][0]).iv(gvar), det_iv)
+        adj = [[meet(adj[r][i].iv(gvar), adj_iv[r][i]) for i in range(3)] for r in range(3)]
         det_zero = det.contains_zero() | ~np.isfinite(det.lo) | ~np.isfinite(det.hi)
         inv = [[adj[r][i] / det for i in range(3)] for r in range(3)]
         upper = np.zeros((n, 4))
