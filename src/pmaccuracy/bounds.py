@@ -170,11 +170,9 @@ def _check_tolerances(tolerances: Mapping[str, Any]) -> dict[str, np.ndarray]:
         if q not in LINK_VARIATIONS:
             raise ConfigError(f"unknown parameter {q!r}; tolerances apply to {', '.join(LINK_VARIATIONS)}",
                               key="tolerances")
-        arr = np.broadcast_to(np.asarray(t, dtype=float), (3,))
-        if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-            raise ConfigError(f"tolerance half-widths must be finite and >= 0, got {arr.tolist()}",
-                              key=f"tolerances.{q}")
-        out[q] = arr
+        from ._args import legs_values
+
+        out[q] = legs_values(t, f"tolerances.{q}")  # 3 finite values >= 0 (ConfigError naming the key)
     return out
 
 
@@ -213,9 +211,11 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
 
     Parameters
     ----------
+    robot, clearances : objects, preset names or TOML paths (:mod:`pmaccuracy._args`)
     poses : ``(..., 3)`` [x mm, y mm, phi rad]
     tolerances : optional tolerance intervals on link parameters of a 3-PPR (manufacturing
-        or assembly), ``{name: half-widths (3,)}`` in mm/rad, e.g. ``{"theta":
+        or assembly; also a preset name or TOML path of :func:`load_tolerances`),
+        ``{name: half-widths (3,)}`` in mm/rad, e.g. ``{"theta":
         [1e-3] * 3, "d": [0.05] * 3}``: worst case over clearances and tolerances
         together (:func:`tolerance_half_widths`); ``ClearanceSet()`` for
         tolerances alone (per-joint sources carry their tolerances themselves)
@@ -249,8 +249,12 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     >>> round(float(b.dy_max), 6), round(float(b.dphi_max_deg), 4)
     (0.099851, 0.2202)
     """
+    from ._args import clearances_arg, robot_arg, tolerances_arg
     from .sources import ErrorSources
 
+    robot = robot_arg(robot)  # preset names and files too; wrong types/shapes: ConfigError naming the parameter
+    clearances = clearances_arg(clearances, robot)
+    tolerances = tolerances_arg(tolerances)
     if singular not in ("raise", "nan"):
         raise ConfigError(f"must be 'raise' or 'nan', got {singular!r}", key="singular")
     poses = as_poses(poses)
@@ -464,8 +468,11 @@ def bounds_or_nan(robot: Manipulator, clearances, poses: np.ndarray,
                   max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
     """``(n, 4)`` [dx_max mm, dy_max mm, dphi_max deg, dp_max mm] at poses ``(n, 3)``, NaN outside the joint
     ranges or near a singularity (one pass: the maps' kernel; no error is raised)."""
+    from ._args import clearances_arg, robot_arg
     from .sources import ErrorSources
 
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
     sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
     out = np.empty((poses.shape[0], 4))
     for k in range(0, poses.shape[0], CHUNK):
@@ -552,6 +559,10 @@ def slsqp_max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: n
     This is a baseline for cross-checks and benchmarks, orders of magnitude
     slower than :func:`max_pose_errors`, and never above it (to rounding).
     """
+    from ._args import clearances_arg, robot_arg
+
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
     poses = as_poses(poses)
     flat = poses.reshape(-1, 3)
     state = pose_state(robot, flat, max_condition)

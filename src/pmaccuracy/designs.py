@@ -29,6 +29,7 @@ except the figure helpers, which build a :class:`matplotlib.figure.Figure`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .bounds import max_pose_errors
+from .errors import ConfigError
 from .geometry import Manipulator, round_trip_degrees
 from .kinematics import DEFAULT_MAX_CONDITION, regular_mask
 from .workspace import Workspace, constant_orientation_workspace
@@ -312,18 +314,28 @@ def compare_designs(robots: Sequence[Manipulator], clearances: Sequence, phis: S
     ``clearances`` has one entry per robot, as returned by
     :func:`pmaccuracy.sources.load_clearances` for that robot.
     """
-    robots = tuple(robots)
+    from ._args import clearances_arg, robot_arg
+
+    if isinstance(robots, (str, os.PathLike)) or isinstance(clearances, (str, os.PathLike)):
+        raise ConfigError("expected one entry per robot (a list), got a single name", key="robots/clearances")
+    robots = tuple(robot_arg(r, f"robots[{k}]") for k, r in enumerate(robots))
     clearances = tuple(clearances)
     if len(robots) < 1:
-        raise ValueError("compare_designs needs at least one robot")
+        raise ConfigError("compare_designs needs at least one robot", key="robots")
     if len(clearances) != len(robots):
-        raise ValueError(f"one clearance set per robot is needed: {len(robots)} robots, {len(clearances)} sets")
-    n = int(n)
+        raise ConfigError(f"one clearance set per robot is needed: {len(robots)} robots, {len(clearances)} sets",
+                          key="clearances")
+    clearances = tuple(clearances_arg(c, r, f"clearances[{k}]") for k, (c, r) in enumerate(zip(clearances, robots)))
+    try:
+        n = int(n)
+        phis = np.atleast_1d(np.asarray(phis, dtype=float))
+    except (TypeError, ValueError):
+        raise ConfigError(f"n must be a whole number and phis numbers (rad), got n={n!r}, phis={phis!r}",
+                          key="n/phis") from None
     if n < 2:
-        raise ValueError(f"a grid needs n >= 2 points per axis, got {n}")
-    phis = np.atleast_1d(np.asarray(phis, dtype=float))
+        raise ConfigError(f"a grid needs n >= 2 points per axis, got {n}", key="n")
     if not np.all(np.isfinite(phis)):
-        raise ValueError(f"orientations must be finite, got {phis.tolist()}")
+        raise ConfigError(f"orientations must be finite, got {phis.tolist()}", key="phis")
     labels = design_labels(robots, clearances)
     K = len(robots)
     rows, shared, spaces = [], [], []

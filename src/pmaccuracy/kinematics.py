@@ -33,7 +33,11 @@ MAX_MODES = 6
 
 def as_poses(poses: np.ndarray | list, *, name: str = "pose") -> np.ndarray:
     """Check and convert poses to a float array of shape ``(..., 3)``; non-finite values raise PoseError."""
-    arr = np.asarray(poses, dtype=float)
+    try:
+        arr = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError):
+        raise PoseError(f"{name}s must be numbers of shape (..., 3) = [x mm, y mm, phi rad], got "
+                        f"{type(poses).__name__}") from None
     if arr.ndim == 0 or arr.shape[-1] != 3:
         raise PoseError(f"{name}s must have shape (..., 3) = [x mm, y mm, phi rad], got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -118,6 +122,9 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     >>> inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6).tolist()
     [-15.0, -15.0, 0.0]
     """
+    from ._args import robot_arg
+
+    robot = robot_arg(robot)  # a preset name or a TOML path too
     poses = as_poses(poses)
     return ik_from_states(robot, leg_states(robot, poses), tol)
 
@@ -441,7 +448,13 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
 
     A 3-PPR has at most two modes (the paper's analytic solution), a 3-RPR up to six.
     """
-    q = np.asarray(q, dtype=float)
+    from ._args import robot_arg
+
+    robot = robot_arg(robot)  # a preset name or a TOML path too
+    try:
+        q = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise PoseError(f"actuator values q must be numbers of shape (..., 3), got {type(q).__name__}") from None
     if q.ndim == 0 or q.shape[-1] != 3:
         raise PoseError(f"actuator values must have shape (..., 3), got {q.shape}")
     if not np.all(np.isfinite(q)):

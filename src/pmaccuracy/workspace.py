@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import EmptyWorkspaceError, GeometryError
+from .errors import EmptyWorkspaceError, GeometryError, PoseError
 from .geometry import Manipulator
 from .kinematics import LIMIT_TOLERANCE, inverse_kinematics
 from .legs import Curve
@@ -274,9 +274,15 @@ def constant_orientation_workspace(robot: Manipulator, phi: float, tol: float = 
     Raises :class:`GeometryError` when the region is unbounded (passive slides
     without ranges); an empty workspace is returned as such (``is_empty``).
     """
-    phi = float(phi)
+    from ._args import robot_arg
+
+    robot = robot_arg(robot)  # a preset name or a TOML path too
+    try:
+        phi = float(phi)
+    except (TypeError, ValueError):
+        raise PoseError(f"phi must be a number (rad), got {phi!r}") from None
     if not np.isfinite(phi):
-        raise ValueError(f"phi must be finite, got {phi}")
+        raise PoseError(f"phi must be finite, got {phi}")
     scale = max(1.0, float(np.max(np.hypot(*robot.base_points.T))),
                 float(np.max(np.hypot(*robot.platform_attachments.T))))
     curves = _dedupe(boundary_curves(robot, phi), scale)
