@@ -204,7 +204,7 @@ def constraint_matrices(sets: tuple[SourceSet, ...]) -> np.ndarray:
 
 
 def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine: bool = True,
-               iterations: int = 28) -> np.ndarray:
+               iterations: int = 40) -> np.ndarray:
     """Upper bound of ``max over S of g . delta + delta^T H delta`` (Lagrangian duality, the S-lemma bound).
 
     With ``S = {delta^T P_k delta <= 1}`` (:func:`constraint_matrices`), for any ``lambda >= 0`` with
@@ -249,12 +249,12 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     # grow lambda until Lambda - H is positive definite
     t = np.zeros(lam.shape[:-1] + (1,))
     for _ in range(60):
-        val, pd, _ = _dual_value(P, g, H, lam + t * unit)
+        val, pd, _, _ = _dual_value(P, g, H, lam + t * unit)
         if np.all(pd):
             break
         t = np.where(pd[..., None], t, np.where(t > 0, 2 * t, 1e-6))
     lam = lam + t * unit
-    val, pd, _ = _dual_value(P, g, H, lam)
+    val, pd, _, _ = _dual_value(P, g, H, lam)
     best = np.where(pd, val, np.inf)
     if not refine:
         return best
@@ -265,12 +265,10 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     eyeK = np.eye(K)
 
     def barrier_value(lam_, g_, H_, mu_):
-        v, pd, _ = _dual_value(P, g_, H_, lam_)
-        L_ = np.einsum("...k,kij->...ij", lam_, P) - H_
-        sign, logdet = np.linalg.slogdet(np.where(pd[..., None, None], L_, np.eye(n)))
+        v, pd, _, logdet = _dual_value(P, g_, H_, lam_)
         with np.errstate(all="ignore"):
             bv = v - mu_[..., 0] * (logdet + np.sum(np.log(lam_), axis=-1))
-        ok = pd & (sign > 0) & np.all(lam_ > 0, axis=-1) & np.isfinite(bv)
+        ok = pd & np.all(lam_ > 0, axis=-1) & np.isfinite(bv)
         return np.where(ok, bv, np.inf), np.where(ok, v, np.inf)
 
     live = np.isfinite(best)
@@ -291,7 +289,9 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
             dl = -np.linalg.solve(hess + 1e-14 * eyeK * np.abs(hess).max(axis=(-2, -1), keepdims=True),
                                   grad[..., None])[..., 0]
         dl = np.where(np.isfinite(dl), dl, 0.0)
-        cand = lam[..., None, :] + steps[:, None] * dl[..., None, :]
+        with np.errstate(all="ignore"):  # fraction to the boundary lambda > 0
+            tmax = np.minimum(1.0, 0.9 * np.min(np.where(dl < 0, lam / -dl, np.inf), axis=-1))
+        cand = lam[..., None, :] + (tmax[..., None] * steps)[..., None] * dl[..., None, :]
         bv, pv = barrier_value(cand, gl[..., None, :], Hl[..., None, :, :], mu[..., None, :])
         pick = np.argmin(bv, axis=-1)
         newb = np.take_along_axis(bv, pick[..., None], axis=-1)[..., 0]
@@ -306,22 +306,32 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
 
 
 def _dual_value(P: np.ndarray, g: np.ndarray, H: np.ndarray, lam: np.ndarray):
-    """``sum lambda + g^T (Lambda - H)^-1 g / 4``, whether ``Lambda - H`` is positive definite (smallest
-    eigenvalue above ``1e-12`` times the largest: far above the rounding of forming it), and ``x = (Lambda -
-    H)^-1 g`` (:func:`dual_bound`). The quadratic term is computed in the eigenbasis, ``sum_i (v_i . g)^2 /
-    mu_i``, and carries a rounding margin ``1e-7 quad + n (1e-14 |g|)^2 / mu_min``."""
+    """The dual bound ``sum lambda + g^T (Lambda - H)^-1 g / 4`` of :func:`dual_bound` at ``lambda``, made safe
+    against rounding, whether ``Lambda - H`` is certified positive definite, ``x`` and ``log det``.
+
+    With the computed eigenvalues ``mu`` of ``L = Lambda - H`` (a backward-stable symmetric eigensolver: exact
+    for ``L + E``, ``|E| <= c n eps |L|``), ``mu_lo = mu_min - 1e-13 mu_max`` is a lower bound of the true
+    smallest eigenvalue; ``L`` counts as positive definite when ``mu_lo > 0``. For ``x`` the computed solution
+    of ``L x = g`` and ``r = g - L x``, exactly ``g^T L^-1 g = x^T L x + 2 x^T r + r^T L^-1 r``, so
+    ``g^T L^-1 g <= x^T L x + 2 x^T r + |r|^2 / mu_lo``; the result is multiplied by ``1 + 1e-9`` for the
+    rounding of these sums. Shapes: ``lam (..., K)``, ``g (..., n)``, ``H (..., n, n)``.
+    """
     n = P.shape[-1]
     L = np.einsum("...k,kij->...ij", lam, P) - H
     with np.errstate(all="ignore"):
-        ev, V = np.linalg.eigh(L)
-    lo, hi = ev[..., 0], ev[..., -1]
-    pd = (lo > 1e-12 * hi) & (hi > 0) & np.all(np.isfinite(ev), axis=-1)
-    safe = np.where(pd[..., None], ev, 1.0)
-    gv = np.einsum("...ij,...i->...j", V, g)
-    x = np.einsum("...ij,...j->...i", V, gv / safe)
-    quad = np.sum(gv ** 2 / safe, axis=-1) / 4
-    margin = 1e-7 * quad + n * (1e-14 * np.linalg.norm(g, axis=-1)) ** 2 / safe[..., 0]
-    return np.sum(lam, axis=-1) + quad + margin, pd, x
+        ev = np.linalg.eigvalsh(L)
+    hi = ev[..., -1]
+    lo = ev[..., 0] - 1e-13 * np.abs(hi)
+    pd = (lo > 0) & np.all(np.isfinite(ev), axis=-1)
+    Ls = np.where(pd[..., None, None], L, np.eye(n))
+    x = np.linalg.solve(Ls, g[..., None])[..., 0]
+    r = g - np.einsum("...ij,...j->...i", Ls, x)
+    safe_lo = np.where(pd, lo, 1.0)
+    quad = (np.einsum("...i,...ij,...j->...", x, Ls, x) + 2 * np.einsum("...i,...i->...", x, r)
+            + np.einsum("...i,...i->...", r, r) / safe_lo) / 4
+    with np.errstate(all="ignore"):
+        logdet = np.sum(np.log(np.where(pd[..., None], ev, 1.0)), axis=-1)
+    return (np.sum(lam, axis=-1) + quad) * (1 + 1e-9), pd, x, logdet
 
 
 def project(sets: tuple[SourceSet, ...], delta: np.ndarray) -> np.ndarray:

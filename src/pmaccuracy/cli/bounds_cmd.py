@@ -236,5 +236,8 @@ def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarra
         raise PmAccuracyError(f"{flag} takes per-joint sources: give tolerances per joint (position, direction, "
                               "length) with a per-joint clearance file")
     result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
-    _common.emit(result.records("upper" if args.certified else "lower"), args.format)
+    records = result.records("upper" if args.certified else "lower")
+    for rec, shown in zip(records, _common.degrees_as_given(poses[:, 2])):
+        rec["phi_deg"] = float(shown)
+    _common.emit(records, args.format)
     return 0
