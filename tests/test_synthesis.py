@@ -142,3 +142,18 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys, argv, needle):
     status, out, err = run(["synthesize", *argv], capsys)
     assert status == 2, err
     assert err.count("\n") == 1 and needle in err
+
+
+def test_a_source_without_effect_is_kept_at_the_template_value():
+    # the symmetric 3-RPR's slide tilt turns the leg about its base revolute, which the leg's constraint
+    # force passes through: no first-order effect, so no target bounds it
+    robot = Manipulator.preset("symmetric_3rpr")
+    region = make_region(robot, (0.0, 0.0), (-5.0, 5.0, -5.0, 5.0))
+    targets = parse_targets(["dphi_deg=0.1"])
+    with pytest.warns(UserWarning, match="angular.*no first-order effect"):
+        res = synthesize(robot, region, targets, mode="min-cost")
+    ratio = res.values / res.template_values
+    tilt = np.array([s.key == "angular" for s in res.sources])
+    assert tilt.sum() == 3 and np.all(ratio[tilt] <= 1.0 + 1e-12) and np.all(ratio[tilt] >= 0.9)
+    assert res.worst["dphi"].upper <= targets["dphi"] * (1 + 1e-12)
+    assert res.worst["dphi"].lower >= targets["dphi"] / 1.02

@@ -36,6 +36,7 @@ certified to meet the targets.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -232,25 +233,43 @@ def _region_grid(robot, region: Region, n: int) -> np.ndarray:
     return g[inverse_kinematics(robot, g).within_limits]
 
 
-def _solve(lin, Mx, My, targets: dict, weights: np.ndarray) -> np.ndarray:
-    """Minimize ``sum b_j / z_j`` subject to the pose constraints (SOCP, Clarabel); returns ``z (m,)``."""
+def _effective(lin, Mx, My, targets: dict) -> np.ndarray:
+    """bool ``(m,)``: sources with a first-order effect on a targeted quantity at some of the poses."""
+    m = lin.shape[2]
+    parts = [np.abs(lin[:, r, :]) for r, q in enumerate(("dx", "dy", "dphi")) if q in targets]
+    if "dp" in targets:
+        parts += [np.abs(Mx).reshape(-1, m), np.abs(My).reshape(-1, m)]
+    size = np.max(np.concatenate(parts), axis=0)
+    return size > 1e-9 * np.max(size)
+
+
+def _solve(lin, Mx, My, targets: dict, weights: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Minimize ``sum b_j / z_j`` over the ``free`` sources (the others at ``z = 1``) subject to the pose
+    constraints (SOCP, Clarabel); returns ``z (m,)``."""
     import cvxpy as cp
 
-    m = lin.shape[2]
-    z = cp.Variable(m, pos=True)
+    z = cp.Variable(int(free.sum()), pos=True)
+    fixed = ~free
+
+    def expr(M):   # M (k, m) @ z_full
+        return M[:, free] @ z + M[:, fixed].sum(axis=1)
+
     cons = []
     for r, q in enumerate(("dx", "dy", "dphi")):
         if q in targets:
-            cons.append(lin[:, r, :] @ z <= targets[q])
+            cons.append(expr(lin[:, r, :]) <= targets[q])
     if "dp" in targets:
-        X = Mx.reshape(-1, m)
-        Y = My.reshape(-1, m)
-        cons.append(cp.SOC(np.full(X.shape[0], targets["dp"]), cp.vstack([X @ z, Y @ z]), axis=0))
-    prob = cp.Problem(cp.Minimize(weights @ cp.inv_pos(z)), cons)
+        m = lin.shape[2]
+        X, Y = Mx.reshape(-1, m), My.reshape(-1, m)
+        cons.append(cp.SOC(np.full(X.shape[0], targets["dp"]), cp.vstack([expr(X), expr(Y)]), axis=0))
+    prob = cp.Problem(cp.Minimize(weights[free] @ cp.inv_pos(z)), cons)
     prob.solve(solver=cp.CLARABEL)
     if z.value is None or prob.status not in ("optimal", "optimal_inaccurate"):
-        raise ConfigError(f"the cone program failed ({prob.status})", key="--target")
-    return np.maximum(np.asarray(z.value, dtype=float), 0.0)
+        raise ConfigError(f"the cone program failed ({prob.status}): the targets may be unreachable with the "
+                          "sources kept fixed", key="--target")
+    out = np.ones(lin.shape[2])
+    out[free] = np.maximum(np.asarray(z.value, dtype=float), 0.0)
+    return out
 
 
 def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=None, costs=None,
@@ -284,9 +303,17 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
     start = global_worst(robot, tpl, region, gap=gap)
     poses = np.vstack([poses] + [start[q].pose[None] for q in tq])
     cuts = 0
+    free = None
     while True:
         lin, Mx, My = pose_coefficients(robot, tpl, sources, poses)
-        z = _solve(lin, Mx, My, targets, weights)
+        if free is None:
+            free = _effective(lin, Mx, My, targets)
+            if not np.any(free):
+                raise ConfigError("no source of the template affects the targeted errors", key="--target")
+            if not np.all(free):
+                warnings.warn(", ".join(s.label for s, f in zip(sources, free) if not f) + ": no first-order "
+                              "effect on the targeted errors in the region, kept at the template's value")
+        z = _solve(lin, Mx, My, targets, weights, free)
         result = with_values(tpl, sources, eps0 * z, name)
         worst = global_worst(robot, result, region, gap=gap)
         over = [q for q in tq if worst[q].upper > targets[q]]
@@ -303,7 +330,8 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
         z = z * shrink
         result = with_values(tpl, sources, eps0 * z, name)
         worst = global_worst(robot, result, region, gap=gap)
-    return Synthesis(result, sources, eps0 * z, eps0, mode, None, float(weights @ (1.0 / z)), dict(targets), worst,
+    return Synthesis(result, sources, eps0 * z, eps0, mode, None, float(weights[free] @ (1.0 / z[free])),
+                     dict(targets), worst,
                      cuts, poses.shape[0])
 
 
