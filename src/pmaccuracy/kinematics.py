@@ -31,6 +31,10 @@ DEFAULT_MAX_CONDITION = 100.0
 MAX_MODES = 6
 
 
+#: Largest |actuator value| forward kinematics takes (mm or rad): far beyond any robot, below overflow.
+MAX_ACTUATOR_VALUE = 1e9
+
+
 def as_poses(poses: np.ndarray | list, *, name: str = "pose") -> np.ndarray:
     """Check and convert poses to a float array of shape ``(..., 3)``; non-finite values raise PoseError."""
     try:
@@ -459,6 +463,9 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
         raise PoseError(f"actuator values must have shape (..., 3), got {q.shape}")
     if not np.all(np.isfinite(q)):
         raise PoseError("actuator values must be finite")
+    if np.any(np.abs(q) > MAX_ACTUATOR_VALUE):  # the eliminant's coefficients would overflow
+        raise PoseError(f"actuator values must be below {MAX_ACTUATOR_VALUE:g} in magnitude (mm or rad), got "
+                        f"{q[np.abs(q) > MAX_ACTUATOR_VALUE].reshape(-1)[0]:g}")
     batch = q.shape[:-1]
     qf = q.reshape(-1, 3)
     N = qf.shape[0]

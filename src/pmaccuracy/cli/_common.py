@@ -92,6 +92,31 @@ def positive_int(text: str) -> int:
     return value
 
 
+def nonnegative_int(text: str) -> int:
+    """argparse type: a whole number >= 0 (seeds of numpy.random.default_rng)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
+    return value
+
+
+def check_finite_results(columns: dict[str, np.ndarray], poses: np.ndarray, names: Sequence[str]) -> None:
+    """Refuse (PmAccuracyError naming the pose) results that overflowed to +-inf: values far outside any
+    physical range (clearances or tolerances of 1e300, a guide block of 1e-300 mm) give no usable bound."""
+    for name in names:
+        values = np.asarray(columns[name], dtype=float).reshape(-1)
+        bad = np.flatnonzero(np.isinf(values))
+        if bad.size:
+            k = int(bad[0])
+            x, y, phi = np.asarray(poses, dtype=float).reshape(-1, 3)[k]
+            raise PmAccuracyError(f"{name} overflows at the pose x = {x:g} mm, y = {y:g} mm, phi = "
+                                  f"{math.degrees(phi):g} deg ({bad.size} poses): the clearances or tolerances are "
+                                  f"far outside any physical range")
+
+
 def add_robot(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="aalborg_3ppr",
                         help="preset name (aalborg_3ppr, symmetric_3ppr, symmetric_3rpr, symmetric_3rrr, "

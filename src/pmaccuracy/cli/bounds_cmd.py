@@ -159,6 +159,7 @@ def _linear_checked(columns: dict[str, np.ndarray], poses: np.ndarray) -> dict[s
     """Warn (one line) when a dphi_max is beyond the first-order model's validity; returns ``columns``."""
     from ..plausibility import linearity_messages, warn
 
+    _common.check_finite_results(columns, poses, ("dx_max", "dy_max", "dphi_max_deg", "dp_max"))
     warn(linearity_messages(columns["dphi_max_deg"], poses))
     return columns
 

@@ -67,7 +67,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                          f"{experiment.DEFAULT_ACCURACY_DEG:g})")
     sp.add_argument("--model", choices=experiment.MODELS, default="exact",
                     help="readings from the exact loop closure (default) or the first-order model (Eq. 19)")
-    sp.add_argument("--seed", type=int, default=0, help="seed of the noise (default: 0)")
+    sp.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of the noise (default: 0)")
     sp.add_argument("--out", required=True, metavar="M.csv", help="measurement CSV file to write; missing parent folders are created")
     sp.add_argument("--repeats", type=_common.positive_int, default=None, metavar="N",
                     help="also a virtual ISO 9283 test: N attained poses per point, each cycle a fresh random "

@@ -106,6 +106,9 @@ def run(args: argparse.Namespace) -> int:
                 _plots(_thinned(ds), Path(args.plot))
     else:
         ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        if any(bool(np.isinf(ds[v].values).any()) for v in ds.data_vars):
+            raise ConfigError("the errors overflow: the clearances are far outside any physical range; nothing "
+                              "written", source=str(args.clearances), key="--clearances")
         maps.save_map(ds, out)
         if args.plot:
             _plots(_thinned(ds), Path(args.plot))

@@ -16,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out); created with its missing parents")
     _common.add_robot(p)
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
-    p.add_argument("--seed", type=int, default=0, help="seed of the virtual experiment's camera noise")
+    p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of the virtual experiment's camera noise")
     p.add_argument("--no-experiment", action="store_true", help="skip the virtual experiment section")
     p.add_argument("--clearances", metavar="C",
                    help="clearances (preset or file): writes the accuracy report of ROBOT with C instead of the "

@@ -71,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                                       "and their ratio for |dp| and |dphi|; missing parent folders are created")
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
-    p.add_argument("--seed", type=int, default=0, help="seed of numpy.random.default_rng (default: 0)")
+    p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of numpy.random.default_rng (default: 0)")
     p.add_argument("--threshold", type=_threshold, action="append", metavar="Q=V",
                    help="P(|Q| > V) with Q one of dx, dy, dp (mm), dphi_deg (deg), e.g. dp=0.2 (repeatable)")
     p.add_argument("--percentile", type=_percentile, action="append", metavar="P",
