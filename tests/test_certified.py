@@ -1,0 +1,210 @@
+"""Certified worst cases (issue 13, item 1): pmaccuracy.certified and ``bounds --certified / --nonlinear``.
+
+Independent references: the dense nonlinear search of ``nonlinear_search_reference.py`` (its own exact loop
+closure from ``error_reference.py``, first-order vertices by finite differences, random and dense
+coordinate-wise sampling of the error set), the library's separate virtual prototype
+(:func:`pmaccuracy.nonlinear.joint_displaced_pose`, Newton with a finite-difference Jacobian) for
+re-inserted worst configurations, and brute-force sampling for the duality bound of a quadratic.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import nonlinear_search_reference as nsr
+from pmaccuracy import certified as C
+from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.errors import CertificationError
+from pmaccuracy.geometry import Manipulator
+from pmaccuracy.nonlinear import joint_displaced_pose
+from pmaccuracy.sources import ErrorSources, load_clearances
+
+PAPER_POSE = np.array([10.0, 5.0, np.radians(3.0)])
+
+
+def _paper_spec(name: str) -> dict:
+    """The 3-PPR clearance preset as a per-joint dict (the paper's bearing = angular on joint 2, guide play =
+    lateral on joint 1, revolute = radial on joint 3), written here from the preset's numbers."""
+    robot = Manipulator.preset("aalborg_3ppr")
+    cs = load_clearances(name, robot)
+    legs = []
+    for i in range(3):
+        j1 = {"lateral": float(cs.guide_lateral[i]), "block_length": float(cs.guide_block_length[i])} \
+            if cs.guide_lateral[i] > 0 else {}
+        j2 = {"angular": float(cs.bearing_angle[i])} if cs.bearing_angle[i] > 0 else {}
+        j3 = {"radial": float(cs.revolute_radial[i])} if cs.revolute_radial[i] > 0 else {}
+        legs.append({"joints": [j1, j2, j3]})
+    return {"legs": legs}
+
+
+def _check_against_dense(robot_data, pose, spec, tight: float):
+    robot = Manipulator.from_dict(robot_data, source="test")
+    res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), pose)
+    ref = nsr.dense_search(robot_data, pose, spec)
+    for q in C.QUANTITIES:
+        up, lo, dense = res.upper[q][0], res.lower[q][0], ref[q]
+        assert up >= dense, (q, up, dense)  # never below the true maximum (the dense search attains dense)
+        assert (up - dense) / dense <= tight, (q, up, dense)
+        assert lo <= up
+        # the local ascent starts at the first-order worst vertex: at least its exact value (reference's)
+        assert lo >= ref["first_order_vertex"][q] * (1 - 1e-9)
+        # first-order maxima: the library's against the reference's finite differences
+        np.testing.assert_allclose(res.first_order[q][0], ref["first_order"][q], rtol=1e-6)
+        assert res.gap[q][0] == pytest.approx((up - lo) / lo, rel=1e-12)
+    return res, ref
+
+
+@pytest.mark.parametrize("name, factor, tight", [("case1", 1, 0.005), ("case2", 1, 0.005), ("all", 1, 0.005),
+                                                 ("all", 10, 0.05)])
+def test_paper_robot_against_dense_search(name, factor, tight):
+    data = Manipulator.preset("aalborg_3ppr").to_dict()
+    spec = nsr.scaled_spec(_paper_spec(name), factor)
+    res, ref = _check_against_dense(data, PAPER_POSE, spec, tight)
+    if factor == 1:  # the paper's clearances: first order below the truth by well under 0.5 %
+        for q in C.QUANTITIES:
+            assert 0 <= (ref[q] - ref["first_order"][q]) / ref["first_order"][q] < 0.005
+
+
+def test_paper_format_and_presets_accepted():
+    """Robot and clearances as preset names (3-PPR format) give the same numbers as the per-joint objects."""
+    a = C.certified_pose_errors("aalborg_3ppr", "case2", PAPER_POSE, search=False)
+    b = C.certified_pose_errors(Manipulator.preset("aalborg_3ppr"), ErrorSources.from_dict(_paper_spec("case2")),
+                                PAPER_POSE, search=False)
+    for q in C.QUANTITIES:
+        np.testing.assert_allclose(a.upper[q], b.upper[q], rtol=1e-9)
+        assert np.isnan(a.lower[q]).all() and np.isnan(a.gap[q]).all()
+
+
+def test_worst_configurations_reinserted_in_the_virtual_prototype():
+    """The nonlinear maxima are attained: the reported configurations lie in the error set and, closed by the
+    library's separate virtual prototype (finite-difference Newton), give the same values."""
+    robot = Manipulator.preset("symmetric_3rrr")
+    sources = load_clearances("rrr_typical", robot).scaled(5.0)
+    poses = np.array([[0.0, 0.0, 0.0], [15.0, -10.0, np.radians(10.0)]])
+    res = C.nonlinear_pose_errors(robot, sources, poses)
+    sets = res.sets
+    for q in C.QUANTITIES:
+        d = res.worst[q]
+        np.testing.assert_allclose(C.project(sets, d), d, atol=1e-15)  # feasible
+        X = joint_displaced_pose(robot, poses, C.to_displacements(sets, d), iterations=12)
+        err = X - poses
+        err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+        val = np.hypot(err[:, 0], err[:, 1]) if q == "dp" else np.abs(err[:, C.QUANTITIES.index(q)])
+        np.testing.assert_allclose(res.lower[q], val, rtol=1e-8)
+        assert np.all(res.lower[q] >= res.first_order[q] * (1 - 1e-3))
+        assert np.all(res.lower[q] <= res.upper[q])
+
+
+def test_first_order_part_equals_bounds():
+    """The linear part of the certificate is the exact first-order zonotope of pmaccuracy.bounds."""
+    robot = Manipulator.preset("symmetric_3prr")
+    sources = load_clearances("prr_typical", robot)
+    poses = np.array([[0.0, 0.0, 0.0], [5.0, 8.0, np.radians(-5.0)]])
+    rb = C.remainder_bounds(robot, sources, poses)
+    fo = max_pose_errors(robot, sources, poses)
+    for q in ("dx", "dy", "dphi", "dp"):
+        np.testing.assert_allclose(rb["first_order"][q], getattr(fo, f"{q}_max"), rtol=1e-9)
+        assert np.all(rb["upper"][q] >= rb["first_order"][q])
+
+
+def test_too_large_errors_are_refused():
+    """At 100x the paper's clearances some configurations cannot be closed: no finite bound is returned."""
+    robot = Manipulator.preset("aalborg_3ppr")
+    big = ErrorSources.from_dict(_paper_spec("case2")).scaled(100.0)
+    with pytest.raises(CertificationError, match="pose 0"):
+        C.certified_pose_errors(robot, big, [0.0, 0.0, 0.0])
+    res = C.certified_pose_errors(robot, big, [[0.0, 0.0, 0.0]], on_failure="nan", search=False)
+    assert all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
+    assert res.reason[0]
+
+
+def test_dual_bound_of_a_quadratic_against_sampling():
+    """max over S of g.delta + delta^T H delta <= dual_bound (S: interval, disk, rhombus), exact at H = 0."""
+    rng = np.random.default_rng(3)
+    sets = (C.SourceSet("interval", 0, 0, "turn", 0.002, (0,)), C.SourceSet("disk", 0, 1, "shift", 0.03, (1, 2)),
+            C.SourceSet("rhombus", 1, 0, "lateral", 0.004, (3, 4), 30.0),
+            C.SourceSet("interval", 2, 0, "dq", 0.01, (5,)))
+    eps = np.array([0.002, 0.03, 0.03, 0.004, 2 * 0.004 / 30.0, 0.01])
+    # samples: random boundary points of each source (disk circle, rhombus edges, interval ends)
+    n = 40000
+    d = np.zeros((n, 6))
+    d[:, 0] = 0.002 * rng.choice([-1.0, 1.0], n)
+    a = rng.uniform(0, 2 * np.pi, n)
+    d[:, 1], d[:, 2] = 0.03 * np.cos(a), 0.03 * np.sin(a)
+    v = np.array([[0.004, 0.0], [0.0, 2 * 0.004 / 30.0], [-0.004, 0.0], [0.0, -2 * 0.004 / 30.0]])
+    k, t = rng.integers(0, 4, n), rng.uniform(size=(n, 1))
+    d[:, 3:5] = v[k] + t * (v[(k + 1) % 4] - v[k])
+    d[:, 5] = 0.01 * rng.choice([-1.0, 1.0], n)
+    for trial in range(4):
+        g = rng.normal(size=6) / eps
+        np.testing.assert_allclose(C.dual_bound(sets, g[None], np.zeros((1, 6, 6)))[0], C.support(sets, g[None])[0],
+                                   rtol=1e-6)
+        A = rng.normal(size=(6, 6)) / np.outer(eps, eps) * 10 ** (-trial)
+        H = (A + A.T) / 2
+        f = lambda x: x @ g + np.einsum("...i,ij,...j->...", x, H, x)  # noqa: E731
+        sampled = np.max(f(d))
+        # coordinate ascent from the first-order vertex: each source over its dense boundary and interior
+        best = C.argsupport(sets, g[None])[0]
+        for _ in range(6):
+            for cols, pts in (((0,), np.linspace(-0.002, 0.002, 201)[:, None]),
+                              ((1, 2), np.concatenate([0.03 * np.column_stack([np.cos(b), np.sin(b)])
+                                                       for b in [np.linspace(0, 2 * np.pi, 4000)]])),
+                              ((3, 4), np.concatenate([v[i] + np.linspace(0, 1, 1000)[:, None] * (v[(i + 1) % 4] - v[i])
+                                                       for i in range(4)])),
+                              ((5,), np.linspace(-0.01, 0.01, 201)[:, None])):
+                cand = np.repeat(best[None], len(pts), axis=0)
+                cand[:, list(cols)] = pts
+                best = cand[np.argmax(f(cand))]
+        attained = max(sampled, f(best))
+        bound = C.dual_bound(sets, g[None], H[None])[0]
+        assert bound >= attained
+        if trial >= 2:  # small H: tight to second order
+            assert bound - attained <= 1e-4 * attained
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "pmaccuracy.cli", "bounds", *args], capture_output=True, text=True)
+
+
+def test_cli_certified_and_nonlinear_json():
+    pose = ["--pose", "10", "5", "3"]
+    up = json.loads(_cli("--certified", *pose, "--format", "json").stdout)[0]
+    lo = json.loads(_cli("--nonlinear", *pose, "--format", "json").stdout)[0]
+    keys = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max", "gap"]
+    assert list(up) == keys and list(lo) == keys
+    assert set(up["gap"]) == {"dx", "dy", "dphi", "dp"}
+    res = C.certified_pose_errors("aalborg_3ppr", "case1", PAPER_POSE)
+    for key, q in (("dx_max", "dx"), ("dy_max", "dy"), ("dp_max", "dp")):
+        assert up[key] == pytest.approx(res.upper[q][0], rel=1e-12)
+        assert lo[key] == pytest.approx(res.lower[q][0], rel=1e-12)
+        assert up["gap"][q] == pytest.approx((up[key] - lo[key]) / lo[key], rel=1e-9)
+    assert up["dphi_max_deg"] == pytest.approx(np.degrees(res.upper["dphi"][0]), rel=1e-12)
+    csv = _cli("--certified", *pose, "--format", "csv").stdout.splitlines()[0].split(",")
+    assert csv[-4:] == ["gap.dx", "gap.dy", "gap.dphi", "gap.dp"]
+
+
+@pytest.mark.parametrize("extra, word", [(["--method", "slsqp"], "slsqp"), (["--nonlinear"], "exclude"),
+                                         (["--details"], "details")])
+def test_cli_refusals(extra, word):
+    out = _cli("--certified", "--pose", "0", "0", "0", *extra)
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1 and word in out.stderr
+
+
+def test_cli_uncertifiable_pose_exits_2(tmp_path):
+    spec = nsr.scaled_spec(_paper_spec("case2"), 100.0)
+    lines = ['name = "huge"']
+    for leg in spec["legs"]:
+        joints = ", ".join("{" + ", ".join(f"{k} = {v!r}" for k, v in j.items()) + "}" for j in leg["joints"])
+        lines += ["[[legs]]", f"joints = [{joints}]"]
+    path = tmp_path / "huge.toml"
+    path.write_text("\n".join(lines) + "\n")
+    out = _cli("--certified", "--clearances", str(path), "--pose", "0", "0", "0")
+    assert out.returncode == 2
+    errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]  # plausibility
+    assert len(errors) == 1 and "pose 0" in errors[0] and "Traceback" not in out.stderr
