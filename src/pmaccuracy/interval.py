@@ -534,6 +534,15 @@ PHI, T, U, W = (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)
 ZERO = (0, 0, 0, 0)
 
 
+def _meet_angles(a: Iv, b: Iv) -> Iv:
+    """Intersection of two enclosures of the same angle (mod 2 pi): ``b`` moved by whole turns onto ``a``'s
+    middle; where either is wider than pi, ``a`` unchanged."""
+    turns = np.round((a.mid - b.mid) / TWO_PI)
+    lo, hi = b.lo + TWO_PI * turns, b.hi + TWO_PI * turns
+    ok = (a.width < np.pi) & (b.width < np.pi) & np.isfinite(lo) & np.isfinite(hi)
+    return Iv(np.where(ok, np.maximum(a.lo, lo), a.lo), np.where(ok, np.minimum(a.hi, hi), a.hi))
+
+
 def leg_box_state(chain, x: Iv, y: Iv, phi: Iv, sigma: float, tol: float = 1e-9) -> LegBox:
     """Interval version of the leg's inverse kinematics on branch ``sigma`` (:meth:`Chain.state`) over boxes.
 
@@ -622,12 +631,18 @@ def leg_box_state(chain, x: Iv, y: Iv, phi: Iv, sigma: float, tol: float = 1e-9)
             ac = iv_arccos(c)
             rel = (ac if sigma > 0 else -ac) + (float(np.angle(l1)) - float(np.angle(l2)))
             var[2] = rel
-            t1 = cv_angle(v_cv(Wv, var)) - cv_angle(v_cv(Vec.const(l1) + Vec.const(l2, U), var))
-            var[1] = t1
+            aW = cv_angle(v_cv(Wv, var))
+            t1 = aW - cv_angle(v_cv(Vec.const(l1) + Vec.const(l2, U), var))
+            # the second link's angle t1 + rel = arg W - arg(l1 exp(-i rel) + l2): rel enters once; both
+            # enclosures hold (aligned to the same turn), so their intersection does
+            t2 = aW - cv_angle(v_cv(Vec.const(l1, (0, 0, -1, 0)) + Vec.const(l2), var))
+            t2 = _meet_angles(t2, t1 + rel)
+            infeasible = infeasible | t2.empty()
+            var[1] = t2
             q[0] = t1 - oc[0]
             q[1] = rel - joints[1].offset
             q[2] = S - q[0] - q[1]
-            d = [Vec.const(1.0, T), Vec.const(1.0, (0, 1, 1, 0)), Vec.const(complex(np.exp(1j * dang)), PHI)]
+            d = [Vec.const(1.0, (0, 1, -1, 0)), Vec.const(1.0, T), Vec.const(complex(np.exp(1j * dang)), PHI)]
         for k, joint in enumerate(joints):
             if joint.kind == "R" and joint.limited:
                 lo, hi = joint.range
