@@ -304,7 +304,7 @@ class Calibration:
                 back = camera.distort(camera.undistort(border))
         except VisionError:
             back = np.full_like(border, np.nan)
-        if not np.all(np.abs(back - border) < 1e-6):
+        if not (np.all(np.abs(back - border) < 1e-6) and _radial_monotone(camera, border)):
             raise ConfigError("cannot be inverted over the whole image (lens distortion too strong for "
                               "camera_matrix and image_size)", source=source, key="calibration.distortion")
         plane = table.get("plane")
@@ -366,6 +366,23 @@ class Calibration:
         k = nominal_matrix(image_size)
         return cls(CameraModel(k, np.zeros(5), image_size), np.linalg.inv(h @ k), model="single-view",
                    spacing_mm=spacing_mm)
+
+
+def _radial_monotone(camera: CameraModel, pixels: np.ndarray) -> bool:
+    """True if the radial distortion ``r_d = r (1 + k1 r^2 + k2 r^4 + k3 r^6)`` increases with ``r`` until it
+    reaches the largest distorted radius of ``pixels`` ``(N, 2)`` (so every image point has one undistorted
+    point; a fold-over of the polynomial inside the image is a corrupt or impossible calibration)."""
+    k = camera.matrix
+    dy = (pixels[:, 1] - k[1, 2]) / k[1, 1]
+    dx = (pixels[:, 0] - k[0, 2] - k[0, 1] * dy) / k[0, 0]
+    r_max = float(np.max(np.hypot(dx, dy)))
+    k1, k2, _, _, k3 = camera.distortion
+    r = np.linspace(0.0, 3.0 * r_max + 1e-12, 3001)
+    with np.errstate(all="ignore"):
+        f = r * (1 + k1 * r**2 + k2 * r**4 + k3 * r**6)
+    rising = np.concatenate([[True], np.diff(f) > 0])
+    first_fall = int(np.argmin(rising)) if not np.all(rising) else len(r)
+    return bool(np.any(f[:first_fall] >= r_max))
 
 
 def _toml_text(data: dict[str, Any]) -> str:

@@ -63,7 +63,7 @@ def image_size(path: str | Path) -> tuple[int, int] | None:
     None if Pillow does not know the format (the full decoder may still read
     it); raises :class:`VisionError` naming the file if the declared size is
     above :data:`MAX_IMAGE_PIXELS` (also when Pillow itself refuses it as a
-    decompression bomb).
+    decompression bomb) or if the file holds more than one frame.
     """
     from PIL import Image
 
@@ -73,12 +73,15 @@ def image_size(path: str | Path) -> tuple[int, int] | None:
             warnings.simplefilter("ignore")
             with Image.open(path) as im:
                 width, height = (int(v) for v in im.size)
+                frames = int(getattr(im, "n_frames", 1))
     except Image.DecompressionBombError:
         raise VisionError(f"{path}: image larger than the limit of {MAX_IMAGE_PIXELS:,} pixels "
                           f"(declared in its header)") from None
     except Exception:  # not a format Pillow knows, or a broken header: left to the decoder
         return None
     _check_pixels(path, width, height, "declared in its header")
+    if frames > 1:
+        raise VisionError(f"{path}: holds {frames} frames (a stack or an animation); give one image per file")
     return width, height
 
 
