@@ -159,7 +159,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser(argv)
     args = parser.parse_args(argv)
     debug = os.environ.get("PMACCURACY_DEBUG", "") not in ("", "0")
-    command = args.command
+    # the full command as argparse names it in its own errors: "experiment simulate", "vision pose", "bounds"
+    command = " ".join([args.command] + [v for k, v in sorted(vars(args).items())
+                                         if k.endswith("_command") and isinstance(v, str)])
     error = f"pmaccuracy {command}: error:"
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning(command)
