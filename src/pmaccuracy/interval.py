@@ -615,6 +615,15 @@ def leg_box_state(chain, x: Iv, y: Iv, phi: Iv, sigma: float, tol: float = 1e-9)
                 root = disc_root(abs(V) ** 2 - iv_sqr(v_cross(Wv, ek, var)))
                 qk = cut_slide(k, v_dot(Wv, ek, var) + root * sigma)
                 t = cv_angle(v_cv(Wv - ek.scale(qk), var)) - float(np.angle(V))
+                # W - q e_k = e_k (i s - sigma sqrt(|V|^2 - s^2)) with s = e_k x W: its angle is
+                # arg e_k + (arcsin(s/|V|) or pi - arcsin(s/|V|)), monotone in s (one occurrence)
+                sv = iv_intersect(v_cross(ek, Wv, var), -abs(V), abs(V))
+                infeasible = infeasible | sv.empty()
+                a = Iv(np.arcsin(np.clip(sv.lo / abs(V), -1, 1)), np.arcsin(np.clip(sv.hi / abs(V), -1, 1)))
+                a = a if sigma < 0 else Iv(np.pi - a.hi, np.pi - a.lo)
+                arg_ek = phi + float(np.angle(rot[k] * e_S)) if k >= nn else float(np.angle(rot[k]))
+                t = _meet_angles(a + arg_ek - float(np.angle(V)), t)
+                infeasible = infeasible | t.empty()
             var[1] = t
             q[k] = qk
             q[m] = t
