@@ -263,6 +263,7 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     steps = 0.5 ** np.arange(10)
     mu = 1e-2 * np.where(np.isfinite(best), best, 0.0)[..., None] / (n + K) + 1e-300
     eyeK = np.eye(K)
+    Pflat = P.reshape(K, n * n)
 
     def barrier_value(lam_, g_, H_, mu_):
         v, pd, _, logdet = _dual_value(P, g_, H_, lam_)
@@ -277,14 +278,15 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     Hl = np.where(live[..., None, None], H, -np.eye(n))
     cur, _ = barrier_value(lam, gl, Hl, mu)
     for it in range(iterations):
-        L = np.einsum("...k,kij->...ij", lam, P) - Hl
+        L = (lam @ Pflat).reshape(lam.shape[:-1] + (n, n)) - Hl
         Linv = np.linalg.inv(L)
-        x = np.einsum("...ij,...j->...i", Linv, gl)
-        Y = np.einsum("kij,...j->...ki", P, x)  # (..., K, n)
-        Q = np.einsum("...ij,kjl->...kil", Linv, P)  # (..., K, n, n)
-        grad = (1 - np.einsum("...ki,...i->...k", Y, x) / 4 - mu * np.einsum("...kii->...k", Q) - mu / lam)
-        hess = (np.einsum("...ki,...ij,...lj->...kl", Y, Linv, Y) / 2 + mu[..., None] * np.einsum(
-            "...kij,...lji->...kl", Q, Q) + eyeK * (mu / lam ** 2)[..., None, :])
+        x = (Linv @ gl[..., None])[..., 0]
+        Y = (P @ x[..., None, :, None])[..., 0]  # (..., K, n): P_k x
+        Q = Linv[..., None, :, :] @ P  # (..., K, n, n): L^-1 P_k
+        QQ = Q.reshape(Q.shape[:-2] + (n * n,)) @ np.swapaxes(Q, -1, -2).reshape(Q.shape[:-2] + (n * n,)
+                                                                                   ).swapaxes(-1, -2)
+        grad = 1 - (Y @ x[..., None])[..., 0] / 4 - mu * np.trace(Q, axis1=-2, axis2=-1) - mu / lam
+        hess = (Y @ Linv @ np.swapaxes(Y, -1, -2)) / 2 + mu[..., None] * QQ + eyeK * (mu / lam ** 2)[..., None, :]
         with np.errstate(all="ignore"):
             dl = -np.linalg.solve(hess + 1e-14 * eyeK * np.abs(hess).max(axis=(-2, -1), keepdims=True),
                                   grad[..., None])[..., 0]
@@ -317,7 +319,7 @@ def _dual_value(P: np.ndarray, g: np.ndarray, H: np.ndarray, lam: np.ndarray):
     rounding of these sums. Shapes: ``lam (..., K)``, ``g (..., n)``, ``H (..., n, n)``.
     """
     n = P.shape[-1]
-    L = np.einsum("...k,kij->...ij", lam, P) - H
+    L = (lam @ P.reshape(P.shape[0], n * n)).reshape(lam.shape[:-1] + (n, n)) - H
     with np.errstate(all="ignore"):
         ev = np.linalg.eigvalsh(L)
     hi = ev[..., -1]
@@ -325,10 +327,10 @@ def _dual_value(P: np.ndarray, g: np.ndarray, H: np.ndarray, lam: np.ndarray):
     pd = (lo > 0) & np.all(np.isfinite(ev), axis=-1)
     Ls = np.where(pd[..., None, None], L, np.eye(n))
     x = np.linalg.solve(Ls, g[..., None])[..., 0]
-    r = g - np.einsum("...ij,...j->...i", Ls, x)
+    Lx = (Ls @ x[..., None])[..., 0]
+    r = g - Lx
     safe_lo = np.where(pd, lo, 1.0)
-    quad = (np.einsum("...i,...ij,...j->...", x, Ls, x) + 2 * np.einsum("...i,...i->...", x, r)
-            + np.einsum("...i,...i->...", r, r) / safe_lo) / 4
+    quad = (np.sum(x * Lx, axis=-1) + 2 * np.sum(x * r, axis=-1) + np.sum(r * r, axis=-1) / safe_lo) / 4
     with np.errstate(all="ignore"):
         logdet = np.sum(np.log(np.where(pd[..., None], ev, 1.0)), axis=-1)
     return (np.sum(lam, axis=-1) + quad) * (1 + 1e-9), pd, x, logdet
