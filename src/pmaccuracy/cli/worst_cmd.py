@@ -16,7 +16,8 @@ def add_region(p: argparse.ArgumentParser, *, phi_required: bool) -> None:
                    help="orientation interval in degrees, LO <= HI" + ("" if phi_required else " (default: 0 0)"))
     p.add_argument("--region", default="workspace", metavar="workspace|x0,x1,y0,y1",
                    help="'workspace' (every pose within the joint ranges) or a box in mm; poses of the box "
-                        "outside the workspace are skipped (default: workspace)")
+                        "outside the workspace are skipped; write --region=-10,10,-10,10 when x0 is negative "
+                        "(default: workspace)")
     p.add_argument("--gap-pct", type=_common.finite_float, default=0.1, metavar="PCT",
                    help="certified relative gap (upper - lower) / lower in percent (default: 0.1)")
 
