@@ -128,6 +128,9 @@ N_DIRECTIONS = 256
 ROUND_REL, ROUND_ABS = 1e-9, 1e-12
 #: Interior-point schedule of :func:`dual_bound`: mu is multiplied by MU_FACTOR every MU_EVERY Newton steps.
 MU_FACTOR, MU_EVERY = 0.3, 4
+#: Largest accepted Lipschitz constant of the remainder map on the certified box (any value below 1 proves
+#: uniqueness; the margin covers the rounding of its estimate).
+CONTRACTION = 0.9
 
 
 # ============================================================================ error set
@@ -647,31 +650,6 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
         rho = (ar0 * X ** 2 / 2 + D * X) @ onehot  # (N, 3)
         return JF0 + np.einsum("nji,ni->nj", akap, rho)
 
-    b = np.zeros((N, 9))
-    for _ in range(max_iterations):
-        with np.errstate(all="ignore"):
-            nb = phi(b)
-        if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
-            b = nb
-            break
-        b = nb
-    b = b * (1 + 1e-6) + 1e-15 * scale
-    with np.errstate(all="ignore"):
-        fixed = np.all(phi(b) <= b, axis=-1) & np.all(np.isfinite(b), axis=-1)
-        X, D = terms(b)
-        # Lipschitz constant of (2) in w over the box, in the norm max_j |w_j| / b_j
-        lip_leg = np.einsum("nmj,nm,mi->nij", arz, X, onehot) + np.einsum(
-            "nmj,nm,mi->nij", atz, D + ar0 * X, onehot)  # (N, 3 legs, 9)
-        L = np.einsum("nji,nil,nl->nj", akap, lip_leg, b) / b
-        contraction = np.max(L, axis=-1)
-    bad_fixed = ok & ~fixed
-    reason[bad_fixed] = "the remainder bound does not close (errors too large for this pose: some configurations " \
-                        "may not be assembled)"
-    bad_contr = ok & fixed & ~(contraction < 0.5)
-    reason[bad_contr] = "the remainder is not a contraction (errors too large or near a singularity)"
-    certified = ok & fixed & (contraction < 0.5)
-
-    b = np.where(certified[:, None], b, 0.0)
     e0 = np.exp(1j * model.t0)
     JinvF0 = np.einsum("nij,nj->ni", Jinv, F0)
 
@@ -695,23 +673,46 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
         return (np.einsum("nrm,nm->nr", np.abs(c), wt * (2 * hX_ + wt) / 2 + X_ ** 3 / 6)
                 + np.einsum("nrm,nm->nr", np.abs(cp), wr * X_ + hD_ * wt + D_ * X_ ** 2 / 2))
 
-    # Tighter box: |w_j| <= max_s [max_S delta^T (s H_j) delta - s (J_z^-1 F0)_j] + rest_j(b), the smaller of this
-    # and (3); both bound the map (2) over the box and grow with b, so b <- min(b, Phi(b)) keeps Phi(b) <= b.
-    ci = np.flatnonzero(certified)  # only certified poses are bounded further
-    if ci.size:
-        cw, cpw, Hw = pieces(np.concatenate([kappa[ci], -kappa[ci]], axis=1), ci)
-        quad_w = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw) - np.concatenate([JinvF0[ci], -JinvF0[ci]], axis=1)
-        bc = b[ci]
-        for _ in range(10):
-            r = quad_w + rest_of(cw, cpw, bc, ci)
-            nb = np.minimum(np.maximum(r[:, :9], r[:, 9:]), phi(b)[ci])
-            nb = np.minimum(bc, nb * (1 + 1e-9) + 1e-15 * scale)
-            done = np.all(nb >= bc * (1 - 1e-3))
-            bc = nb
-            b = b.copy()
-            b[ci] = bc
-            if done:
+    # A second bound of the map (2) over the box: |w_j| <= max_s [max_S delta^T (s H_j) delta - s (J_z^-1 F0)_j]
+    # + rest_j(b) (the duality bound of the second-order model, module docstring). The smaller of it and (3) is
+    # still monotone in b: iterate b <- Phi(b) from 0 (increasing) and check Phi(b) <= b after inflation.
+    oi = np.flatnonzero(ok)
+    quad_w = np.full((N, 18), np.inf)
+    if oi.size:
+        cw, cpw, Hw = pieces(np.concatenate([kappa[oi], -kappa[oi]], axis=1), oi)
+        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw) - np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
+
+    def phi2(b):
+        out = phi(b)
+        if oi.size:
+            r = quad_w[oi] + rest_of(cw, cpw, b[oi], oi)
+            out[oi] = np.fmin(out[oi], np.maximum(r[:, :9], r[:, 9:]))
+        return out
+
+    b = np.zeros((N, 9))
+    with np.errstate(all="ignore"):
+        for _ in range(max_iterations):
+            nb = phi2(b)
+            if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
+                b = nb
                 break
+            b = nb
+        b = b * (1 + 1e-6) + 1e-15 * scale
+        fixed = np.all(phi2(b) <= b, axis=-1) & np.all(np.isfinite(b), axis=-1)
+        X, D = terms(b)
+        # Lipschitz constant of (2) in w over the box, in the norm max_j |w_j| / b_j
+        lip_leg = np.einsum("nmj,nm,mi->nij", arz, X, onehot) + np.einsum(
+            "nmj,nm,mi->nij", atz, D + ar0 * X, onehot)  # (N, 3 legs, 9)
+        L = np.einsum("nji,nil,nl->nj", akap, lip_leg, b) / b
+        contraction = np.max(L, axis=-1)
+    bad_fixed = ok & ~fixed
+    reason[bad_fixed] = "the remainder bound does not close (errors too large for this pose: some configurations " \
+                        "may not be assembled)"
+    bad_contr = ok & fixed & ~(contraction < CONTRACTION)
+    reason[bad_contr] = "the remainder is not a contraction (errors too large or near a singularity)"
+    certified = ok & fixed & (contraction < CONTRACTION)
+    b = np.where(certified[:, None], b, 0.0)
+    ci = np.flatnonzero(certified)  # only certified poses are bounded further
     X, D = terms(b)
 
     def row_bound(kap: np.ndarray, g: np.ndarray, f0: np.ndarray, rows: np.ndarray, refine: bool = True
