@@ -35,6 +35,10 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         source = f"preset {text_spec}"
     else:
         path = Path(text_spec)
+        if path.is_dir():
+            raise ConfigError(f"is a folder, not a {kind} TOML file", source=text_spec)
+        if path.exists() and not path.is_file():
+            raise ConfigError(f"is not a regular file (a {kind} TOML file is needed)", source=text_spec)
         if not path.is_file():
             known = f" (presets: {', '.join(presets)})" if presets else ""
             raise ConfigError(f"no {kind} preset or file of that name{known}", source=text_spec)

@@ -63,6 +63,10 @@ class PlausibilityWarning(UserWarning):
     """A value is accepted but is almost surely in the wrong unit or outside the model's range of validity."""
 
 
+class LongRunWarning(PlausibilityWarning):
+    """A computation is about to take long (the command line prints it at once, before computing)."""
+
+
 def warn(messages: Iterable[str], stacklevel: int = 2) -> None:
     """Issue each message as a :class:`PlausibilityWarning`."""
     for message in messages:

@@ -8,7 +8,8 @@ ends the program with exit status 2 and one line on stderr,
 ``pmaccuracy CMD: error: ...``; set ``PMACCURACY_DEBUG=1`` to get the traceback
 of the failures that are not the user's input errors. Plausibility warnings
 (:mod:`pmaccuracy.plausibility`) and other warnings are printed one line each,
-``pmaccuracy CMD: warning: ...``, unless ``--quiet`` (an option of every command).
+``pmaccuracy CMD: warning: ...``, after a successful run (a failing run prints only its error line; a
+long-run estimate is printed at once), unless ``--quiet`` (an option of every command).
 """
 
 from __future__ import annotations
@@ -129,13 +130,22 @@ def _os_error(exc: OSError) -> str:
     return ": ".join([" -> ".join(names), what] if names else [what])
 
 
-def _show_warning(command: str):
-    """A ``warnings.showwarning`` printing ``pmaccuracy CMD: warning: ...`` on one line."""
-    from ..plausibility import PlausibilityWarning
+def _show_warning(command: str, pending: list[str]):
+    """A ``warnings.showwarning`` formatting ``pmaccuracy CMD: warning: ...`` on one line.
+
+    A :class:`~pmaccuracy.plausibility.LongRunWarning` is printed at once (before the long computation);
+    the others are kept in ``pending`` and printed when the command succeeds: a failing command prints
+    only its one error line.
+    """
+    from ..plausibility import LongRunWarning, PlausibilityWarning
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
         kind = "" if issubclass(category, PlausibilityWarning) else f" ({category.__name__})"
-        print(f"pmaccuracy {command}: warning: {_one_line(message)}{kind}", file=sys.stderr)
+        text = f"pmaccuracy {command}: warning: {_one_line(message)}{kind}"
+        if issubclass(category, LongRunWarning):
+            print(text, file=sys.stderr)
+        elif text not in pending:
+            pending.append(text)
     return show
 
 
@@ -163,8 +173,9 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join([args.command] + [v for k, v in sorted(vars(args).items())
                                          if k.endswith("_command") and isinstance(v, str)])
     error = f"pmaccuracy {command}: error:"
+    pending: list[str] = []
     with warnings.catch_warnings():
-        warnings.showwarning = _show_warning(command)
+        warnings.showwarning = _show_warning(command, pending)
         if getattr(args, "quiet", False):
             warnings.simplefilter("ignore")
         else:
@@ -173,7 +184,10 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("always", PlausibilityWarning)
         try:
             _option_warnings(args)
-            return int(args.func(args) or 0)
+            status = int(args.func(args) or 0)
+            for text in pending:
+                print(text, file=sys.stderr)
+            return status
         except PmAccuracyError as exc:
             print(f"{error} {_one_line(exc)}", file=sys.stderr)
             return 2
@@ -187,8 +201,8 @@ def main(argv: list[str] | None = None) -> int:
             if debug:
                 raise
             detail = f" ({_one_line(exc)})" if str(exc) else ""
-            print(f"{error} out of memory{detail}: use fewer poses, a smaller --grid or a .zarr map",
-                  file=sys.stderr)
+            print(f"{error} out of memory{detail}: reduce the sizes given on the command line (--grid, "
+                  f"--samples, the number of poses) or write a map as .zarr", file=sys.stderr)
             return 2
         except OSError as exc:
             if debug:

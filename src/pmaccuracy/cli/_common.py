@@ -59,7 +59,7 @@ def prepare_output(path: str | os.PathLike, option: str = "--out", kinds: Sequen
     except OSError as exc:
         raise ConfigError(f"cannot create the folder {target} ({exc.strerror or exc})", source=where,
                           key=option) from None
-    if not os.access(target, os.W_OK | os.X_OK):
+    if not os.access(target, os.W_OK | os.X_OK) or not _can_create_in(target):
         raise ConfigError(f"the folder {target} is not writable", source=where, key=option)
     if not folder and path.is_dir() and suffix != ".zarr":
         raise ConfigError("is a folder, not a file", source=where, key=option)
@@ -68,6 +68,18 @@ def prepare_output(path: str | os.PathLike, option: str = "--out", kinds: Sequen
     if path.exists() and not path.is_dir() and not os.access(path, os.W_OK):
         raise ConfigError("is not writable", source=where, key=option)
     return path
+
+
+def _can_create_in(folder: Path) -> bool:
+    """Whether a file can really be created in ``folder`` (a probe: os.access says yes on /proc, read-only
+    mounts, ... for root)."""
+    import tempfile
+
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
 
 
 def finite_float(text: str) -> float:

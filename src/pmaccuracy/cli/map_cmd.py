@@ -105,7 +105,12 @@ def run(args: argparse.Namespace) -> int:
             with xr.open_zarr(out) as ds:
                 _plots(_thinned(ds), Path(args.plot))
     else:
-        ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        try:
+            ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        except OSError as exc:  # e.g. the scheduler cannot be reached
+            if not args.scheduler or exc.filename:
+                raise
+            raise ConfigError(f"{args.scheduler}: {exc}", key="--scheduler") from None
         if any(bool(np.isinf(ds[v].values).any()) for v in ds.data_vars):
             raise ConfigError("the errors overflow: the clearances are far outside any physical range; nothing "
                               "written", source=str(args.clearances), key="--clearances")
@@ -155,15 +160,18 @@ def _check_disk(maps, out: Path, n_phi: int, n: int) -> None:
 
 def _warn_if_long(maps, robot, clearances, phis, args, suffix: str) -> None:
     """A plausibility warning before a long run (the estimate is timed on a sparse sub-grid)."""
-    from ..plausibility import warn
+    import warnings
+
+    from ..plausibility import LongRunWarning
 
     x, y = maps.map_grid(robot, phis, args.grid)
     workers = (args.workers or os.cpu_count() or 1) if suffix == ".zarr" else 1
     seconds = maps.estimate_seconds(robot, clearances, phis, x, y, workers=workers)
     if seconds > LONG_SECONDS:
         size = maps.format_bytes(maps.map_nbytes(len(phis), args.grid))
-        warn([f"--grid {args.grid}: about {_duration(seconds)} of computing for {size} of results (estimate); "
-              f"Ctrl-C stops it" + (" and the same command resumes it" if suffix == ".zarr" else "")])
+        warnings.warn(f"--grid {args.grid}: about {_duration(seconds)} of computing for {size} of results "
+                      f"(estimate); Ctrl-C stops it" + (" and the same command resumes it" if suffix == ".zarr"
+                                                        else ""), LongRunWarning)
 
 
 def _in_memory(maps, robot, clearances, phis, args, chunk, show):
