@@ -157,3 +157,13 @@ def test_a_source_without_effect_is_kept_at_the_template_value():
     assert tilt.sum() == 3 and np.all(ratio[tilt] <= 1.0 + 1e-12) and np.all(ratio[tilt] >= 0.9)
     assert res.worst["dphi"].upper <= targets["dphi"] * (1 + 1e-12)
     assert res.worst["dphi"].lower >= targets["dphi"] / 1.02
+
+
+@pytest.mark.parametrize("mode", ["uniform", "min-cost"])
+def test_cli_template_without_effect_exits_2(tmp_path, capsys, mode):
+    # only the 3-RPR's slide tilts, which have no first-order effect (see above): nothing to scale
+    tpl = tmp_path / "tilt.toml"
+    tpl.write_text("[[legs]]\njoints = [{}, { angular = 0.0005 }, {}]\n" * 3)
+    status, out, err = run(["synthesize", "--robot", "symmetric_3rpr", "--clearances", str(tpl), "--target",
+                            "dp=0.1", "--region=-5,5,-5,5", "--mode", mode], capsys)
+    assert status == 2 and err.count("\n") == 1 and "--target" in err and "affect" in err

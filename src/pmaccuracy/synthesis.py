@@ -233,14 +233,34 @@ def _region_grid(robot, region: Region, n: int) -> np.ndarray:
     return g[inverse_kinematics(robot, g).within_limits]
 
 
-def _effective(lin, Mx, My, targets: dict) -> np.ndarray:
-    """bool ``(m,)``: sources with a first-order effect on a targeted quantity at some of the poses."""
+#: A source moving the platform by less than this fraction of its own size (lengths; angles times the
+#: characteristic length) has no first-order effect: rounding noise of an exact zero.
+NO_EFFECT = 1e-9
+
+
+def _lengths(robot: Manipulator, sources: list[Source]) -> np.ndarray:
+    """Template values as lengths (mm): angles (``angular``, ``direction``, an actuated revolute's
+    ``actuator``) times the characteristic length."""
+    L = robot.characteristic_length
+    out = []
+    for s in sources:
+        angle = s.key in ("angular", "direction") or \
+            (s.key == "actuator" and robot.chains[s.leg].joints[s.joint].kind == "R")
+        out.append(s.value * (L if angle else 1.0))
+    return np.array(out)
+
+
+def _effective(robot, sources, lin, Mx, My, targets: dict) -> np.ndarray:
+    """bool ``(m,)``: sources with a first-order effect on a targeted quantity at some of the poses
+    (:data:`NO_EFFECT`)."""
     m = lin.shape[2]
-    parts = [np.abs(lin[:, r, :]) for r, q in enumerate(("dx", "dy", "dphi")) if q in targets]
+    L = robot.characteristic_length
+    parts = [np.abs(lin[:, r, :]) * (L if q == "dphi" else 1.0)
+             for r, q in enumerate(("dx", "dy", "dphi")) if q in targets]
     if "dp" in targets:
         parts += [np.abs(Mx).reshape(-1, m), np.abs(My).reshape(-1, m)]
     size = np.max(np.concatenate(parts), axis=0)
-    return size > 1e-9 * np.max(size)
+    return size > NO_EFFECT * _lengths(robot, sources)
 
 
 def _solve(lin, Mx, My, targets: dict, weights: np.ndarray, free: np.ndarray) -> np.ndarray:
@@ -292,7 +312,12 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
     tq = list(targets)
     if mode == "uniform":
         base = global_worst(robot, tpl, region, gap=gap)
-        scale = min(targets[q] / base[q].upper for q in tq)
+        size = NO_EFFECT * float(np.max(_lengths(robot, sources)))
+        L = robot.characteristic_length
+        ratios = [targets[q] / base[q].upper for q in tq if base[q].upper * (L if q == "dphi" else 1.0) > size]
+        if not ratios:
+            raise ConfigError("the template's sources do not affect the targeted errors", key="--target")
+        scale = min(ratios)
         result = with_values(tpl, sources, eps0 * scale, name)
         worst = global_worst(robot, result, region, gap=gap)
         return Synthesis(result, sources, eps0 * scale, eps0, mode, float(scale), None, dict(targets), worst, 0,
@@ -307,7 +332,7 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
     while True:
         lin, Mx, My = pose_coefficients(robot, tpl, sources, poses)
         if free is None:
-            free = _effective(lin, Mx, My, targets)
+            free = _effective(robot, sources, lin, Mx, My, targets)
             if not np.any(free):
                 raise ConfigError("no source of the template affects the targeted errors", key="--target")
             if not np.all(free):
@@ -325,7 +350,7 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
             break
         poses = np.vstack([poses, new[fresh]])
         cuts += 1
-    shrink = min(1.0, min(targets[q] / worst[q].upper for q in tq))
+    shrink = min([1.0] + [targets[q] / worst[q].upper for q in tq if worst[q].upper > 0])
     if shrink < 1.0:
         z = z * shrink
         result = with_values(tpl, sources, eps0 * z, name)
