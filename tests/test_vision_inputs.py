@@ -448,3 +448,13 @@ def test_plausibility_warnings_and_quiet(tmp_path) -> None:
     assert status == 0 and len(lines) == 1 and ": warning: --spacing-mm 210 is outside" in lines[0], err
     status, _, err = run_cli([*argv, "--quiet"])
     assert status == 0 and err == ""
+
+
+def test_degenerate_calibration_views_are_named(env, tmp_path) -> None:
+    """Three identical views cannot determine the intrinsics (Zhang): refused, naming the images, no file."""
+    sheet = tmp_path / "sheet.png"
+    vision.save_image(sheet, vision.render_calibration_sheet(SHAPE, mm_per_pixel=SCALE, seed=6).image)
+    out = tmp_path / "c.toml"
+    assert_error(["vision", "calibrate", str(sheet), str(sheet), str(sheet), "--out", str(out)], str(sheet),
+                 "degenerate")
+    assert not out.exists()

@@ -523,8 +523,13 @@ def run_calibrate(args: argparse.Namespace) -> int:
             if args.max_dot_px > MAX_DIAMETER_LIMIT * min(image.shape):
                 raise PmAccuracyError(f"--max-dot-px {args.max_dot_px:g}: more than half the shorter side of "
                                       f"{path} ({min(image.shape)} px)")
-    cal = calibrate_views(images, names=args.images, spacing_mm=args.spacing_mm, polarity=args.polarity,
-                          max_diameter_px=args.max_dot_px, fit_k3=args.fit_k3)
+    try:
+        cal = calibrate_views(images, names=args.images, spacing_mm=args.spacing_mm, polarity=args.polarity,
+                              max_diameter_px=args.max_dot_px, fit_k3=args.fit_k3)
+    except PmAccuracyError as exc:
+        if any(str(exc).startswith(f"{name}:") for name in args.images):
+            raise
+        raise PmAccuracyError(f"{', '.join(args.images)}: {exc}") from None
     summary = {"model": cal.model, "n_views": cal.n_views, "n_points": cal.n_points, **cal.residuals,
                "mm_per_pixel": cal.mm_per_pixel}
     if cal.has_intrinsics:
