@@ -83,7 +83,8 @@ def check(argv, capsys, *, finite_output: bool = True):
             assert not _NONFINITE.search(out), (argv, out[:500])
     else:
         assert status == 2, (argv, status, err)
-        assert len(errors) == 1 and errors[0].startswith(f"pmaccuracy {command}: error: "), (argv, err)
+        # exactly one line: a failing command prints no warnings, only its error
+        assert len(err.splitlines()) == 1 and errors[0].startswith(f"pmaccuracy {command}: error: "), (argv, err)
         assert out == "", (argv, out[:300])
     return status
 
@@ -294,6 +295,40 @@ def test_raw_bytes_in_place_of_any_file(capsys, content, channel):
     path = write("raw.bin", content)
     argv = ["bounds", channel, path] + ([] if channel == "--poses-csv" else ["--pose", "0", "0", "0"])
     check(argv, capsys)
+
+
+DISTRIBUTION = {"default": {"kind": "truncnormal", "sigma": 0.5}, "radial": "boundary"}
+REPEATS_HEADER = "point,x_nom,y_nom,phi_nom_deg,cycle,x,y,phi_deg"
+
+
+@FEW
+@given(distribution=mutated(DISTRIBUTION), samples=st.sampled_from(["1", "2", "50"]))
+def test_distribution_files(capsys, distribution, samples):
+    path = write("distribution.toml", toml_text(distribution))
+    check(["statistics", "--pose", "0", "0", "0", "--distribution", path, "--samples", samples, "--format", "json"],
+          capsys, finite_output=False)  # one sample has no standard deviation (null, on purpose)
+
+
+@FEW
+@given(text=st.one_of(measurement_csv().map(lambda t: t.replace("push", "cycle").replace("+x", "1")),
+                      poses_csv().map(lambda t: REPEATS_HEADER + "\n" + t)))
+def test_repeats_csv(capsys, text):
+    path = write("repeats.csv", text)
+    measurements = write("m_ok.csv", MEASUREMENT_HEADER + "\n" + "".join(
+        f"A,0,0,0,{p},0.1,0,0.01\n" for p in PUSHES))
+    check(["experiment", "compare", "--measurements", measurements, "--repeats", path, "--format", "csv"], capsys,
+          finite_output=False)
+
+
+@FEW
+@given(region=st.one_of(st.lists(NUMBER_TEXT, min_size=1, max_size=5).map(",".join),
+                        st.sampled_from(["workspace", "", "0,1,0,1", "1,0,0,1"])),
+       phis=st.lists(st.sampled_from(["0", "-1", "1", "nan", "1e308", "90", "0.5"]), min_size=2, max_size=2),
+       gap=st.sampled_from(["0.1", "0", "-1", "100", "50", "1e-300"]))
+def test_worst_region_options(capsys, region, phis, gap):
+    if region in ("workspace", "0,1,0,1") and gap == "1e-300":
+        gap = "50"  # a certified gap that small would take long: the other values are refused or quick
+    check(["worst", "--phi-deg", *phis, "--region", region, "--gap-pct", gap, "--grid", "5", "2"], capsys)
 
 
 def test_file_channels_given_a_folder_or_a_device(capsys):
