@@ -48,6 +48,9 @@ from .sources import ErrorSources
 DEFAULT_GAP = 1e-3
 #: Relative widening of every interval upper bound (covers floating-point rounding).
 ROUNDING = 1e-9
+#: Absolute tolerance (mm; rad times the characteristic length for dphi): a bound this small certifies a
+#: maximum of 0 (a quantity the sources do not move at first order leaves rounding-level bounds).
+ATOL = 1e-12
 #: Characteristic lengths per radian that turn a box's phi width into mm when choosing the side to split.
 PHI_SCALE = 1.0
 
@@ -79,7 +82,7 @@ class QuantityWorst:
 
     lower : attained value at ``pose`` ``(3,)`` [mm, mm, rad]
     upper : rigorous bound over the region;  gap : ``(upper - lower) / lower`` (0 when both are 0)
-    converged : the gap reached the requested one
+    converged : the gap reached the requested one (or ``upper - lower`` is below :data:`ATOL`)
     """
 
     name: str
@@ -274,6 +277,7 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     L = robot.characteristic_length
     min_size = 1e-7 * L if min_size is None else float(min_size)
     scale = np.array([1.0, 1.0, L * PHI_SCALE])
+    atol = ATOL * np.array([1.0, 1.0, 1.0 / L, 1.0])
     # Initial samples: lower bounds, a pose for the branches, the singularity check.
     nphi = 1 if region.phi[0] == region.phi[1] else grid
     gx, gy, gp = (np.linspace(*region.x, grid), np.linspace(*region.y, grid), np.linspace(*region.phi, nphi))
@@ -309,7 +313,7 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         iterations += 1
         n_boxes += boxes.shape[0]
         upper, infeasible, det_zero = box_maxima(robot, sources, boxes, sigmas)
-        upper = upper * (1 + ROUNDING) + 1e-300
+        upper = upper * (1 + ROUNDING)
         keep = ~infeasible
         boxes, active, upper, det_zero = boxes[keep], active[keep], upper[keep], det_zero[keep]
         if not boxes.shape[0]:
@@ -331,7 +335,7 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
                 f"{region.describe()} reaches a parallel singularity near x={b[0]:g} mm, y={b[2]:g} mm, "
                 f"phi={np.degrees(b[4]):g} deg (det A may vanish there); the worst-case errors are unbounded: "
                 "narrow --phi-deg or --region")
-        done = active & ((upper <= lower * (1 + gap)) | small[:, None])
+        done = active & ((upper <= lower * (1 + gap) + atol) | small[:, None])
         closed_upper = np.maximum(closed_upper, np.max(np.where(done, upper, 0.0), axis=0))
         active = active & ~done
         alive = np.any(active, axis=1)
@@ -359,8 +363,9 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     for i, q in enumerate(QUANTITIES):
         lo, up = float(lower[i]), float(max(closed_upper[i], lower[i]))
         g = (up - lo) / lo if lo > 0 else (0.0 if up == 0 else np.inf)
+        within = up <= lo * (1 + gap) + atol[i]
         out[q] = QuantityWorst(name=q, lower=lo, upper=up, pose=lower_pose[i].copy(), gap=g,
-                               converged=bool(converged[i] and g <= gap))
+                               converged=bool(converged[i] and within))
     return GlobalWorst(quantities=out, boxes=n_boxes, iterations=iterations, seconds=time.perf_counter() - t0,
                        target_gap=gap, region=region)
 
