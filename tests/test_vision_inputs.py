@@ -125,6 +125,8 @@ CAL_CASES = [  # (base, key edited, new value or KeyError = deleted, key named i
     ("cal", "calibration.residuals.rms_px", "big", "calibration.residuals.rms_px", "number"),
     ("cal", "calibration.residuals.systematic_px", -1.0, "calibration.residuals.systematic_px", "negative"),
     ("cal", "calibration.covariance.parameters", ["a"], "calibration.covariance.parameters", "must list"),
+    ("cal", "calibration.covariance.parameters", 3.0, "calibration.covariance.parameters", "must list"),
+    ("cal", "calibration.covariance.matrix", [[1.0] * 10] * 9, "calibration.covariance.matrix", "shape"),
     ("cal", "calibration.colour", 1, "colour", "unknown"),
     ("multi", "calibration.plane.rotation", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]],
      "calibration.plane.rotation", "rotation"),

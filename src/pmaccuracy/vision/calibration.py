@@ -332,7 +332,8 @@ class Calibration:
             if not isinstance(cov, dict):
                 raise ConfigError("must be a table", source=source, key="calibration.covariance")
             names = MULTI_VIEW_PARAMETERS if model == "multi-view" else SINGLE_VIEW_PARAMETERS
-            if list(cov.get("parameters", [])) != list(names):
+            listed = cov.get("parameters", [])
+            if not isinstance(listed, list) or listed != list(names):
                 raise ConfigError(f"must list {', '.join(names)} for the {model} model", source=source,
                                   key="calibration.covariance.parameters")
             covariance = _array(cov, "matrix", (len(names), len(names)), source, "calibration.covariance")
