@@ -6,7 +6,8 @@ figures, the NetCDF maps and ``results.json``::
     {"cases": {"case1": {"0": {"dx_max": [min, max], "dy_max": [...], "dphi_max_deg": [...],
                                "dp_max": [...]}, "30": {...}},
                "case2": {...}},
-     "paper_check": [...], "sources": {...}, "assembly": {...}, "design": {...}, ...}
+     "paper_check": [...], "sources": {...}, "assembly": {...}, "design": {...},
+     "design_decisions": {...} (pmaccuracy.design_report), ...}
 
 (orientation keys in degrees; values in mm and deg).
 """
@@ -23,6 +24,7 @@ import numpy as np
 from . import __version__, figures
 from .bounds import max_pose_errors
 from .clearances import ClearanceSet
+from .design_report import design_section
 from .document import Document
 from .error_model import assembly_errors, pose_error
 from .geometry import Manipulator
@@ -86,8 +88,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
     doc = Document(f"pmaccuracy: accuracy of the {robot.name} 3-PPR manipulator with joint clearances")
     results: dict = {"robot": robot.name, "version": __version__, "grid": grid}
     show = sys.stderr.isatty() if progress is None else progress
-    # one bar: the maps, six sections, the experiment, the files, and every figure
-    steps = 1 + 6 + int(experiment) + 1 + _FIGURES + (_EXPERIMENT_FIGURES if experiment else 0)
+    # one bar: the maps, seven sections, the experiment, the files, and every figure
+    steps = 1 + 7 + int(experiment) + 1 + _FIGURES + (_EXPERIMENT_FIGURES if experiment else 0)
     bar = tqdm(total=steps, disable=not show, desc="report", unit="step", file=sys.stderr)
     with bar, figures.Renderer(workers, on_done=bar.update) as renderer:
         # sections 4 and 6 are many small maps: computed by the workers while this process does the rest
@@ -112,7 +114,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
                         lambda: _paper_section(doc, check),
                         lambda: _sources_section(doc, source_jobs, results),
                         lambda: _assembly_section(doc, robot, phis, grid, out, results, renderer),
-                        lambda: _design_section(doc, robot, design_jobs, out, results, renderer)):
+                        lambda: _design_section(doc, robot, design_jobs, out, results, renderer),
+                        lambda: design_section(doc, robot, out, results, renderer, seed=seed)):
             section()
             bar.update()
         if experiment:
@@ -484,7 +487,7 @@ def _virtual_experiment(robot: Manipulator, case: str, out_dir: Path, seed: int,
 
 def _experiment_section(doc: Document, robot: Manipulator, out: Path, results: dict, seed: int,
                         renderer: figures.Renderer) -> None:
-    doc.heading("7. Virtual experiment and comparison statistics (Sec. 5-6)")
+    doc.heading("8. Virtual experiment and comparison statistics (Sec. 5-6)")
     doc.paragraph(
         "A simulated rig repeats the paper's protocol: actuators locked, at each grid point the platform is pushed "
         "both ways along x, y and in rotation; each push drives the clearances to the configuration that moves "
