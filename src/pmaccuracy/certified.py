@@ -985,17 +985,21 @@ def _ascent(model: _Model, M: np.ndarray, sets, q: str, start: np.ndarray, maxit
     return best_val, best
 
 
-def _first_order_starts(sets, M: np.ndarray) -> np.ndarray:
-    """First-order worst vertices ``(4, N, n)`` of dx, dy, dphi (signs of the rows of ``M``, as
-    :func:`pmaccuracy.sources.worst_configuration`) and of ``|dp|`` (the vertex maximizing ``u . p`` for the
-    best of 720 directions ``u``)."""
+def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
+    """First-order worst vertices ``(4, n_dp, N, n)``: of dx, dy, dphi (signs of the rows of ``M``, as
+    :func:`pmaccuracy.sources.worst_configuration`; repeated) and of ``|dp|`` (the vertices maximizing ``u . p``
+    for the ``n_dp`` best local maxima over 720 directions ``u`` of the support function: the nonlinear
+    maximum may belong to a direction that is not the first-order best)."""
     N = M.shape[0]
-    starts = [argsupport(sets, M[:, j, :]) for j in range(3)]
+    starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
     ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
     u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
     rowmap = np.einsum("kr,nrd->nkd", u, M[:, :2, :])
-    kbest = np.argmax(support(sets, rowmap), axis=-1)
-    starts.append(argsupport(sets, rowmap[np.arange(N), kbest]))
+    h = support(sets, rowmap)  # (N, 720)
+    peak = (h >= np.roll(h, 1, axis=-1)) & (h >= np.roll(h, -1, axis=-1))
+    order = np.argsort(np.where(peak, -h, np.inf), axis=-1)[:, :n_dp]  # best local maxima first
+    order = np.where(np.take_along_axis(peak, order, axis=-1), order, order[:, :1])  # fewer peaks: repeat the best
+    starts.append(np.stack([argsupport(sets, rowmap[np.arange(N), order[:, k]]) for k in range(n_dp)]))
     return np.stack(starts)
 
 
@@ -1023,8 +1027,8 @@ def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish:
     if n == 0:
         z = {q: np.zeros(N) for q in QUANTITIES}
         return z, {q: np.zeros((N, 0)) for q in QUANTITIES}, dict(z)
-    d0 = _first_order_starts(sets, M)  # (4, N, n)
-    cur = np.stack([d0, -d0], axis=1)  # (4, 2, N, n): both signs of each vertex
+    d0 = _first_order_starts(sets, M)  # (4, 3, N, n)
+    cur = np.concatenate([d0, -d0], axis=1)  # (4, 6, N, n): both signs of each vertex
     dz, G = exact_change(model, M, cur, gradient=True)
     val, grad = _objective_gradient(dz, G)
     val = np.where(np.isfinite(val), val, -np.inf)
