@@ -82,6 +82,32 @@ def _can_create_in(folder: Path) -> bool:
         return False
 
 
+def check_grid_memory(layers: int, n: int, option: str = "--grid") -> None:
+    """Refuse (ConfigError naming ``option``) a computation over ``layers`` x ``n`` x ``n`` grid points that
+    would not fit in the available memory, before anything is computed: the same rule as an in-memory map
+    (:func:`pmaccuracy.maps.check_fits_in_memory`, four float64 values per point)."""
+    from .. import maps
+
+    need = maps.MEMORY_FACTOR * maps.map_nbytes(layers, n)
+    free = maps.available_memory()
+    if free is not None and need > free:
+        raise ConfigError(f"{n} points per axis ({layers} x {n} x {n}) need about {maps.format_bytes(need)} of "
+                          f"memory but only {maps.format_bytes(free)} is available: use a smaller {option}",
+                          key=option)
+
+
+def warn_long_run(seconds: float, what: str, limit: float = 600.0) -> None:
+    """A one-line warning printed at once (before computing) when a rough estimate exceeds ``limit`` s."""
+    import warnings
+
+    from ..plausibility import LongRunWarning
+
+    if seconds > limit:
+        hours = seconds / 3600
+        span = f"{hours:.1f} h" if hours >= 1.5 else f"{seconds / 60:.0f} min"
+        warnings.warn(f"{what}: about {span} of computing (rough estimate); Ctrl-C stops it", LongRunWarning)
+
+
 def finite_float(text: str) -> float:
     """argparse type: a finite real number."""
     try:

@@ -78,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from ..geometry import Manipulator
     from ..sources import load_clearances
     specs = _check_options(args)
+    _common.check_grid_memory(len(args.robot) * len(args.phi_deg), args.grid, "--grid")
     for path, option, kinds in ((args.plot, "--plot", _common.PLOT_TYPES), (args.out, "--out", (".csv",))):
         if path is not None:
             _common.prepare_output(Path(path), option, kinds)

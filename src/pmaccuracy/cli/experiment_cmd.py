@@ -126,6 +126,8 @@ def run_simulate(args: argparse.Namespace) -> int:
         from ..distributions import Distribution
 
         distribution = Distribution.load(args.distribution)
+    if args.grid >= 2:
+        _common.check_grid_memory(1, args.grid, "--grid")
     _common.prepare_output(args.out, "--out", (".csv",))
     if args.repeats_out:
         _common.prepare_output(args.repeats_out, "--repeats-out", (".csv",))
@@ -170,6 +172,7 @@ def run_compare(args: argparse.Namespace) -> int:
         repeats = iso9283.load_repeats(args.repeats)  # before the long computations
         distribution = Distribution.load(args.distribution)
     if args.out:
+        _common.check_grid_memory(1, args.map_grid, "--map-grid")
         _common.prepare_output(args.out, "--out", folder=True)
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
                                     accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm)

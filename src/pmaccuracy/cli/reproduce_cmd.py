@@ -29,6 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
+    _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
     _common.prepare_output(args.out, "--out", folder=True)
     robot = _common.load_robot(args)
     if args.clearances is not None or not robot.is_3ppr:

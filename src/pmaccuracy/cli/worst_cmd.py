@@ -69,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from ..sources import load_clearances
     from ..synthesis import default_template
 
+    _common.check_grid_memory(args.grid[1], args.grid[0], "--grid")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances or default_template(robot), robot)
     region = parse_region(robot, args)
