@@ -130,3 +130,72 @@ def test_orientation_in_radians_warns_once_and_quiet_silences(capsys):
 def test_plain_degree_orientations_do_not_warn(phi, capsys):
     status, _, err = run(["ik", "--pose", 0, 0, phi], capsys)
     assert status == 0 and warnings_of(err) == []
+
+
+# ----------------------------------------------------------------------------------- the plausibility rules
+@pytest.mark.parametrize("value", [math.pi / 12, math.pi / 6, 0.5236, 0.7854, 1.0472, 1.5708, 3.1416, -0.5236,
+                                   2 * math.pi, math.pi / 18, 0.3927])
+def test_radian_looking_values(value):
+    from pmaccuracy.plausibility import looks_like_radians
+
+    assert looks_like_radians(value)
+
+
+@pytest.mark.parametrize("value", [0, 0.5, 1, 1.5, 2, 2.5, 3, 5, 10, 15, 30, 45, 90, -30, 0.52, 1.57, 7.0, 0.25])
+def test_degree_values_do_not_look_like_radians(value):
+    from pmaccuracy.plausibility import looks_like_radians
+
+    assert not looks_like_radians(value)
+
+
+def test_clearance_and_linearity_thresholds():
+    from pmaccuracy.plausibility import MAX_ANGLE_RAD, MAX_LENGTH_MM, clearance_messages, linearity_messages
+
+    assert clearance_messages({"a": (MAX_LENGTH_MM, "mm"), "b": (MAX_ANGLE_RAD, "rad"), "c": (50.0, "block")}) == []
+    out = clearance_messages({"a": (1.001, "mm"), "b": (0.0688, "rad"), "c": (0.05, "block"), "d": (2e3, "block")})
+    assert [m.split(" ")[0] for m in out] == ["a", "b", "c", "d"]
+    assert linearity_messages(np.array([0.2, 1.0])) == []
+    (msg,) = linearity_messages(np.array([0.2, 15.0, np.nan]), np.array([[0, 0, 0], [1, 2, 1.5], [0, 0, 0]]))
+    assert "15 deg" in msg and "x = 1 mm" in msg and "1 of 3" in msg
+
+
+def test_library_issues_plausibility_warnings(tmp_path):
+    from pmaccuracy.plausibility import PlausibilityWarning
+    from pmaccuracy.sources import load_clearances
+    from pmaccuracy.geometry import Manipulator
+
+    path = tmp_path / "c.toml"
+    path.write_text("[[legs]]\nrevolute_radial = 39\n[[legs]]\n[[legs]]\n")
+    with pytest.warns(PlausibilityWarning, match=r"legs\[1\]\.revolute_radial = 39 mm"):
+        load_clearances(path, Manipulator.preset("aalborg_3ppr"))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_clearances("case2", Manipulator.preset("aalborg_3ppr"))  # the presets are plausible
+
+
+def test_failing_command_prints_only_its_error(tmp_path, capsys):
+    path = tmp_path / "c.toml"
+    path.write_text("[[legs]]\nbearing_angle = 0.0688\n[[legs]]\n[[legs]]\n")
+    status, out, err = run(["bounds", "--pose", 1000, 0, 0, "--clearances", path], capsys)  # outside: an error
+    assert status == 2 and len(err.splitlines()) == 1 and ": error: " in err
+    status, out, err = run(["bounds", "--pose", 0, 0, 0, "--clearances", path], capsys)
+    assert status == 0 and "bearing_angle" in err and "warning" in err
+
+
+def test_debug_variable_reraises_internal_errors(monkeypatch, capsys):
+    import pmaccuracy.cli.kinematics_cmd as kc
+
+    def boom(args):
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(kc, "run_ik", boom)
+    monkeypatch.setattr("pmaccuracy.cli.kinematics_cmd.run_ik", boom)
+    from pmaccuracy.cli import build_parser  # noqa: F401  (the parser binds run_ik at registration)
+
+    status, out, err = run(["ik", "--pose", 0, 0, 0], capsys)
+    assert status == 2 and "internal error (RuntimeError: a bug)" in err and len(err.splitlines()) == 1
+    monkeypatch.setenv("PMACCURACY_DEBUG", "1")
+    with pytest.raises(RuntimeError):
+        main(["ik", "--pose", "0", "0", "0"])
