@@ -9,9 +9,12 @@ import pytest
 from pmaccuracy.bounds import bounds_or_nan, max_pose_errors, slsqp_max_pose_errors
 from pmaccuracy.clearances import ClearanceSet
 from pmaccuracy.designs import compare_designs
+from pmaccuracy.error_model import load_variations, pose_error
 from pmaccuracy.errors import ConfigError, PoseError
 from pmaccuracy.geometry import Manipulator
 from pmaccuracy.kinematics import forward_kinematics, inverse_kinematics
+from pmaccuracy.maps import error_map
+from pmaccuracy.sources import load_clearances
 from pmaccuracy.workspace import constant_orientation_workspace
 
 ROBOT = Manipulator.preset("aalborg_3ppr")
@@ -33,6 +36,9 @@ def test_names_and_paths_equal_objects(tmp_path):
                                                               tolerances=load_tolerances("example_tolerances")).dp_max)
     np.testing.assert_array_equal(inverse_kinematics("aalborg_3ppr", POSES).q, inverse_kinematics(ROBOT, POSES).q)
     assert constant_orientation_workspace("aalborg_3ppr", 0.0).area == constant_orientation_workspace(ROBOT, 0.0).area
+    assert load_clearances("case1", "aalborg_3ppr") == ClearanceSet.load("case1")
+    np.testing.assert_array_equal(pose_error("aalborg_3ppr", POSES, "aalborg_table2"),
+                                  pose_error(ROBOT, POSES, load_variations("aalborg_table2")))
 
 
 @pytest.mark.parametrize("call, error, needles", [
@@ -54,6 +60,13 @@ def test_names_and_paths_equal_objects(tmp_path):
     (lambda: constant_orientation_workspace(ROBOT, "x"), PoseError, ["phi"]),
     (lambda: compare_designs(["aalborg_3ppr", "symmetric_3ppr"], ["case1"], [0.0]), ConfigError, ["clearances"]),
     (lambda: compare_designs("aalborg_3ppr", "case1", [0.0]), ConfigError, ["one entry per robot"]),
+    (lambda: ClearanceSet(bearing_angle=[1e-3, 2e-3]), ConfigError, ["bearing_angle", "3 values"]),
+    (lambda: ClearanceSet(bearing_angle="x"), ConfigError, ["bearing_angle"]),
+    (lambda: pose_error(ROBOT, POSES, {"theta": [1e-3] * 2}), ConfigError, ["variations.theta"]),
+    (lambda: pose_error(ROBOT, POSES, {"nope": 1.0}), ConfigError, ["variations", "nope"]),
+    (lambda: error_map(ROBOT, "case1", 0.0, "x"), ConfigError, ["n"]),
+    (lambda: error_map(ROBOT, "case1", "x", 5), ConfigError, ["phi"]),
+    (lambda: error_map(ROBOT, None, 0.0, 5), ConfigError, ["clearances"]),
 ])
 def test_wrong_types_and_shapes_raise_named_errors(call, error, needles):
     with pytest.raises(error) as info:

@@ -42,7 +42,13 @@ DEFAULT_GUIDE_BLOCK_LENGTH = 50.0
 
 
 def _as3(name: str, value: Any, *, positive: bool = False) -> np.ndarray:
-    arr = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ClearanceError(f"{name} must be a number or 3 numbers (one per leg), got {value!r}") from None
+    if arr.ndim > 1 or arr.ndim == 1 and arr.shape[0] != 3:
+        raise ClearanceError(f"{name}: expected 3 values (one per leg), got shape {arr.shape}")
+    arr = np.broadcast_to(arr, (3,)).copy()
     if not np.all(np.isfinite(arr)):
         raise ClearanceError(f"{name} must be finite, got {arr.tolist()}")
     if positive and np.any(arr <= 0):

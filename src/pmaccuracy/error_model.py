@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from . import _tomlio
+from .errors import ConfigError
 from .geometry import Manipulator, perp, unit
 from .kinematics import DEFAULT_MAX_CONDITION, as_poses, inverse_kinematics, jacobians, regular_inverse
 
@@ -233,11 +234,31 @@ def pose_error(robot: Manipulator, poses: np.ndarray | PoseState,
 
     ``variations`` maps names of :data:`LINK_VARIATIONS` to per-leg values of
     shape ``(3,)`` or ``(..., 3)`` (mm or rad), e.g. the assembly errors of
-    Table 2 (:func:`assembly_errors`). Returns ``(..., 3)``.
+    Table 2 (:func:`assembly_errors`), or a preset name / TOML path of
+    :func:`load_variations`; ``robot`` may be a preset name or a TOML path. Returns ``(..., 3)``.
     """
+    import os
+
+    from ._args import robot_arg
+
+    robot = robot_arg(robot)
+    if isinstance(variations, (str, os.PathLike)):
+        variations = load_variations(variations)
+    if not isinstance(variations, Mapping):
+        raise ConfigError(f"expected a mapping {{parameter: per-leg values}}, a preset name or a TOML path, got "
+                          f"{type(variations).__name__}", key="variations")
     unknown = set(variations) - set(LINK_VARIATIONS)
     if unknown:
-        raise ValueError(f"unknown variations {sorted(unknown)}; expected some of {LINK_VARIATIONS}")
+        raise ConfigError(f"unknown variations {sorted(unknown)}; expected some of {LINK_VARIATIONS}",
+                          key="variations")
+    for q, dq in variations.items():
+        try:
+            arr = np.asarray(dq, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"expected numbers, got {dq!r}", key=f"variations.{q}") from None
+        if arr.ndim and arr.shape[-1] != 3 or not np.all(np.isfinite(arr)):
+            raise ConfigError(f"expected finite values of shape (3,) or (..., 3) (one per leg), got shape "
+                              f"{arr.shape}", key=f"variations.{q}")
     st = _state(robot, poses)
     H = H_diagonals(robot, st, varphi)
     # A [dx dy dphi]^T = sum_q H_q dq  (Eq. 9), solved once for all q.

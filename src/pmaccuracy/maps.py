@@ -157,11 +157,16 @@ def estimate_seconds(robot: Manipulator, clearances: ClearanceSet, phis: np.ndar
 
 def _prepare(robot, clearances, phis, n: int, max_condition: float):
     """Load and check the inputs of a map; returns ``robot, clearances, phis (rad), x, y``."""
-    from .sources import load_clearances
+    from ._args import clearances_arg, robot_arg
 
-    robot = Manipulator.load(robot)
-    clearances = load_clearances(clearances, robot)
-    phis = np.atleast_1d(np.asarray(phis, dtype=float))
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise ConfigError(f"the grid size must be a whole number, got {n!r}", key="n")
+    try:
+        phis = np.atleast_1d(np.asarray(phis, dtype=float))
+    except (TypeError, ValueError):
+        raise ConfigError(f"orientations must be numbers (rad), got {phis!r}", key="phi") from None
     if not np.all(np.isfinite(phis)):
         raise ConfigError("orientations must be finite", key="phi")
     if robot.is_3ppr:  # A depends on phi only: a whole layer is singular or none is

@@ -256,8 +256,10 @@ def load_clearances(spec, robot):
     ``revolute_radial`` per leg) gives a :class:`~pmaccuracy.clearances.ClearanceSet`
     and needs a 3-PPR robot. Either is checked against the robot's joints.
     """
+    from ._args import robot_arg
     from .clearances import ClearanceSet
 
+    robot = robot_arg(robot)  # a preset name or a TOML path too
     if isinstance(spec, ErrorSources):
         return spec.check(robot)
     if isinstance(spec, ClearanceSet):
