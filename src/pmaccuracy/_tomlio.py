@@ -35,6 +35,9 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         source = f"preset {text_spec}"
     else:
         path = Path(text_spec)
+        if not text_spec.strip():
+            known = f" (presets: {', '.join(presets)})" if presets else ""
+            raise ConfigError(f"empty {kind} name: give a preset name or a TOML file{known}")
         if path.is_dir():
             raise ConfigError(f"is a folder, not a {kind} TOML file", source=text_spec)
         if path.exists() and not path.is_file():

@@ -73,7 +73,7 @@ class OneLineParser(argparse.ArgumentParser):
                                "model, long runs); errors are still printed")
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
 
 
 def _requested_command(argv: list[str]) -> str | None:
