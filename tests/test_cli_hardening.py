@@ -199,3 +199,21 @@ def test_debug_variable_reraises_internal_errors(monkeypatch, capsys):
     monkeypatch.setenv("PMACCURACY_DEBUG", "1")
     with pytest.raises(RuntimeError):
         main(["ik", "--pose", "0", "0", "0"])
+
+
+def test_robot_file_angles_in_radians_warn(tmp_path, capsys):
+    import tomli_w
+
+    from pmaccuracy.geometry import Manipulator
+
+    data = Manipulator.preset("aalborg_3ppr").to_dict()
+    data["legs"][0]["psi_deg"] = 0.5236
+    path = tmp_path / "robot.toml"
+    path.write_text(tomli_w.dumps(data))
+    status, out, err = run(["ik", "--robot", path, "--pose", 0, 0, 0], capsys)
+    (line,) = warnings_of(err)
+    assert status == 0 and "legs[1].psi_deg = 0.5236" in line and "radians" in line
+    data["legs"][0]["psi_deg"] = 30.0
+    path.write_text(tomli_w.dumps(data))
+    status, out, err = run(["ik", "--robot", path, "--pose", 0, 0, 0], capsys)
+    assert status == 0 and err == ""

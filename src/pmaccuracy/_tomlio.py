@@ -50,7 +50,12 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         except (OSError, UnicodeDecodeError) as exc:
             raise ConfigError(f"cannot read file ({exc})", source=text_spec) from None
         source = text_spec
-    return parse_text(data, source), source
+    parsed = parse_text(data, source)
+    if kind == "robot" and source == text_spec:  # a user's robot file: angles typed in radians? (a warning)
+        from . import plausibility
+
+        plausibility.warn([f"{source}: {m}" for m in plausibility.degree_key_messages(parsed)], stacklevel=3)
+    return parsed, source
 
 
 def parse_text(text: str, source: str) -> dict[str, Any]:

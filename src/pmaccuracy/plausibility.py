@@ -17,7 +17,8 @@ mechanisms are micrometres and milliradians):
 * a clearance or tolerance **angle** (rad) above :data:`MAX_ANGLE_RAD` = 0.01
   rad = 0.57 deg (``bearing_angle = 0.0688`` is 0.0012 rad typed in degrees);
 * a guide **block length** outside [1, 1000] mm;
-* an **orientation in degrees that looks like radians**: ``0 < |phi_deg| <=
+* an **angle in degrees that looks like radians** (orientation options, the poses CSV's
+  ``phi_deg``, the ``*_deg`` keys of a robot file): ``0 < |value| <=
   2 pi`` and within :data:`RADIAN_MATCH` = 5e-4 of a multiple of pi/12, pi/8
   or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
   0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
@@ -188,3 +189,28 @@ def tolerance_messages(tolerances: Mapping[str, object], units: Mapping[str, str
         for i, v in enumerate(arr, start=1):
             values[f"legs[{i}].{name}_{units.get(name, 'mm')}"] = (float(v), units.get(name, "mm"))
     return _prefixed(source, clearance_messages(values, "tolerances"))
+
+
+def degree_key_messages(data: object, where: str = "") -> list[str]:
+    """Messages for values of ``*_deg`` keys of a parsed file (any depth) that look like radians.
+
+    A robot file's angles are degrees (``alpha_deg = 180``); ``alpha_deg = 3.1416`` is almost surely pi
+    typed in radians. One message per key (``legs[2].angle_range_deg``).
+    """
+    out: list[str] = []
+    if isinstance(data, dict):
+        for key, value in data.items():
+            name = f"{where}.{key}" if where else str(key)
+            if str(key).endswith("_deg"):
+                values = value if isinstance(value, list) else [value]
+                numbers = [float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+                hits = [v for v in numbers if v and bool(looks_like_radians(v))]
+                if hits:
+                    out.append(f"{name} = {_g(hits[0])} looks like radians ({_g(round(math.degrees(hits[0]), 1))} "
+                               f"deg = {_g(hits[0])} rad); the file's angles are in degrees")
+            else:
+                out.extend(degree_key_messages(value, name))
+    elif isinstance(data, list):
+        for i, item in enumerate(data, start=1):
+            out.extend(degree_key_messages(item, f"{where}[{i}]"))
+    return out
