@@ -208,3 +208,22 @@ def test_cli_uncertifiable_pose_exits_2(tmp_path):
     assert out.returncode == 2
     errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]  # plausibility
     assert len(errors) == 1 and "pose 0" in errors[0] and "Traceback" not in out.stderr
+
+
+def test_batch_with_certified_and_refused_poses():
+    """At 50x case2 some poses are certified and others not: NaN with a reason only where refused, the
+    certified ones as computed alone, and the nonlinear maxima below every certified bound."""
+    from pmaccuracy.clearances import ClearanceSet
+
+    poses = np.array([[0.0, 0.0, 0.0], [-30.0, -20.0, np.radians(-20.0)], [-10.0, 0.0, np.radians(10.0)]])
+    cs = ClearanceSet.load("case2").scaled(50.0)
+    res = C.certified_pose_errors("aalborg_3ppr", cs, poses, on_failure="nan", allow_outside=True)
+    refused = res.reason != ""
+    assert refused.tolist() == [False, True, False]
+    for q in C.QUANTITIES:
+        assert np.isnan(res.upper[q][refused]).all()
+        assert np.all(res.upper[q][~refused] >= res.lower[q][~refused])
+        assert np.all(res.lower[q] >= res.first_order[q] * (1 - 1e-6))  # attained even where not certified
+    alone = C.certified_pose_errors("aalborg_3ppr", cs, poses[[0]], allow_outside=True)
+    for q in C.QUANTITIES:
+        np.testing.assert_allclose(res.upper[q][0], alone.upper[q][0], rtol=1e-3)
