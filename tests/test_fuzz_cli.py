@@ -297,6 +297,23 @@ def test_raw_bytes_in_place_of_any_file(capsys, content, channel):
     check(argv, capsys)
 
 
+ARM = {"architecture": "serial", "name": "arm", "joints": [
+    {"name": "shoulder", "type": "R", "length": 300.0, "offset_deg": 0.0, "range": [-170.0, 170.0]},
+    {"name": "elbow", "type": "R", "length": 250.0, "offset_deg": 0.0, "range": [-150.0, 150.0]},
+    {"name": "slide", "type": "P", "length": 0.0, "offset_deg": 0.0, "range": [0.0, 100.0]}]}
+ARM_SOURCES = {"name": "arm", "legs": [{"joints": [{"radial": 0.005, "actuator": 0.0003}, {"radial": 0.005},
+                                                   {"actuator": 0.01, "lateral": 0.001}]}]}
+
+
+@FEW
+@given(arm=st.one_of(st.just(ARM), mutated(ARM)), sources=st.one_of(st.just(ARM_SOURCES), mutated(ARM_SOURCES)),
+       joints=st.lists(NUMBER_TEXT, min_size=1, max_size=4), details=st.booleans())
+def test_serial_arm_files_and_joints(capsys, arm, sources, joints, details):
+    robot, clearances = write("arm.toml", toml_text(arm)), write("arm_sources.toml", toml_text(sources))
+    check(["bounds", "--robot", robot, "--clearances", clearances, "--joints", *joints, "--format", "json"]
+          + (["--details"] if details else []), capsys)
+
+
 DISTRIBUTION = {"default": {"kind": "truncnormal", "sigma": 0.5}, "radial": "boundary"}
 REPEATS_HEADER = "point,x_nom,y_nom,phi_nom_deg,cycle,x,y,phi_deg"
 

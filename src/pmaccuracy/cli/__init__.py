@@ -164,10 +164,21 @@ def _option_warnings(args: argparse.Namespace) -> None:
         warn(orientation_messages([r[2] for r in rows if len(r) == 3], "--pose phi"))
 
 
+def _leaf_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the command (and sub-command) ``args`` ran: ``pmaccuracy experiment simulate``'s."""
+    while True:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs or getattr(args, subs[0].dest, None) not in subs[0].choices:
+            return parser
+        parser = subs[0].choices[getattr(args, subs[0].dest)]
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pmaccuracy`` console script; returns the exit status."""
     parser = build_parser(argv)
-    args = parser.parse_args(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:  # argparse would blame the program ("pmaccuracy: error:"): name the command instead
+        _leaf_parser(parser, args).error(f"unrecognized arguments: {' '.join(extras)}")
     debug = os.environ.get("PMACCURACY_DEBUG", "") not in ("", "0")
     # the full command as argparse names it in its own errors: "experiment simulate", "vision pose", "bounds"
     command = " ".join([args.command] + [v for k, v in sorted(vars(args).items())
