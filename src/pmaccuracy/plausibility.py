@@ -83,6 +83,15 @@ def clearance_messages(values: Mapping[str, tuple[float, str]], what: str = "cle
 
     ``what`` names the kind of value in the message (``"clearances"`` or ``"tolerances"``).
     """
+    import re
+
+    grouped: dict[tuple, list[str]] = {}  # the same value on several legs: one message "legs[1,2,3].key"
+    for name, (value, unit) in values.items():
+        m = re.match(r"^legs\[(\d+)\](.*)$", name)
+        key = (m.group(2), float(value), unit) if m else (name, float(value), unit)
+        grouped.setdefault(key, []).append(m.group(1) if m else "")
+    values = {(f"legs[{','.join(legs)}]{rest}" if legs[0] else rest): (value, unit)
+              for (rest, value, unit), legs in grouped.items()}
     out = []
     for name, (value, unit) in values.items():
         value = float(value)

@@ -96,6 +96,9 @@ def run(args: argparse.Namespace) -> int:
                    if region.inside.any() else "the workspaces share no region")
             print(f"pmaccuracy compare-designs: at phi = {phi_deg:g} deg {why}: ratios are null", file=sys.stderr)
     records = result.records()
+    from ..plausibility import linearity_messages, warn
+
+    warn(linearity_messages([r["dphi_max_deg"] for r in records], what="the largest dphi_max of a design"))
     if args.out is not None:
         with open(args.out, "w", encoding="utf-8", newline="") as fh:
             _common.emit(records, "csv", stream=fh)

@@ -81,6 +81,10 @@ def run(args: argparse.Namespace) -> int:
         records.append({"quantity": q + ("_deg" if q == "dphi" else ""), "lower": f(w.lower), "upper": f(w.upper),
                         "gap_pct": 100 * w.gap, "x": w.pose[0], "y": w.pose[1], "phi_deg": np.degrees(w.pose[2]),
                         "grid_best": f(grid[i]), "certified": w.converged})
+    from ..plausibility import linearity_messages, warn
+
+    warn(linearity_messages([r["upper"] for r in records if r["quantity"] == "dphi_deg"],
+                            what="the region's worst dphi"))
     data = {"robot": robot.name, "clearances": getattr(clearances, "name", str(args.clearances)),
             "region": region.describe(), "target_gap_pct": args.gap_pct, "boxes": res.boxes,
             "iterations": res.iterations, "seconds": res.seconds, "quantities": records}
