@@ -30,7 +30,6 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
-    _common.prepare_output(args.out, "--out", folder=True)
     robot = _common.load_robot(args)
     if args.clearances is not None or not robot.is_3ppr:
         from ..accuracy_report import REPORT_PHIS_DEG, accuracy_report
@@ -40,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"{robot.name} is a {robot.architecture}: give its clearances with --clearances (e.g. "
                               "a preset rpr_typical, rrr_typical, prr_typical or a per-joint file)", key="--clearances")
         load_clearances(args.clearances, robot)  # checked before anything is computed
+        _common.prepare_output(args.out, "--out", folder=True)   # inputs first: a refused run leaves no folder
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,
                                   experiment=not args.no_experiment)
@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.phi_deg:
         raise ConfigError("--phi-deg applies to the accuracy report (with --clearances)", key="--phi-deg")
+    _common.prepare_output(args.out, "--out", folder=True)
     from ..report import reproduce
 
     results = reproduce(Path(args.out), robot, args.grid, seed=args.seed,
