@@ -127,7 +127,7 @@ def _os_error(exc: OSError) -> str:
     """``FILE: problem`` of a file-system error, or just the problem when it names no file."""
     what = exc.strerror or str(exc) or type(exc).__name__
     names = [str(n) for n in (exc.filename, getattr(exc, "filename2", None)) if n not in (None, "")]
-    return ": ".join([" -> ".join(names), what] if names else [what])
+    return ": ".join([" -> ".join(names), what] if names else [f"cannot read or write ({what})"])
 
 
 def _show_warning(command: str, pending: list[str]):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -77,6 +78,12 @@ def run(args: argparse.Namespace) -> int:
     if args.workers and suffix != ".zarr":
         raise ConfigError("--workers applies to .zarr maps (use --dask for an in-memory map)", key="--workers")
     _check_unique(args.phi_deg)
+    local = ("synchronous", "sync", "single-threaded", "threads", "processes")  # dask's own, for .zarr
+    if args.scheduler is not None and not (re.fullmatch(r"[a-z]+://\S+", args.scheduler)
+                                           or suffix == ".zarr" and args.scheduler in local):
+        raise ConfigError(f"expected a dask.distributed scheduler address like tcp://10.0.0.1:8786"
+                          f"{' (or ' + ', '.join(local) + ')' if suffix == '.zarr' else ''}, got {args.scheduler!r}",
+                          key="--scheduler")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
