@@ -120,8 +120,9 @@ def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:
     return hit & (v > 0) & (v <= 2 * math.pi + RADIAN_MATCH) & np.isfinite(v)
 
 
-def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str) -> list[str]:
-    """One message if some of the orientations (deg) look like radians; ``where`` names the option or file."""
+def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations") -> list[str]:
+    """One message if some of the angles (deg) look like radians; ``where`` names the option or file, ``what``
+    the kind of angle."""
     values = np.asarray(phi_deg, dtype=float).reshape(-1)
     hits = values[looks_like_radians(values)]
     if hits.size == 0:
@@ -129,9 +130,8 @@ def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str) -> l
     first = float(hits[0])
     example = f"{_g(first)} looks like radians ({_g(round(math.degrees(first), 1))} deg = {_g(first)} rad)"
     if values.size == 1 or hits.size == 1 and values.size <= _SHOWN:
-        return [f"{where} {example}; orientations are in degrees"]
-    return [f"{where}: {hits.size} of {values.size} orientations look like radians, e.g. {example}; orientations "
-            f"are in degrees"]
+        return [f"{where} {example}; {what} are in degrees"]
+    return [f"{where}: {hits.size} of {values.size} {what} look like radians, e.g. {example}; {what} are in degrees"]
 
 
 def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None, what: str = "dphi_max") -> list[str]:

@@ -96,6 +96,9 @@ def run_fk(args: argparse.Namespace) -> int:
 
     robot = _common.load_robot(args)
     kinds = robot.actuated_kinds
+    from ..plausibility import orientation_messages, warn
+
+    warn(orientation_messages([v for v, k in zip(args.joints, kinds) if k == "R" and v], "--joints", "revolute joint values"))
     q = np.array([np.radians(v) if k == "R" else v for v, k in zip(args.joints, kinds)])
     outside = []
     for i, (v, (lo, hi), k) in enumerate(zip(q, robot.s_range, kinds)):
