@@ -613,8 +613,18 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     """
     sets = error_set(robot, sources)
     model = _build_model(robot, sets, poses)
-    N, n = poses.shape[0], model.n
-    scale = robot.characteristic_length
+    out = _certify(model, sets, robot.characteristic_length, max_iterations=max_iterations)
+    out.update(model=model, sets=sets)
+    return out
+
+
+def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None, max_iterations: int = 60
+             ) -> dict:
+    """The certificate of :func:`remainder_bounds` for a built model (equations (2)-(5)); ``offset`` ``(N, 9)``
+    is added to every bounded change (the exact change at the centre of a piece of the error set,
+    :func:`_split_bounds`)."""
+    N, n = model.z0.shape[0], model.n
+    offset = np.zeros((N, 9)) if offset is None else offset
     J = model.jacobian(np.zeros((N, 9 + n)))
     Jz, Jd = J[..., :9], J[..., 9:]
     reason = np.full(N, "", dtype=object)
@@ -738,7 +748,7 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     if ci.size:
         kap_rows = np.stack([kappa[ci, j, :] for j in range(3)] + [-kappa[ci, j, :] for j in range(3)], axis=1)
         g_rows = np.concatenate([M[ci, :3, :], -M[ci, :3, :]], axis=1)
-        f_rows = np.concatenate([JinvF0[ci, :3], -JinvF0[ci, :3]], axis=1)
+        f_rows = np.concatenate([JinvF0[ci, :3] - offset[ci, :3], -JinvF0[ci, :3] + offset[ci, :3]], axis=1)
         ub = row_bound(kap_rows, g_rows, f_rows, ci)  # (N', 6)
         for j, q in enumerate(("dx", "dy", "dphi")):
             upper[q][ci] = np.maximum(ub[:, j], ub[:, 3 + j])
@@ -748,7 +758,7 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
         u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)  # (K, 2)
         kap_u = np.einsum("kr,nri->nki", u, kappa[ci, :2, :])
         g_u = np.einsum("kr,nrd->nkd", u, M[ci, :2, :])
-        f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2])
+        f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2] - offset[ci, :2])
         ub = row_bound(kap_u, g_u, f_u, ci, refine=False)
         for k in range(ci.size):
             done = np.zeros(N_DIRECTIONS, dtype=bool)
@@ -765,8 +775,58 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     first["dp"] = _first_order_dp(sets, M[:, :2, :])
     for q in QUANTITIES:
         upper[q] = np.where(certified, upper[q] * (1 + ROUND_REL) + ROUND_ABS * scale, np.nan)
-    return {"upper": upper, "first_order": first, "M": M, "b": b, "reason": reason, "model": model, "sets": sets,
-            "certified": certified}
+    return {"upper": upper, "first_order": first, "M": M, "b": b, "reason": reason, "certified": certified}
+
+
+def _recentre(model: _Model, D: np.ndarray) -> _Model:
+    """The model expanded about ``v0 + D`` (``D`` ``(N, 9 + n)``): the same affine coefficients, constants moved."""
+    return _Model(r0=model.r0 + np.einsum("nmv,nv->nm", model.rg, D),
+                  t0=model.t0 + np.einsum("nmv,nv->nm", model.tg, D), rg=model.rg, tg=model.tg,
+                  leg_of=model.leg_of, aff0=model.aff0 + np.einsum("niv,nv->ni", model.affg, D), affg=model.affg,
+                  ang0=model.ang0 + np.einsum("niv,nv->ni", model.angg, D), angg=model.angg, n=model.n,
+                  z0=model.z0 + D[:, :9])
+
+
+def _split_bounds(model: _Model, sets, scale: float, k: int) -> dict:
+    """Certified bounds over the error set cut into ``2^k`` pieces (then the largest over the pieces).
+
+    The ``k`` interval sources that turn the chain the most (score ``eps sum_m |r_m0| |alpha_m|``, summed
+    over the poses) are halved: each piece is a product of the same kinds of sets, centred at ``delta_c``
+    (``+-eps/2`` on the halved sources). About its centre, the exact closure solved there (Newton,
+    :func:`exact_change`, its residual kept in ``F0``), the certificate of :func:`_certify` applies unchanged
+    with half the widths, so its remainder terms are smaller; the bound of the whole set is the largest of
+    the pieces' (each is an upper bound over its piece, and the pieces cover ``S``). Returns ``upper``
+    ``{q: (N,)}`` and ``certified`` ``(N,)``.
+    """
+    N, n = model.z0.shape[0], model.n
+    J = model.jacobian(np.zeros((N, 9 + n)))
+    with np.errstate(all="ignore"):
+        M = -np.linalg.solve(J[..., :9], J[..., 9:])
+    alpha = np.einsum("nmj,njk->nmk", model.tg[..., :9], M) + model.tg[..., 9:]
+    score = np.nansum(np.abs(model.r0)[..., None] * np.abs(alpha), axis=(0, 1))  # (n,)
+    intervals = [s for s in sets if s.kind == "interval"]
+    chosen = sorted(intervals, key=lambda s: -s.eps * score[s.cols[0]])[:k]
+    if not chosen:
+        return {"upper": {q: np.full(N, np.nan) for q in QUANTITIES}, "certified": np.zeros(N, dtype=bool)}
+    half = tuple(SourceSet(s.kind, s.leg, s.joint, s.field, s.eps / 2 if s in chosen else s.eps, s.cols,
+                           s.block_length) for s in sets)
+    upper = {q: np.full(N, -np.inf) for q in QUANTITIES}
+    certified = np.ones(N, dtype=bool)
+    for signs in np.ndindex(*(2,) * len(chosen)):
+        centre = np.zeros(n)
+        for s, sg in zip(chosen, signs):
+            centre[s.cols[0]] = (s.eps / 2) * (1.0 if sg else -1.0)
+        centre = np.broadcast_to(centre, (N, n))
+        dz = exact_change(model, M, centre)
+        good = np.all(np.isfinite(dz), axis=-1)
+        D = np.concatenate([np.where(good[:, None], dz, 0.0), centre], axis=-1)
+        part = _certify(_recentre(model, D), half, scale, offset=np.where(good[:, None], dz, 0.0))
+        certified &= good & part["certified"]
+        for q in QUANTITIES:
+            upper[q] = np.fmax(upper[q], np.where(part["certified"], part["upper"][q], np.nan))
+    for q in QUANTITIES:
+        upper[q] = np.where(certified, upper[q], np.nan)
+    return {"upper": upper, "certified": certified}
 
 
 def _first_order_dp(sets, Mp: np.ndarray) -> np.ndarray:
@@ -794,7 +854,8 @@ def _first_order_dp(sets, Mp: np.ndarray) -> np.ndarray:
 
 
 def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allow_outside: bool = False,
-                          on_failure: str = "raise") -> CertifiedPoseErrors:
+                          on_failure: str = "raise", split: int = 2, split_gap: float = 0.005
+                          ) -> CertifiedPoseErrors:
     """Certified upper bounds of the exact worst-case ``|dx|, |dy|, |dphi|, |dp|`` and the best feasible values.
 
     Parameters
@@ -809,6 +870,9 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     allow_outside : accept poses outside the joint ranges (as :func:`pmaccuracy.bounds.max_pose_errors`)
     on_failure : ``"raise"`` (:class:`~pmaccuracy.errors.CertificationError` naming the pose and why) or
         ``"nan"`` (NaN upper bounds and the reason in ``reason``)
+    split, split_gap : where the bound is not certified or its gap to the best feasible value (to the
+        first-order value without ``search``) exceeds ``split_gap``, it is computed again over ``2^split``
+        pieces of the error set (:func:`_split_bounds`; 0: never) and the smaller valid bound is kept
 
     Returns a :class:`CertifiedPoseErrors`: ``upper[q] >= `` the maximum over the whole error set of the
     exact pose error (module docstring) ``>= lower[q] >=`` the exact value at the first-order worst vertex.
@@ -827,19 +891,30 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     robot, sources, poses = _prepare(robot, clearances, poses)
     fo = max_pose_errors(robot, sources, poses, allow_outside=allow_outside)
     rb = remainder_bounds(robot, sources, poses)
-    reason = rb["reason"]
-    if on_failure == "raise" and np.any(reason != ""):
-        k = int(np.flatnonzero(reason != "")[0])
-        x, y, phi = poses[k]
-        raise CertificationError(f"pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg): {reason[k]}")
     first = {q: np.asarray(getattr(fo, f"{q}_max"), dtype=float).reshape(-1) for q in QUANTITIES}
     if search:
         lower, worst, _ = _nonlinear(rb["model"], rb["M"], rb["sets"])
     else:
         lower = {q: np.full(poses.shape[0], np.nan) for q in QUANTITIES}
         worst = {}
-    gap = {q: _gap(rb["upper"][q], lower[q]) for q in QUANTITIES}
-    return CertifiedPoseErrors(poses=poses, upper=rb["upper"], lower=lower, first_order=first, gap=gap,
+    upper, reason = dict(rb["upper"]), rb["reason"].copy()
+    if split:
+        # poses without a certificate or with a gap above split_gap: bound again over 2^split pieces, keep the
+        # smaller of the valid bounds (both hold)
+        ref = {q: np.where(np.isfinite(lower[q]), lower[q], first[q]) for q in QUANTITIES}
+        loose = (reason != "") | np.any([_gap(upper[q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
+        idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
+        if idx.size:
+            sp = _split_bounds(_take_many(rb["model"], idx), rb["sets"], robot.characteristic_length, split)
+            for q in QUANTITIES:
+                upper[q][idx] = np.where(sp["certified"], np.fmin(upper[q][idx], sp["upper"][q]), upper[q][idx])
+            reason[idx[sp["certified"]]] = ""
+    if on_failure == "raise" and np.any(reason != ""):
+        k = int(np.flatnonzero(reason != "")[0])
+        x, y, phi = poses[k]
+        raise CertificationError(f"pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg): {reason[k]}")
+    gap = {q: _gap(upper[q], lower[q]) for q in QUANTITIES}
+    return CertifiedPoseErrors(poses=poses, upper=upper, lower=lower, first_order=first, gap=gap,
                                worst=worst, remainder=rb["b"], reason=reason, sets=rb["sets"])
 
 
@@ -884,6 +959,13 @@ def _take(model: _Model, k: int) -> _Model:
     return _Model(r0=model.r0[sl], t0=model.t0[sl], rg=model.rg[sl], tg=model.tg[sl], leg_of=model.leg_of,
                   aff0=model.aff0[sl], affg=model.affg[sl], ang0=model.ang0[sl], angg=model.angg[sl], n=model.n,
                   z0=model.z0[sl])
+
+
+def _take_many(model: _Model, idx: np.ndarray) -> _Model:
+    """The model of the poses ``idx`` (indices)."""
+    return _Model(r0=model.r0[idx], t0=model.t0[idx], rg=model.rg[idx], tg=model.tg[idx], leg_of=model.leg_of,
+                  aff0=model.aff0[idx], affg=model.affg[idx], ang0=model.ang0[idx], angg=model.angg[idx],
+                  n=model.n, z0=model.z0[idx])
 
 
 def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: int = 20,
