@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr for long runs (default: when stderr is a terminal)")
     _common.add_format(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=_run_naming_poses)
 
 
 def _configuration(disp) -> dict:
@@ -101,6 +101,19 @@ def _exact_columns(robot, clearances, poses: np.ndarray, tolerances, allow_outsi
                 out[name][start:start + len(values)] = values
             bar.update(len(block.dp_max))
     return out
+
+
+def _run_naming_poses(args: argparse.Namespace) -> int:
+    """:func:`run`, with a pose error (outside the ranges, singular) prefixed by where the poses came from."""
+    from ..errors import PoseError
+
+    try:
+        return run(args)
+    except PoseError as exc:
+        if not (args.pose or args.poses_csv) or str(exc).startswith(("--pose", str(args.poses_csv))):
+            raise
+        source = f"{args.poses_csv}" if args.poses_csv else "--pose"
+        raise type(exc)(f"{source}: {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
