@@ -810,8 +810,7 @@ def _split_bounds(model: _Model, sets, scale: float, k: int) -> dict:
         return {"upper": {q: np.full(N, np.nan) for q in QUANTITIES}, "certified": np.zeros(N, dtype=bool)}
     half = tuple(SourceSet(s.kind, s.leg, s.joint, s.field, s.eps / 2 if s in chosen else s.eps, s.cols,
                            s.block_length) for s in sets)
-    upper = {q: np.full(N, -np.inf) for q in QUANTITIES}
-    certified = np.ones(N, dtype=bool)
+    models, offsets, goods = [], [], []
     for signs in np.ndindex(*(2,) * len(chosen)):
         centre = np.zeros(n)
         for s, sg in zip(chosen, signs):
@@ -819,13 +818,18 @@ def _split_bounds(model: _Model, sets, scale: float, k: int) -> dict:
         centre = np.broadcast_to(centre, (N, n))
         dz = exact_change(model, M, centre)
         good = np.all(np.isfinite(dz), axis=-1)
-        D = np.concatenate([np.where(good[:, None], dz, 0.0), centre], axis=-1)
-        part = _certify(_recentre(model, D), half, scale, offset=np.where(good[:, None], dz, 0.0))
-        certified &= good & part["certified"]
-        for q in QUANTITIES:
-            upper[q] = np.fmax(upper[q], np.where(part["certified"], part["upper"][q], np.nan))
-    for q in QUANTITIES:
-        upper[q] = np.where(certified, upper[q], np.nan)
+        dz = np.where(good[:, None], dz, 0.0)
+        models.append(_recentre(model, np.concatenate([dz, centre], axis=-1)))
+        offsets.append(dz)
+        goods.append(good)
+    # all pieces of all poses in one vectorized certificate
+    stacked = _Model(**{f: (np.concatenate([getattr(m, f) for m in models]) if f not in ("leg_of", "n")
+                            else getattr(model, f)) for f in ("r0", "t0", "rg", "tg", "leg_of", "aff0", "affg",
+                                                               "ang0", "angg", "n", "z0")})
+    part = _certify(stacked, half, scale, offset=np.concatenate(offsets))
+    P = len(models)
+    certified = np.all(np.stack(goods), axis=0) & np.all(part["certified"].reshape(P, N), axis=0)
+    upper = {q: np.where(certified, np.max(part["upper"][q].reshape(P, N), axis=0), np.nan) for q in QUANTITIES}
     return {"upper": upper, "certified": certified}
 
 
