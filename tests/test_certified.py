@@ -234,3 +234,9 @@ def test_batch_with_certified_and_refused_poses():
         ok = cut.reason == ""
         assert np.all(cut.upper[q][ok] >= cut.lower[q][ok])
         assert np.all(cut.upper[q][~refused] <= res.upper[q][~refused])
+
+
+def test_no_error_source_gives_zero():
+    res = C.certified_pose_errors("aalborg_3ppr", "none", PAPER_POSE)
+    for q in C.QUANTITIES:
+        assert res.upper[q][0] == 0.0 and res.lower[q][0] == 0.0 and res.gap[q][0] == 0.0

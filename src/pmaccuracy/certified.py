@@ -620,6 +620,8 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     sets = error_set(robot, sources)
     model = _build_model(robot, sets, poses)
     out = _certify(model, sets, robot.characteristic_length, max_iterations=max_iterations)
+    if model.n == 0:  # no error source: the pose does not move, exactly
+        out["upper"] = {q: np.zeros(poses.shape[0]) for q in QUANTITIES}
     out.update(model=model, sets=sets)
     return out
 
