@@ -217,3 +217,15 @@ def test_robot_file_angles_in_radians_warn(tmp_path, capsys):
     path.write_text(tomli_w.dumps(data))
     status, out, err = run(["ik", "--robot", path, "--pose", 0, 0, 0], capsys)
     assert status == 0 and err == ""
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["statistics", "--pose", 0, 0, 0, "--threshold", "dp=39", "--samples", 50], "--threshold dp=39"),
+    (["experiment", "simulate", "--grid", 2, "--noise-mm", 10], "--noise-mm 10"),
+])
+def test_small_options_in_wrong_units_warn(tmp_path, argv, needle, capsys):
+    if "simulate" in argv:
+        argv = [*argv, "--out", tmp_path / "s.csv"]
+    status, out, err = run(argv, capsys)
+    (line,) = warnings_of(err)
+    assert status == 0 and needle in line and "wrong unit" in line

@@ -162,6 +162,38 @@ def _option_warnings(args: argparse.Namespace) -> None:
     if isinstance(pose, list) and pose:
         rows = pose if isinstance(pose[0], list) else [pose]
         warn(orientation_messages([r[2] for r in rows if len(r) == 3], "--pose phi"))
+    warn(_size_messages(args))
+
+
+#: Options holding a small length (mm) or angle (deg) of this field, with the largest plausible value:
+#: camera noise and accuracy are micrometres, targets and thresholds of pose errors tenths of a mm.
+_SMALL_OPTIONS = {"noise_mm": ("--noise-mm", 1.0, "mm"), "accuracy_mm": ("--accuracy-mm", 1.0, "mm"),
+                  "limit_tolerance_mm": ("--limit-tolerance-mm", 1.0, "mm"),
+                  "noise_deg": ("--noise-deg", 1.0, "deg"), "accuracy_deg": ("--accuracy-deg", 1.0, "deg")}
+_ERROR_UNITS = {"dx": "mm", "dy": "mm", "dp": "mm", "dphi_deg": "deg"}
+
+
+def _size_messages(args: argparse.Namespace) -> list[str]:
+    """Plausibility of the small lengths and angles given as options (noise, accuracy, error targets)."""
+    out = []
+    for dest, (option, limit, unit) in _SMALL_OPTIONS.items():
+        value = getattr(args, dest, None)
+        if isinstance(value, float) and abs(value) > limit:
+            usual = "hundredths of a mm" if unit == "mm" else "hundredths of a degree"
+            out.append(f"{option} {value:g} {unit} is above {limit:g} {unit}: measurement noise and accuracy are "
+                       f"usually {usual} (wrong unit?)")
+    for dest, option in (("target", "--target"), ("threshold", "--threshold")):
+        for item in getattr(args, dest, None) or []:
+            key, value = item if isinstance(item, tuple) else (str(item).partition("=")[0].strip(),
+                                                               str(item).partition("=")[2])
+            try:
+                number = float(value)
+            except ValueError:
+                continue
+            if key in _ERROR_UNITS and abs(number) > 1.0:
+                out.append(f"{option} {key}={number:g} {_ERROR_UNITS[key]} is above 1 {_ERROR_UNITS[key]}: pose "
+                           f"errors due to clearances are usually hundredths of a mm or deg (wrong unit?)")
+    return out
 
 
 def _leaf_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
