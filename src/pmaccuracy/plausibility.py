@@ -23,6 +23,8 @@ mechanisms are micrometres and milliradians):
   or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
   0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
   to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
+* (command line only) measurement noise or accuracy options above 1 mm or 1 deg, error targets and
+  thresholds above 1 mm or 1 deg (``pmaccuracy.cli._size_messages``);
 * a **first-order result beyond the linear model's validity**: a worst-case
   ``dphi_max`` above :data:`MAX_LINEAR_DPHI_DEG` = 1 deg. The error model
   (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
