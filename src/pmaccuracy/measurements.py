@@ -240,6 +240,9 @@ def load_measurements(path: str | Path, *, max_deviation_mm: float = MAX_DEVIATI
                        f"units (phi_deg and phi_nom_deg must be in degrees, not radians) or wrong point")
             raise _fail(src, msg, int(lines[k, j]))
 
+    from . import plausibility  # nominal orientations typed in radians: a warning
+
+    plausibility.warn(plausibility.orientation_messages(nominal_arr[:, 2], f"{src}: column phi_nom_deg"))
     nominal_rad = nominal_arr.copy()
     nominal_rad[:, 2] = np.radians(nominal_arr[:, 2])
     readings_rad = readings.copy()
