@@ -6,7 +6,7 @@ Rules (also stated in the README's "Command line" section):
   exact output it prints (stdout and stderr together, as a terminal shows them), up to the next
   ``$`` line or the end of the block. A command line ending in ``\\`` continues on the next line.
   Blank lines between examples are not output; trailing spaces are ignored. Text must match
-  exactly; numbers must agree to a relative 1e-5 (:func:`same_output`): the camera calibration
+  exactly; numbers must agree to a relative 1e-4 (:func:`same_output`): the camera calibration
   (OpenCV) varies in the seventh significant digit from run to run, everything else is exact.
 * Every command runs through ``bash`` exactly as written (``# ...`` comments included), with the
   test environment's ``pmaccuracy`` first on ``PATH``, in ONE temporary working folder shared by
@@ -99,8 +99,14 @@ def python_blocks(text: str) -> list[tuple[int, str]]:
 
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-#: Relative tolerance on numbers (see the module docstring).
-RTOL = 1e-5
+#: Relative tolerance on numbers (see the module docstring): OpenCV's calibration moves the 6th digit of the
+#: vision uncertainties between runs (seen: 8e-6 relative), so 1e-4.
+RTOL = 1e-4
+
+
+def _squeeze(text: str) -> str:
+    """Every run of white space as one space (leading and trailing runs kept as one space)."""
+    return re.sub(r"\s+", " ", text)
 
 
 def same_output(got: tuple[str, ...] | list[str], expected: tuple[str, ...] | list[str]) -> bool:
@@ -110,9 +116,12 @@ def same_output(got: tuple[str, ...] | list[str], expected: tuple[str, ...] | li
     for a, b in zip(got, expected):
         if a == b:
             continue
-        if _NUMBER.split(a) != _NUMBER.split(b):
-            return False
         na, nb = _NUMBER.findall(a), _NUMBER.findall(b)
+        ta, tb = _NUMBER.split(a), _NUMBER.split(b)
+        if na != nb:  # numbers of other widths re-pad aligned columns: spacing compared only as "some space"
+            ta, tb = ([_squeeze(t) for t in x] for x in (ta, tb))
+        if ta != tb:
+            return False
         if len(na) != len(nb) or any(abs(float(x) - float(y)) > RTOL * max(abs(float(x)), abs(float(y)))
                                      for x, y in zip(na, nb)):
             return False
@@ -151,6 +160,8 @@ def test_same_output_tolerates_only_last_digits():
     assert same_output(["a 0.000750904  x"], ["a 0.000750905  x"])
     assert not same_output(["a 0.00075090  x"], ["a 0.00075190  x"])
     assert not same_output(["a 1  x"], ["a 1 x"])          # spacing is text
+    assert same_output(["0.00074525   0.000845 x"], ["0.000745249  0.000845 x"])   # re-padded column
+    assert not same_output(["0.00074525   0.000845 x"], ["0.000745249  0.000845x"])
     assert not same_output(["a 1"], ["b 1"]) and not same_output(["1"], ["1", ""])
 
 

@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from ..errors import PmAccuracyError
+from ..errors import ConfigError, PmAccuracyError
 from . import _common
 
 #: Poses per call of the library when a progress bar is shown (a multiple of its internal block of 8192,
@@ -132,7 +132,16 @@ def run(args: argparse.Namespace) -> int:
         if args.method == "slsqp":
             raise PmAccuracyError("--method slsqp takes the 3-PPR clearance format (the paper's baseline)")
         if args.tolerances:  # a per-joint file of position / direction / length tolerances, added joint by joint
-            clearances = with_tolerances(clearances, load_clearances(args.tolerances, robot))
+            try:
+                tolerances = load_clearances(args.tolerances, robot)
+            except ConfigError as exc:
+                raise ConfigError(f"{exc} (with a per-joint clearance file --tolerances takes a per-joint file of "
+                                  "position, direction and length tolerances, e.g. rpr_tolerances)",
+                                  key="--tolerances") from None
+            if not isinstance(tolerances, ErrorSources):
+                raise ConfigError(f"{args.tolerances}: the 3-PPR clearance format; with a per-joint clearance file "
+                                  "give per-joint tolerances (position, direction, length)", key="--tolerances")
+            clearances = with_tolerances(clearances, tolerances)
         tolerances = None
     else:
         tolerances = load_tolerances(args.tolerances) if args.tolerances else None

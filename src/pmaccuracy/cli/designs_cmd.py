@@ -79,9 +79,6 @@ def run(args: argparse.Namespace) -> int:
     from ..sources import load_clearances
     specs = _check_options(args)
     _common.check_grid_memory(len(args.robot) * len(args.phi_deg), args.grid, "--grid")
-    for path, option, kinds in ((args.plot, "--plot", _common.PLOT_TYPES), (args.out, "--out", (".csv",))):
-        if path is not None:
-            _common.prepare_output(Path(path), option, kinds)
     robots = [Manipulator.load(spec) for spec in args.robot]
     clearances = []
     for spec, robot in zip(specs, robots):
@@ -89,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
             clearances.append(load_clearances(spec, robot))
         except ConfigError as exc:  # several robots: say which one the file does not fit
             raise type(exc)(f"{exc.message} (--robot {robot.name})", source=exc.source, key=exc.key) from None
+    for path, option, kinds in ((args.plot, "--plot", _common.PLOT_TYPES), (args.out, "--out", (".csv",))):
+        if path is not None:   # inputs first: a refused run creates no folder
+            _common.prepare_output(Path(path), option, kinds)
     result = compare_designs(robots, clearances, np.radians(args.phi_deg), args.grid)
     for phi_deg, region in zip(args.phi_deg, result.shared):
         if region.is_empty:
