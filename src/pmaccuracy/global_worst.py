@@ -111,6 +111,10 @@ class GlobalWorst:
 
 def as_sources(robot: Manipulator, clearances) -> ErrorSources:
     """Per-joint :class:`~pmaccuracy.sources.ErrorSources` of a clearance object (3-PPR format converted)."""
+    if not isinstance(clearances, (ClearanceSet, ErrorSources)):   # a preset name or a file
+        from .sources import load_clearances
+
+        clearances = load_clearances(clearances, robot)
     if isinstance(clearances, ClearanceSet):
         return ErrorSources.from_clearance_set(clearances)
     return clearances.check(robot)
@@ -151,7 +155,8 @@ def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
 def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, float, float, float] | None
                 ) -> Region:
     """Check and build a region: ``phi (lo, hi)`` rad with ``lo <= hi``; ``box (x0, x1, y0, y1)`` mm or None
-    for the whole workspace."""
+    for the whole workspace. ``robot``: an object, a preset name or a robot file."""
+    robot = Manipulator.load(robot)
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="--phi-deg")
@@ -270,6 +275,7 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     >>> res["dy"].gap <= 1e-3
     True
     """
+    robot = Manipulator.load(robot)
     if not (gap > 0 and np.isfinite(gap)):
         raise ConfigError(f"must be > 0, got {gap}", key="gap")
     t0 = time.perf_counter()

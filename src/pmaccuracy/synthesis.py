@@ -303,6 +303,7 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=No
     the weights of ``costs`` (:func:`load_costs`: a file, or an array ``(m,)``).
     ``template``: clearance preset/file/object (default :func:`default_template`).
     """
+    robot = Manipulator.load(robot)
     if mode not in ("uniform", "min-cost"):
         raise ConfigError(f"mode must be 'uniform' or 'min-cost', got {mode!r}", key="mode")
     tpl = as_sources(robot, load_clearances(default_template(robot) if template is None else template, robot))
