@@ -123,7 +123,7 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     Example
     -------
     >>> robot = Manipulator.preset("aalborg_3ppr")
-    >>> inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6).tolist()
+    >>> (inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6) + 0.0).tolist()   # (+ 0.0: no -0.0)
     [-15.0, -15.0, 0.0]
     """
     from ._args import robot_arg

@@ -541,8 +541,7 @@ class Chain:
         oc = self._offsets_cum
         links = self._links
         rot = [complex(np.exp(1j * o)) for o in oc]
-        turn = complex(np.exp(1j * (self.platform_angle - self.base_angle)))
-        E_g = e_phi * turn                                                       # exp(i gamma)
+        turn = complex(np.exp(1j * (self.platform_angle - self.base_angle)))     # exp(i gamma) = e_phi turn
         E_S = e_phi * (turn * rot[2].conjugate())                                # exp(i S), S = gamma - o1-o2-o3
         S = phi + (self.platform_angle - self.base_angle - oc[2])
         rs = [k for k, joint in enumerate(self.joints) if joint.kind == "R"]
@@ -585,6 +584,7 @@ class Chain:
             else:
                 l1, l2, l3 = links
                 L1, L2 = abs(l1), abs(l2)
+                E_g = e_phi * turn                                               # exp(i gamma)
                 W = g - E_g * l3
                 W2 = W.real ** 2 + W.imag ** 2
                 c = (W2 - L1 ** 2 - L2 ** 2) / (2 * L1 * L2)
@@ -595,7 +595,7 @@ class Chain:
                 q[0] = np.angle(E_t1 * rot[0].conjugate())
                 q[1] = wrap(beta + (np.angle(l1) - np.angle(l2) - self.joints[1].offset))
                 q[2] = wrap(S - q[0] - q[1])
-                d = [E_t1, E_t1 * E_rel, E_g * rot[2].conjugate() * rot[2]]
+                d = [E_t1, E_t1 * E_rel, E_g]                 # the last frame's angle is gamma
         dirs = tuple(eb * dk for dk in d)
         centres: list[Any] = [self.base_z]
         for k, joint in enumerate(self.joints[:2]):
@@ -653,7 +653,7 @@ class Chain:
 
         >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")), platform=(0.0, 0.0))
         >>> st = chain.state(np.array([3.0, 4.0, 0.0]))
-        >>> st.q.round(6).tolist(), complex(st.f), float(st.B)
+        >>> st.q.round(6).tolist(), complex(np.round(st.f, 12)), round(float(st.B), 12)
         ([0.927295, 5.0, -0.927295], (0.6+0.8j), 1.0)
         """
         poses = np.asarray(poses, dtype=float)

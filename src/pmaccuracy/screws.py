@@ -124,7 +124,7 @@ def pairing(wrench: tuple[np.ndarray, np.ndarray], twist: tuple[np.ndarray, np.n
 
     >>> f, m = np.array(1 + 0j), np.array(0.0)        # unit force along x through the origin
     >>> float(pairing((f, m), revolute_twist(np.array(1j))))  # joint 1 mm above the line: moment arm
-    -1.0
+    1.0
     """
     f, m = wrench
     omega, v = twist
