@@ -30,7 +30,7 @@ Rounding: numpy rounds to nearest; callers widen the final bounds by a relative
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -748,17 +748,78 @@ def leg_half_width_box(chain, leg_sources, lb: LegBox) -> Iv:
     return c
 
 
+#: Most pieces a leg's turning angle is split into by :func:`box_maxima` (near the leg's serial singularity).
+MAX_ANGLE_PIECES = 32
+
+
 def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[float, float, float],
                tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Upper bounds of ``dx, dy, dphi, dp`` (mm, mm, rad, mm) over boxes of poses, refined near serial singularities.
+
+    Same contract as :func:`box_maxima_once` (the bounds), evaluated once; then, in the boxes where a leg's
+    turning angle ``t`` (its first angle variable, ``var[1]`` of :class:`LegBox`) has an enclosure much wider
+    than the box (width ``w_t > 2 s / ell``, ``s`` the box's largest side with phi times the characteristic
+    length ``ell``, mm): a box touching the leg's serial singularity (the workspace boundary where its distal
+    link is normal to the guide, ``B_ii = 0``), where ``t`` varies like the square root of the distance and
+    every enclosure using ``t`` as an independent interval stays loose. There the leg whose ratio
+    ``w_t ell / s`` is largest has ``[t]`` cut into ``K = min(ceil(w_t ell / (2 s)),``
+    :data:`MAX_ANGLE_PIECES` ``)`` equal pieces and the bounds are evaluated once per piece. Every feasible pose of
+    the box has its ``t`` in one piece, so the largest bound over the pieces not proven infeasible encloses the
+    maximum too; the smaller of the two enclosures is returned (both hold).
+    """
+    upper, infeasible, det_zero, t = box_maxima_once(robot, sources, boxes, sigmas, tol)
+    ell = robot.characteristic_length
+    side = np.max((boxes[:, 1::2] - boxes[:, 0::2]) * np.array([1.0, 1.0, ell]), axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(np.isfinite(t[:, :, 1] - t[:, :, 0]), (t[:, :, 1] - t[:, :, 0]) * ell, 0.0) / \
+            np.maximum(side, 1e-300)[:, None]
+    leg = np.argmax(ratio, axis=1)
+    rows = np.arange(boxes.shape[0])
+    pieces = np.minimum(np.ceil(ratio[rows, leg] / 2.0), MAX_ANGLE_PIECES)
+    split = ~infeasible & (pieces >= 2)
+    if not np.any(split):
+        return upper, infeasible, det_zero
+    idx = np.flatnonzero(split)
+    k = pieces[idx].astype(int)
+    rep = np.repeat(idx, k)                                      # one row per piece
+    j = np.arange(rep.size) - np.repeat(np.cumsum(k) - k, k)     # piece number within its box
+    kk = np.repeat(k, k).astype(float)
+    lo, hi = t[rep, leg[rep], 0], t[rep, leg[rep], 1]
+    width = (hi - lo) / kk
+    limits = np.empty((rep.size, len(robot.chains), 2))
+    limits[:, :, 0], limits[:, :, 1] = -np.inf, np.inf
+    limits[np.arange(rep.size), leg[rep], 0] = np.where(j == 0, lo, lo + j * width)
+    limits[np.arange(rep.size), leg[rep], 1] = np.where(j == kk - 1, hi, lo + (j + 1) * width)
+    up_p, inf_p, dz_p, _ = box_maxima_once(robot, sources, boxes[rep], sigmas, tol, limits)
+    up_p = np.where(inf_p[:, None], 0.0, up_p)                   # pieces holding no feasible pose
+    up_s = np.zeros((idx.size, 4))
+    np.maximum.at(up_s, np.searchsorted(idx, rep), up_p)
+    all_inf = np.ones(idx.size, dtype=bool)
+    np.logical_and.at(all_inf, np.searchsorted(idx, rep), inf_p)
+    dz_s = np.zeros(idx.size, dtype=bool)
+    np.logical_or.at(dz_s, np.searchsorted(idx, rep), dz_p & ~inf_p)
+    upper, infeasible, det_zero = upper.copy(), infeasible.copy(), det_zero.copy()
+    upper[idx] = np.minimum(upper[idx], up_s)
+    infeasible[idx] = all_inf
+    det_zero[idx] = det_zero[idx] & dz_s
+    return upper, infeasible, det_zero
+
+
+def box_maxima_once(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[float, float, float],
+                    tol: float = 1e-9, angle_limits: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Upper bounds of ``dx, dy, dphi, dp`` (mm, mm, rad, mm) over boxes of poses.
 
     Parameters
     ----------
     boxes : ``(n, 6)`` ``[x0, x1, y0, y1, phi0, phi1]`` mm, mm, rad
     sigmas : each leg's IK branch (the root sign of its working mode)
+    angle_limits : optional ``(n, 3, 2)`` rad: only the poses whose leg ``i`` turning angle ``t`` (``var[1]``)
+        lies in ``[lo, hi]`` count (``-inf, inf``: no limit); ``[t]`` is intersected with it
 
     Returns ``upper (n, 4)`` (``+inf`` where ``det A`` may vanish), ``infeasible (n,)``
-    (no pose of the box is in the workspace) and ``det_has_zero (n,)``.
+    (no pose of the box, with the angle limits, is in the workspace), ``det_has_zero (n,)`` and each leg's
+    ``[t]`` ``(n, 3, 2)`` rad.
     With ``c_i`` the half-width intervals and ``A^-1 = adj(A) / det A``::
 
         dx <= sum_i c_i^hi |A^-1[0, i]|^hi                  (likewise dy, dphi)
@@ -767,11 +828,17 @@ def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[fl
     x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
     n = boxes.shape[0]
     infeasible = np.zeros(n, dtype=bool)
-    rows, rows_iv, cs = [], [], []
+    rows, rows_iv, cs, t_encl = [], [], [], []
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         gvar = [phi]
         for i, (chain, leg, sigma) in enumerate(zip(robot.chains, sources.legs, sigmas)):
             lb = leg_box_state(chain, x, y, phi, sigma, tol)
+            if angle_limits is not None:
+                t = lb.var[1]
+                t = Iv(np.maximum(t.lo, angle_limits[:, i, 0]), np.minimum(t.hi, angle_limits[:, i, 1]))
+                lb = _wrench(chain, replace(lb, var=(lb.var[0], t) + tuple(lb.var[2:]),
+                                            infeasible=lb.infeasible | t.empty()), n)
+            t_encl.append((np.broadcast_to(lb.var[1].lo, (n,)), np.broadcast_to(lb.var[1].hi, (n,))))
             infeasible |= lb.infeasible
             index = (0, 1 + 3 * i, 2 + 3 * i, 3 + 3 * i)
             gvar.extend(lb.var[1:])
@@ -826,4 +893,5 @@ def box_maxima(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[fl
             best = np.maximum(best, np.sqrt(iv_sqr(vx).hi + iv_sqr(vy).hi))
         upper[:, 3] = best
     upper = np.where(det_zero[:, None] | np.isnan(upper), np.inf, upper)
-    return upper, infeasible, det_zero
+    t_out = np.stack([np.stack(p, axis=-1) for p in t_encl], axis=1)
+    return upper, infeasible, det_zero, t_out
