@@ -240,3 +240,28 @@ def test_no_error_source_gives_zero():
     res = C.certified_pose_errors("aalborg_3ppr", "none", PAPER_POSE)
     for q in C.QUANTITIES:
         assert res.upper[q][0] == 0.0 and res.lower[q][0] == 0.0 and res.gap[q][0] == 0.0
+
+
+def test_cut_pieces_cover_the_source_sets():
+    """The branch and bound's cuts: every sampled point of an interval or a lateral rhombus ``|L tau +- 2 sigma|
+    <= 2 eps`` lies in one of the children (same kind, the children's half-width, about their centres)."""
+    rng = np.random.default_rng(5)
+    eps, L = 0.004, 30.0
+    for s in (C.SourceSet("interval", 0, 0, "turn", eps, (0,)),
+              C.SourceSet("rhombus", 0, 0, "lateral", eps, (0, 1), L)):
+        centres, half = C._children(s)
+        if s.kind == "interval":
+            pts = rng.uniform(-eps, eps, (5000, 1))
+            inside = np.abs(pts[:, None, 0] - centres[None, :, 0]) <= half * (1 + 1e-12)
+        else:
+            # uniform in the square of the edge coordinates a = (2 sigma + L tau) / (2 eps), b = (2 sigma - L tau)
+            # / (2 eps), mapped back to (sigma, tau)
+            ab = rng.uniform(-1, 1, (5000, 2))
+            pts = np.column_stack([eps * (ab[:, 0] + ab[:, 1]) / 2, eps * (ab[:, 0] - ab[:, 1]) / L])
+            d = pts[:, None, :] - centres[None, :, :]
+            inside = ((np.abs(L * d[..., 1] + 2 * d[..., 0]) <= 2 * half * (1 + 1e-12))
+                      & (np.abs(L * d[..., 1] - 2 * d[..., 0]) <= 2 * half * (1 + 1e-12)))
+        assert np.all(np.any(inside, axis=1)), s.kind
+        assert half == eps / 2
+    with pytest.raises(ValueError):
+        C._children(C.SourceSet("disk", 0, 0, "shift", eps, (0, 1)))
