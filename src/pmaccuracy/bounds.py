@@ -71,14 +71,15 @@ class PoseErrorBounds:
     -------------------------------------------------
     poses : ``(..., 3)`` [mm, mm, rad]
     dx_max, dy_max, dp_max : ``(...)`` mm;  dphi_max : ``(...)`` rad
-    half_widths : ``(..., 3)`` ``c_i``, bound of leg ``i``'s row of ``A [dp; dphi]`` (mm)
-    generators : ``(..., 3, 3)`` columns ``g_i = c_i A^-1[:, i]`` of the error zonotope
-    dp_signs : ``(..., 3)`` the vertex ``t`` attaining ``dp_max``
+    half_widths : ``(..., 3)`` ``c_i``, bound of leg ``i``'s row of ``A [dp; dphi]`` (mm); with ``details``
+    generators : ``(..., 3, 3)`` columns ``g_i = c_i A^-1[:, i]`` of the error zonotope; with ``details``
+    dp_signs : ``(..., 3)`` the vertex ``t`` attaining ``dp_max``; with ``details``
     method : ``"exact"`` or ``"slsqp"``
     worst, worst_variations : maximizing clearance displacements and parameter
         variations per quantity (with ``details=True``; 3-PPR clearance format)
     worst_signs : per quantity, the signs ``t_i`` ``(..., 3)`` of each leg's share ``e_i = t_i c_i`` at the
-        maximum (per-joint sources of any architecture: each source then sits at its own extreme)
+        maximum (per-joint sources of any architecture: each source then sits at its own extreme); with
+        ``details`` (empty otherwise: only the four result arrays are built)
     """
 
     poses: np.ndarray
@@ -453,8 +454,8 @@ def _generic_bounds(robot: Manipulator, sources, poses: np.ndarray, flat: np.nda
             res[q][k:k + CHUNK] = getattr(block, q) if every else np.where(regular, getattr(block, q), np.nan)
         for key, arr in extra.items():
             value = block.details[key]
-            arr[k:k + CHUNK] = value if key.startswith(("s_", "t", "c")) else \
-                np.where(regular[:, None, None], value, np.nan)
+            # the generators are NaN where the pose is not regular; half-widths and signs are kept
+            arr[k:k + CHUNK] = np.where(regular[:, None, None], value, np.nan) if key == "G" else value
     shaped = lambda a, tail=(): a.reshape(lead + tail)  # noqa: E731
     return PoseErrorBounds(poses=poses, dx_max=shaped(res["dx"]), dy_max=shaped(res["dy"]),
                            dphi_max=shaped(res["dphi"]), dp_max=shaped(res["dp"]),

@@ -86,15 +86,7 @@ def _nonnegative_float(text: str) -> float:
     return value
 
 
-def _nonnegative_int(text: str) -> int:
-    """argparse type: a whole number >= 0."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must not be negative: {text!r}")
-    return value
+_nonnegative_int = _common.nonnegative_int
 
 
 def _max_dot(text: str) -> float:
