@@ -202,10 +202,7 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         extra = None if measured is None else np.asarray(measured[mkey], dtype=float)
         rng = colour_range(values, extra)
         _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra)
-        finite = values[np.isfinite(values)]
-        panel_title = f"{prefix}{label} [{units}]"
-        if finite.size and float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300):
-            panel_title += f": constant, {float(finite.max()):.4g} {units}"
+        panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
         if measured is not None:
             ax.scatter(measured["x"], measured["y"], c=extra, cmap="viridis", vmin=rng.lo, vmax=rng.hi, s=30,
                        edgecolors="black", linewidths=0.9, label="measured", zorder=3)
@@ -323,6 +320,15 @@ class Renderer:
             self._pool.shutdown(wait=True, cancel_futures=exc_type is not None)
 
 
+def constant_note(values: np.ndarray, units: str) -> str:
+    """``": constant, V units"`` for a field whose finite values are all equal (to 1e-9 relative), else ``""``:
+    a panel title says so instead of showing a flat colour against a meaningless colour bar."""
+    finite = np.asarray(values)[np.isfinite(values)]
+    if finite.size and float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300):
+        return f": constant, {float(finite.max()):.4g} {units}"
+    return ""
+
+
 def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]], *, suptitle: str,
                 shared_scale: bool = False, ncols: int | None = None) -> Figure:
     """Several scalar fields side by side: each panel is ``(x (n,), y (m,), Z (m, n), title, units)``.
@@ -339,7 +345,7 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
     for (ax, cax), (x, y, Z, title, units) in zip(cells, panels):
         _draw_field(fig, ax, cax, x, y, Z, "", units, rng=common, contours=False)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title + constant_note(Z, units), fontsize=10)
         ax.set_xlabel("x [mm]", fontsize=9)
         ax.set_ylabel("y [mm]", fontsize=9)
         ax.tick_params(labelsize=8)
