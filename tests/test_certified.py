@@ -249,7 +249,9 @@ def test_cut_pieces_cover_the_source_sets():
     eps, L = 0.004, 30.0
     for s in (C.SourceSet("interval", 0, 0, "turn", eps, (0,)),
               C.SourceSet("rhombus", 0, 0, "lateral", eps, (0, 1), L)):
-        centres, half = C._children(s)
+        kids = C._children(s, np.zeros(len(s.cols)))
+        centres, half = np.array([c for _, c in kids]), kids[0][0].eps
+        assert all(k.kind == s.kind and k.eps == half for k, _ in kids)
         if s.kind == "interval":
             pts = rng.uniform(-eps, eps, (5000, 1))
             inside = np.abs(pts[:, None, 0] - centres[None, :, 0]) <= half * (1 + 1e-12)
@@ -263,5 +265,67 @@ def test_cut_pieces_cover_the_source_sets():
                       & (np.abs(L * d[..., 1] - 2 * d[..., 0]) <= 2 * half * (1 + 1e-12)))
         assert np.all(np.any(inside, axis=1)), s.kind
         assert half == eps / 2
-    with pytest.raises(ValueError):
-        C._children(C.SourceSet("disk", 0, 0, "shift", eps, (0, 1)))
+
+
+def _in_rect(piece, centre, pts):
+    """Plain test of ``pts`` ``(P, 2)`` inside a rect piece: its axes written out here."""
+    d = pts - centre
+    ur = np.array([np.cos(piece.angle), np.sin(piece.angle)])
+    ut = np.array([-np.sin(piece.angle), np.cos(piece.angle)])
+    return (np.abs(d @ ur) <= piece.eps * (1 + 1e-12)) & (np.abs(d @ ut) <= piece.eps_t * (1 + 1e-12))
+
+
+def _in_sector(piece, pts):
+    theta, half, r1, r2, ox, oy = piece.sector
+    d = pts - np.array([ox, oy])
+    r = np.hypot(d[:, 0], d[:, 1])
+    t = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - theta)))
+    return (r >= r1 * (1 - 1e-12)) & (r <= r2 * (1 + 1e-12)) & (np.abs(t) <= half * (1 + 1e-12))
+
+
+def test_cut_disks_are_covered_by_sector_rectangles():
+    """A disk's cut: every point of the disk lies in one child's sector and every sector point in the child's
+    rectangle (the set that is certified); three more levels of cuts keep covering (uniform sampling)."""
+    rng = np.random.default_rng(8)
+    eps = 0.3
+    disk = C.SourceSet("disk", 0, 0, "shift", eps, (0, 1))
+    r, t = eps * np.sqrt(rng.uniform(size=20000)), rng.uniform(0, 2 * np.pi, 20000)
+    pts = np.column_stack([r * np.cos(t), r * np.sin(t)])
+    level = C._children(disk, np.zeros(2))
+    assert len(level) == C.DISK_SECTORS and all(k.kind == "rect" for k, _ in level)
+    for depth in range(4):
+        in_sector = np.stack([_in_sector(k, pts) for k, _ in level])
+        assert np.all(in_sector.any(axis=0)), depth  # the sectors cover the disk
+        for (k, c), mask in zip(level, in_sector):
+            assert np.all(_in_rect(k, c, pts[mask])), depth  # each rectangle holds its sector
+            assert k.eps <= eps and k.eps_t <= eps
+        level = [kid for k, c in level for kid in C._children(k, c)]
+    # the pieces shrink: after four levels no rectangle is wider than half the radius
+    assert max(max(k.eps, k.eps_t) for k, _ in level) <= eps / 2
+
+
+def test_rect_support_constraints_and_projection():
+    """A rect piece's support function and maximizer, quadratic constraints and projection against sampling."""
+    rng = np.random.default_rng(9)
+    disk = C.SourceSet("disk", 0, 0, "shift", 0.2, (0, 1))
+    piece, centre = C.sector_rect(disk, 0.7, np.pi / 8, 0.05, 0.2, (0.0, 0.0))
+    sets = (piece,)
+    ur = np.array([np.cos(piece.angle), np.sin(piece.angle)])
+    ut = np.array([-np.sin(piece.angle), np.cos(piece.angle)])
+    a, b = rng.uniform(-1, 1, (20000, 1)), rng.uniform(-1, 1, (20000, 1))
+    a, b = np.concatenate([a, [[1], [1], [-1], [-1]]]), np.concatenate([b, [[1], [-1], [1], [-1]]])  # + corners
+    inside = a * piece.eps * ur + b * piece.eps_t * ut  # about the piece's centre
+    for c in rng.normal(size=(20, 2)):
+        h = C.support(sets, c[None])[0]
+        assert abs(h - np.max(inside @ c)) <= 1e-12
+        arg = C.argsupport(sets, c[None])[0]
+        assert abs(arg @ c - h) <= 1e-12 and np.all(_in_rect(piece, np.zeros(2), arg[None]))
+    P = C.constraint_matrices(sets)
+    q = np.einsum("pi,kij,pj->pk", inside, P, inside)
+    assert np.all(q <= 1 + 1e-9)
+    outside = inside * 1.05
+    far = ~_in_rect(piece, np.zeros(2), outside)
+    assert np.all(np.max(np.einsum("pi,kij,pj->pk", outside[far], P, outside[far]), axis=1) > 1)
+    proj = C.project(sets, rng.normal(scale=0.5, size=(500, 2)))
+    assert np.all(_in_rect(piece, np.zeros(2), proj))
+    assert C._contains_zero(sets, np.zeros((1, 2)))[0] and not C._contains_zero(sets, (2 * piece.eps * ur)[None])[0]

@@ -106,33 +106,36 @@ scale``.
 Cutting the set. Where the bound is not certified or exceeds the best feasible value by more than
 0.5 %, :func:`certified_pose_errors` bounds again over ``2^split`` pieces (:func:`_split_bounds`: the
 interval sources that turn the chains most are halved; each piece is expanded about the exact closure at its
-centre, so its remainder terms shrink) and keeps the smaller valid bound. A certified bound still more
-than ``split_gap`` above the best feasible value is tightened by branch and bound
-(:func:`_branch_and_bound`): the pieces whose bound exceeds the target are cut again (interval sources
-halved, lateral rhombi quartered into half-size rhombi -- both exact partitions; disks are not cut) along
-the source that turns the chains most, each child bounded about its own exact centre, until all are within
-the target, a round shrinks the excess by less than ``STALL`` or ``max_pieces`` pieces have been bounded;
-the bound is the largest over the leaves. It only tightens poses already certified.
+centre, so its remainder terms shrink) and keeps the smaller valid bound. A bound still missing, or more
+than ``split_gap`` above the best feasible value, goes to branch and bound (:func:`_branch_and_bound`):
+every piece not yet used or above the target is cut along its source of largest turning weight (intervals
+halved and lateral rhombi quartered, both exact partitions; a disk covered by :data:`DISK_SECTORS` sectors,
+each certified as the rectangle that contains it, :func:`sector_rect`, and a sector halved in angle or
+radius), each child bounded about its own exact centre, until all are within the target or ``max_pieces``
+pieces have been bounded. The bound is the largest over the leaves, which cover ``S``, of each leaf's own
+bound capped by those of its used ancestors (an ancestor's bound holds over the leaf's part of ``S``; the
+sector rectangles stick out of their disk, so a first cut can be looser than its parent). A pose whose whole set could not be
+certified is certified this way when every leaf is used. The extreme points of every used piece are solved
+exactly too and raise the best feasible values (and so the targets) as it goes.
 
 Continuation check. A piece's certificate proves one solution in a box about the Newton solution at its
-centre, unique there, but Newton's method could have converged to another solution branch. Each piece is
-therefore used only if its solution is shown to be the commanded assembly's continuation
-(:func:`_continues`), by one of two arguments; otherwise it counts as not certified (the branch and bound may
-still cut it and check its children against the same ancestor; a set with an unused piece keeps its uncut
-bound, or is refused if it has none; ``rejected`` counts such pieces). (a) *Inside the parent*: the parent
-(the whole set, or the nearest used ancestor in the branch and bound) contains the piece and its solution is
-the continuation and unique in the parent's box ``|Dz - dz_p - M_p (delta - c_p)| <= b_p``. At the piece's
-centre ``c`` its own solution lies in ``|Dz - dz| <= bc`` (``bc``: equation (3) iterated at ``delta = c``,
-where the ``h_S`` terms vanish, starting from ``b``); if ``|dz - dz_p - M_p (c - c_p)| + bc <= b_p`` this box
-lies in the parent's, so by the parent's uniqueness the piece's solution at ``c`` is the continuation. (b)
-*Through the commanded configuration*: where the piece contains ``delta = 0`` (the four pieces of the cut
-always do) and the set ``{0}`` has its own certificate ``|Dz| <= b0`` (:func:`_point_box`, the commanded
-assembly, rounding-size), if ``b0`` lies in the piece's box at ``delta = 0``, ``|-dz + M c| + b0 <= b``, the
-piece's unique solution there is the commanded assembly. In both cases the piece's solution and the
-continuation are continuous solution branches on the connected piece with ``J_z`` invertible (contraction),
-equal at one point, so equal on the whole piece (implicit function theorem: the set where they agree is
-open and closed). Measured: no piece rejected on the paper robot or the random robots of the tests at 1x
-and 10x (bounds unchanged); a Newton solution moved to another branch (test) is rejected.
+centre, unique there, but Newton's method could have converged to another solution branch. A piece is
+therefore used only if its solution is shown to be the commanded assembly's continuation; otherwise it
+counts as not certified (it may be cut again; a set with an unused piece keeps its uncut bound, or is
+refused if it has none; ``rejected`` counts such pieces). The argument: some point ``d`` of the piece has
+a proven box of the continuation (an *anchor*) that lies inside the piece's box ``|Dz - dz - M (d - c)| <=
+b`` at ``d``; by the piece's uniqueness its solution at ``d`` is then the continuation. The first anchor is
+the commanded assembly, ``|Dz| <= b0`` at ``d = 0`` (:func:`_point_box`, rounding-size); the four pieces of
+the first cut and the root of the branch and bound contain ``d = 0``. Every used piece adds anchors: its
+centre (``|Dz - dz| <= bc``, ``bc``: equation (3) iterated at ``delta = c``, where the ``h_S`` terms
+vanish) and the centre ``c_P`` of every cut piece it contains (every child of ``P`` contains ``c_P``):
+Newton's method at ``c_P`` and a point certificate there (:func:`_point_anchor`) whose box lies in the used
+piece's box. (In :func:`_split_bounds` a piece may also be checked *inside the parent*: its centre box in
+the whole set's certified box, :func:`_continues`.) The piece's solution and the continuation are
+continuous solution branches on the connected piece with ``J_z`` invertible (contraction), equal at one
+point, so equal on the whole piece (implicit function theorem: the set where they agree is open and
+closed). Measured: no piece rejected on the paper robot or the random robots of the tests at 1x and 10x; a
+Newton solution moved to another branch (test) is rejected.
 
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
@@ -164,8 +167,6 @@ MU_FACTOR, MU_EVERY = 0.3, 4
 #: Largest accepted Lipschitz constant of the remainder map on the certified box (any value below 1 proves
 #: uniqueness; the margin covers the rounding of its estimate).
 CONTRACTION = 0.9
-#: :func:`_branch_and_bound` stops when a round of cuts shrinks the excess over the target by less than this factor.
-STALL = 0.8
 
 
 # ============================================================================ error set
@@ -173,10 +174,14 @@ STALL = 0.8
 class SourceSet:
     """One independent source of the error set (module docstring, "Error set").
 
-    kind : ``"interval"``, ``"disk"`` or ``"rhombus"``
+    kind : ``"interval"``, ``"disk"``, ``"rhombus"`` or ``"rect"`` (a piece of a cut disk, below)
     leg, joint : 0-based indices;  field : ``"turn"``, ``"dq"``, ``"dl"``, ``"shift"`` or ``"lateral"``
     eps : half-width (mm or rad); block_length : L (mm) of a rhombus
     cols : indices of its parameters in ``delta`` (1 or 2; disk ``(dx, dy)``, rhombus ``(sigma, tau)``)
+    angle, eps_t, sector : only for a ``"rect"``: the rectangle ``|u_r . d| <= eps``, ``|u_t . d| <= eps_t``
+        about its centre (``u_r = (cos angle, sin angle)``, ``u_t`` = ``u_r`` turned by +90 deg, mm) that
+        contains the annular sector ``sector = (theta_c, half, r1, r2, ox, oy)`` of the cut disk
+        ``{o + r (cos t, sin t): r1 <= r <= r2, |t - theta_c| <= half}`` (:func:`sector_rect`)
     """
 
     kind: str
@@ -186,6 +191,9 @@ class SourceSet:
     eps: float
     cols: tuple[int, ...]
     block_length: float = 0.0
+    angle: float = 0.0
+    eps_t: float = 0.0
+    sector: tuple[float, ...] = ()
 
 
 def error_set(robot, sources) -> tuple[SourceSet, ...]:
@@ -215,6 +223,9 @@ def support(sets: tuple[SourceSet, ...], c: np.ndarray) -> np.ndarray:
             h = h + s.eps * np.abs(c[..., s.cols[0]])
         elif s.kind == "disk":
             h = h + s.eps * np.hypot(c[..., s.cols[0]], c[..., s.cols[1]])
+        elif s.kind == "rect":
+            cr, ct = _rect_coords(s, c[..., s.cols[0]], c[..., s.cols[1]])
+            h = h + s.eps * np.abs(cr) + s.eps_t * np.abs(ct)
         else:
             h = h + np.maximum(s.eps * np.abs(c[..., s.cols[0]]),
                                2 * s.eps / s.block_length * np.abs(c[..., s.cols[1]]))
@@ -235,6 +246,11 @@ def argsupport(sets: tuple[SourceSet, ...], c: np.ndarray) -> np.ndarray:
             safe = np.where(norm > 0, norm, 1.0)
             d[..., s.cols[0]] = np.where(norm > 0, s.eps * cx / safe, s.eps)
             d[..., s.cols[1]] = np.where(norm > 0, s.eps * cy / safe, 0.0)
+        elif s.kind == "rect":
+            cr, ct = _rect_coords(s, c[..., s.cols[0]], c[..., s.cols[1]])
+            ar, at = s.eps * sgn(cr), s.eps_t * sgn(ct)
+            d[..., s.cols[0]] = ar * math.cos(s.angle) - at * math.sin(s.angle)
+            d[..., s.cols[1]] = ar * math.sin(s.angle) + at * math.cos(s.angle)
         else:
             tilt = 2 * s.eps / s.block_length
             shift_wins = s.eps * np.abs(c[..., s.cols[0]]) >= tilt * np.abs(c[..., s.cols[1]])
@@ -243,10 +259,41 @@ def argsupport(sets: tuple[SourceSet, ...], c: np.ndarray) -> np.ndarray:
     return d
 
 
+def _rect_coords(s: SourceSet, x, y):
+    """The components ``(u_r . v, u_t . v)`` of ``v = (x, y)`` on a rect's axes (:class:`SourceSet`)."""
+    ca, sa = math.cos(s.angle), math.sin(s.angle)
+    return ca * x + sa * y, -sa * x + ca * y
+
+
+def sector_rect(s: SourceSet, theta_c: float, half: float, r1: float, r2: float, origin) -> tuple[SourceSet,
+                                                                                                   np.ndarray]:
+    """The rectangle piece of disk source ``s`` covering the annular sector ``{o + r (cos t, sin t): r1 <= r <=
+    r2, |t - theta_c| <= half}`` (``half <= pi / 4``, mm and rad) and its centre ``(2,)`` (absolute, mm).
+
+    In the sector's own axes (radial ``u_r`` at ``theta_c``, tangential ``u_t``) every point has radial
+    coordinate ``r cos(t - theta_c)`` in ``[r1 cos(half), r2]`` and tangential coordinate ``r sin(t - theta_c)``
+    in ``[-r2 sin(half), r2 sin(half)]``, so the rectangle of these ranges contains it: centre ``o + (r2 + r1
+    cos half) / 2 u_r``, half-widths ``(r2 - r1 cos half) / 2`` and ``r2 sin half``. Its outer side is tangent
+    to the circle ``r2``; it leaves the disk only by its corners, at radius ``r2 / cos(half)``.
+
+    >>> s = SourceSet("disk", 0, 0, "shift", 1.0, (0, 1))
+    >>> piece, c = sector_rect(s, 0.0, math.pi / 8, 0.0, 1.0, (0.0, 0.0))
+    >>> round(piece.eps, 3), round(piece.eps_t, 3), c.round(3).tolist()
+    (0.5, 0.383, [0.5, 0.0])
+    """
+    lo = r1 * math.cos(half)
+    centre = np.asarray(origin, dtype=float) + (r2 + lo) / 2 * np.array([math.cos(theta_c), math.sin(theta_c)])
+    piece = SourceSet("rect", s.leg, s.joint, s.field, (r2 - lo) / 2, s.cols, 0.0, float(theta_c),
+                      r2 * math.sin(half), (float(theta_c), float(half), float(r1), float(r2),
+                                             float(origin[0]), float(origin[1])))
+    return piece, centre
+
+
 def constraint_matrices(sets: tuple[SourceSet, ...]) -> np.ndarray:
     """``S`` as quadratic constraints ``delta^T P_k delta <= 1``, ``P`` ``(K, n, n)`` (PSD): an interval
     ``e e^T / eps^2``, a disk ``(e_x e_x^T + e_y e_y^T) / eps^2``, a rhombus ``a a^T`` for its two directions
-    ``a = e_sigma / eps +- e_tau L / (2 eps)``; their intersection is exactly ``S``."""
+    ``a = e_sigma / eps +- e_tau L / (2 eps)``, a rect ``a a^T`` for ``a = u_r / eps`` and ``u_t / eps_t``;
+    their intersection is exactly ``S``."""
     n = sum(len(x.cols) for x in sets)
     out = []
     for s in sets:
@@ -258,6 +305,11 @@ def constraint_matrices(sets: tuple[SourceSet, ...]) -> np.ndarray:
             P = np.zeros((n, n))
             P[s.cols[0], s.cols[0]] = P[s.cols[1], s.cols[1]] = 1 / s.eps ** 2
             out.append(P)
+        elif s.kind == "rect":
+            for ang, h in ((s.angle, s.eps), (s.angle + math.pi / 2, s.eps_t)):
+                a = np.zeros(n)
+                a[s.cols[0]], a[s.cols[1]] = math.cos(ang) / h, math.sin(ang) / h
+                out.append(np.outer(a, a))
         else:
             for sign in (1.0, -1.0):
                 a = np.zeros(n)
@@ -287,6 +339,18 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     :func:`_dual_value` (with its rounding margin); ``inf`` where none did. ``g`` ``(..., n)``, ``H``
     ``(..., n, n)`` (symmetric); returns ``(...)``.
     """
+    batch = g.shape[:-1]
+    if g.shape[-1] == 0:  # no source: the maximum is 0
+        return np.zeros(batch)
+    if len(batch) != 1:  # one flat batch (the line search works on subsets of rows)
+        n_ = g.shape[-1]
+        return _dual_bound_flat(sets, g.reshape(-1, n_), np.broadcast_to(H, batch + (n_, n_)).reshape(-1, n_, n_),
+                                refine, iterations).reshape(batch)
+    return _dual_bound_flat(sets, g, H, refine, iterations)
+
+
+def _dual_bound_flat(sets, g: np.ndarray, H: np.ndarray, refine: bool, iterations: int) -> np.ndarray:
+    """:func:`dual_bound` for ``g`` ``(B, n)``, ``H`` ``(B, n, n)``."""
     P = constraint_matrices(sets)
     K, n = P.shape[0], P.shape[-1]
     if n == 0:
@@ -301,6 +365,10 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
         elif s.kind == "disk":
             lam[..., k] = s.eps * np.hypot(g[..., s.cols[0]], g[..., s.cols[1]]) / 2
             k += 1
+        elif s.kind == "rect":
+            gr, gt = _rect_coords(s, g[..., s.cols[0]], g[..., s.cols[1]])
+            lam[..., k], lam[..., k + 1] = s.eps * np.abs(gr) / 2, s.eps_t * np.abs(gt) / 2
+            k += 2
         else:
             A = np.array([[1 / s.eps, s.block_length / (2 * s.eps)], [1 / s.eps, -s.block_length / (2 * s.eps)]])
             gt = np.einsum("ij,...j->...i", np.linalg.inv(A).T, g[..., list(s.cols)])
@@ -311,14 +379,15 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     unit = Hnorm / Pnorm + 1e-300  # (..., K): a lambda of this size dominates H
     lam = np.maximum(lam, 1e-12 * unit)
     # grow lambda until Lambda - H is positive definite
-    t = np.zeros(lam.shape[:-1] + (1,))
-    for _ in range(60):
-        val, pd, _, _ = _dual_value(P, g, H, lam + t * unit)
-        if np.all(pd):
-            break
-        t = np.where(pd[..., None], t, np.where(t > 0, 2 * t, 1e-6))
-    lam = lam + t * unit
     val, pd, _, _ = _dual_value(P, g, H, lam)
+    todo, t = np.flatnonzero(~pd), 1e-6
+    for _ in range(30):  # t = 1e-6 * 4^k on the rows still not positive definite
+        if not todo.size:
+            break
+        v, ok, _, _ = _dual_value(P, g[todo], H[todo], lam[todo] + t * unit[todo])
+        lam[todo[ok]] += t * unit[todo[ok]]
+        val[todo[ok]], pd[todo[ok]] = v[ok], True
+        todo, t = todo[~ok], 4 * t
     best = np.where(pd, val, np.inf)
     if not refine:
         return best
@@ -341,6 +410,7 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     gl = np.where(live[..., None], g, 0.0)
     Hl = np.where(live[..., None, None], H, -np.eye(n))
     cur, _ = barrier_value(lam, gl, Hl, mu)
+    checkpoint = best.copy()
     for it in range(iterations):
         L = (lam @ Pflat).reshape(lam.shape[:-1] + (n, n)) - Hl
         Linv = np.linalg.inv(L)
@@ -357,15 +427,24 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
         dl = np.where(np.isfinite(dl), dl, 0.0)
         with np.errstate(all="ignore"):  # fraction to the boundary lambda > 0
             tmax = np.minimum(1.0, 0.9 * np.min(np.where(dl < 0, lam / -dl, np.inf), axis=-1))
-        cand = lam[..., None, :] + (tmax[..., None] * steps)[..., None] * dl[..., None, :]
-        bv, pv = barrier_value(cand, gl[..., None, :], Hl[..., None, :, :], mu[..., None, :])
-        pick = np.argmin(bv, axis=-1)
-        newb = np.take_along_axis(bv, pick[..., None], axis=-1)[..., 0]
-        best = np.fmin(best, np.where(live, np.min(pv, axis=-1), np.inf))
-        better = newb < cur
-        lam = np.where(better[..., None], np.take_along_axis(cand, pick[..., None, None], axis=-2)[..., 0, :], lam)
-        cur = np.where(better, newb, cur)
+        # backtracking: the longest of the steps tmax * 2^-k that lowers the barrier (rows that still need one)
+        todo = np.flatnonzero(live)
+        for step in steps:
+            cand = lam[todo] + (tmax[todo] * step)[:, None] * dl[todo]
+            bv, pv = barrier_value(cand, gl[todo], Hl[todo], mu[todo])
+            best[todo] = np.fmin(best[todo], pv)
+            better = bv < cur[todo]
+            lam[todo[better]] = cand[better]
+            cur[todo[better]] = bv[better]
+            todo = todo[~better]
+            if not todo.size:
+                break
         if it % MU_EVERY == MU_EVERY - 1:
+            # converged: the bound moved by less than 1e-7 (relative) over the last MU_EVERY steps
+            with np.errstate(all="ignore"):
+                if it > MU_EVERY and np.all(~live | (np.abs(checkpoint - best) <= 1e-7 * np.abs(best))):
+                    break
+            checkpoint = best.copy()
             mu = mu * MU_FACTOR
             cur, _ = barrier_value(lam, gl, Hl, mu)
     return best
@@ -411,6 +490,11 @@ def project(sets: tuple[SourceSet, ...], delta: np.ndarray) -> np.ndarray:
             f = np.where(norm > s.eps, s.eps / np.where(norm > 0, norm, 1.0), 1.0)
             d[..., s.cols[0]] *= f
             d[..., s.cols[1]] *= f
+        elif s.kind == "rect":
+            cr, ct = _rect_coords(s, d[..., s.cols[0]], d[..., s.cols[1]])
+            cr, ct = np.clip(cr, -s.eps, s.eps), np.clip(ct, -s.eps_t, s.eps_t)
+            d[..., s.cols[0]] = cr * math.cos(s.angle) - ct * math.sin(s.angle)
+            d[..., s.cols[1]] = cr * math.sin(s.angle) + ct * math.cos(s.angle)
         else:
             # in u = 2 sigma / (2 eps), t = L tau / (2 eps) the rhombus is |u + t| <= 1, |u - t| <= 1: clip the
             # rotated coordinates (a projection in this scaled metric, enough for a feasible point)
@@ -658,11 +742,13 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
     return out
 
 
-def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None, max_iterations: int = 60
-             ) -> dict:
+def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None, max_iterations: int = 60,
+             target: dict | None = None) -> dict:
     """The certificate of :func:`remainder_bounds` for a built model (equations (2)-(5)); ``offset`` ``(N, 9)``
     is added to every bounded change (the exact change at the centre of a piece of the error set,
-    :func:`_split_bounds`)."""
+    :func:`_split_bounds`). With ``target`` ``{q: float}`` (mm, rad) the interior-point refinement of
+    :func:`dual_bound` is skipped for the rows and directions whose cheaper bound is already below it (the
+    branch and bound only needs a piece below its target; every value returned is still a valid bound)."""
     N, n = model.z0.shape[0], model.n
     offset = np.zeros((N, 9)) if offset is None else offset
     J = model.jacobian(np.zeros((N, 9 + n)))
@@ -730,7 +816,8 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
     quad_w = np.full((N, 18), np.inf)
     if oi.size:
         cw, cpw, Hw = pieces(np.concatenate([kappa[oi], -kappa[oi]], axis=1), oi)
-        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw) - np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
+        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw, iterations=40 if target is None else 12
+                                ) - np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
 
     def phi2(b):
         out = phi(b)
@@ -789,7 +876,14 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         kap_rows = np.stack([kappa[ci, j, :] for j in range(3)] + [-kappa[ci, j, :] for j in range(3)], axis=1)
         g_rows = np.concatenate([M[ci, :3, :], -M[ci, :3, :]], axis=1)
         f_rows = np.concatenate([JinvF0[ci, :3] - offset[ci, :3], -JinvF0[ci, :3] + offset[ci, :3]], axis=1)
-        ub = row_bound(kap_rows, g_rows, f_rows, ci)  # (N', 6)
+        if target is None:
+            ub = row_bound(kap_rows, g_rows, f_rows, ci)  # (N', 6)
+        else:  # the refined bound only for the rows still above their target
+            ub = row_bound(kap_rows, g_rows, f_rows, ci, refine=False)
+            t_rows = np.array([target[q] for q in ("dx", "dy", "dphi")] * 2) / (1 + 1e-6)
+            for k in np.flatnonzero(np.any(ub > t_rows, axis=-1)):
+                r = np.flatnonzero(ub[k] > t_rows)
+                ub[k, r] = row_bound(kap_rows[k:k + 1, r], g_rows[k:k + 1, r], f_rows[k:k + 1, r], ci[k:k + 1])[0]
         for j, q in enumerate(("dx", "dy", "dphi")):
             upper[q][ci] = np.maximum(ub[:, j], ub[:, 3 + j])
         # |dp| <= max_k u_k . p / cos(pi / K) through K directions: the cheap bound of every direction, then the
@@ -800,19 +894,20 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         g_u = np.einsum("kr,nrd->nkd", u, M[ci, :2, :])
         f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2] - offset[ci, :2])
         ub = row_bound(kap_u, g_u, f_u, ci, refine=False)
+        floor = -np.inf if target is None else target["dp"] * math.cos(math.pi / N_DIRECTIONS) / (1 + 1e-6)
         for k in range(ci.size):
             done = np.zeros(N_DIRECTIONS, dtype=bool)
             while not np.all(done):
                 todo = np.argsort(np.where(done, np.inf, -ub[k]))[:8]
                 todo = todo[~done[todo]]
-                if np.any(done) and not np.max(ub[k, todo]) > np.max(ub[k, done]):
+                if not np.max(ub[k, todo]) > max(np.max(ub[k, done], initial=-np.inf), floor):
                     break
                 ub[k, todo] = row_bound(kap_u[k:k + 1, todo], g_u[k:k + 1, todo], f_u[k:k + 1, todo],
                                         ci[k:k + 1])[0]
                 done[todo] = True
         upper["dp"][ci] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS)
     # first-order |dp|: the largest vertex norm of the zonotope (max over directions of the support, exactly)
-    first["dp"] = _first_order_dp(sets, M[:, :2, :])
+    first["dp"] = _first_order_dp(sets, M[:, :2, :]) if target is None else np.full(N, np.nan)
     for q in QUANTITIES:
         upper[q] = np.where(certified, upper[q] * (1 + ROUND_REL) + ROUND_ABS * scale, np.nan)
     # at the expansion point itself (delta = centre, so h_S terms vanish) the certified solution w* satisfies
@@ -867,6 +962,9 @@ def _contains_zero(sets, centres: np.ndarray) -> np.ndarray:
             ok &= np.abs(c[:, 0]) <= s.eps * tol
         elif s.kind == "disk":
             ok &= np.hypot(c[:, 0], c[:, 1]) <= s.eps * tol
+        elif s.kind == "rect":
+            cr, ct = _rect_coords(s, c[:, 0], c[:, 1])
+            ok &= (np.abs(cr) <= s.eps * tol) & (np.abs(ct) <= s.eps_t * tol)
         else:
             ok &= (np.abs(s.block_length * c[:, 1] + 2 * c[:, 0]) <= 2 * s.eps * tol) & (
                 np.abs(s.block_length * c[:, 1] - 2 * c[:, 0]) <= 2 * s.eps * tol)
@@ -965,64 +1063,120 @@ def _split_bounds(model: _Model, sets, scale: float, k: int, anchor_M: np.ndarra
     return {"upper": upper, "certified": certified, "rejected": rejected}
 
 
-def _children(s: SourceSet) -> tuple[np.ndarray, float]:
-    """The cut of one interval or rhombus source into smaller sets of its own kind that partition it: the
-    children's centres ``(P, len(cols))`` (mm, rad) and half-width. Interval: two halves, centres
-    ``+-eps/2``; rhombus ``|L tau +- 2 sigma| <= 2 eps`` (a square in its edge coordinates ``(2 sigma +- L
-    tau) / (2 eps)``, quartered): four rhombi of half-width ``eps/2`` centred at ``(sigma, tau) = (+-eps/2,
-    0)`` and ``(0, +-eps/L)``. Disks are not cut (no exact partition into disks).
+#: A cut disk is first covered by this many sector pieces (:func:`_children`); each leaves the disk by at most
+#: ``1 / cos(pi / DISK_SECTORS) - 1`` (8 %) of its radius, only at its corners.
+DISK_SECTORS = 8
+#: Directions of ``|dp|`` tried at the extreme points of every accepted piece for the best feasible values.
+PIECE_DIRECTIONS = 16
 
-    >>> _children(SourceSet("interval", 0, 0, "turn", 0.002, (0,)))[0].ravel().tolist()
-    [-0.001, 0.001]
+
+def _children(s: SourceSet, c: np.ndarray) -> list[tuple[SourceSet, np.ndarray]]:
+    """The cut of one source of a piece: smaller sets that cover it, each with its centre in the source's own
+    parameters (``c`` ``(len(cols),)``: the source's centre in the piece, mm or rad).
+
+    * interval: two halves (a partition), centres ``c +- eps/2``;
+    * rhombus ``|L tau +- 2 sigma| <= 2 eps``, a square in its edge coordinates ``(2 sigma +- L tau) / (2 eps)``,
+      quartered: four rhombi of half-width ``eps/2`` centred at ``c + (+-eps/2, 0)`` and ``c + (0, +-eps/L)``;
+    * disk: :data:`DISK_SECTORS` sectors ``r <= eps``, ``|t - theta_j| <= pi / DISK_SECTORS``, each as the
+      rectangle of :func:`sector_rect` that contains it;
+    * rect (a sector): its sector halved across its longer side of the rectangle, in angle (two sectors of
+      half the opening) or in radius (``[r1, rm]``, ``[rm, r2]``).
+
+    Disk and rect children overlap and stick out of the disk by their corners: they cover the source's set,
+    which is all an upper bound needs (the largest bound over a cover bounds the maximum over the set).
+
+    >>> [c.tolist() for _, c in _children(SourceSet("interval", 0, 0, "turn", 0.002, (0,)), np.zeros(1))]
+    [[-0.001], [0.001]]
     """
+    c = np.asarray(c, dtype=float)
     if s.kind == "interval":
-        return np.array([[-s.eps / 2], [s.eps / 2]]), s.eps / 2
+        h = s.eps / 2
+        child = SourceSet(s.kind, s.leg, s.joint, s.field, h, s.cols)
+        return [(child, c + np.array([-h])), (child, c + np.array([h]))]
     if s.kind == "rhombus":
         e, t = s.eps / 2, s.eps / s.block_length
-        return np.array([[e, 0.0], [-e, 0.0], [0.0, t], [0.0, -t]]), s.eps / 2
+        child = SourceSet(s.kind, s.leg, s.joint, s.field, e, s.cols, s.block_length)
+        return [(child, c + np.array(o)) for o in ((e, 0.0), (-e, 0.0), (0.0, t), (0.0, -t))]
+    if s.kind == "disk":
+        half = math.pi / DISK_SECTORS
+        return [sector_rect(s, 2 * half * j, half, 0.0, s.eps, c) for j in range(DISK_SECTORS)]
+    if s.kind == "rect":
+        theta, half, r1, r2, ox, oy = s.sector
+        if s.eps_t >= s.eps:
+            return [sector_rect(s, theta + sg * half / 2, half / 2, r1, r2, (ox, oy)) for sg in (-1, 1)]
+        rm = (r1 + r2) / 2
+        return [sector_rect(s, theta, half, a, b, (ox, oy)) for a, b in ((r1, rm), (rm, r2))]
     raise ValueError(f"a {s.kind} source is not cut")
 
 
+def _contains(sets, centre: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Whether each of ``points`` ``(P, n)`` lies in the piece of shape ``sets`` centred at ``centre`` ``(n,)``."""
+    return _contains_zero(sets, centre[None] - points)
+
+
 def _piece_bounds(model1: _Model, M1: np.ndarray, sets, centres: np.ndarray, scale: float,
-                  anchors: list) -> dict:
-    """Certified bounds of one pose (``model1``: one pose) over pieces of the same shape ``sets`` centred at
-    ``centres`` ``(P, n)``: the closure solved exactly at each centre, the model expanded there and certified
-    (:func:`_certify` with ``offset``), each piece used only if it passes :func:`_continues` against its
-    parent ``anchors[p]`` (a certified set containing it). Returns ``upper`` ``{q: (P,)}`` (inf where not
-    certified or rejected), ``anchor`` (per piece its own anchor if used, else its parent's) and
-    ``rejected`` ``(P,)`` (certified but not proven the continuation)."""
+                  target: dict | None = None) -> dict:
+    """Certificates of one pose (``model1``: one pose) over pieces of the same shape ``sets`` centred at
+    ``centres`` ``(P, n)``: the closure solved exactly at each centre (Newton from the first-order solution
+    ``M1`` ``(1, 9, n)``), the model expanded there and certified (:func:`_certify` with ``offset``; refined
+    only above ``target``).
+
+    Returns ``upper`` ``{q: (P,)}`` (inf where not certified), ``certified`` ``(P,)`` and per piece ``dz``
+    ``(P, 9)`` (exact change at the centre), ``M`` ``(P, 9, n)``, ``b`` ``(P, 9)`` (the box: every ``delta``
+    of the piece has one solution in ``|Dz - dz - M (delta - c)| <= b``, unique there) and ``bc`` ``(P, 9)``
+    (the box of the solution at the centre). Whether that solution is the commanded assembly's continuation
+    is decided by the caller (:func:`_branch_and_bound`)."""
     P = centres.shape[0]
     big = _take_many(model1, np.zeros(P, dtype=int))
     dz = exact_change(big, np.repeat(M1, P, axis=0), centres)
     good = np.all(np.isfinite(dz), axis=-1)
     dz = np.where(good[:, None], dz, 0.0)
-    part = _certify(_recentre(big, np.concatenate([dz, centres], axis=-1)), sets, scale, offset=dz)
+    part = _certify(_recentre(big, np.concatenate([dz, centres], axis=-1)), sets, scale, offset=dz, target=target)
     cert = good & part["certified"]
-    z0 = _contains_zero(sets, centres)
-    cont = np.array([bool(_continues(dz[p:p + 1], part["b_centre"][p:p + 1], centres[p:p + 1], anchors[p],
-                                     part["M"][p:p + 1], part["b"][p:p + 1], z0[p:p + 1])[0]) for p in range(P)])
-    ok = cert & cont
-    own = [{"dz": dz[p], "M": part["M"][p], "b": part["b"][p], "centre": centres[p]} if ok[p] else anchors[p]
-           for p in range(P)]
-    return {"upper": {q: np.where(ok, part["upper"][q], np.inf) for q in QUANTITIES}, "anchor": own,
-            "rejected": cert & ~cont}
+    return {"upper": {q: np.where(cert, part["upper"][q], np.inf) for q in QUANTITIES}, "certified": cert,
+            "dz": dz, "M": part["M"], "b": part["b"], "bc": part["b_centre"]}
 
 
-def _branch_and_bound(model1: _Model, sets, scale: float, target: dict, max_pieces: int = 96,
-                      anchor: dict | None = None) -> dict:
-    """Adaptive cutting of the error set for one pose until every bound is within its target.
+def _point_anchor(model1: _Model, point: np.ndarray, guess: np.ndarray, scale: float):
+    """A proven solution box at one point ``delta = point`` ``(n,)``: Newton's method from ``guess`` ``(9,)``,
+    then :func:`_point_box` about the solution; returns ``(dz (9,), b (9,))`` (NaN where not proven)."""
+    D = np.concatenate([guess, point])[None]
+    moved = _recentre(model1, D)
+    corr = exact_change(moved, np.zeros((1, 9, model1.n)), np.zeros((1, model1.n)))[0]
+    if not np.all(np.isfinite(corr)):
+        return np.full(9, np.nan), np.full(9, np.nan)
+    dz = guess + corr
+    b = _point_box(_recentre(model1, np.concatenate([dz, point])[None]), scale)[0]
+    return dz, b
 
-    Pieces are products of the sources' sets with some sources cut (:func:`_children`); each is bounded by
-    :func:`_piece_bounds`. While a quantity ``q`` has its largest piece bound above ``target[q]`` (the best
-    feasible value times ``1 + gap``), every piece above the target is cut along the source whose turning
-    score ``eps * sum_m |r_m0| |alpha_m|`` is the largest among its interval and rhombus sources, and the
-    children are bounded; it stops when a round shrinks the largest relative excess over the targets by less
-    than the factor ``STALL`` or when ``max_pieces`` pieces have been bounded. The bound of the set is the
-    largest over the pieces (they partition ``S``). Every piece is checked by :func:`_continues` against the
-    nearest certified ancestor (``anchor``: the whole set's certificate, ``dz`` ``(9,)``, ``M`` ``(9, n)``,
-    ``b`` ``(9,)``, ``centre`` ``(n,)``); a rejected piece counts as not certified. Returns ``upper`` ``{q:
-    float}`` (mm, rad; inf if a piece is not certified or rejected when it stops), ``pieces`` (leaves),
-    ``bounded`` (pieces bounded in all) and ``rejected`` (pieces rejected by the continuation check).
+
+def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: float = 0.005,
+                      max_pieces: int = 96, anchor: dict | None = None) -> dict:
+    """Adaptive cutting of the error set of one pose until every bound is within ``gap`` of the best feasible
+    value (module docstring, "Cutting the set" and "Continuation check").
+
+    Pieces are products of the sources' sets with some sources cut (:func:`_children`: intervals halved,
+    rhombi quartered, disks covered by sectors, sectors halved); each is certified by :func:`_piece_bounds`.
+    A certified piece is *used* once its solution is shown to be the continuation of the commanded assembly:
+    some point ``d`` of the piece has a proven continuation box (an *anchor*) inside the piece's box at ``d``
+    (then, by the piece's uniqueness, its solution at ``d`` is the continuation, hence on the whole connected
+    piece). Anchors: the commanded assembly at ``d = 0`` (``anchor["b0"]``, and the whole set's certified box
+    ``anchor["b"]`` if any), the centre box of every used piece, and the centre ``c_P`` of every cut piece
+    (contained in all of its children) once a used piece contains it: Newton at ``c_P`` from that piece's
+    prediction and a point certificate (:func:`_point_anchor`) inside that piece's box.
+
+    Rounds: every piece whose bound (its own if used, capped by its used ancestors') exceeds ``(1 + gap)``
+    times the best feasible value is cut along its source of largest turning weight (``eps sum_m |r_m0|
+    |alpha_m|``, interval, rhombus, disk or sector), worst first, until all are within or ``max_pieces``
+    pieces have been certified. The best
+    feasible values (``lower`` ``{q: float}``, raised as it goes) come from the extreme points of every used
+    piece (the argsupport of its first-order rows and of :data:`PIECE_DIRECTIONS` directions of ``(dx, dy)``,
+    projected onto ``S``), solved exactly from the piece's centre and kept only inside the piece's box.
+
+    Returns ``upper`` ``{q: float}`` (the largest capped bound over the pieces, which cover ``S``; inf while a
+    piece has neither its own nor an ancestor's), ``lower`` ``{q: float}`` and ``worst`` ``{q: (n,) or None}`` (the configuration attaining it when
+    it was raised here), ``pieces`` (leaves), ``bounded`` (pieces certified in all) and ``rejected`` (leaves
+    certified but never shown to be the continuation).
     """
     n = model1.n
     J = model1.jacobian(np.zeros((1, 9 + n)))
@@ -1033,60 +1187,153 @@ def _branch_and_bound(model1: _Model, sets, scale: float, target: dict, max_piec
     def weight(s):
         if s.kind == "interval":
             return s.eps * score[s.cols[0]]
-        if s.kind == "disk":
-            return s.eps * math.hypot(score[s.cols[0]], score[s.cols[1]])
+        if s.kind in ("disk", "rect"):
+            return max(s.eps, s.eps_t) * math.hypot(score[s.cols[0]], score[s.cols[1]])
         return max(s.eps * score[s.cols[0]], 2 * s.eps / s.block_length * score[s.cols[1]])
 
-    # a leaf: (sets, centre (n,), {q: upper})
-    if anchor is None:
-        anchor = {"dz": np.full(9, np.nan), "M": np.zeros((9, n)), "b": np.full(9, np.nan), "centre": np.zeros(n)}
-    root = _piece_bounds(model1, M1, sets, np.zeros((1, n)), scale, [anchor])
-    leaves = [(tuple(sets), np.zeros(n), {q: float(root["upper"][q][0]) for q in QUANTITIES}, root["anchor"][0])]
-    used, history, rejected = 1, [], int(root["rejected"].sum())
+    anchor = anchor or {}
+    anchors = []  # proven continuation boxes: (point (n,), lo (9,), hi (9,))
+    for key in ("b0", "b"):
+        b = np.asarray(anchor.get(key, np.full(9, np.nan)), dtype=float)
+        if np.all(np.isfinite(b)):
+            anchors.append((np.zeros(n), -b, b))
+    lower = {q: float(lower[q]) if np.isfinite(lower[q]) else 0.0 for q in QUANTITIES}
+    worst = {q: None for q in QUANTITIES}
+    cut_points = []  # centres of the pieces cut so far, to be anchored when a used piece contains them
+    anchored = set()
+
+    # a leaf: dict(sets, centre, upper {q}, cert (dz, M, b, bc) or None, used)
+    def bound(groups, target=None, caps=None):
+        out = []
+        for cs, C in groups:
+            pb = _piece_bounds(model1, M1, cs, C, scale, target)
+            for p in range(len(C)):
+                cert = (pb["dz"][p], pb["M"][p], pb["b"][p], pb["bc"][p]) if pb["certified"][p] else None
+                out.append({"sets": cs, "centre": C[p], "upper": {q: float(pb["upper"][q][p]) for q in QUANTITIES},
+                            "cert": cert, "used": False, "cap": dict(caps[len(out)]) if caps else
+                            {q: np.inf for q in QUANTITIES}})
+        return out
+
+    def box_at(leaf, d):
+        dz, Mp, b, _ = leaf["cert"]
+        mid = dz + Mp @ (d - leaf["centre"])
+        return mid - b, mid + b
+
+    def settle(leaves):
+        """Use every certified leaf that contains an anchor inside its box; used leaves add anchors."""
+        fresh, changed = [], True
+        while changed:
+            changed = False
+            for leaf in leaves:
+                if leaf["used"] or leaf["cert"] is None or not anchors:
+                    continue
+                pts = np.array([a[0] for a in anchors])
+                inside = np.flatnonzero(_contains(leaf["sets"], leaf["centre"], pts))
+                for a in inside:
+                    d, lo, hi = anchors[a]
+                    blo, bhi = box_at(leaf, d)
+                    if np.all(np.isfinite(blo)) and np.all(lo >= blo) and np.all(hi <= bhi):
+                        break
+                else:
+                    continue
+                leaf["used"], changed = True, True
+                fresh.append(leaf)
+                dz, _, _, bc = leaf["cert"]
+                if np.all(np.isfinite(bc)):
+                    anchors.append((leaf["centre"].copy(), dz - bc, dz + bc))
+                for k, p in enumerate(cut_points):
+                    if k in anchored or not _contains(leaf["sets"], leaf["centre"], p[None])[0]:
+                        continue
+                    blo, bhi = box_at(leaf, p)
+                    zp, bp = _point_anchor(model1, p, (blo + bhi) / 2, scale)
+                    if np.all(np.isfinite(bp)) and np.all(zp - bp >= blo) and np.all(zp + bp <= bhi):
+                        anchors.append((p.copy(), zp - bp, zp + bp))
+                        anchored.add(k)
+        return fresh
+
+    def raise_lower(fresh):
+        """The best feasible values at the extreme points of the newly used pieces (solved from each piece)."""
+        if not fresh:
+            return
+        ang = 2 * np.pi * np.arange(PIECE_DIRECTIONS) / PIECE_DIRECTIONS
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+        for leaf in fresh:
+            dz, Mp, b, _ = leaf["cert"]
+            rows = np.concatenate([Mp[:3], -Mp[:3], u @ Mp[:2]])  # (6 + K, n)
+            cand = project(sets, argsupport(leaf["sets"], rows) + leaf["centre"])
+            moved = _recentre(model1, np.concatenate([dz, leaf["centre"]])[None])
+            sol = exact_change(moved, Mp[None], (cand - leaf["centre"])[:, None, :])[:, 0] + dz  # (R, 9)
+            pred = dz + (cand - leaf["centre"]) @ Mp.T
+            ok = np.all(np.abs(sol - pred) <= b, axis=-1)  # inside the piece's box: the continuation
+            vals = np.stack([_objective(q, sol) for q in QUANTITIES])  # (4, R)
+            vals = np.where(ok[None] & np.isfinite(vals), vals, -np.inf)
+            for qi, q in enumerate(QUANTITIES):
+                r = int(np.argmax(vals[qi]))
+                if vals[qi, r] > lower[q]:
+                    lower[q], worst[q] = float(vals[qi, r]), cand[r].copy()
+
+    def effective(leaf, q):
+        """A leaf's bound: its own if used, capped by its used ancestors' (each holds over the leaf's part)."""
+        return min(leaf["upper"][q] if leaf["used"] else np.inf, leaf["cap"][q])
+
+    leaves = bound([(tuple(sets), np.zeros((1, n)))])
+    used = 1
+    raise_lower(settle(leaves))
     while True:
-        over = [i for i, (_, _, u, _) in enumerate(leaves) if any(u[q] > target[q] for q in QUANTITIES)]
+        target = {q: lower[q] * (1 + gap) for q in QUANTITIES}
+
+        def excess(leaf):
+            return max(effective(leaf, q) / target[q] - 1 if target[q] > 0 else
+                       (np.inf if effective(leaf, q) > 0 else -1.0) for q in QUANTITIES)
+
+        ex = [excess(leaf) for leaf in leaves]
+        over = [i for i, e in enumerate(ex) if e > 0]
         if not over:
             break
-        excess = max(max(u[q] for _, _, u, _ in leaves) / target[q] for q in QUANTITIES) - 1
-        history.append(excess)
-        if len(history) > 1 and np.isfinite(history[-2]) and not excess < STALL * history[-2]:
-            break  # too little progress in the last round (the looseness is not in the cut sources)
-        # cut the worst pieces first (largest excess over the target, relative)
-        over.sort(key=lambda i: -max(leaves[i][2][q] / target[q] for q in QUANTITIES))
+        over.sort(key=lambda i: -ex[i])
         plan, cost = [], 0
         for i in over:
-            ps, c, _, _ = leaves[i]
-            cuttable = [j for j in range(len(ps)) if ps[j].kind != "disk"]
-            if not cuttable:
+            leaf = leaves[i]
+            ps = leaf["sets"]
+            k = max(range(len(ps)), key=lambda j: weight(ps[j]))
+            cols = list(ps[k].cols)
+            kids = _children(ps[k], leaf["centre"][cols])
+            if used + cost + len(kids) > max_pieces:
                 break
-            k = max(cuttable, key=lambda j: weight(ps[j]))
-            cen, eps = _children(ps[k])
-            if used + cost + len(cen) > max_pieces:
-                break
-            plan.append((i, k, cen, eps))
-            cost += len(cen)
+            plan.append((i, k, cols, kids))
+            cost += len(kids)
         if not plan:
             break
-        groups = {}  # children of the same shape are bounded together (one vectorized certificate)
-        for i, k, cen, eps in plan:
-            ps, c, _, anc = leaves[i]
-            s = ps[k]
-            cs = ps[:k] + (SourceSet(s.kind, s.leg, s.joint, s.field, eps, s.cols, s.block_length),) + ps[k + 1:]
-            C = np.repeat(c[None], len(cen), axis=0)
-            C[:, list(s.cols)] += cen
-            groups.setdefault(cs, []).append((C, [anc] * len(cen)))
-        new = []
-        for cs, Cs in groups.items():
-            C = np.concatenate([x for x, _ in Cs])
-            ub = _piece_bounds(model1, M1, cs, C, scale, [a for _, al in Cs for a in al])
-            rejected += int(ub["rejected"].sum())
-            new += [(cs, C[p], {q: float(ub["upper"][q][p]) for q in QUANTITIES}, ub["anchor"][p])
-                    for p in range(len(C))]
+        groups = {}  # children of the same shape are certified together (one vectorized certificate)
+        for i, k, cols, kids in plan:
+            leaf = leaves[i]
+            cut_points.append(leaf["centre"].copy())
+            cap = {q: effective(leaf, q) for q in QUANTITIES}
+            for child, cc in kids:
+                cs = leaf["sets"][:k] + (child,) + leaf["sets"][k + 1:]
+                C = leaf["centre"].copy()
+                C[cols] = cc
+                groups.setdefault(cs, []).append((C, cap))
         drop = {i for i, *_ in plan}
         used += cost
-        leaves = [x for i, x in enumerate(leaves) if i not in drop] + new
-    return {"upper": {q: max(u[q] for _, _, u, _ in leaves) for q in QUANTITIES}, "pieces": len(leaves),
-            "bounded": used, "rejected": rejected}
+        leaves = [x for i, x in enumerate(leaves) if i not in drop] + bound(
+            [(cs, np.array([c for c, _ in Cs])) for cs, Cs in groups.items()], target,
+            [cap for Cs in groups.values() for _, cap in Cs])
+        # the cut pieces' centres may now lie in used pieces: anchor them, then use what they reach
+        for leaf in leaves:
+            if leaf["used"]:
+                for k, p in enumerate(cut_points):
+                    if k in anchored or not _contains(leaf["sets"], leaf["centre"], p[None])[0]:
+                        continue
+                    blo, bhi = box_at(leaf, p)
+                    zp, bp = _point_anchor(model1, p, (blo + bhi) / 2, scale)
+                    if np.all(np.isfinite(bp)) and np.all(zp - bp >= blo) and np.all(zp + bp <= bhi):
+                        anchors.append((p.copy(), zp - bp, zp + bp))
+                        anchored.add(k)
+        raise_lower(settle(leaves))
+    upper = {q: max(effective(leaf, q) for leaf in leaves) for q in QUANTITIES}
+    return {"upper": upper, "lower": lower, "worst": worst, "pieces": len(leaves), "bounded": used,
+            "rejected": sum(1 for leaf in leaves if leaf["cert"] is not None and not leaf["used"])}
 
 
 def _first_order_dp(sets, Mp: np.ndarray) -> np.ndarray:
@@ -1178,18 +1425,22 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
             for q in QUANTITIES:
                 upper[q][idx] = np.where(sp["certified"], np.fmin(upper[q][idx], sp["upper"][q]), upper[q][idx])
             reason[idx[sp["certified"]]] = ""
-        # certified but still loose: adaptive cutting (branch and bound) pose by pose until within split_gap, no
-        # progress or the budget ends; it only tightens bounds that hold already (never certifies a refused pose)
-        loose = np.any([_gap(upper[q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
-        idx = np.flatnonzero(loose & (reason == ""))
+        # not certified, or certified but still loose: adaptive cutting (branch and bound) pose by pose until within
+        # split_gap, no progress or the budget ends; a refused pose is certified only if every piece is used
+        loose = (reason != "") | np.any([_gap(upper[q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
+        idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
         for k in idx if max_pieces > 1 else ():
-            target = {q: ref[q][k] * (1 + split_gap) for q in QUANTITIES}
-            bb = _branch_and_bound(_take(rb["model"], k), rb["sets"], robot.characteristic_length, target,
-                                   max_pieces, {"dz": np.zeros(9), "M": rb["M"][k], "b": anc_b[k],
-                                                "centre": np.zeros(rb["model"].n), "b0": anc_b0[k]})
+            bb = _branch_and_bound(_take(rb["model"], k), rb["sets"], robot.characteristic_length,
+                                   {q: ref[q][k] for q in QUANTITIES}, split_gap, max_pieces,
+                                   {"b": anc_b[k], "b0": anc_b0[k]})
             rejected[k] += bb["rejected"]
+            if all(np.isfinite(bb["upper"][q]) for q in QUANTITIES):
+                for q in QUANTITIES:
+                    upper[q][k] = np.fmin(upper[q][k], bb["upper"][q])
+                reason[k] = ""
             for q in QUANTITIES:
-                upper[q][k] = np.fmin(upper[q][k], bb["upper"][q])
+                if search and bb["worst"][q] is not None and not bb["lower"][q] <= lower[q][k]:
+                    lower[q][k], worst[q][k] = bb["lower"][q], bb["worst"][q]
     if on_failure == "raise" and np.any(reason != ""):
         k = int(np.flatnonzero(reason != "")[0])
         x, y, phi = poses[k]
