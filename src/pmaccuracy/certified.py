@@ -139,11 +139,12 @@ Newton solution moved to another branch (test) is rejected.
 
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
-Tightness (README, tests): within 0.01 % of the true maximum at the paper's clearances and 0.75 % at 10x
-on the Aalborg 3-PPR; at 10x on random robots within 5 % of the dense search (a 12 %-nonlinear 3-PPR:
-12-23 % before branch and bound, 0.3-3.9 % with it, 31 pieces).
-Speed: 0.03-0.1 s (3-PPR, case1) to 0.6-1 s (3-RRR, 21 source parameters) per pose on a shared 2-core
-machine; a few seconds per pose where the set is cut.
+Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
+10x on the Aalborg 3-PPR; on 25 random robots within 0.45 % of the dense search at 1x and, of the 19
+certified at 10x, 18 within 4.1 % (up to 44 % nonlinear) and one 3-RRR at 5.3 % (disks converge slowly).
+Refused: robots that cannot be assembled over their whole error set, and one 75 % nonlinear.
+Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core machine;
+5-17 s per pose where the set is cut up to the budget.
 """
 
 from __future__ import annotations
