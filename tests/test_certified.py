@@ -113,14 +113,32 @@ def test_first_order_part_equals_bounds():
 
 
 def test_too_large_errors_are_refused():
-    """At 100x the paper's clearances some configurations cannot be closed: no finite bound is returned."""
+    """At 300x the paper's case2 some configurations cannot be closed (the independent search's own Newton
+    fails on them): no finite bound is returned."""
     robot = Manipulator.preset("aalborg_3ppr")
-    big = ErrorSources.from_dict(_paper_spec("case2")).scaled(100.0)
+    big = ErrorSources.from_dict(_paper_spec("case2")).scaled(300.0)
+    with pytest.raises(RuntimeError, match="did not converge"):
+        nsr.dense_search(robot.to_dict(), [0.0, 0.0, 0.0], nsr.scaled_spec(_paper_spec("case2"), 300), n_random=50,
+                         dense=4)
     with pytest.raises(CertificationError, match="pose 0"):
         C.certified_pose_errors(robot, big, [0.0, 0.0, 0.0])
     res = C.certified_pose_errors(robot, big, [[0.0, 0.0, 0.0]], on_failure="nan", search=False)
     assert all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
     assert res.reason[0]
+
+
+def test_whole_set_refused_but_pieces_certified_at_100x():
+    """At 100x case2 (dx 7.5 % above first order) the whole error set has no certificate, but every configuration
+    can be closed: the cut pieces certify it, never below the independent dense search (1.5 % above it at most
+    here, with the budget of a refused pose, 8 x 96 pieces)."""
+    robot = Manipulator.preset("aalborg_3ppr")
+    big = ErrorSources.from_dict(_paper_spec("case2")).scaled(100.0)
+    assert C.remainder_bounds(robot, big, np.zeros((1, 3)))["reason"][0]
+    res = C.certified_pose_errors(robot, big, [0.0, 0.0, 0.0])
+    ref = nsr.dense_search(robot.to_dict(), [0.0, 0.0, 0.0], nsr.scaled_spec(_paper_spec("case2"), 100),
+                           n_random=300, dense=8)
+    for q in C.QUANTITIES:
+        assert ref[q] <= res.upper[q][0] <= 1.05 * ref[q], q
 
 
 def test_dual_bound_of_a_quadratic_against_sampling():
@@ -196,14 +214,39 @@ def test_cli_refusals(extra, word):
     assert len(out.stderr.strip().splitlines()) == 1 and word in out.stderr
 
 
-def test_cli_uncertifiable_pose_exits_2(tmp_path):
-    spec = nsr.scaled_spec(_paper_spec("case2"), 100.0)
+def _scaled_file(tmp_path, factor: float):
+    """The paper's case2 times ``factor`` as a per-joint clearance file."""
+    spec = nsr.scaled_spec(_paper_spec("case2"), factor)
     lines = ['name = "huge"']
     for leg in spec["legs"]:
         joints = ", ".join("{" + ", ".join(f"{k} = {v!r}" for k, v in j.items()) + "}" for j in leg["joints"])
         lines += ["[[legs]]", f"joints = [{joints}]"]
-    path = tmp_path / "huge.toml"
+    path = tmp_path / f"huge{factor:g}.toml"
     path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_cli_max_pieces(tmp_path):
+    """At 100x only the cut pieces certify the pose: without the branch and bound (``--max-pieces 1``) exit 2
+    with one line, with it (12 x 8 pieces: enough) the certified values; the option needs --certified or
+    --nonlinear."""
+    path = _scaled_file(tmp_path, 100.0)
+    base = ("--clearances", str(path), "--pose", "0", "0", "0", "--format", "json")
+    out = _cli("--certified", "--max-pieces", "1", *base)
+    errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]
+    assert out.returncode == 2 and len(errors) == 1 and "pose 0" in errors[0]
+    out = _cli("--certified", "--max-pieces", "12", *base)
+    assert out.returncode == 0, out.stderr
+    rec = json.loads(out.stdout)[0]
+    assert all(np.isfinite(rec[k]) for k in ("dx_max", "dy_max", "dphi_max_deg", "dp_max"))
+    out = _cli("--max-pieces", "5", *base)
+    assert out.returncode == 2 and "--max-pieces needs --certified" in out.stderr
+    out = _cli("--certified", "--max-pieces", "0", *base)
+    assert out.returncode == 2 and "--max-pieces" in out.stderr
+
+
+def test_cli_uncertifiable_pose_exits_2(tmp_path):
+    path = _scaled_file(tmp_path, 300.0)  # cannot be closed everywhere (test above)
     out = _cli("--certified", "--clearances", str(path), "--pose", "0", "0", "0")
     assert out.returncode == 2
     errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]  # plausibility

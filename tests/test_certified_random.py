@@ -93,7 +93,8 @@ def test_strongly_nonlinear_robots_at_10x(kind, seed):
 
 def test_refusal_only_far_outside_first_order():
     """The 3-RRR of seed 2 at 10x: the exact worst case is 75 % above first order (dense search); no certificate
-    within the budget, so NaN with a reason -- never a finite number."""
+    within a small budget (the default one of 8 x 96 pieces takes 36 s and does not suffice either; about 1200
+    pieces certify it, 23 % loose), so NaN with a reason -- never a finite number."""
     rng = np.random.default_rng(2)
     data, nominal = GENERATORS["3-RRR"](rng)
     robot = Manipulator.from_dict(data, source="random")
@@ -101,7 +102,7 @@ def test_refusal_only_far_outside_first_order():
     spec = nsr.scaled_spec(clear, 10)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan")
+        res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan", max_pieces=12)
         ref = nsr.dense_search(data, nominal, spec, n_random=100, dense=6)
     effect = max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES)
     assert effect > 0.5

@@ -140,11 +140,11 @@ Newton solution moved to another branch (test) is rejected.
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
 Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
-10x on the Aalborg 3-PPR; on 25 random robots within 0.45 % of the dense search at 1x and, of the 19
-certified at 10x, 18 within 4.1 % (up to 44 % nonlinear) and one 3-RRR at 5.3 % (disks converge slowly).
-Refused: robots that cannot be assembled over their whole error set, and one 75 % nonlinear.
-Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core machine;
-5-17 s per pose where the set is cut up to the budget.
+10x on the Aalborg 3-PPR; on 25 random robots within 0.34 % of the dense search at 1x (24 certified, one
+65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
+that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
+budget). Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core
+machine; 5-10 s where the set is cut up to the budget, up to 40 s for a pose with no whole-set certificate.
 """
 
 from __future__ import annotations
@@ -375,6 +375,12 @@ def _dual_bound_flat(sets, g: np.ndarray, H: np.ndarray, refine: bool, iteration
             gt = np.einsum("ij,...j->...i", np.linalg.inv(A).T, g[..., list(s.cols)])
             lam[..., k:k + 2] = np.abs(gt) / 2
             k += 2
+    # the same problem in the scaled parameters y = delta / d (d: powers of two, so exactly): every constraint
+    # matrix then has entries of order one, which the interior-point Newton steps need (the bound is unchanged)
+    d = 2.0 ** np.round(np.log2(1 / np.sqrt(np.max(np.diagonal(P, axis1=-2, axis2=-1), axis=0))))
+    P = d[None, :, None] * P * d[None, None, :]
+    g = g * d
+    H = d[:, None] * H * d[None, :]
     Pnorm = np.linalg.norm(P, axis=(-2, -1))  # (K,)
     Hnorm = np.linalg.norm(H, axis=(-2, -1))[..., None]
     unit = Hnorm / Pnorm + 1e-300  # (..., K): a lambda of this size dominates H
@@ -1067,6 +1073,8 @@ def _split_bounds(model: _Model, sets, scale: float, k: int, anchor_M: np.ndarra
 #: A cut disk is first covered by this many sector pieces (:func:`_children`); each leaves the disk by at most
 #: ``1 / cos(pi / DISK_SECTORS) - 1`` (8 %) of its radius, only at its corners.
 DISK_SECTORS = 8
+#: A pose with no certificate yet (whole set and first cut) may bound this many times ``max_pieces`` pieces.
+REFUSED_BUDGET = 8
 #: Directions of ``|dp|`` tried at the extreme points of every accepted piece for the best feasible values.
 PIECE_DIRECTIONS = 16
 
@@ -1383,7 +1391,8 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
         pieces of the error set (:func:`_split_bounds`; 0: never) and the smaller valid bound is kept
     max_pieces : where the gap still exceeds ``split_gap`` (or there is no certificate), the set is cut
         adaptively (:func:`_branch_and_bound`) until the gap is below ``split_gap`` or ``max_pieces`` pieces
-        have been bounded (0 or 1: never); the smaller valid bound is kept
+        (:data:`REFUSED_BUDGET` times as many for a pose with no certificate yet) have been bounded (0 or 1:
+        never); the smaller valid bound is kept
 
     Returns a :class:`CertifiedPoseErrors`: ``upper[q] >= `` the maximum over the whole error set of the
     exact pose error (module docstring) ``>= lower[q] >=`` the exact value at the first-order worst vertex.
@@ -1431,8 +1440,9 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
         loose = (reason != "") | np.any([_gap(upper[q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
         idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
         for k in idx if max_pieces > 1 else ():
+            budget = max_pieces * (REFUSED_BUDGET if reason[k] else 1)
             bb = _branch_and_bound(_take(rb["model"], k), rb["sets"], robot.characteristic_length,
-                                   {q: ref[q][k] for q in QUANTITIES}, split_gap, max_pieces,
+                                   {q: ref[q][k] for q in QUANTITIES}, split_gap, budget,
                                    {"b": anc_b[k], "b0": anc_b0[k]})
             rejected[k] += bb["rejected"]
             if all(np.isfinite(bb["upper"][q]) for q in QUANTITIES):

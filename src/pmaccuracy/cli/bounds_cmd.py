@@ -51,6 +51,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nonlinear", action="store_true",
                    help="the best feasible worst case of the exact nonlinear model (local ascent from the "
                         "first-order worst vertices), with the gap to the certified bound")
+    p.add_argument("--max-pieces", type=_common.positive_int, metavar="N",
+                   help="with --certified or --nonlinear: how many pieces of the error set the branch and bound may "
+                        "certify per pose (default 96; more is tighter and slower, and may certify a pose whose "
+                        "whole error set has no certificate; 1: no cutting beyond the first four pieces)")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",
                    help="add the worst-case configuration of each quantity: the clearance displacements (3-PPR "
@@ -147,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
         tolerances = load_tolerances(args.tolerances) if args.tolerances else None
     if args.certified or args.nonlinear:
         return _certified_run(args, robot, clearances, poses, tolerances)
+    if args.max_pieces is not None:
+        raise PmAccuracyError("--max-pieces needs --certified or --nonlinear")
     if args.method == "slsqp":
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")
@@ -258,7 +264,8 @@ def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarra
     if tolerances:
         raise PmAccuracyError(f"{flag} takes per-joint sources: give tolerances per joint (position, direction, "
                               "length) with a per-joint clearance file")
-    result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside)
+    pieces = {} if args.max_pieces is None else {"max_pieces": args.max_pieces}
+    result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside, **pieces)
     records = result.records("upper" if args.certified else "lower")
     for rec, shown in zip(records, _common.degrees_as_given(poses[:, 2])):
         rec["phi_deg"] = float(shown)
