@@ -50,9 +50,9 @@ def test_random_robot_against_dense_search(kind):
         ref = nsr.dense_search(data, nominal, spec, n_random=300, dense=8)
         if res.reason[0]:
             # no certificate: NaN, never a finite number (allowed only at 10x, where the exact worst case is far
-            # from the first-order one)
+            # from the first-order one: more than 50 %, test_refusal_only_far_outside_first_order)
             assert factor == 10 and all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
-            assert max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES) > 0.05
+            assert max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES) > 0.5
             continue
         effect = max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES)
         for q in C.QUANTITIES:

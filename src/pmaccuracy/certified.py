@@ -1073,7 +1073,8 @@ def _split_bounds(model: _Model, sets, scale: float, k: int, anchor_M: np.ndarra
 #: A cut disk is first covered by this many sector pieces (:func:`_children`); each leaves the disk by at most
 #: ``1 / cos(pi / DISK_SECTORS) - 1`` (8 %) of its radius, only at its corners.
 DISK_SECTORS = 8
-#: A pose with no certificate yet (whole set and first cut) may bound this many times ``max_pieces`` pieces.
+#: A pose with no certificate yet (whole set and first cut) may bound this many times ``max_pieces`` pieces, once
+#: some piece is used within the first ``max_pieces`` (otherwise it stops there).
 REFUSED_BUDGET = 8
 #: Directions of ``|dp|`` tried at the extreme points of every accepted piece for the best feasible values.
 PIECE_DIRECTIONS = 16
@@ -1160,7 +1161,7 @@ def _point_anchor(model1: _Model, point: np.ndarray, guess: np.ndarray, scale: f
 
 
 def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: float = 0.005,
-                      max_pieces: int = 96, anchor: dict | None = None) -> dict:
+                      max_pieces: int = 96, anchor: dict | None = None, min_progress: int | None = None) -> dict:
     """Adaptive cutting of the error set of one pose until every bound is within ``gap`` of the best feasible
     value (module docstring, "Cutting the set" and "Continuation check").
 
@@ -1177,7 +1178,7 @@ def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: floa
     Rounds: every piece whose bound (its own if used, capped by its used ancestors') exceeds ``(1 + gap)``
     times the best feasible value is cut along its source of largest turning weight (``eps sum_m |r_m0|
     |alpha_m|``, interval, rhombus, disk or sector), worst first, until all are within or ``max_pieces``
-    pieces have been certified. The best
+    pieces have been certified, or no piece is used after ``min_progress`` (default ``max_pieces``). The best
     feasible values (``lower`` ``{q: float}``, raised as it goes) come from the extreme points of every used
     piece (the argsupport of its first-order rows and of :data:`PIECE_DIRECTIONS` directions of ``(dx, dy)``,
     projected onto ``S``), solved exactly from the piece's centre and kept only inside the piece's box.
@@ -1188,6 +1189,7 @@ def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: floa
     certified but never shown to be the continuation).
     """
     n = model1.n
+    min_progress = max_pieces if min_progress is None else min_progress
     J = model1.jacobian(np.zeros((1, 9 + n)))
     M1 = -np.linalg.solve(J[..., :9], J[..., 9:])
     alpha = np.einsum("nmj,njk->nmk", model1.tg[..., :9], M1) + model1.tg[..., 9:]
@@ -1299,6 +1301,8 @@ def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: floa
         over = [i for i, e in enumerate(ex) if e > 0]
         if not over:
             break
+        if used >= min_progress and not any(leaf["used"] for leaf in leaves):
+            break  # no piece shown to be the continuation yet: more cutting is unlikely to help
         over.sort(key=lambda i: -ex[i])
         plan, cost = [], 0
         for i in over:
@@ -1443,7 +1447,7 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
             budget = max_pieces * (REFUSED_BUDGET if reason[k] else 1)
             bb = _branch_and_bound(_take(rb["model"], k), rb["sets"], robot.characteristic_length,
                                    {q: ref[q][k] for q in QUANTITIES}, split_gap, budget,
-                                   {"b": anc_b[k], "b0": anc_b0[k]})
+                                   {"b": anc_b[k], "b0": anc_b0[k]}, min_progress=max_pieces)
             rejected[k] += bb["rejected"]
             if all(np.isfinite(bb["upper"][q]) for q in QUANTITIES):
                 for q in QUANTITIES:
