@@ -114,9 +114,10 @@ each certified as the rectangle that contains it, :func:`sector_rect`, and a sec
 radius), each child bounded about its own exact centre, until all are within the target or ``max_pieces``
 pieces have been bounded. The bound is the largest over the leaves, which cover ``S``, of each leaf's own
 bound capped by those of its used ancestors (an ancestor's bound holds over the leaf's part of ``S``; the
-sector rectangles stick out of their disk, so a first cut can be looser than its parent). A pose whose whole set could not be
-certified is certified this way when every leaf is used. The extreme points of every used piece are solved
-exactly too and raise the best feasible values (and so the targets) as it goes.
+sector rectangles stick out of their disk, so a first cut can be looser than its parent). A pose whose
+whole set could not be certified is certified this way when every leaf is used (budget ``REFUSED_BUDGET``
+times larger once some piece is used). The extreme points of every used piece are solved exactly too and
+raise the best feasible values (and so the targets) as it goes.
 
 Continuation check. A piece's certificate proves one solution in a box about the Newton solution at its
 centre, unique there, but Newton's method could have converged to another solution branch. A piece is
@@ -1181,12 +1182,13 @@ def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: floa
     pieces have been certified, or no piece is used after ``min_progress`` (default ``max_pieces``). The best
     feasible values (``lower`` ``{q: float}``, raised as it goes) come from the extreme points of every used
     piece (the argsupport of its first-order rows and of :data:`PIECE_DIRECTIONS` directions of ``(dx, dy)``,
-    projected onto ``S``), solved exactly from the piece's centre and kept only inside the piece's box.
+    projected onto ``S``), solved exactly from the piece's centre and kept only in the piece and inside its
+    box there.
 
     Returns ``upper`` ``{q: float}`` (the largest capped bound over the pieces, which cover ``S``; inf while a
-    piece has neither its own nor an ancestor's), ``lower`` ``{q: float}`` and ``worst`` ``{q: (n,) or None}`` (the configuration attaining it when
-    it was raised here), ``pieces`` (leaves), ``bounded`` (pieces certified in all) and ``rejected`` (leaves
-    certified but never shown to be the continuation).
+    piece has neither its own nor an ancestor's), ``lower`` ``{q: float}`` and ``worst`` ``{q: (n,) or
+    None}`` (the configuration attaining it when it was raised here), ``pieces`` (leaves), ``bounded``
+    (pieces certified in all) and ``rejected`` (leaves certified but never shown to be the continuation).
     """
     n = model1.n
     min_progress = max_pieces if min_progress is None else min_progress
@@ -1275,7 +1277,8 @@ def _branch_and_bound(model1: _Model, sets, scale: float, lower: dict, gap: floa
             moved = _recentre(model1, np.concatenate([dz, leaf["centre"]])[None])
             sol = exact_change(moved, Mp[None], (cand - leaf["centre"])[:, None, :])[:, 0] + dz  # (R, 9)
             pred = dz + (cand - leaf["centre"]) @ Mp.T
-            ok = np.all(np.abs(sol - pred) <= b, axis=-1)  # inside the piece's box: the continuation
+            # in the piece and inside its box there: the continuation (module docstring, "Continuation check")
+            ok = np.all(np.abs(sol - pred) <= b, axis=-1) & _contains(leaf["sets"], leaf["centre"], cand)
             vals = np.stack([_objective(q, sol) for q in QUANTITIES])  # (4, R)
             vals = np.where(ok[None] & np.isfinite(vals), vals, -np.inf)
             for qi, q in enumerate(QUANTITIES):
