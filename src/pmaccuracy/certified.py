@@ -141,7 +141,7 @@ Newton solution moved to another branch (test) is rejected.
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
 Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
-10x on the Aalborg 3-PPR; on 25 random robots within 0.34 % of the dense search at 1x (24 certified, one
+10x on the Aalborg 3-PPR; on 25 random robots within 0.5 % of the dense search at 1x (24 certified, one
 65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
 that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
 budget). Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core
@@ -324,7 +324,7 @@ def constraint_matrices(sets: tuple[SourceSet, ...]) -> np.ndarray:
 
 
 def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine: bool = True,
-               iterations: int = 40) -> np.ndarray:
+               iterations: int = 40, sdp: bool = True) -> np.ndarray:
     """Upper bound of ``max over S of g . delta + delta^T H delta`` (Lagrangian duality, the S-lemma bound).
 
     With ``S = {delta^T P_k delta <= 1}`` (:func:`constraint_matrices`), for any ``lambda >= 0`` with
@@ -343,7 +343,9 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     moves by less than 1e-7 relative over :data:`MU_EVERY` steps). All of it runs in the parameters scaled by
     powers of two to unit size (``delta = D y``: ``g -> D g``, ``H -> D H D``, ``P_k -> D P_k D``, exact in
     floating point and the same bound): unscaled, with ``P_k`` entries from 1e1 to 1e6, the Newton steps
-    stalled as far as 70 % above the optimum (checked against an SDP solver). Every value
+    stalled as far as 70 % above the optimum (checked against an SDP solver). With ``sdp``, rows that end in
+    the hard case (final gradient above :data:`HARD_CASE_GRADIENT`) are solved again by :func:`_sdp_dual`.
+    Every value
     returned is that of a ``lambda`` whose ``Lambda - H`` passed the positive-definiteness test of
     :func:`_dual_value` (with its rounding margin); ``inf`` where none did. ``g`` ``(..., n)``, ``H``
     ``(..., n, n)`` (symmetric); returns ``(...)``.
@@ -354,11 +356,12 @@ def dual_bound(sets: tuple[SourceSet, ...], g: np.ndarray, H: np.ndarray, refine
     if len(batch) != 1:  # one flat batch (the line search works on subsets of rows)
         n_ = g.shape[-1]
         return _dual_bound_flat(sets, g.reshape(-1, n_), np.broadcast_to(H, batch + (n_, n_)).reshape(-1, n_, n_),
-                                refine, iterations).reshape(batch)
-    return _dual_bound_flat(sets, g, H, refine, iterations)
+                                refine, iterations, sdp).reshape(batch)
+    return _dual_bound_flat(sets, g, H, refine, iterations, sdp)
 
 
-def _dual_bound_flat(sets, g: np.ndarray, H: np.ndarray, refine: bool, iterations: int) -> np.ndarray:
+def _dual_bound_flat(sets, g: np.ndarray, H: np.ndarray, refine: bool, iterations: int, sdp: bool = True
+                     ) -> np.ndarray:
     """:func:`dual_bound` for ``g`` ``(B, n)``, ``H`` ``(B, n, n)``."""
     P = constraint_matrices(sets)
     K, n = P.shape[0], P.shape[-1]
@@ -466,7 +469,7 @@ def _dual_bound_flat(sets, g: np.ndarray, H: np.ndarray, refine: bool, iteration
     # Newton steps in lambda crawl (measured: 5 % above the optimum after 40 steps); such rows are solved again
     # as the semidefinite program of the same dual (cvxpy, Clarabel), whose lambda, inflated until _dual_value
     # certifies Lambda - H positive definite, gives the bound
-    if iterations:
+    if iterations and sdp:
         hard = np.flatnonzero(live & (np.max(np.abs(grad), axis=-1) > HARD_CASE_GRADIENT))
         if hard.size:
             best[hard] = np.fmin(best[hard], _sdp_dual(P, g[hard], H[hard]))
@@ -871,8 +874,8 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
     quad_w = np.full((N, 18), np.inf)
     if oi.size:
         cw, cpw, Hw = pieces(np.concatenate([kappa[oi], -kappa[oi]], axis=1), oi)
-        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw, iterations=40 if target is None else 12
-                                ) - np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
+        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw, iterations=40 if target is None else 12,
+                                sdp=target is None) - np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
 
     def phi2(b):
         out = phi(b)
