@@ -183,6 +183,13 @@ def test_dual_bound_of_a_quadratic_against_sampling():
         assert bound >= attained
         if trial >= 2:  # small H: tight to second order
             assert bound - attained <= 1e-4 * attained
+        # stop values (the branch and bound's targets): still bounds; below a stop above the optimum, and at the
+        # first feasible multipliers for a stop below nothing reached
+        rough = C.dual_bound(sets, g[None], H[None], refine=False)[0]
+        stops = np.array([np.inf, bound * 1.01, (bound + rough) / 2, bound * (1 - 1e-3), -np.inf])
+        early = C.dual_bound(sets, np.repeat(g[None], 5, 0), np.repeat(H[None], 5, 0), stop=stops, rtol=1e-5)
+        assert np.all(early >= attained) and early[0] == rough
+        assert early[1] <= stops[1] and early[2] <= stops[2] and early[4] == pytest.approx(bound, rel=1e-5)
 
 
 def _cli(*args):

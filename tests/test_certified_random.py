@@ -36,35 +36,42 @@ GENERATORS = {"3-RPR": pref.random_rpr, "3-RRR": pref.random_rrr, "3-PRR": pref.
               "chain": pref.random_chain, "3-PPR": _random_ppr}
 
 
-@pytest.mark.parametrize("kind", sorted(GENERATORS))
-def test_random_robot_against_dense_search(kind):
+#: The 10x cases of these two take 10-15 s each (the branch and bound uses its whole budget): ``make test-all``.
+SLOW_AT_10X = ("3-PRR", "3-RPR")
+CASES = [pytest.param(kind, factor, marks=[pytest.mark.slow] if factor == 10 and kind in SLOW_AT_10X else [])
+         for kind in sorted(GENERATORS) for factor in (1, 10)]
+
+
+@pytest.mark.parametrize("kind,factor", CASES)
+def test_random_robot_against_dense_search(kind, factor):
     rng = np.random.default_rng(1)  # the same rule for every architecture: the first robot of seed 1
     data, nominal = GENERATORS[kind](rng)
     robot = Manipulator.from_dict(data, source="random")
     clear, _ = eref.random_clearances(rng, eref.load_robot(data))
-    for factor, tight in ((1, 0.005), (10, 0.05)):
-        spec = nsr.scaled_spec(clear, factor)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # plausibility warnings on 10x clearances
-            res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan")
-        ref = nsr.dense_search(data, nominal, spec, n_random=300, dense=8)
-        if res.reason[0]:
-            # no certificate: NaN, never a finite number (allowed only at 10x, where the exact worst case is far
-            # from the first-order one: more than 50 %, test_refusal_only_far_outside_first_order)
-            assert factor == 10 and all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
-            assert max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES) > 0.5
-            continue
-        effect = max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES)
-        for q in C.QUANTITIES:
-            up, lo, dense = res.upper[q][0], res.lower[q][0], ref[q]
-            assert up >= dense, (kind, factor, q, up, dense)
-            assert (up - dense) / dense <= tight, (kind, factor, q, up, dense, effect)
-            assert ref["first_order_vertex"][q] * (1 - 1e-9) <= lo <= up
+    tight = {1: 0.005, 10: 0.05}[factor]
+    spec = nsr.scaled_spec(clear, factor)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # plausibility warnings on 10x clearances
+        res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan")
+    ref = nsr.dense_search(data, nominal, spec, n_random=300, dense=8)
+    if res.reason[0]:
+        # no certificate: NaN, never a finite number (allowed only at 10x, where the exact worst case is far
+        # from the first-order one: more than 50 %, test_refusal_only_far_outside_first_order)
+        assert factor == 10 and all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
+        assert max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES) > 0.5
+        return
+    effect = max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES)
+    for q in C.QUANTITIES:
+        up, lo, dense = res.upper[q][0], res.lower[q][0], ref[q]
+        assert up >= dense, (kind, factor, q, up, dense)
+        assert (up - dense) / dense <= tight, (kind, factor, q, up, dense, effect)
+        assert ref["first_order_vertex"][q] * (1 - 1e-9) <= lo <= up
 
 
 # Strongly nonlinear robots at 10x (seeds of the same generators): before the branch and bound cut disks and
 # took refused poses, the chain was refused and the other two were 7-10 % above the dense search.
-HARD = [("chain", 3), ("3-RPR", 5), ("3-PRR", 5)]
+# 10-20 s each: ``make test-all`` (test_certified's 100x case also needs the pieces where the whole set fails).
+HARD = [pytest.param(kind, seed, marks=pytest.mark.slow) for kind, seed in (("chain", 3), ("3-RPR", 5), ("3-PRR", 5))]
 
 
 @pytest.mark.parametrize("kind,seed", HARD)
@@ -94,7 +101,8 @@ def test_strongly_nonlinear_robots_at_10x(kind, seed):
 def test_refusal_only_far_outside_first_order():
     """The 3-RRR of seed 2 at 10x: the exact worst case is 75 % above first order (dense search); no certificate
     within a small budget (the default one of 8 x 96 pieces takes 36 s and does not suffice either; about 1200
-    pieces certify it, 23 % loose), so NaN with a reason -- never a finite number."""
+    pieces certify it, 23 % loose), so NaN with a reason -- never a finite number. (A budget of 8 x 4 pieces:
+    3 s.)"""
     rng = np.random.default_rng(2)
     data, nominal = GENERATORS["3-RRR"](rng)
     robot = Manipulator.from_dict(data, source="random")
@@ -102,7 +110,7 @@ def test_refusal_only_far_outside_first_order():
     spec = nsr.scaled_spec(clear, 10)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan", max_pieces=12)
+        res = C.certified_pose_errors(robot, ErrorSources.from_dict(spec), nominal, on_failure="nan", max_pieces=4)
         ref = nsr.dense_search(data, nominal, spec, n_random=100, dense=6)
     effect = max((ref[q] - ref["first_order"][q]) / ref["first_order"][q] for q in C.QUANTITIES)
     assert effect > 0.5
