@@ -27,20 +27,27 @@ source       joints             variables           set                     inse
 ===========  =================  ==================  ======================  ===============================
 radial       R                  (dx, dy) mm         disk ``|d| <= eps``      ``Tr(d)`` before ``J_k``
 position     any (tolerance)    (dx, dy) mm         disk ``|d| <= t``        ``Tr(d)`` before ``J_k``
-angular      P                  tau rad             ``|tau| <= eps``         ``Rot(tau)`` before ``J_k``
+angular      P                  tau rad             ``|tau| <= eps``         ``Rot(tau)`` of the block (below)
 direction    any (tolerance)    tau rad             ``|tau| <= t``           ``Rot(tau)`` before ``J_k``
 actuator     the actuated one   delta (mm or rad)   ``|delta| <= eps``       ``q_k -> q_k + delta``
 length       any, link != 0     delta mm            ``|delta| <= t``         ``link_k -> link_k (1 + delta/|link_k|)``
-lateral      P                  (sigma mm, tau rad) rhombus                  ``J_k = Rot(off) Tr(q e_x) Tr(sigma e_y) Rot(tau) Tr(link)``
+lateral      P                  (sigma mm, tau rad) rhombus                  ``Tr(sigma e_y) Rot(tau)`` of the block
 ===========  =================  ==================  ======================  ===============================
+
+The *block* of a P joint is the short member its clearances shift and tilt about its own centre: a
+carriage travels with the joint value (``J_k = Rot(off) Tr(q e_x) Tr(sigma e_y) Rot(tau) Tr(link)``, the
+default of an actuated P joint), a bushing sits at the joint's origin (``J_k = Rot(off) Tr(sigma e_y)
+Rot(tau) Tr(q e_x) Tr(link)``, the default of a passive one); ``tau`` is the sum of the angular and the
+lateral tilts. Robot dicts may name it: ``block`` (3-PRR, 3-RPR legs and chain joints), ``guide_block`` and
+``bearing_block`` (3-PPR legs).
 
 The rhombus of a lateral source with block length ``L`` is ``|L tau + 2 sigma| <= 2 eps`` and
 ``|L tau - 2 sigma| <= 2 eps``; its vertices are ``(sigma, tau) = (+-eps, 0)`` and ``(0, +-2 eps / L)``.
 The displacement ``d`` of radial/position sources is expressed in the *local* frame before ``J_k`` (the
 frame whose origin is the joint's centre, turned by ``base_angle`` plus the turns of the joints before
 ``k``); the disk is the same set in any frame. With several sources on one joint the inserted transform is
-``Tr(d_radial + d_position) Rot(tau_angular + tau_direction)`` followed by ``J_k`` with the actuator,
-lateral and length errors (the order only matters at second order).
+``Tr(d_radial + d_position) Rot(tau_direction)`` followed by ``J_k`` with the actuator, block and length
+errors (the order only matters at second order).
 
 Formats
 -------
@@ -126,12 +133,17 @@ def wrap(a):
 @dataclass(frozen=True)
 class Joint:
     """One joint: ``kind`` "R"/"P", ``actuated``, ``offset`` (rad), ``link`` (mm, 2-tuple, in the frame after
-    the joint's motion)."""
+    the joint's motion), ``block`` of a P joint ("carriage", "bushing"; None: carriage if actuated)."""
 
     kind: str
     actuated: bool
     offset: float
     link: tuple
+    block: str | None = None
+
+    @property
+    def bushing(self) -> bool:
+        return self.kind == "P" and (self.block == "bushing" or (self.block is None and not self.actuated))
 
 
 @dataclass(frozen=True)
@@ -198,7 +210,7 @@ def load_robot(d: dict) -> Robot:
     for i, L in enumerate(legs_in):
         w = f"legs[{i}]"
         if arch == "3-RPR":
-            js = (Joint("R", False, 0.0, z), Joint("P", True, 0.0, z), Joint("R", False, 0.0, z))
+            js = (Joint("R", False, 0.0, z), Joint("P", True, 0.0, z, L.get("block")), Joint("R", False, 0.0, z))
             leg = Leg(_pair(L["base"], w + ".base"), 0.0, _pair(L["platform"], w + ".platform"), 0.0, 1, js)
         elif arch == "3-RRR":
             js = (Joint("R", True, 0.0, (float(L["proximal"]), 0.0)), Joint("R", False, 0.0, (float(L["distal"]), 0.0)),
@@ -206,15 +218,16 @@ def load_robot(d: dict) -> Robot:
             leg = Leg(_pair(L["base"], w + ".base"), 0.0, _pair(L["platform"], w + ".platform"), 0.0,
                       int(L["working_mode"]), js)
         elif arch == "3-PRR":
-            js = (Joint("P", True, 0.0, z), Joint("R", False, 0.0, (float(L["distal"]), 0.0)), Joint("R", False, 0.0, z))
+            js = (Joint("P", True, 0.0, z, L.get("block")), Joint("R", False, 0.0, (float(L["distal"]), 0.0)),
+                  Joint("R", False, 0.0, z))
             leg = Leg(_pair(L["guide_point"], w + ".guide_point"), math.radians(float(L["guide_deg"])),
                       _pair(L["platform"], w + ".platform"), 0.0, int(L["working_mode"]), js)
         elif arch == "3-PPR":
             a, dd, r = float(L["a"]), float(L["d"]), float(L["r"])
             al, be, ga, th, ps = (math.radians(float(L[k])) for k in
                                   ("alpha_deg", "beta_deg", "gamma_deg", "theta_deg", "psi_deg"))
-            js = (Joint("P", True, 0.0, (dd * math.cos(ga), dd * math.sin(ga))), Joint("P", False, ga + th, z),
-                  Joint("R", False, 0.0, z))
+            js = (Joint("P", True, 0.0, (dd * math.cos(ga), dd * math.sin(ga)), L.get("guide_block")),
+                  Joint("P", False, ga + th, z, L.get("bearing_block")), Joint("R", False, 0.0, z))
             leg = Leg((a * math.cos(al), a * math.sin(al)), al + be, (-r * math.cos(ps), -r * math.sin(ps)), 0.0, 1, js)
         elif arch == "chain":
             jl = L.get("joints")
@@ -225,7 +238,7 @@ def load_robot(d: dict) -> Robot:
                 if J.get("type") not in ("R", "P"):
                     raise ValueError(f"{w}.joints[{k}].type must be 'R' or 'P'")
                 js.append(Joint(J["type"], bool(J.get("actuated", False)), math.radians(float(J.get("offset_deg", 0.0))),
-                                _pair(J.get("link", [0.0, 0.0]), f"{w}.joints[{k}].link")))
+                                _pair(J.get("link", [0.0, 0.0]), f"{w}.joints[{k}].link"), J.get("block")))
             leg = Leg(_pair(L["base"], w + ".base"), math.radians(float(L.get("base_deg", 0.0))),
                       _pair(L["platform"], w + ".platform"), math.radians(float(L.get("platform_deg", 0.0))),
                       int(L.get("working_mode", 1)), tuple(js))
@@ -249,7 +262,8 @@ def as_robot(robot) -> Robot:
         return load_robot(robot)
     legs = tuple(Leg(tuple(map(float, L.base)), float(L.base_angle), tuple(map(float, L.platform)),
                      float(L.platform_angle), int(L.working_mode),
-                     tuple(Joint(J.kind, bool(J.actuated), float(J.offset), tuple(map(float, J.link)))
+                     tuple(Joint(J.kind, bool(J.actuated), float(J.offset), tuple(map(float, J.link)),
+                                 getattr(J, "block", None))
                            for J in L.joints)) for L in robot.legs)
     return Robot(str(getattr(robot, "architecture", "chain")), legs)
 
@@ -258,13 +272,14 @@ def as_robot(robot) -> Robot:
 # chain kinematics with inserted errors (batched)
 # --------------------------------------------------------------------------------------------------
 
-_ARRAYS = ("T", "R", "dq", "sig", "tl", "dl")
+_ARRAYS = ("T", "R", "dq", "sig", "tl", "dl", "ang")
 
 
 def _zero_errors(B):
     """Error arrays of a batch of ``B`` configurations, all zero: ``T`` ``(B, 3, 3, 2)`` (mm, local
     translation before each joint), ``R`` (rad, turn before each joint), ``dq`` (actuator, mm/rad), ``sig``
-    (mm) and ``tl`` (rad) (lateral), ``dl`` (mm, link lengthening), each ``(B, 3, 3)`` (leg, joint)."""
+    (mm) and ``tl`` (rad) (lateral), ``dl`` (mm, link lengthening), ``ang`` (rad, angular: the block's
+    tilt), each ``(B, 3, 3)`` (leg, joint)."""
     out = {k: np.zeros((B, 3, 3)) for k in _ARRAYS}
     out["T"] = np.zeros((B, 3, 3, 2))
     return out
@@ -276,8 +291,9 @@ def chain_fk(leg: Leg, q, err=None):
     ``q`` ``(B, 3)`` joint values (rad for R, mm for P); ``err`` a dict of this leg's error arrays ``T``
     ``(B, 3, 2)``, ``R``, ``dq``, ``sig``, ``tl``, ``dl`` ``(B, 3)`` (see :func:`_zero_errors`; None: no
     errors). Joint k maps the frame (origin ``p``, angle ``t``) as
-    ``p += Rot(t) T_k; t += R_k + offset_k (+ q_k + dq_k for R)``; for P ``p += (q_k + dq_k) vec(t) +
-    sig_k E vec(t); t += tl_k``; then ``p += Rot(t) link_k (1 + dl_k / |link_k|)``.
+    ``p += Rot(t) T_k; t += R_k + offset_k (+ q_k + dq_k for R)``; for P with a carriage ``p += (q_k + dq_k)
+    vec(t) + sig_k E vec(t); t += tl_k + ang_k``, with a bushing ``p += sig_k E vec(t); t += tl_k + ang_k;
+    p += (q_k + dq_k) vec(t)``; then ``p += Rot(t) link_k (1 + dl_k / |link_k|)``.
 
     Returns ``p3`` ``(B, 2)`` (mm), ``t3`` ``(B,)`` (rad, unwrapped), ``centres`` ``(B, 3, 2)`` (origin where the
     joint's motion happens: the rotation centre of an R) and ``axes`` ``(B, 3, 2)`` (slide direction of a P).
@@ -297,10 +313,14 @@ def chain_fk(leg: Leg, q, err=None):
         axes.append(vec(t))
         if J.kind == "R":
             t = t + qk
+        elif J.bushing:
+            p = p + err["sig"][:, k, None] * perp(vec(t))
+            t = t + err["tl"][:, k] + err["ang"][:, k]
+            p = p + qk[:, None] * vec(t)
         else:
             e = vec(t)
             p = p + qk[:, None] * e + err["sig"][:, k, None] * perp(e)
-            t = t + err["tl"][:, k]
+            t = t + err["tl"][:, k] + err["ang"][:, k]
         link = np.asarray(J.link, float)
         n = float(np.hypot(*link))
         scale = 1.0 + (err["dl"][:, k] / n if n > 0 else 0.0 * err["dl"][:, k])
@@ -543,8 +563,10 @@ def _to_arrays(vars_, values):
         v = values[:, j]
         if src in ("radial", "position"):
             err["T"][:, i, k, c] += v
-        elif src in ("angular", "direction"):
+        elif src == "direction":
             err["R"][:, i, k] += v
+        elif src == "angular":
+            err["ang"][:, i, k] += v
         elif src == "actuator":
             err["dq"][:, i, k] += v
         elif src == "length":

@@ -59,7 +59,7 @@ def test_tolerances_add_joint_by_joint(capsys, tmp_path, robot, clear, tol):
 
 def _configuration(robot, worst: dict) -> JointDisplacements:
     """The reported source values as a configuration (parsed from the keys, independently of the code)."""
-    cfg = {k: np.zeros((1, 3, 3)) for k in ("turn", "sigma", "tau", "dq", "dl")}
+    cfg = {k: np.zeros((1, 3, 3)) for k in ("turn", "sigma", "tau", "dq", "dl", "tilt")}
     shift = np.zeros((1, 3, 3), dtype=complex)
     for key, value in worst.items():
         leg, joint, what = key.split(".")
@@ -76,6 +76,8 @@ def _configuration(robot, worst: dict) -> JointDisplacements:
             cfg["turn"][0, i, k] = np.radians(value)
         elif what == "tilt_deg":
             cfg["tau"][0, i, k] = np.radians(value)
+        elif what == "angular_deg":
+            cfg["tilt"][0, i, k] = np.radians(value)
         elif what == "lateral_shift_mm":
             cfg["sigma"][0, i, k] = value
         elif what == "length_mm":

@@ -92,7 +92,7 @@ def test_jacobian_errors_equal_first_order_error_of_the_sampled_configurations()
 def JointDisplacementsBroadcast(cfg):
     """Fields (n, 3, 3) -> (n, 1, 3, 3) so that they broadcast against poses (1, P, 3)."""
     from pmaccuracy.sources import JointDisplacements
-    return JointDisplacements(*(getattr(cfg, f)[:, None] for f in ("shift", "turn", "sigma", "tau", "dq", "dl")))
+    return JointDisplacements(*(getattr(cfg, f)[:, None] for f in ("shift", "turn", "sigma", "tau", "dq", "dl", "tilt")))
 
 
 def test_samples_stay_in_their_sets_and_are_seeded():

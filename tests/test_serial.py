@@ -37,24 +37,32 @@ VECTOR_KEYS = ("radial", "position", "lateral")
 # ---------------------------------------------------------------- independent reference
 
 def ref_fk(spec, q, pert=None):
-    """End-effector ``[x, y, phi]`` of the arm ``spec`` [(kind, length, offset rad), ...] with errors ``pert``.
+    """End-effector ``[x, y, phi]`` of the arm ``spec`` [(kind, length, offset rad[, block]), ...] with errors
+    ``pert``.
 
     ``pert[(k, key)]``: ``position``/``radial`` (dx, dy) mm, ``lateral`` (sigma mm, tau rad), others a number.
+    A slide's block (``"carriage"`` by default, or ``"bushing"``) shifts by sigma and tilts by tau + angular
+    about its own centre: the carriage at the end of the slide, the bushing at the slide's origin.
     """
     pert = pert or {}
     x = y = a = 0.0
-    for k, (kind, length, offset) in enumerate(spec):
+    for k, (kind, length, offset, *block) in enumerate(spec):
         px, py = pert.get((k, "position"), (0.0, 0.0))    # the joint's centre (and all beyond) moved
         x, y = x + px, y + py
-        a += offset + pert.get((k, "direction"), 0.0) + pert.get((k, "angular"), 0.0)   # turned about its centre
+        a += offset + pert.get((k, "direction"), 0.0)     # turned about its centre
         qk = q[k] + pert.get((k, "actuator"), 0.0)
         if kind == "R":
             a += qk
         else:
-            x, y = x + qk * math.cos(a), y + qk * math.sin(a)                # the carriage
             sigma, tau = pert.get((k, "lateral"), (0.0, 0.0))
-            x, y = x - sigma * math.sin(a), y + sigma * math.cos(a)          # shifted normal to the rail
-            a += tau                                                          # tilted about the carriage
+            tilt = tau + pert.get((k, "angular"), 0.0)
+            bushing = block == ["bushing"]
+            if not bushing:
+                x, y = x + qk * math.cos(a), y + qk * math.sin(a)            # the carriage slides first
+            x, y = x - sigma * math.sin(a), y + sigma * math.cos(a)          # the block shifted normal to the rail
+            a += tilt                                                         # and tilted about its centre
+            if bushing:
+                x, y = x + qk * math.cos(a), y + qk * math.sin(a)            # the rod slides through the bushing
         rx, ry = pert.get((k, "radial"), (0.0, 0.0))                         # play: the distal part translates
         x, y = x + rx, y + ry
         link = length + pert.get((k, "length"), 0.0)
@@ -150,8 +158,9 @@ def random_arm(rng, n):
         length = float(rng.uniform(50, 400) if kind == "R" else rng.uniform(0, 200))
         offset = float(rng.uniform(-np.pi, np.pi))
         rng_ = (-np.pi, np.pi) if kind == "R" else (-100.0, 300.0)
-        joints.append(SerialJoint(kind, length, offset, rng_, name=f"j{k + 1}"))
-        spec.append((kind, length, offset))
+        block = None if kind == "R" else str(rng.choice(["carriage", "bushing"]))
+        joints.append(SerialJoint(kind, length, offset, rng_, name=f"j{k + 1}", block=block))
+        spec.append((kind, length, offset, block or "carriage"))
     return SerialArm(tuple(joints), name="random"), spec
 
 

@@ -228,9 +228,10 @@ def _method_section(doc: Document) -> None:
     doc.paragraph("Every leg is a chain of three one-DOF joints. With its actuated joint locked it constrains the "
                   "platform through the one wrench reciprocal to its two passive joints' twists (row i of A; its "
                   "pairing with the actuated twist is B_ii). Each error source is a small twist of the part of the "
-                  "leg beyond it: a revolute clearance a translation within a disk, a slide's tilt a rotation about "
-                  "its origin, guide play a shift normal to the rail and a tilt about the carriage within the "
-                  "rhombus of Eq. 16, an actuator error a motion along its joint. Paired with the wrench each gives "
+                  "leg beyond it: a revolute clearance a translation within a disk, a slide's angular clearance a "
+                  "tilt of its block (carriage or bushing) about the block's centre, guide play a shift normal to "
+                  "the rail and a tilt about the block's centre within the rhombus of Eq. 16, an actuator error a "
+                  "motion along its joint. Paired with the wrench each gives "
                   "its share of e_i; the shares of a leg add up to the half-width c_i, and the pose errors fill "
                   "A^-1 diag(c) [-1, 1]^3. dx, dy, dphi are its support functions and dp its largest vertex norm, "
                   "exactly.")

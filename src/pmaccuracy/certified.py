@@ -13,7 +13,8 @@ Error set
 ---------
 The sources of :mod:`pmaccuracy.sources` with non-zero half-width are the parameters ``delta`` (``n``
 scalars, mm or rad). Each source ranges over its own set and the sets are independent (their product
-``S``): an *interval* ``|delta| <= eps`` (``angular`` + ``direction`` as one turn, ``actuator``, ``length``),
+``S``): an *interval* ``|delta| <= eps`` (``direction``: a turn about the joint's centre; ``angular``: a tilt of
+a slide's block about its centre; ``actuator``, ``length``),
 a *disk* ``|(dx, dy)| <= eps`` (``radial`` + ``position`` as one shift, global axes) or a *rhombus*
 ``|L tau +- 2 sigma| <= 2 eps`` (``lateral``). The support function of a linear form ``c . delta`` over
 ``S`` is the sum of the sources' own: ``eps |c|`` (interval), ``eps ||c||_2`` (disk),
@@ -183,7 +184,8 @@ class SourceSet:
     """One independent source of the error set (module docstring, "Error set").
 
     kind : ``"interval"``, ``"disk"``, ``"rhombus"`` or ``"rect"`` (a piece of a cut disk, below)
-    leg, joint : 0-based indices;  field : ``"turn"``, ``"dq"``, ``"dl"``, ``"shift"`` or ``"lateral"``
+    leg, joint : 0-based indices;  field : ``"turn"``, ``"tilt"``, ``"dq"``, ``"dl"``, ``"shift"`` or
+        ``"lateral"`` (the fields of :class:`~pmaccuracy.sources.JointDisplacements`; ``"lateral"``: sigma, tau)
     eps : half-width (mm or rad); block_length : L (mm) of a rhombus
     cols : indices of its parameters in ``delta`` (1 or 2; disk ``(dx, dy)``, rhombus ``(sigma, tau)``)
     angle, eps_t, sector : only for a ``"rect"``: the rectangle ``|u_r . d| <= eps``, ``|u_t . d| <= eps_t``
@@ -211,7 +213,8 @@ def error_set(robot, sources) -> tuple[SourceSet, ...]:
     for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             items = [("disk", "shift", e.radial + e.position, 2, 0.0),
-                     ("interval", "turn", e.angular + e.direction, 1, 0.0),
+                     ("interval", "turn", e.direction, 1, 0.0),
+                     ("interval", "tilt", e.angular, 1, 0.0),
                      ("rhombus", "lateral", e.lateral, 2, e.block_length),
                      ("interval", "dq", e.actuator if joint.actuated else 0.0, 1, 0.0),
                      ("interval", "dl", e.length if joint.link != (0.0, 0.0) else 0.0, 1, 0.0)]
@@ -705,14 +708,22 @@ def _build_model(robot, sets: tuple[SourceSet, ...], poses: np.ndarray) -> _Mode
             if joint.kind == "R":
                 angle = angle + value + joint.offset
             else:
+                # the block (sources.block_centre) shifts by sigma normal to the rail and tilts by tau + tilt:
+                # a bushing before the slide (the rod slides along the tilted direction), a carriage after it
                 angle = angle + joint.offset
                 r = _Aff(value.c.astype(complex), value.g.astype(complex))
-                s = where.get((i, k, "lateral"))
-                if s:
-                    r.g[:, 9 + s.cols[0]] += 1j
-                terms.append((r, angle))
-                if s:
-                    angle = angle + var(9 + s.cols[1], 0.0)
+                lat, tilt = where.get((i, k, "lateral")), where.get((i, k, "tilt"))
+                bushing = joint.block_kind == "bushing"
+                if lat:
+                    sh = r if not bushing else _Aff(np.zeros(N, complex), np.zeros((N, nv), complex))
+                    sh.g[:, 9 + lat.cols[0]] += 1j
+                    if bushing:
+                        terms.append((sh, angle))
+                turned = angle
+                for col in ([lat.cols[1]] if lat else []) + ([tilt.cols[0]] if tilt else []):
+                    turned = turned + var(9 + col, 0.0)
+                terms.append((r, turned if bushing else angle))
+                angle = turned
             if abs(joint.link_z) > 0:
                 r = const(joint.link_z, complex)
                 s = where.get((i, k, "dl"))
@@ -726,7 +737,7 @@ def _build_model(robot, sets: tuple[SourceSet, ...], poses: np.ndarray) -> _Mode
         pos.g[:, 1] -= 1j
         if abs(chain.platform_z) > 0:
             terms.append((const(-chain.platform_z, complex), var(2, poses[:, 2])))
-        for r, t in terms:
+        for r, t in _merge_terms(terms):
             r0.append(r.c); rg.append(r.g); t0.append(t.c); tg.append(t.g); leg_of.append(i)
         aff0.append(pos.c); affg.append(pos.g)
         g = angle + var(2, poses[:, 2]).scale(-1.0)
@@ -736,6 +747,27 @@ def _build_model(robot, sets: tuple[SourceSet, ...], poses: np.ndarray) -> _Mode
     return _Model(r0=np.stack(r0, -1), t0=np.stack(t0, -1), rg=np.stack(rg, 1), tg=np.stack(tg, 1),
                   leg_of=np.array(leg_of), aff0=np.stack(aff0, -1), affg=np.stack(affg, 1),
                   ang0=np.stack(ang0, -1), angg=np.stack(angg, 1), n=n, z0=z0)
+
+
+def _merge_terms(terms: list) -> list:
+    """One leg's rotated terms ``(r, theta)`` with those whose angles have the same variable part merged.
+
+    ``r_a exp(i theta_a) + r_b exp(i theta_b) = (r_a exp(i (theta_a - theta_b)) + r_b) exp(i theta_b)``
+    exactly when ``theta_a - theta_b`` is a constant, and the merged ``r`` is still affine. The remainder (1)
+    of the sum is then bounded once, with ``|r_a + r_b|`` instead of ``|r_a| + |r_b|``: a rail's origin
+    moved along the rail (the link before it shorter, the slide longer by as much) leaves the bound as it
+    is.
+    """
+    out: list = []
+    for r, t in terms:
+        for j, (r2, t2) in enumerate(out):
+            if np.array_equal(t.g, t2.g):
+                turn = np.exp(1j * (t.c - t2.c))
+                out[j] = (_Aff(r2.c + r.c * turn, r2.g + r.g * turn[:, None]), t2)
+                break
+        else:
+            out.append((r, t))
+    return out
 
 
 # ============================================================================ certificate

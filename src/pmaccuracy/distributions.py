@@ -233,7 +233,7 @@ def to_displacements(terms: tuple[Term, ...], Z: np.ndarray) -> JointDisplacemen
     """
     Z = np.asarray(Z, dtype=float)
     out = JointDisplacements.zeros(Z.shape[:-1])
-    field_of = {"angular": "turn", "direction": "turn", "actuator": "dq", "length": "dl"}
+    field_of = {"angular": "tilt", "direction": "turn", "actuator": "dq", "length": "dl"}
     for t in terms:
         c = t.start
         if t.shape == "disk":

@@ -731,16 +731,22 @@ def leg_half_width_box(chain, leg_sources, lb: LegBox) -> Iv:
     for k, (joint, e) in enumerate(zip(chain.joints, leg_sources)):
         if e.radial or e.position:
             c = c + (e.radial + e.position) * abs_f
-        if e.angular or e.direction:
+        if e.direction:
             mom = Iv(np.ones(n)) if couple else iv_abs(v_cross(lb.between(k, lb.line), lb.f, var))
-            c = c + mom * (e.angular + e.direction)
-        if e.lateral:
-            shift = iv_abs(v_dot(lb.f, lb.dirs[k].scale(1j), var)) * e.lateral
+            c = c + mom * e.direction
+        if e.angular or e.lateral:
+            # moment about the block's centre: a bushing at centre k, a carriage at b_k = centre k + q_k e_k
             if couple:
                 tilt = Iv(np.ones(n))
-            else:  # carriage b_k = centre k + q_k e_k: (line - b_k) x f
+            elif joint.block_kind == "bushing":
+                tilt = iv_abs(v_cross(lb.between(k, lb.line), lb.f, var))
+            else:
                 tilt = iv_abs(v_cross(lb.between(k, lb.line) - lb.dirs[k].scale(lb.q[k]), lb.f, var))
-            c = c + iv_max(shift, tilt * (2 * e.lateral / e.block_length))
+            if e.angular:
+                c = c + tilt * e.angular
+            if e.lateral:
+                shift = iv_abs(v_dot(lb.f, lb.dirs[k].scale(1j), var)) * e.lateral
+                c = c + iv_max(shift, tilt * (2 * e.lateral / e.block_length))
         if e.actuator:
             c = c + iv_abs(lb.B) * e.actuator
         if e.length and joint.link != (0.0, 0.0):

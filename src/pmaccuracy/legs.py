@@ -61,6 +61,32 @@ N_BRANCHES = 2
 DEGENERATE = 1e-9
 
 
+#: The blocks a P joint's clearances may act about (:attr:`Joint.block`).
+BLOCKS = ("carriage", "bushing")
+
+
+def check_block(kind: str, block, *, source: str | None = None, key: str = "block") -> None:
+    """Refuse a ``block`` that is not one of :data:`BLOCKS` or that is given for an R joint."""
+    if block is None:
+        return
+    if block not in BLOCKS:
+        raise GeometryError(f"must be \"carriage\" or \"bushing\", got {block!r}", source=source, key=key)
+    if kind != "P":
+        raise GeometryError("only a prismatic joint has a block (carriage or bushing)", source=source, key=key)
+
+
+def _block(table: dict[str, Any], key: str, kind: str, *, source: str, where: str) -> str | None:
+    """The optional ``block`` key of a P joint in a robot file (checked)."""
+    value = table.get(key)
+    check_block(kind, value, source=source, key=f"{where}.{key}" if where else key)
+    return value
+
+
+def _blocks(**blocks) -> dict[str, str]:
+    """The ``block`` keys given (not ``None``), for a robot file."""
+    return {k: v for k, v in blocks.items() if v is not None}
+
+
 def _deg(angle: float) -> float:
     from .geometry import round_trip_degrees
     return round_trip_degrees(angle)
@@ -77,6 +103,10 @@ class Joint:
     offset : rad, turn of the frame before the joint motion
     link : ``(2,)`` mm, vector to the next joint in the frame after the joint
     range : ``(lo, hi)`` rad (R) or mm (P); ``(-inf, inf)`` when unlimited
+    block : P joints only: the short member the clearances (``angular``, ``lateral``) act about,
+        ``"carriage"`` (it travels with the joint value: centre ``c_k + q_k e_k``) or ``"bushing"`` (fixed on
+        the proximal part at the joint's origin ``c_k``; the rod slides through it); ``None``: the default
+        of :attr:`block_kind`
     """
 
     kind: str
@@ -84,6 +114,20 @@ class Joint:
     offset: float = 0.0
     link: tuple[float, float] = (0.0, 0.0)
     range: tuple[float, float] = (-INF, INF)
+    block: str | None = None
+
+    @property
+    def block_kind(self) -> str | None:
+        """The P joint's block: :attr:`block` if given, else ``"carriage"`` for an actuated and ``"bushing"``
+        for a passive P joint (the paper's 3-PPR: the guide's carriage at ``B_i``, the bearing at ``C_i``);
+        ``None`` for an R joint.
+
+        >>> Joint("P", actuated=True).block_kind, Joint("P").block_kind, Joint("R").block_kind
+        ('carriage', 'bushing', None)
+        """
+        if self.kind != "P":
+            return None
+        return self.block or ("carriage" if self.actuated else "bushing")
 
     @property
     def link_z(self) -> complex:
@@ -279,6 +323,8 @@ class Chain:
         n_act = sum(joint.actuated for joint in self.joints)
         if n_act != 1:
             raise GeometryError(f"exactly one joint must be actuated, found {n_act}", key="joints")
+        for j, joint in enumerate(self.joints, start=1):
+            check_block(joint.kind, joint.block, key=f"joints[{j}].block")
         if self.pattern == "PPP":
             raise GeometryError("a P-P-P leg cannot let the platform turn: at least one joint must be revolute",
                                 key="joints")
@@ -873,10 +919,12 @@ class PPRLeg(LegType):
     psi: float
     s_range: tuple[float, float]
     l_range: tuple[float, float]
+    guide_block: str | None = None
+    bearing_block: str | None = None
 
     ARCHITECTURE: ClassVar[str] = "3-PPR"
     KEYS: ClassVar[set[str]] = {"a", "alpha_deg", "beta_deg", "gamma_deg", "theta_deg", "d", "r", "psi_deg",
-                                "s_range", "l_range"}
+                                "s_range", "l_range", "guide_block", "bearing_block"}
 
     @cached_property
     def chain(self) -> Chain:
@@ -884,8 +932,9 @@ class PPRLeg(LegType):
         link = self.d * np.exp(1j * self.gamma)
         plat = -self.r * np.exp(1j * self.psi)
         return Chain(
-            joints=(Joint("P", actuated=True, link=(link.real, link.imag), range=tuple(self.s_range)),
-                    Joint("P", offset=self.gamma + self.theta, range=tuple(self.l_range)),
+            joints=(Joint("P", actuated=True, link=(link.real, link.imag), range=tuple(self.s_range),
+                          block=self.guide_block),
+                    Joint("P", offset=self.gamma + self.theta, range=tuple(self.l_range), block=self.bearing_block),
                     Joint("R")),
             base=(base.real, base.imag), base_angle=self.alpha + self.beta,
             platform=(plat.real, plat.imag))
@@ -904,13 +953,16 @@ class PPRLeg(LegType):
             psi=math.radians(num("psi_deg")),
             s_range=_tomlio.interval(table, "s_range", source=source, where=where),
             l_range=_tomlio.interval(table, "l_range", source=source, where=where),
+            guide_block=_block(table, "guide_block", "P", source=source, where=where),
+            bearing_block=_block(table, "bearing_block", "P", source=source, where=where),
         )
 
     def to_table(self) -> dict[str, Any]:
         return {"a": float(self.a), "alpha_deg": _deg(self.alpha), "beta_deg": _deg(self.beta),
                 "gamma_deg": _deg(self.gamma), "theta_deg": _deg(self.theta), "d": float(self.d),
                 "r": float(self.r), "psi_deg": _deg(self.psi), "s_range": [float(v) for v in self.s_range],
-                "l_range": [float(v) for v in self.l_range]}
+                "l_range": [float(v) for v in self.l_range], **_blocks(guide_block=self.guide_block,
+                                                                       bearing_block=self.bearing_block)}
 
 
 @dataclass(frozen=True)
@@ -923,13 +975,15 @@ class RPRLeg(LegType):
     base: tuple[float, float]
     platform: tuple[float, float]
     length_range: tuple[float, float]
+    block: str | None = None
 
     ARCHITECTURE: ClassVar[str] = "3-RPR"
-    KEYS: ClassVar[set[str]] = {"base", "platform", "length_range"}
+    KEYS: ClassVar[set[str]] = {"base", "platform", "length_range", "block"}
 
     @cached_property
     def chain(self) -> Chain:
-        return Chain(joints=(Joint("R"), Joint("P", actuated=True, range=self.length_range), Joint("R")),
+        return Chain(joints=(Joint("R"), Joint("P", actuated=True, range=self.length_range, block=self.block),
+                             Joint("R")),
                      base=self.base, platform=self.platform)
 
     @classmethod
@@ -939,10 +993,12 @@ class RPRLeg(LegType):
             raise ConfigError(f"a length cannot be negative, got [{rng[0]:g}, {rng[1]:g}]", source=source,
                               key=f"{where}.length_range")
         return cls(base=_point(table, "base", source=source, where=where),
-                   platform=_point(table, "platform", source=source, where=where), length_range=rng)
+                   platform=_point(table, "platform", source=source, where=where), length_range=rng,
+                   block=_block(table, "block", "P", source=source, where=where))
 
     def to_table(self):
-        return {"base": list(self.base), "platform": list(self.platform), "length_range": list(self.length_range)}
+        return {"base": list(self.base), "platform": list(self.platform), "length_range": list(self.length_range),
+                **_blocks(block=self.block)}
 
 
 @dataclass(frozen=True)
@@ -1000,13 +1056,15 @@ class PRRLeg(LegType):
     distal: float
     s_range: tuple[float, float]
     working_mode: int = 1
+    block: str | None = None
 
     ARCHITECTURE: ClassVar[str] = "3-PRR"
-    KEYS: ClassVar[set[str]] = {"guide_point", "guide_deg", "platform", "distal", "s_range", "working_mode"}
+    KEYS: ClassVar[set[str]] = {"guide_point", "guide_deg", "platform", "distal", "s_range", "working_mode", "block"}
 
     @cached_property
     def chain(self) -> Chain:
-        return Chain(joints=(Joint("P", actuated=True, range=self.s_range), Joint("R", link=(self.distal, 0.0)),
+        return Chain(joints=(Joint("P", actuated=True, range=self.s_range, block=self.block),
+                             Joint("R", link=(self.distal, 0.0)),
                              Joint("R")),
                      base=self.guide_point, base_angle=self.guide_angle, platform=self.platform,
                      working_mode=self.working_mode)
@@ -1018,12 +1076,13 @@ class PRRLeg(LegType):
                    platform=_point(table, "platform", source=source, where=where),
                    distal=_tomlio.number(table, "distal", source=source, where=where, positive=True),
                    s_range=_tomlio.interval(table, "s_range", source=source, where=where),
-                   working_mode=_mode(table, source=source, where=where))
+                   working_mode=_mode(table, source=source, where=where),
+                   block=_block(table, "block", "P", source=source, where=where))
 
     def to_table(self):
         return {"guide_point": list(self.guide_point), "guide_deg": _deg(self.guide_angle),
                 "platform": list(self.platform), "distal": self.distal, "s_range": list(self.s_range),
-                "working_mode": self.working_mode}
+                "working_mode": self.working_mode, **_blocks(block=self.block)}
 
 
 @dataclass(frozen=True)
@@ -1034,7 +1093,7 @@ class ChainLeg(LegType):
 
     ARCHITECTURE: ClassVar[str] = "chain"
     KEYS: ClassVar[set[str]] = {"base", "base_deg", "platform", "platform_deg", "working_mode", "joints"}
-    JOINT_KEYS: ClassVar[set[str]] = {"type", "actuated", "offset_deg", "link", "range"}
+    JOINT_KEYS: ClassVar[set[str]] = {"type", "actuated", "offset_deg", "link", "range", "block"}
 
     @property
     def chain(self) -> Chain:
@@ -1069,7 +1128,8 @@ class ChainLeg(LegType):
                                   key=f"{jw}.range")
             else:
                 rng = (-INF, INF)
-            joints.append(Joint(kind, actuated=actuated, offset=offset, link=link, range=rng))
+            joints.append(Joint(kind, actuated=actuated, offset=offset, link=link, range=rng,
+                                block=_block(jt, "block", kind, source=source, where=jw)))
         n_act = sum(j.actuated for j in joints)
         if n_act != 1:
             raise ConfigError(f"exactly one joint must have actuated = true, found {n_act}", source=source,
@@ -1098,6 +1158,7 @@ class ChainLeg(LegType):
                 jt["link"] = [float(v) for v in j.link]
             if j.limited or (np.isfinite(j.range[0]) and np.isfinite(j.range[1])):
                 jt["range"] = [_deg(v) for v in j.range] if j.kind == "R" else [float(v) for v in j.range]
+            jt.update(_blocks(block=j.block))
             joints.append(jt)
         return {"base": list(c.base), "base_deg": _deg(c.base_angle), "platform": list(c.platform),
                 "platform_deg": _deg(c.platform_angle), "working_mode": c.working_mode, "joints": joints}

@@ -84,8 +84,10 @@ def _perturbed_end(chain, q: np.ndarray, config, leg: int) -> tuple[np.ndarray, 
     """End frame ``(angle, origin)`` of a leg chain with its joints at ``q (..., 3)`` and the source values
     of ``config`` (:class:`~pmaccuracy.sources.JointDisplacements`) inserted (module docstring of
     :mod:`pmaccuracy.sources`): before joint k a translation ``shift`` and a turn ``turn`` about its
-    centre; inside a slide, after the slide, the lateral shift ``sigma`` normal to the rail and the tilt
-    ``tau`` about the carriage; ``dq`` on the actuated joint; the link ``dl`` longer."""
+    centre ``c_k``; a slide's block shifted by ``sigma`` normal to the rail and tilted by ``tau + tilt``
+    about its centre: a bushing before the slide (at ``c_k``, the rod then slides along the tilted
+    direction), a carriage after it (at ``c_k + q_k e_k``); ``dq`` on the actuated joint; the link ``dl``
+    longer."""
     angle = np.full(q.shape[:-1], float(chain.base_angle))
     pos = np.full(q.shape[:-1], chain.base_z, dtype=complex)
     for k, joint in enumerate(chain.joints):
@@ -100,8 +102,14 @@ def _perturbed_end(chain, q: np.ndarray, config, leg: int) -> tuple[np.ndarray, 
         else:
             angle = angle + joint.offset
             e = np.exp(1j * angle)
-            pos = pos + value * e + config.sigma[..., leg, k] * 1j * e
-            angle = angle + config.tau[..., leg, k]
+            pos = pos + config.sigma[..., leg, k] * 1j * e
+            tilt = config.tau[..., leg, k] + config.tilt[..., leg, k]
+            if joint.block_kind == "bushing":
+                angle = angle + tilt
+                pos = pos + value * np.exp(1j * angle)
+            else:
+                pos = pos + value * e
+                angle = angle + tilt
         pos = pos + np.exp(1j * angle) * link
     return angle, pos
 

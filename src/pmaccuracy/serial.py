@@ -9,8 +9,11 @@ value ``q_k`` and link ``length_k``:
   centre ``c_k``), then the origin moves ``length_k`` along the new x-axis;
 * **P**: the frame turns by ``offset_k``, then the origin slides
   ``q_k + length_k`` along the new x-axis (the slide's direction ``e_k``); the
-  carriage sits at ``b_k = c_k + q_k e_k`` and the link of ``length_k`` runs
-  from it.
+  link of ``length_k`` runs from the point ``c_k + q_k e_k``. The slide's
+  *block* (its short member, which the clearances shift and tilt) is a
+  ``carriage`` travelling with the joint, centre ``b_k = c_k + q_k e_k`` (the
+  default: every joint of an arm is actuated), or a ``bushing`` fixed at the
+  joint's origin, ``b_k = c_k`` (key ``block`` of the joint's table).
 
 The end effector is the last frame: position ``p`` (complex, mm) and angle
 ``phi = sum(offsets) + sum(q_R)`` (rad).
@@ -30,12 +33,12 @@ key             displacement of the part beyond joint ``k``          set at the 
 ``position``    tolerance: the joint's centre moved, ``|delta|<=t``  disk of radius ``t``
 ``actuator``    ``|dq| <= eps``: R: rotation about ``c_k`` (rad);     segment
                 P: translation ``dq e_k`` (mm)
-``angular``     P: tilt ``|tau| <= eps`` about ``c_k`` (rad)          segment
+``angular``     P: block tilt ``|tau| <= eps`` about ``b_k`` (rad)     segment
 ``direction``   tolerance: joint turned about ``c_k``, ``|tau|<=t``   segment
 ``length``      tolerance: link ``k`` longer by ``|dl| <= t``:        segment
                 translation ``dl d_k`` along the link
 ``lateral``     P guide play: shift ``sigma`` along ``E e_k`` and     parallelogram (two segments)
-                tilt ``tau`` about the carriage ``b_k`` inside the
+                tilt ``tau`` about the block's ``b_k`` inside the
                 rhombus ``|L tau +- 2 sigma| <= 2 eps`` (``L`` =
                 ``block_length``)
 ==============  =================================================  ===========================
@@ -68,6 +71,7 @@ import numpy as np
 
 from . import _tomlio
 from .errors import ClearanceError, ConfigError, GeometryError, OutsideJointLimitsError, PoseError
+from .legs import check_block
 from .screws import expi
 from .sources import DEFAULT_BLOCK_LENGTH, KEYS, JointErrors
 
@@ -75,7 +79,7 @@ from .sources import DEFAULT_BLOCK_LENGTH, KEYS, JointErrors
 ARCHITECTURE = "serial"
 #: Keys of the top level and of one ``[[joints]]`` table of a serial robot file.
 TOP_KEYS = {"architecture", "name", "description", "joints"}
-JOINT_KEYS = {"type", "length", "offset_deg", "range", "name", "description"}
+JOINT_KEYS = {"type", "length", "offset_deg", "range", "name", "description", "block"}
 #: Output quantities with a worst-case configuration.
 QUANTITIES = ("dx", "dy", "dphi", "dp")
 
@@ -92,6 +96,7 @@ class SerialJoint:
     kind : ``"R"`` or ``"P"``;  length : mm, link along the x-axis after the joint;
     offset : rad, turn of the frame before the joint's motion;
     range : ``(lo, hi)`` of ``q``, rad (R) or mm (P);  name, description : labels
+    block : P only: ``"carriage"`` (default) or ``"bushing"`` (module docstring)
     """
 
     kind: str
@@ -100,6 +105,12 @@ class SerialJoint:
     range: tuple[float, float] = (-math.inf, math.inf)
     name: str = ""
     description: str = ""
+    block: str | None = None
+
+    @property
+    def block_kind(self) -> str | None:
+        """``"carriage"`` or ``"bushing"`` for a P joint (a carriage unless :attr:`block` says otherwise)."""
+        return None if self.kind != "P" else (self.block or "carriage")
 
     @property
     def unit(self) -> str:
@@ -136,6 +147,7 @@ class SerialArm(_tomlio.TomlPresets):
             if j.length < 0:
                 raise GeometryError(f"must not be negative, got {j.length}", source=self.name,
                                     key=f"{where}.length")
+            check_block(j.kind, j.block, source=self.name, key=f"{where}.block")
             lo, hi = j.range
             if math.isnan(lo) or math.isnan(hi) or not lo < hi:
                 raise GeometryError(f"empty range [{lo}, {hi}] (min must be below max)", source=self.name,
@@ -195,7 +207,9 @@ class SerialArm(_tomlio.TomlPresets):
                 if not isinstance(value, str):
                     raise ConfigError("must be a string", source=source, key=f"{where}.{key}")
                 texts[key] = value
-            joints.append(SerialJoint(kind, length, offset, (lo, hi), **texts))
+            block = t.get("block")
+            check_block(kind, block, source=source, key=f"{where}.block")
+            joints.append(SerialJoint(kind, length, offset, (lo, hi), **texts, block=block))
         name = data.get("name", source[:-len(".toml")].rsplit("/", 1)[-1] if source.endswith(".toml") else source)
         description = data.get("description", "")
         for key, value in (("name", name), ("description", description)):
@@ -217,6 +231,8 @@ class SerialArm(_tomlio.TomlPresets):
                 t["name"] = j.name
             if j.description:
                 t["description"] = j.description
+            if j.block is not None:
+                t["block"] = j.block
             tables.append(t)
         out["joints"] = tables
         return out
@@ -447,9 +463,10 @@ def error_generators(arm: SerialArm, sources: SerialErrorSources, q: np.ndarray
     (:meth:`SerialArm.frames`) and end position ``p``, a unit rotation about
     ``c`` gives ``rot(c) = (Re E(p - c), Im E(p - c), 1)`` and a unit
     translation along ``e`` gives ``tr(e) = (Re e, Im e, 0)``; the generators
-    (module docstring) are ``eps * rot(c_k)`` (R actuator, angular, direction),
+    (module docstring) are ``eps * rot(c_k)`` (R actuator, direction), ``eps * rot(b_k)`` (angular),
     ``eps * tr(d_k)`` (P actuator, length) and, for the guide,
-    ``(eps tr(E d_k) +- (2 eps / L) rot(b_k)) / 2`` with ``b_k = c_k + q_k d_k``.
+    ``(eps tr(E d_k) +- (2 eps / L) rot(b_k)) / 2``, with the block's centre ``b_k = c_k + q_k d_k``
+    (carriage) or ``c_k`` (bushing).
     The disks (radial, position) are in the returned :class:`ErrorLayout`.
     """
     q = arm._q(q)
@@ -478,14 +495,15 @@ def error_generators(arm: SerialArm, sources: SerialErrorSources, q: np.ndarray
                 layout.disks[f"{name}.{key}"] = getattr(e, key)
         if e.actuator:
             add(f"{name}.actuator", [e.actuator * (rot(c) if joint.kind == "R" else tr(d))], [e.actuator])
-        for key in ("angular", "direction"):
+        block = c if joint.block_kind == "bushing" else c + q[..., k] * d
+        for key, centre in (("angular", block), ("direction", c)):
             if getattr(e, key):
-                add(f"{name}.{key}", [getattr(e, key) * rot(c)], [getattr(e, key)])
+                add(f"{name}.{key}", [getattr(e, key) * rot(centre)], [getattr(e, key)])
         if e.length:
             add(f"{name}.length", [e.length * tr(d)], [e.length])
         if e.lateral:
             u = e.lateral * tr(1j * d)
-            v = (2 * e.lateral / e.block_length) * rot(c + q[..., k] * d)
+            v = (2 * e.lateral / e.block_length) * rot(block)
             half = [e.lateral / 2, e.lateral / e.block_length]
             add(f"{name}.lateral", [(u + v) / 2, (u - v) / 2], [half, [half[0], -half[1]]])
     shape = q.shape[:-1] + (len(gens), 3)

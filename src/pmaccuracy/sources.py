@@ -11,15 +11,26 @@ about ``c``), the sources of joint ``k`` of a leg and their largest ``|e_i|``:
 key             displacement (inserted in the chain at joint k)          largest share of ``|e_i|``
 ==============  =======================================================  =======================================
 ``radial``      R clearance: the distal part translates, ``|delta| <= eps``  ``eps |f|``
-``angular``     P tilt ``|tau| <= eps`` about the slide's origin ``c_k``     ``eps |M(c_k)|``
-``lateral``     guide play: shift ``sigma`` normal to the rail and tilt      ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
-                ``tau`` about the carriage centre ``b_k = c_k + q_k e_k``
-                in the rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
+``angular``     P tilt ``|tau| <= eps`` of the block about its centre        ``eps |M(b_k)|``
+                ``b_k`` (below)
+``lateral``     P play: the block shifts by ``sigma`` normal to the rail     ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
+                and tilts by ``tau`` about its centre ``b_k``, in the
+                rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
 ``actuator``    actuated joint error ``|dq| <= eps`` (mm or rad)            ``eps |B_ii|``
 ``position``    tolerance: the joint's centre moved, ``|delta| <= t``       ``t |f|``
 ``direction``   tolerance: the joint turned about its centre, ``|tau|<=t``  ``t |M(c_k)|``
 ``length``      tolerance: the link after joint k longer by ``|dl| <= t``   ``t |f . unit(link_k)|``
 ==============  =======================================================  =======================================
+
+The **block** of a P joint is its short member (carriage, bushing, gland),
+which the clearance lets shift and tilt on the long one (rail, rod) about its
+own centre ``b_k`` (:attr:`pmaccuracy.legs.Joint.block_kind`): a *carriage*
+travels with the joint value, ``b_k = c_k + q_k e_k`` (the default of an
+actuated P joint); a *bushing* sits at the joint's origin on the proximal part,
+``b_k = c_k``, and the rod slides through it (the default of a passive P
+joint). So the results do not depend on where a file puts a rail's origin.
+Manufacturing tolerances (``direction``) turn the joint about its mounting
+point ``c_k``, the origin the file gives.
 
 The sources of a leg are independent and symmetric, so ``e_i`` fills
 ``[-c_i, c_i]`` with ``c_i`` the sum of the shares (:func:`half_widths`), and
@@ -27,8 +38,9 @@ the reachable pose errors are the parallelepiped ``A^-1 diag(c) [-1, 1]^3``
 (:func:`pmaccuracy.bounds.max_pose_errors` for every architecture).
 
 For the paper's 3-PPR (Sec. 4.2) the bearing tilt ``delta theta_i`` about
-``C_i`` is ``angular`` on the second joint, the guide play on the actuated
-guide is ``lateral`` (shift normal to the rail, tilt about ``B_i``), and the
+``C_i`` is ``angular`` on the second joint (a bushing at ``C_i``), the guide
+play on the actuated guide is ``lateral`` (shift normal to the rail, tilt
+about the carriage ``B_i``), and the
 revolute clearance at ``D_i`` is ``radial`` on the third joint:
 ``c_i = eps_theta l_i + max(eps_g |H_d|, 2 eps_g |H_gamma| / L_g) + eps_r``.
 
@@ -207,9 +219,9 @@ def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndar
 def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.ndarray) -> np.ndarray:
     """:func:`half_widths` from the legs' states (:func:`pmaccuracy.kinematics.leg_states`), ``(..., 3)`` mm.
 
-    Per joint ``k`` with centre ``c_k``, direction ``e_k`` and the leg's wrench
-    ``(f, m_P)``: ``M(c) = m_P + (P - c) x f`` is the moment about ``c``, and the
-    shares of the table in the module docstring add up.
+    Per joint ``k`` with centre ``c_k``, direction ``e_k``, block centre ``b_k``
+    (:func:`block_centre`) and the leg's wrench ``(f, m_P)``: ``M(c) = m_P + (P - c) x f``
+    is the moment about ``c``, and the shares of the table in the module docstring add up.
     """
     pz = poses[..., 0] + 1j * poses[..., 1]
     out = np.empty(poses.shape[:-1] + (3,))
@@ -222,14 +234,15 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if (e.radial or e.position) and not couple:   # |f| = 1 (a pure couple has f = 0)
                 const += e.radial + e.position
-            if e.angular or e.direction:
-                terms.append((e.angular + e.direction) * np.abs(m_P + cross(pz - st.centres[k], f)))
-            if e.lateral:
-                # the carriage b_k = c_k + q_k e_k is the next frame's origin less the joint's link
-                carriage = st.centres[k + 1] if k < 2 and joint.link_z == 0 else st.centres[k] + st.qs[k] * st.dirs[k]
-                shift = e.lateral * np.abs(cross(st.dirs[k], f))      # f . (E e_k) = e_k x f
-                tilt = (2 * e.lateral / e.block_length) * np.abs(m_P + cross(pz - carriage, f))
-                terms.append(np.maximum(shift, tilt))
+            if e.direction:
+                terms.append(e.direction * np.abs(m_P + cross(pz - st.centres[k], f)))
+            if e.angular or e.lateral:
+                m_block = np.abs(m_P + cross(pz - block_centre(joint, st, k), f))
+                if e.angular:
+                    terms.append(e.angular * m_block)
+                if e.lateral:
+                    shift = e.lateral * np.abs(cross(st.dirs[k], f))      # f . (E e_k) = e_k x f
+                    terms.append(np.maximum(shift, (2 * e.lateral / e.block_length) * m_block))
             if e.actuator:
                 terms.append(e.actuator * np.abs(st.B))
             if e.length and joint.link != (0.0, 0.0):
@@ -240,6 +253,26 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
             c = c + term
         out[..., i] = c
     return out
+
+
+def block_centre(joint, st, k: int):
+    """Centre ``b_k`` (complex mm, base frame) of the block of P joint ``k`` in the leg state ``st``
+    (:class:`~pmaccuracy.legs.LegState`): ``c_k + q_k e_k`` for a carriage, ``c_k`` for a bushing
+    (module docstring). A carriage followed by no link is the next frame's origin.
+
+    >>> from pmaccuracy.legs import Chain, Joint
+    >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")))
+    >>> st = chain.state(np.array([3.0, 4.0, 0.0]))
+    >>> complex(np.round(block_centre(chain.joints[1], st, 1), 12))
+    (3+4j)
+    >>> complex(np.round(block_centre(Joint("P", block="bushing"), st, 1), 12))
+    0j
+    """
+    if joint.block_kind == "bushing":
+        return st.centres[k]
+    if k < 2 and joint.link_z == 0:
+        return st.centres[k + 1]
+    return st.centres[k] + st.qs[k] * st.dirs[k]
 
 
 def is_per_joint(data: dict[str, Any]) -> bool:
@@ -285,11 +318,12 @@ class JointDisplacements:
     """Values of the error sources of every joint, arrays ``(..., 3 legs, 3 joints)`` (a configuration).
 
     shift : complex mm, translation of the distal part inserted before the joint (``radial``, ``position``)
-    turn : rad, rotation about the joint's centre inserted before it (``angular``, ``direction``)
-    sigma, tau : mm and rad, a slide's lateral shift normal to the rail and tilt about the carriage
-        (``lateral``), inside the joint after the slide
+    turn : rad, rotation about the joint's centre ``c_k`` inserted before it (``direction``)
+    sigma, tau : mm and rad, a slide's block shifted normal to the rail and tilted about its centre ``b_k``
+        (``lateral``; :func:`block_centre`)
     dq : mm or rad, actuator error (``actuator``)
     dl : mm, change of the link length after the joint (``length``)
+    tilt : rad, a slide's block tilted about its centre ``b_k`` (``angular``)
     """
 
     shift: np.ndarray
@@ -298,17 +332,20 @@ class JointDisplacements:
     tau: np.ndarray
     dq: np.ndarray
     dl: np.ndarray
+    tilt: np.ndarray
+
+    FIELDS: ClassVar[tuple[str, ...]] = ("shift", "turn", "sigma", "tau", "dq", "dl", "tilt")
 
     @classmethod
     def zeros(cls, shape: tuple[int, ...] = ()) -> "JointDisplacements":
         z = lambda: np.zeros(shape + (3, 3))  # noqa: E731 - a separate array for each field
-        return cls(shift=z().astype(complex), turn=z(), sigma=z(), tau=z(), dq=z(), dl=z())
+        return cls(**{k: z().astype(complex) if k == "shift" else z() for k in cls.FIELDS})
 
     def scaled(self, factor) -> "JointDisplacements":
         """Every value times ``factor`` (a scalar or an array broadcasting against ``(..., 1, 1)``)."""
         f = np.asarray(factor, dtype=float)
         f = f[..., None, None] if f.ndim else f
-        return JointDisplacements(*(getattr(self, k) * f for k in ("shift", "turn", "sigma", "tau", "dq", "dl")))
+        return JointDisplacements(*(getattr(self, k) * f for k in self.FIELDS))
 
     def __neg__(self) -> "JointDisplacements":
         return self.scaled(-1.0)
@@ -320,8 +357,9 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
 
     Each source sits at the extreme of its set that moves ``e_i`` the most in the
     direction ``t_i`` (module docstring): a translation along ``t_i f``, a turn
-    of sign ``t_i sign(M(c))``, the guide rhombus vertex that wins (pure shift
-    or pure tilt), ``dq = t_i eps sign(B_ii)``, ``dl = t_i t sign(f . link)``.
+    of sign ``t_i sign(M(c_k))``, a block tilt of sign ``t_i sign(M(b_k))``, the
+    guide rhombus vertex that wins (pure shift or pure tilt),
+    ``dq = t_i eps sign(B_ii)``, ``dl = t_i t sign(f . link)``.
     ``joints`` ``(..., 3, 3)`` are the joint values at the poses ``(..., 3)``.
     With the signs of a row of ``A^-1`` this is the configuration attaining
     that quantity's maximum (``max_pose_errors(...).worst_signs``).
@@ -329,23 +367,22 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
     poses = np.asarray(poses, dtype=float)
     pz = poses[..., 0] + 1j * poses[..., 1]
     shape = poses.shape[:-1]
-    out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float)
-           for k in ("shift", "turn", "sigma", "tau", "dq", "dl")}
+    out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float) for k in JointDisplacements.FIELDS}
     sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
     for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, _leg_states(robot, joints, poses))):
-        q = st.q
         centres, dirs, f, m_P, B = st.centres, st.dirs, st.f, st.m_P, st.B
         t = signs[..., i]
         unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if e.radial or e.position:
                 out["shift"][..., i, k] = t * (e.radial + e.position) * unit_f
-            if e.angular or e.direction:
-                out["turn"][..., i, k] = t * (e.angular + e.direction) * sgn(m_P + cross(pz - centres[k], f))
+            if e.direction:
+                out["turn"][..., i, k] = t * e.direction * sgn(m_P + cross(pz - centres[k], f))
+            if e.angular or e.lateral:
+                b = m_P + cross(pz - block_centre(joint, st, k), f)
+                out["tilt"][..., i, k] = t * e.angular * sgn(b)
             if e.lateral:
-                carriage = centres[k] + q[..., k] * dirs[k]
                 a = dot(f, 1j * dirs[k])
-                b = m_P + cross(pz - carriage, f)
                 shift_wins = e.lateral * np.abs(a) >= 2 * e.lateral * np.abs(b) / e.block_length
                 out["sigma"][..., i, k] = np.where(shift_wins, t * e.lateral * sgn(a), 0.0)
                 out["tau"][..., i, k] = np.where(shift_wins, 0.0, t * 2 * e.lateral / e.block_length * sgn(b))
@@ -369,15 +406,15 @@ def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: Join
     pz = poses[..., 0] + 1j * poses[..., 1]
     rows, es = [], []
     for i, (chain, st) in enumerate(zip(robot.chains, _leg_states(robot, joints, poses))):
-        q = st.q
         centres, dirs, f, m_P, B, A_row = st.centres, st.dirs, st.f, st.m_P, st.B, st.A_row
         e = np.zeros(poses.shape[:-1])
         for k, joint in enumerate(chain.joints):
             e = e + dot(f, config.shift[..., i, k])
             e = e + config.turn[..., i, k] * (m_P + cross(pz - centres[k], f))
-            carriage = centres[k] + q[..., k] * dirs[k]
-            e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[k])
-            e = e + config.tau[..., i, k] * (m_P + cross(pz - carriage, f))
+            if joint.kind == "P":
+                e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[k])
+                e = e + (config.tau[..., i, k] + config.tilt[..., i, k]) * (
+                    m_P + cross(pz - block_centre(joint, st, k), f))
             if joint.actuated:
                 e = e + config.dq[..., i, k] * B
             if joint.link != (0.0, 0.0):

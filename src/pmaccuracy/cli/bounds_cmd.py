@@ -206,8 +206,8 @@ def with_tolerances(clearances, tolerances):
 
 
 #: Output keys of a per-joint worst configuration: JointDisplacements field -> (key, to output unit).
-_SOURCE_KEYS = {"turn": ("turn_deg", np.degrees), "sigma": ("lateral_shift_mm", None),
-                "tau": ("tilt_deg", np.degrees), "dl": ("length_mm", None)}
+_SOURCE_KEYS = {"turn": ("turn_deg", np.degrees), "tilt": ("angular_deg", np.degrees),
+                "sigma": ("lateral_shift_mm", None), "tau": ("tilt_deg", np.degrees), "dl": ("length_mm", None)}
 
 
 def _per_joint_details(robot, sources, result) -> list[dict]:
