@@ -71,7 +71,12 @@ def test_random_robot_against_dense_search(kind, factor):
 # Strongly nonlinear robots at 10x (seeds of the same generators): before the branch and bound cut disks and
 # took refused poses, the chain was refused and the other two were 7-10 % above the dense search.
 # 10-20 s each: ``make test-all`` (test_certified's 100x case also needs the pieces where the whole set fails).
-HARD = [pytest.param(kind, seed, marks=pytest.mark.slow) for kind, seed in (("chain", 3), ("3-RPR", 5), ("3-PRR", 5))]
+# The 3-PRR of seed 5 is only 8 % above first order since its guides' angular clearance tilts the carriage
+# (issue 21); of the next seeds that are far from first order (7, 8, 15: 28 %, 28 %, 66 %) every one certifies
+# but 6-9 % above the dense search: strict xfail until the 10x tightness of the certified-speed issue lands.
+HARD = [pytest.param(kind, seed, marks=pytest.mark.slow) for kind, seed in (("chain", 3), ("3-RPR", 5))] + [
+    pytest.param("3-PRR", 8, marks=[pytest.mark.slow, pytest.mark.xfail(
+        strict=True, reason="certified 6 % above the dense search at 10x (over the 5 % target)")])]
 
 
 @pytest.mark.parametrize("kind,seed", HARD)

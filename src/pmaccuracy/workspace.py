@@ -537,7 +537,7 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
         if not np.all(np.isfinite(q)):
             continue
         centres, dirs, _, end = chain.frames(q)
-        # the leg as drawn: each joint's centre, a slide's carriage (centre + q e), then the link to the next
+        # the leg as drawn: each joint's centre, a slide's moving end (centre + q e), then the link to the next
         origins = [complex(*chain.base)]
         for k, joint in enumerate(chain.joints):
             if joint.kind == "P":
@@ -560,8 +560,10 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
                 ax.plot(centres[k].real, centres[k].imag, "o", markersize=6, markerfacecolor=face,
                         markeredgecolor="k", zorder=5)
             else:
-                # the carriage: at the end of the slide when a link follows it, else half-way along it
-                mid = centres[k] + q[k] * dirs[k] * (1.0 if joint.link != (0.0, 0.0) else 0.5)
+                # the block: a bushing at the slide's origin; a carriage at the end of the slide when a link
+                # follows it, else half-way along it (the next joint's marker sits at its end)
+                mid = centres[k] if joint.block_kind == "bushing" else \
+                    centres[k] + q[k] * dirs[k] * (1.0 if joint.link != (0.0, 0.0) else 0.5)
                 ax.plot(mid.real, mid.imag, "s", markersize=6, markerfacecolor=face, markeredgecolor="k",
                         zorder=5)
         ax.plot(chain.base[0], chain.base[1], "k^", markersize=7, zorder=4,
