@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= out
 
-.PHONY: demo test test-all bench clean
+.PHONY: demo test test-all docs bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -12,11 +12,11 @@ $(BIN)/python:
 
 # Stamp files so that the install re-runs when pyproject.toml changes.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet -e ".[all]"
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[all,test]"
 	touch $@ $(VENV)/.installed
 
 demo: $(VENV)/.installed
@@ -30,6 +30,16 @@ test: $(VENV)/.installed-test
 test-all: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q -n auto --maxprocesses=4
 
+$(VENV)/.installed-docs: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[all,docs]"
+	touch $@
+
+# The documentation site (API pages from the docstrings, the README as the guide), offline, warnings as errors.
+docs: $(VENV)/.installed-docs
+	rm -rf docs/generated docs/_build
+	$(BIN)/python -m sphinx -W --keep-going -q -b html docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
 bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_floor.py
 	$(BIN)/python benchmarks/bench_bounds.py
@@ -37,4 +47,4 @@ bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_scale.py
 
 clean:
-	rm -rf $(VENV) $(OUT) build src/*.egg-info .pytest_cache
+	rm -rf $(VENV) $(OUT) build src/*.egg-info .pytest_cache docs/_build docs/generated

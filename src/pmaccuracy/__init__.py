@@ -6,20 +6,94 @@ Clearances", ASME J. Mechanisms Robotics 4(4), 041011, 2012.
 
 Units: lengths in mm and angles in radians in the API; files and the command
 line use degrees (always in keys or options ending in ``deg``).
+
+Start here (``import pmaccuracy as pm``); every function takes a robot and its clearances as objects,
+preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files:
+
+* your robot and clearances: ``robot = pm.load_robot("my_robot.toml")``,
+  ``cl = pm.load_clearances("my_clearances.toml", robot)`` (README: "Robot files", "Clearances");
+* exact first-order worst cases at poses ``(N, 3)`` [x mm, y mm, phi rad]:
+  ``b = pm.max_pose_errors(robot, cl, poses)`` -> ``b.dx_max, b.dy_max, b.dphi_max, b.dp_max``;
+* maps over the workspace: ``ds = pm.error_map(robot, cl, phis=[0.0, 0.5], n=101)`` (an xarray Dataset);
+* certified bounds of the exact (nonlinear) model: ``pm.certified_pose_errors(robot, cl, poses)``;
+* the certified worst case over a region: ``pm.global_worst(robot, cl, pm.make_region(robot, (lo, hi), box))``;
+* design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
+* kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``.
+
+Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming the file, key or argument.
+The names are loaded lazily: ``import pmaccuracy`` itself imports nothing heavy.
 """
 
-from .errors import (ClearanceError, ConfigError, EmptyWorkspaceError, GeometryError, MeasurementFileError,
-                     NoSolutionError, OutsideJointLimitsError, PmAccuracyError, PoseError, SingularPoseError,
-                     VisionError)
-from .geometry import Leg, Manipulator
-from .kinematics import (FKSolution, IKSolution, forward_kinematics, inverse_kinematics, jacobians,
-                         kinematic_jacobian, singularity)
+from __future__ import annotations
+
+import importlib
+import sys
+import types
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "ClearanceError", "ConfigError", "EmptyWorkspaceError", "FKSolution", "GeometryError", "IKSolution", "Leg",
-    "Manipulator", "MeasurementFileError", "NoSolutionError", "OutsideJointLimitsError", "PmAccuracyError",
-    "PoseError", "SingularPoseError", "VisionError", "forward_kinematics", "inverse_kinematics", "jacobians",
-    "kinematic_jacobian", "singularity", "__version__",
-]
+#: Public name -> the module that defines it (loaded on first use).
+_EXPORTS = {
+    # errors
+    **{name: "errors" for name in (
+        "PmAccuracyError", "ConfigError", "GeometryError", "ClearanceError", "PoseError", "OutsideJointLimitsError",
+        "SingularPoseError", "NoSolutionError", "CertificationError", "EmptyWorkspaceError", "MeasurementFileError",
+        "VisionError", "UnsupportedArchitectureError", "MissingDependencyError")},
+    "SingularRegionError": "global_worst",
+    "PlausibilityWarning": "plausibility",
+    # the model: what a robot is, what its errors are
+    "Manipulator": "geometry", "Leg": "geometry",
+    **{name: "legs" for name in ("Chain", "Joint", "PPRLeg", "RPRLeg", "RRRLeg", "PRRLeg", "ChainLeg")},
+    "SerialArm": "serial", "SerialJoint": "serial", "SerialErrorSources": "serial",
+    "ErrorSources": "sources", "JointErrors": "sources", "JointDisplacements": "sources",
+    "ClearanceSet": "clearances",
+    "load_robot": "api", "load_clearances": "api",
+    # kinematics
+    **{name: "kinematics" for name in ("FKSolution", "IKSolution", "forward_kinematics", "inverse_kinematics",
+                                       "jacobians", "kinematic_jacobian", "singularity")},
+    "constant_orientation_workspace": "workspace",
+    # accuracy
+    "max_pose_errors": "bounds", "PoseErrorBounds": "bounds",
+    "max_serial_errors": "serial",
+    "certified_pose_errors": "certified", "nonlinear_pose_errors": "certified", "CertifiedPoseErrors": "certified",
+    "global_worst": "global_worst", "make_region": "global_worst", "Region": "global_worst",
+    "GlobalWorst": "global_worst", "QuantityWorst": "global_worst",
+    "error_map": "maps", "save_map": "maps", "load_map": "maps",
+    "synthesize": "synthesis", "Synthesis": "synthesis",
+    "pose_statistics": "distributions",
+}
+
+__all__ = sorted(_EXPORTS) + ["__version__"]
+
+
+def __getattr__(name: str):
+    """Load a public name (or a submodule, ``pmaccuracy.bounds``) on first use."""
+    module = _EXPORTS.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(f".{module}", __name__), name)
+        globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """The package's module type: a submodule named like a public function (``global_worst``) does not
+    replace the function when it is imported (``pm.global_worst`` stays the function; the module is
+    ``sys.modules["pmaccuracy.global_worst"]``)."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _EXPORTS and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -48,6 +48,7 @@ import numpy as np
 
 from .clearances import ClearanceDisplacement, ClearanceSet
 from .error_model import LINK_VARIATIONS, H_diagonals, PoseState, load_variations, pose_state
+from ._display import html_table, summary, value_range
 from .errors import ConfigError
 from .geometry import Manipulator, perp
 from .kinematics import DEFAULT_MAX_CONDITION, LIMIT_TOLERANCE, as_poses, check_within_limits
@@ -65,10 +66,10 @@ def _sign(x: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class PoseErrorBounds:
-    """Maximum pose errors at a batch of poses (Eq. 21, 22).
+    """Maximum pose errors at a batch of poses (Eq. 21, 22); every array has the poses' leading shape ``(...)``.
 
-    Attributes (leading shape ``(...)`` of the poses)
-    -------------------------------------------------
+    Attributes
+    ----------
     poses : ``(..., 3)`` [mm, mm, rad]
     dx_max, dy_max, dp_max : ``(...)`` mm;  dphi_max : ``(...)`` rad
     half_widths : ``(..., 3)`` ``c_i``, bound of leg ``i``'s row of ``A [dp; dphi]`` (mm); with ``details``
@@ -99,6 +100,14 @@ class PoseErrorBounds:
     def dphi_max_deg(self) -> np.ndarray:
         """``dphi_max`` in degrees."""
         return np.degrees(self.dphi_max)
+
+    def __repr__(self) -> str:
+        return summary("PoseErrorBounds", int(np.prod(self.poses.shape[:-1])), [
+            f"dx_max {value_range(self.dx_max, 'mm')}", f"dy_max {value_range(self.dy_max, 'mm')}",
+            f"dphi_max {value_range(self.dphi_max_deg, 'deg')}", f"dp_max {value_range(self.dp_max, 'mm')}"])
+
+    def _repr_html_(self) -> str:
+        return html_table("Maximum pose errors (mm, deg)", self.records())
 
     def records(self) -> list[dict]:
         """One dict per pose with the CLI's keys (mm, deg)."""
@@ -232,6 +241,8 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
         Without it only the four result arrays are built (memory: 32 bytes a pose)
     singular : ``"raise"`` (default) or ``"nan"``: NaN at poses near a singularity instead of an error
 
+    Notes
+    -----
     Any architecture: each leg's half-width comes from its per-joint
     :class:`~pmaccuracy.sources.ErrorSources` paired with its constraint wrench
     (:func:`pmaccuracy.sources.states_half_widths`). A 3-PPR clearance set without

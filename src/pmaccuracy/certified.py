@@ -156,6 +156,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._display import html_table, summary, value_range
+from ._optional import available
 from .errors import CertificationError, NoSolutionError
 from .kinematics import as_poses
 
@@ -498,7 +500,10 @@ def _sdp_dual(P: np.ndarray, g: np.ndarray, H: np.ndarray) -> np.ndarray:
     the solver's ``lambda`` is inflated by ``1e-7``, ``1e-5`` and ``1e-3`` (relative, plus as much of its
     mean) and the smallest value that :func:`_dual_value` certifies is returned (so the result is a valid bound
     whatever the solver's accuracy; ``inf`` where none is certified). ``P`` ``(K, n, n)``, ``g`` ``(B, n)``,
-    ``H`` ``(B, n, n)``; returns ``(B,)``."""
+    ``H`` ``(B, n, n)``; returns ``(B,)``. Without cvxpy (the ``design`` extra) every row is ``inf``: the
+    interior point's bound stays (valid, looser in the hard case)."""
+    if not available("cvxpy"):
+        return np.full(g.shape[0], np.inf)
     import cvxpy as cp
 
     K, n = P.shape[0], P.shape[-1]
@@ -773,10 +778,11 @@ def _merge_terms(terms: list) -> list:
 # ============================================================================ certificate
 @dataclass(frozen=True)
 class CertifiedPoseErrors:
-    """Certified and attained worst-case pose errors at a batch of ``N`` poses (module docstring).
+    """Certified and attained worst-case pose errors at a batch of ``N`` poses (module docstring); mm, rad for
+    dphi.
 
-    Attributes (mm; rad for dphi)
-    -----------------------------
+    Attributes
+    ----------
     poses : ``(N, 3)`` [mm, mm, rad]
     upper : ``{q: (N,)}`` certified upper bounds of the exact maxima (``q`` in :data:`QUANTITIES`; NaN where
         no certificate, see ``reason``)
@@ -801,6 +807,20 @@ class CertifiedPoseErrors:
     reason: np.ndarray | None = None
     sets: tuple[SourceSet, ...] = ()
     rejected: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        parts = [f"{q} upper {value_range(self.upper[q], 'deg' if q == 'dphi' else 'mm', 180 / math.pi if q == 'dphi' else 1.0)}"
+                 for q in QUANTITIES]
+        gaps = np.concatenate([np.ravel(self.gap[q]) for q in QUANTITIES])
+        if np.any(np.isfinite(gaps)):
+            parts.append(f"largest gap {np.nanmax(gaps) * 100:.3g} %")
+        refused = int(np.sum(np.asarray([bool(r) for r in np.ravel(self.reason)])))
+        if refused:
+            parts.append(f"{refused} not certified")
+        return summary("CertifiedPoseErrors", int(self.poses.shape[0]), parts)
+
+    def _repr_html_(self) -> str:
+        return html_table("Certified upper bounds (mm, deg)", self.records())
 
     def records(self, which: str = "upper") -> list[dict]:
         """One dict per pose with the ``bounds`` keys (x, y, phi_deg, dx_max, dy_max, dphi_max_deg, dp_max: the
@@ -1521,6 +1541,8 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
         (:data:`REFUSED_BUDGET` times as many for a pose with no certificate yet) have been bounded (0 or 1:
         never); the smaller valid bound is kept
 
+    Notes
+    -----
     Returns a :class:`CertifiedPoseErrors`: ``upper[q] >= `` the maximum over the whole error set of the
     exact pose error (module docstring) ``>= lower[q] >=`` the exact value at the first-order worst vertex.
     Poses outside the ranges or near a singularity are refused first, as by ``max_pose_errors``.

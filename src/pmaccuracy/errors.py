@@ -66,3 +66,7 @@ class VisionError(PmAccuracyError, ValueError):
 
 class UnsupportedArchitectureError(ConfigError):
     """The requested computation is not available for this robot's architecture."""
+
+
+class MissingDependencyError(PmAccuracyError, ImportError):
+    """An optional dependency is not installed; the message names the extra that installs it."""

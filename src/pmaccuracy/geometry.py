@@ -266,12 +266,12 @@ class Manipulator(_tomlio.TomlPresets):
 
     @cached_property
     def d(self) -> np.ndarray:
-        """Offsets ``d_i`` = |B_i C_i| (mm), shape (3,)."""
+        """Offsets ``d_i = |B_i C_i|`` (mm), shape (3,)."""
         return self._column("d")
 
     @cached_property
     def r(self) -> np.ndarray:
-        """Platform radii ``r_i`` = |D_i P| (mm), shape (3,)."""
+        """Platform radii ``r_i = |D_i P|`` (mm), shape (3,)."""
         return self._column("r")
 
     @cached_property

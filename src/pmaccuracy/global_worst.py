@@ -38,6 +38,7 @@ import numpy as np
 
 from .bounds import QUANTITIES, max_pose_errors
 from .clearances import ClearanceSet
+from ._display import html_table
 from .errors import ConfigError, EmptyWorkspaceError, SingularPoseError
 from .geometry import Manipulator
 from .interval import Iv, box_maxima, leg_box_state
@@ -107,6 +108,24 @@ class GlobalWorst:
 
     def __getitem__(self, name: str) -> QuantityWorst:
         return self.quantities[name]
+
+    def records(self) -> list[dict]:
+        """One dict per quantity: attained value, certified upper bound (mm; deg for dphi), gap, pose."""
+        out = []
+        for name, w in self.quantities.items():
+            k = 180 / np.pi if name == "dphi" else 1.0
+            out.append({"quantity": name, "unit": "deg" if name == "dphi" else "mm", "attained": w.lower * k,
+                        "upper": w.upper * k, "gap_percent": w.gap * 100, "x": float(w.pose[0]),
+                        "y": float(w.pose[1]), "phi_deg": float(np.degrees(w.pose[2])), "converged": w.converged})
+        return out
+
+    def __repr__(self) -> str:
+        parts = [f"{r['quantity']} {r['attained']:.6g} {r['unit']} (upper {r['upper']:.6g}, gap {r['gap_percent']:.2g} %, "
+                 f"at {r['x']:.4g}, {r['y']:.4g} mm, {r['phi_deg']:.4g} deg)" for r in self.records()]
+        return f"GlobalWorst({', '.join(parts)}; {self.boxes} boxes, {self.seconds:.2g} s)"
+
+    def _repr_html_(self) -> str:
+        return html_table("Certified worst case over the region", self.records())
 
 
 def as_sources(robot: Manipulator, clearances) -> ErrorSources:
@@ -265,6 +284,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     candidates : optional poses ``(k, 3)`` of the region also tried for the lower bounds (e.g. the best
         poses of a grid, :func:`grid_best`)
 
+    Notes
+    -----
     Returns :class:`GlobalWorst`. Raises :class:`EmptyWorkspaceError` when no
     sampled pose of the region lies in the workspace and the bounds cannot prove
     it empty, :class:`SingularRegionError` near a parallel singularity.

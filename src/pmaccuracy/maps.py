@@ -46,6 +46,7 @@ from .errors import ConfigError, EmptyWorkspaceError
 from .geometry import Manipulator, round_trip_degrees
 from .kinematics import DEFAULT_MAX_CONDITION, require_regular
 from .workspace import constant_orientation_workspace
+from ._optional import require
 
 #: Map variables: name -> (units, long name).
 MAP_VARIABLES = {
@@ -269,7 +270,7 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
                 bar.update()
             return
         try:
-            import dask
+            dask = require("dask")
         except ImportError:  # pragma: no cover - depends on the installation
             raise ConfigError("use_dask needs Dask: pip install 'pmaccuracy[dask]'", key="use_dask") from None
         task = dask.delayed(_rows_block, pure=True)
@@ -308,7 +309,7 @@ def _zarr_tile(path: str, k: int, iy: int, ix: int, tile: int, robot: Manipulato
     ``_progress/chunks[k, iy, ix]`` is ``[inside points, 4 minima, 4 maxima]``
     (order of :data:`MAP_VARIABLES`; NaN extremes for a tile with no inside point).
     """
-    import zarr
+    zarr = require("zarr")
 
     xs = x[ix * tile:(ix + 1) * tile]
     ys = y[iy * tile:(iy + 1) * tile]
@@ -333,7 +334,7 @@ def _zarr_tile(path: str, k: int, iy: int, ix: int, tile: int, robot: Manipulato
 
 def _open_progress(path: Path, signature: dict):
     """The progress array of an existing store made with the same inputs, or a ConfigError."""
-    import zarr
+    zarr = require("zarr")
 
     try:
         progress = zarr.open_array(store=str(path), path="_progress/chunks", mode="r+")
@@ -349,8 +350,8 @@ def _open_progress(path: Path, signature: dict):
 def _create_store(path: Path, robot: Manipulator, clearances: ClearanceSet, phis: np.ndarray, x: np.ndarray,
                   y: np.ndarray, tile: int, signature: dict):
     """Write the store's metadata, coordinates and attributes (no data yet) and an empty progress array."""
-    import dask.array as da
-    import zarr
+    da = require("dask.array")
+    zarr = require("zarr")
 
     shape = (len(phis), len(y), len(x))
     chunks = (1, min(tile, len(y)), min(tile, len(x)))
@@ -403,7 +404,7 @@ def write_zarr_map(path: str | Path, robot: Manipulator | str, clearances: Clear
     ConfigError : ``path`` holds something else, or a map of other inputs
     EmptyWorkspaceError : a layer with no grid point inside its workspace
     """
-    import dask
+    dask = require("dask")
 
     if chunk_size < 1 or tile < 1:
         raise ConfigError("chunk size and tile must be positive", key="chunk_size")
@@ -432,7 +433,7 @@ def write_zarr_map(path: str | Path, robot: Manipulator | str, clearances: Clear
 
 def zarr_progress(path: str | Path) -> np.ndarray:
     """The per-tile record ``(n_phi, tiles_y, tiles_x, 9)`` of a Zarr map (NaN rows: tiles not computed yet)."""
-    import zarr
+    zarr = require("zarr")
 
     return zarr.open_array(store=str(path), path="_progress/chunks", mode="r")[...]
 
@@ -453,13 +454,14 @@ def _summary_from_record(record: np.ndarray, phis: np.ndarray) -> dict[str, dict
 def _run_tasks(tasks: list, scheduler: str | None, workers: int | None, show: bool, *, resumed: int,
                total: int) -> None:
     """Compute Dask tasks that return nothing big, with one tqdm bar; on a distributed scheduler via futures."""
-    import dask
+    dask = require("dask")
     from tqdm import tqdm
 
     with tqdm(total=total, initial=resumed, disable=not show, desc="zarr map", unit="tile",
               file=sys.stderr) as bar:
         if scheduler and "://" in scheduler:
-            from distributed import Client, as_completed
+            _distributed = require("distributed")
+            Client, as_completed = _distributed.Client, _distributed.as_completed
 
             with Client(scheduler) as client:
                 futures = client.compute(tasks)
@@ -468,7 +470,7 @@ def _run_tasks(tasks: list, scheduler: str | None, workers: int | None, show: bo
                     bar.update()
                     future.release()
             return
-        from dask.callbacks import Callback
+        Callback = require("dask.callbacks").Callback
 
         class _Bar(Callback):
             def _posttask(self, key, result, dsk, state, worker_id):

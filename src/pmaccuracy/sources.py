@@ -317,6 +317,8 @@ def load_clearances(spec, robot):
 class JointDisplacements:
     """Values of the error sources of every joint, arrays ``(..., 3 legs, 3 joints)`` (a configuration).
 
+    Attributes
+    ----------
     shift : complex mm, translation of the distal part inserted before the joint (``radial``, ``position``)
     turn : rad, rotation about the joint's centre ``c_k`` inserted before it (``direction``)
     sigma, tau : mm and rad, a slide's block shifted normal to the rail and tilted about its centre ``b_k``

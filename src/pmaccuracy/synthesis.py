@@ -47,6 +47,7 @@ from .geometry import Manipulator
 from .global_worst import DEFAULT_GAP, GlobalWorst, Region, as_sources, global_worst
 from .kinematics import inverse_3x3, inverse_kinematics
 from .sources import KEYS, ErrorSources, JointErrors, half_widths, load_clearances
+from ._optional import require
 
 #: Target names and their units on the command line / in files (dphi in degrees).
 TARGETS = {"dx": "mm", "dy": "mm", "dp": "mm", "dphi_deg": "deg"}
@@ -266,7 +267,7 @@ def _effective(robot, sources, lin, Mx, My, targets: dict) -> np.ndarray:
 def _solve(lin, Mx, My, targets: dict, weights: np.ndarray, free: np.ndarray) -> np.ndarray:
     """Minimize ``sum b_j / z_j`` over the ``free`` sources (the others at ``z = 1``) subject to the pose
     constraints (SOCP, Clarabel); returns ``z (m,)``."""
-    import cvxpy as cp
+    cp = require("cvxpy")
 
     z = cp.Variable(int(free.sum()), pos=True)
     fixed = ~free

@@ -11,6 +11,7 @@ from pathlib import Path
 from ..errors import ConfigError
 from . import _common
 from .bounds_cmd import add_clearances
+from .._optional import require
 
 #: Output types of ``--out`` by extension.
 OUT_TYPES = (".nc", ".csv", ".zarr")
@@ -185,7 +186,7 @@ def _in_memory(maps, robot, clearances, phis, args, chunk, show):
     if not args.scheduler:
         return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
                               progress=show)
-    from distributed import Client
+    Client = require("distributed").Client
 
     with Client(args.scheduler):
         return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show)

@@ -69,6 +69,7 @@ from .camera import (CameraModel, disk_image_bias, image_to_plane, local_scale, 
                      rotation_matrix, rotation_vector)
 from .detection import Blobs, find_blobs
 from .grid import find_grid
+from .._optional import require
 
 MODELS = ("multi-view", "single-view")
 MULTI_VIEW_PARAMETERS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "rx", "ry", "rz", "tx_mm", "ty_mm",
@@ -512,7 +513,7 @@ def _systematic(residual: np.ndarray, n_free: int, views: Sequence[View]) -> flo
 def _fit_zhang(views: Sequence[View], centres: Sequence[np.ndarray], image_size: tuple[int, int], flags: int,
                guess: tuple[np.ndarray, np.ndarray] | None) -> tuple[CameraModel, list[np.ndarray], list[np.ndarray]]:
     """OpenCV ``calibrateCamera`` on the views; returns the camera and per-view rotation matrices and translations."""
-    import cv2
+    cv2 = require("cv2")
 
     obj = [np.column_stack([v.grid_mm, np.zeros(len(v.grid_mm))]).astype(np.float32) for v in views]
     img = [c.astype(np.float32).reshape(-1, 1, 2) for c in centres]
@@ -582,7 +583,7 @@ def fit_multi_view(views: Sequence[View], image_size: tuple[int, int], *, spacin
     See the module docstring. ``fit_k3`` frees the sixth-order radial term,
     ``fit_tangential`` the decentring terms ``p1, p2``.
     """
-    import cv2
+    cv2 = require("cv2")
 
     if len(views) < MIN_VIEWS_ZHANG:
         raise VisionError(f"Zhang's method needs at least {MIN_VIEWS_ZHANG} views, got {len(views)}")
@@ -637,7 +638,7 @@ def fit_single_view(view: View, image_size: tuple[int, int], *, spacing_mm: floa
     Marquardt) from the distortion-free homography (OpenCV ``findHomography``,
     all points, least squares).
     """
-    import cv2
+    cv2 = require("cv2")
     from scipy.optimize import least_squares
 
     k = nominal_matrix(image_size)

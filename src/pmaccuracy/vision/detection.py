@@ -43,6 +43,7 @@ import numpy as np
 
 from ..errors import VisionError
 from .images import as_gray
+from .._optional import require
 
 #: Default largest dot diameter as a fraction of the shorter image side.
 MAX_DIAMETER_FRACTION = 0.12
@@ -120,7 +121,7 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
     image without contrast gives no blobs.
     """
     from scipy import ndimage
-    from skimage import measure, segmentation
+    measure, segmentation = require("skimage.measure"), require("skimage.segmentation")
 
     img = as_gray(image)
     if polarity not in ("dark", "light"):
@@ -137,7 +138,7 @@ def find_blobs(image: np.ndarray, *, polarity: str = "dark", max_diameter_px: fl
     _, s = flat_field(img, polarity, max_diameter_px)
     med = float(np.median(s))
     mad = 1.4826 * float(np.median(np.abs(s - med)))
-    from skimage import filters
+    filters = require("skimage.filters")
 
     level = max(float(filters.threshold_otsu(s)), med + 6.0 * max(mad, 1e-4))
     mask = s > level

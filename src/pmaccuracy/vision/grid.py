@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import VisionError
 from ._util import MIN_CALIBRATION_DOTS, _estimate, image_centre
+from .._optional import require
 
 
 def _lattice_angle(points: np.ndarray, d0: float, tree: cKDTree) -> float:
@@ -97,7 +98,7 @@ def _fit_index_model(ij: np.ndarray, px: np.ndarray):
 
 
 def _transforms():
-    from skimage import transform
+    transform = require("skimage.transform")
 
     return transform
 

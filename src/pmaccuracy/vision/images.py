@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import VisionError
 from ._util import IMAGE_SUFFIXES
+from .._optional import require
 
 
 def as_gray(image: np.ndarray) -> np.ndarray:
@@ -19,7 +20,7 @@ def as_gray(image: np.ndarray) -> np.ndarray:
     the ITU-R 709 luminance weights of :func:`skimage.color.rgb2gray`; an alpha
     channel is dropped (composited on white for RGBA).
     """
-    from skimage import color, util
+    color, util = require("skimage.color"), require("skimage.util")
 
     arr = np.asarray(image)
     if arr.dtype == bool:
@@ -101,7 +102,7 @@ def load_image(path: str | Path) -> np.ndarray:
     above the pixel limit or smaller than 3 x 3 pixels raises :class:`VisionError`
     whose message starts with the path.
     """
-    from skimage import io
+    io = require("skimage.io")
 
     path = Path(path)
     if path.is_dir():
@@ -140,7 +141,7 @@ def save_image(path: str | Path, image: np.ndarray) -> None:
     to PNG and TIFF (which keeps the sub-pixel information of synthetic
     images), with 8 bits to JPEG and BMP.
     """
-    from skimage import io, util
+    io, util = require("skimage.io"), require("skimage.util")
 
     path = Path(path)
     suffix = path.suffix.lower()

@@ -33,6 +33,7 @@ from ._util import (DEFAULT_SIDE_TOLERANCE, DEFAULT_SPACING_MM, PLATFORM_MARKERS
                     pixels_to_mm)
 from .detection import Blobs, find_blobs
 from .images import as_gray
+from .._optional import require
 
 #: Largest ratio between marker areas accepted within one set of four.
 MAX_AREA_RATIO = 1.5
@@ -129,7 +130,7 @@ def pose_from_markers_mm(markers_mm: np.ndarray, *, spacing_mm: float = DEFAULT_
     if not abs(side / spacing - 1.0) <= side_tolerance:
         raise VisionError(f"the marker square has a side of {side:.4g} mm instead of {spacing:g} mm "
                           "(wrong scale or units?)")
-    from skimage import transform
+    transform = require("skimage.transform")
 
     model = square_model(spacing)
     fits = []  # (needs folding, rms, x, y, phi) of each cyclic correspondence

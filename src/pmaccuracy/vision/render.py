@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import VisionError
 from ._util import DEFAULT_SPACING_MM, _positive, apply_homography, image_centre, scale_matrix
 from .pose import platform_markers
+from .._optional import require
 
 
 def _finish(coverage: np.ndarray, background: float, foreground: float, blur_sigma: float, noise_sigma: float,
@@ -25,7 +26,7 @@ def _finish(coverage: np.ndarray, background: float, foreground: float, blur_sig
     if blur_sigma < 0 or noise_sigma < 0 or not (math.isfinite(blur_sigma) and math.isfinite(noise_sigma)):
         raise VisionError("blur_sigma and noise_sigma must be finite and non-negative")
     if blur_sigma > 0:
-        from skimage import filters
+        filters = require("skimage.filters")
 
         image = filters.gaussian(image, sigma=blur_sigma, mode="nearest", preserve_range=True)
     if noise_sigma > 0:

@@ -1,0 +1,61 @@
+"""The public entry points that take names and paths as well as objects (re-exported by :mod:`pmaccuracy`).
+
+Every computing function of the package already accepts a robot and its clearances as objects, preset
+names or TOML paths; this module adds the two loaders a user starts from, so that a session reads::
+
+    import pmaccuracy as pm
+    robot = pm.load_robot("my_robot.toml")            # or a preset name: "aalborg_3ppr"
+    clearances = pm.load_clearances("my_clearances.toml", robot)
+    b = pm.max_pose_errors(robot, clearances, [[0.0, 0.0, 0.0]])   # poses: x mm, y mm, phi rad
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from .errors import ConfigError
+
+__all__ = ["load_robot", "load_clearances"]
+
+
+def load_robot(spec: Any):
+    """The robot of a preset name, a TOML path or an object (returned as it is).
+
+    A parallel robot (any architecture) gives a :class:`~pmaccuracy.geometry.Manipulator`, a robot file
+    with ``architecture = "serial"`` a :class:`~pmaccuracy.serial.SerialArm`. Raises
+    :class:`~pmaccuracy.errors.ConfigError` (or a subclass) naming the file and key of any mistake.
+
+    >>> load_robot("aalborg_3ppr").architecture
+    '3-PPR'
+    >>> load_robot("planar_3r_arm").kinds
+    'RRR'
+    """
+    from .geometry import Manipulator
+    from .serial import SerialArm, is_serial_spec
+
+    if isinstance(spec, (Manipulator, SerialArm)):
+        return spec
+    if not isinstance(spec, (str, os.PathLike)):
+        raise ConfigError(f"expected a robot, a preset name or a robot TOML path, got {type(spec).__name__}",
+                          key="robot")
+    return SerialArm.load(spec) if is_serial_spec(spec) else Manipulator.load(spec)
+
+
+def load_clearances(spec: Any, robot: Any):
+    """Clearances (or tolerances) for ``robot`` from a preset name, a TOML path or an object.
+
+    A per-joint file gives :class:`~pmaccuracy.sources.ErrorSources` (any architecture; for a serial arm
+    :class:`~pmaccuracy.serial.SerialErrorSources`), the paper's 3-PPR format a
+    :class:`~pmaccuracy.clearances.ClearanceSet`; either is checked against the robot's joints.
+
+    >>> load_clearances("case2", "aalborg_3ppr").name
+    'case2'
+    """
+    from .serial import SerialArm, load_serial_sources
+    from .sources import load_clearances as _load
+
+    robot = load_robot(robot)
+    if isinstance(robot, SerialArm):
+        return load_serial_sources(spec, robot)
+    return _load(spec, robot)
