@@ -1,6 +1,6 @@
 """Benchmark: exact worst-case pose errors vs the paper-style SLSQP baseline, measured in the same run.
 
-Prints poses per second of :func:`pmaccuracy.bounds.max_pose_errors` on 10^6 poses,
+Prints poses per second of :func:`pmaccuracy.accuracy.bounds.max_pose_errors` on 10^6 poses,
 the SLSQP baseline's poses per second on a small sample, their ratio, and the
 peak memory of the exact run (tracemalloc, numpy allocations included).
 
@@ -16,9 +16,9 @@ import tracemalloc
 import numpy as np
 
 from pmaccuracy import Manipulator
-from pmaccuracy.bounds import max_pose_errors, slsqp_max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.accuracy.bounds import max_pose_errors, slsqp_max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 
 def random_poses(robot: Manipulator, n: int, rng: np.random.Generator) -> np.ndarray:

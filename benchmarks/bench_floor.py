@@ -32,12 +32,12 @@ import tracemalloc
 import numpy as np
 
 from pmaccuracy import Manipulator
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.legs import PPRLeg, PRRLeg, RPRLeg, RRRLeg
-from pmaccuracy.maps import error_map
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.model.legs import PPRLeg, PRRLeg, RPRLeg, RRRLeg
+from pmaccuracy.accuracy.maps import error_map
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 #: (robot preset, clearance preset, orientations of the poses and maps in deg)
 CASES = (("aalborg_3ppr", "case1", (-30.0, 0.0, 30.0)),

@@ -15,7 +15,7 @@ import tracemalloc
 
 import numpy as np
 
-from pmaccuracy.maps import error_map
+from pmaccuracy.accuracy.maps import error_map
 
 
 def timed(label: str, n_points: int, **kwargs) -> tuple[float, object]:

@@ -52,10 +52,10 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="pm_bench_"))
     try:
         from pmaccuracy import Manipulator
-        from pmaccuracy.bounds import max_pose_errors
-        from pmaccuracy.clearances import ClearanceSet
-        from pmaccuracy.csvio import write_csv_columns
-        from pmaccuracy.maps import error_map, write_zarr_map
+        from pmaccuracy.accuracy.bounds import max_pose_errors
+        from pmaccuracy.model.clearances import ClearanceSet
+        from pmaccuracy.io.csvio import write_csv_columns
+        from pmaccuracy.accuracy.maps import error_map, write_zarr_map
 
         # 1. bounds --poses-csv vs the library
         robot = Manipulator.preset("aalborg_3ppr")

@@ -29,7 +29,7 @@ from hypothesis import assume, settings
 from hypothesis import strategies as st
 
 from pmaccuracy.errors import ConfigError, GeometryError
-from pmaccuracy.geometry import Leg, Manipulator
+from pmaccuracy.model.manipulator import Leg, Manipulator
 from pmaccuracy.kinematics import inverse_kinematics, jacobians
 
 # Property tests run derandomized and without an example database: CI (a clean clone) and a developer's

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pmaccuracy.geometry import Leg, Manipulator
+from pmaccuracy.model.manipulator import Leg, Manipulator
 
 #: Names of the geometric parameters of one leg (a, d, r in mm; the angles in rad).
 PARAMS = ("a", "alpha", "beta", "gamma", "theta", "d", "r", "psi")

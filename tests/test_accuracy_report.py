@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from pmaccuracy.cli import main
-from pmaccuracy.maps import error_map, summarize
-from pmaccuracy.sources import load_clearances
+from pmaccuracy.accuracy.maps import error_map, summarize
+from pmaccuracy.io.resolve import load_clearances
 
 CASES = [("symmetric_3rpr", "rpr_typical"), ("symmetric_3rrr", "rrr_typical"), ("symmetric_3prr", "prr_typical"),
          ("aalborg_3ppr", "all")]
@@ -26,7 +26,7 @@ def test_reproduce_any_robot(robot, clear, tmp_path, capsys):
     res = json.loads((out / "results.json").read_text())
     assert res["robot"] == robot and res["grid"] == 21
     # the maps' summary is the library's error map
-    from pmaccuracy.geometry import Manipulator
+    from pmaccuracy.model.manipulator import Manipulator
     r = Manipulator.preset(robot)
     want = summarize(error_map(r, load_clearances(clear, r), np.radians([0.0, 30.0]), 21, progress=False))
     got = res["cases"][res["clearances"]]

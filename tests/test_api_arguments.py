@@ -6,16 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import bounds_or_nan, max_pose_errors, slsqp_max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.designs import compare_designs
-from pmaccuracy.error_model import load_variations, pose_error
+from pmaccuracy.accuracy.bounds import bounds_or_nan, max_pose_errors, slsqp_max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.accuracy.designs import compare_designs
+from pmaccuracy.accuracy.error_model import load_variations, pose_error
 from pmaccuracy.errors import ConfigError, PoseError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import forward_kinematics, inverse_kinematics
-from pmaccuracy.maps import error_map
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.accuracy.maps import error_map
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 ROBOT = Manipulator.preset("aalborg_3ppr")
 POSES = np.array([[0.0, 0.0, 0.0], [5.0, -3.0, 0.2]])
@@ -31,7 +31,7 @@ def test_names_and_paths_equal_objects(tmp_path):
         np.testing.assert_array_equal(other.dp_max, by_object.dp_max)
     np.testing.assert_array_equal(bounds_or_nan("aalborg_3ppr", "case2", POSES)[:, 3], by_object.dp_max)
     tol = max_pose_errors(ROBOT, ClearanceSet(), POSES, tolerances="example_tolerances")
-    from pmaccuracy.bounds import load_tolerances
+    from pmaccuracy.accuracy.bounds import load_tolerances
     np.testing.assert_array_equal(tol.dp_max, max_pose_errors(ROBOT, ClearanceSet(), POSES,
                                                               tolerances=load_tolerances("example_tolerances")).dp_max)
     np.testing.assert_array_equal(inverse_kinematics("aalborg_3ppr", POSES).q, inverse_kinematics(ROBOT, POSES).q)

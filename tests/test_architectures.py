@@ -24,10 +24,9 @@ import tomli_w
 
 from pmaccuracy.cli import main
 from pmaccuracy.errors import GeometryError, SingularPoseError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.kinematics import (MAX_MODES, forward_kinematics, inverse_kinematics, jacobians, require_regular,
-                                   singularity, solve_loop_closure)
-from pmaccuracy.legs import Chain, ChainLeg, Joint, RPRLeg
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.kinematics import MAX_MODES, forward_kinematics, inverse_kinematics, jacobians, require_regular, singularity, solve_loop_closure
+from pmaccuracy.model.legs import Chain, ChainLeg, Joint, RPRLeg
 from reference_model import directions, leg_params, own_A, own_ik, random_robot, rot90, vec
 
 PRESETS = ("aalborg_3ppr", "symmetric_3ppr", "symmetric_3rpr", "symmetric_3rrr", "symmetric_3prr")

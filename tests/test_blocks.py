@@ -18,16 +18,16 @@ import pytest
 
 import block_reference as bref
 import planar_reference as pref
-from pmaccuracy import certified as C
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy import certified as C
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.errors import GeometryError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.global_worst import global_worst, make_region
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.global_worst import global_worst, make_region
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.legs import ChainLeg
-from pmaccuracy.nonlinear import joint_displaced_pose
-from pmaccuracy.serial import SerialArm, SerialErrorSources, SerialJoint, max_serial_errors
-from pmaccuracy.sources import ErrorSources, JointDisplacements, JointErrors, worst_configuration
+from pmaccuracy.model.legs import ChainLeg
+from pmaccuracy.accuracy.nonlinear import joint_displaced_pose
+from pmaccuracy.model.serial import SerialArm, SerialErrorSources, SerialJoint, max_serial_errors
+from pmaccuracy.model.sources import ErrorSources, JointDisplacements, JointErrors, worst_configuration
 
 QUANTITIES = ("dx", "dy", "dphi", "dp")
 

@@ -37,10 +37,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 
-from pmaccuracy import bounds
-from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
+from pmaccuracy.accuracy import bounds
+from pmaccuracy.model.clearances import ClearanceDisplacement, ClearanceSet
 from pmaccuracy.errors import ClearanceError, OutsideJointLimitsError, SingularPoseError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from reference_model import (directions, displace, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
                              solve_loop_closure, vec)
 

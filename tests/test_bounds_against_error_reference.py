@@ -14,10 +14,10 @@ import pytest
 
 import error_reference as eref
 import planar_reference as pref
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics, regular_mask
-from pmaccuracy.sources import ErrorSources
+from pmaccuracy.model.sources import ErrorSources
 
 GENERATORS = {"3-RPR": pref.random_rpr, "3-RRR": pref.random_rrr, "3-PRR": pref.random_prr,
               "chain": pref.random_chain}

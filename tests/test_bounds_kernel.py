@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 import planar_reference as ref
-from pmaccuracy.bounds import bounds_kernel, bounds_or_nan, max_pose_errors
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.accuracy.bounds import bounds_kernel, bounds_or_nan, max_pose_errors
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.sources import ErrorSources, load_clearances
+from pmaccuracy.model.sources import ErrorSources
+from pmaccuracy.io.resolve import load_clearances
 
 GENERATORS = {"3-RPR": ref.random_rpr, "3-RRR": ref.random_rrr, "3-PRR": ref.random_prr, "chain": ref.random_chain}
 PRESETS = [("aalborg_3ppr", "all"), ("symmetric_3rpr", "rpr_typical"), ("symmetric_3rrr", "rrr_typical"),

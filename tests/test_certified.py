@@ -1,9 +1,9 @@
-"""Certified worst cases (issue 13, item 1): pmaccuracy.certified and ``bounds --certified / --nonlinear``.
+"""Certified worst cases (issue 13, item 1): pmaccuracy.accuracy.certified and ``bounds --certified / --nonlinear``.
 
 Independent references: the dense nonlinear search of ``nonlinear_search_reference.py`` (its own exact loop
 closure from ``error_reference.py``, first-order vertices by finite differences, random and dense
 coordinate-wise sampling of the error set), the library's separate virtual prototype
-(:func:`pmaccuracy.nonlinear.joint_displaced_pose`, Newton with a finite-difference Jacobian) for
+(:func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`, Newton with a finite-difference Jacobian) for
 re-inserted worst configurations, and brute-force sampling for the duality bound of a quadratic.
 """
 
@@ -17,12 +17,13 @@ import numpy as np
 import pytest
 
 import nonlinear_search_reference as nsr
-from pmaccuracy import certified as C
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy import certified as C
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.errors import CertificationError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.nonlinear import joint_displaced_pose
-from pmaccuracy.sources import ErrorSources, load_clearances
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.nonlinear import joint_displaced_pose
+from pmaccuracy.model.sources import ErrorSources
+from pmaccuracy.io.resolve import load_clearances
 
 PAPER_POSE = np.array([10.0, 5.0, np.radians(3.0)])
 
@@ -101,7 +102,7 @@ def test_worst_configurations_reinserted_in_the_virtual_prototype():
 
 
 def test_first_order_part_equals_bounds():
-    """The linear part of the certificate is the exact first-order zonotope of pmaccuracy.bounds."""
+    """The linear part of the certificate is the exact first-order zonotope of pmaccuracy.accuracy.bounds."""
     robot = Manipulator.preset("symmetric_3prr")
     sources = load_clearances("prr_typical", robot)
     poses = np.array([[0.0, 0.0, 0.0], [5.0, 8.0, np.radians(-5.0)]])
@@ -263,7 +264,7 @@ def test_cli_uncertifiable_pose_exits_2(tmp_path):
 def test_batch_with_certified_and_refused_poses():
     """At 50x case2 some poses are certified and others not: NaN with a reason only where refused, the
     certified ones as computed alone, and the nonlinear maxima below every certified bound."""
-    from pmaccuracy.clearances import ClearanceSet
+    from pmaccuracy.model.clearances import ClearanceSet
 
     poses = np.array([[0.0, 0.0, 0.0], [-30.0, -20.0, np.radians(-20.0)], [-10.0, 0.0, np.radians(10.0)]])
     cs = ClearanceSet.load("case2").scaled(50.0)

@@ -14,9 +14,9 @@ import warnings
 import numpy as np
 
 import nonlinear_search_reference as nsr
-from pmaccuracy import certified as C
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.sources import ErrorSources
+from pmaccuracy.accuracy import certified as C
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.model.sources import ErrorSources
 from test_certified import PAPER_POSE, _paper_spec
 
 # unknowns: x, y, phi, then per leg (prismatic, revolute) passive joints -> phi and the three revolutes

@@ -21,9 +21,9 @@ import pytest
 import error_reference as eref
 import nonlinear_search_reference as nsr
 import planar_reference as pref
-from pmaccuracy import certified as C
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.sources import ErrorSources
+from pmaccuracy.accuracy import certified as C
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.model.sources import ErrorSources
 
 
 def _random_ppr(rng):

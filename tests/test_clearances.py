@@ -18,7 +18,7 @@ import tomli_w
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
+from pmaccuracy.model.clearances import ClearanceDisplacement, ClearanceSet
 from pmaccuracy.errors import ClearanceError, ConfigError
 
 

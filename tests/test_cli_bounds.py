@@ -1,7 +1,7 @@
 """The ``pmaccuracy bounds`` command (Eq. 21-22 at given poses), run in-process.
 
 Each call goes through ``pmaccuracy.cli.main([...])`` with ``capsys``. The
-numbers printed are compared with :func:`pmaccuracy.bounds.max_pose_errors`
+numbers printed are compared with :func:`pmaccuracy.accuracy.bounds.max_pose_errors`
 (whose correctness is established independently in ``test_bounds.py``), and
 the paper's case-1 values at phi = 0 (dy_max = 0.100 mm, dphi_max = 0.221 deg)
 are checked directly on the output. Every user error must end with exit
@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 import tomli_w
 
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
 from pmaccuracy.cli import main
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 KEYS = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]

@@ -16,8 +16,9 @@ import pytest
 from pmaccuracy import Manipulator
 from pmaccuracy.cli import main
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.nonlinear import joint_displaced_pose
-from pmaccuracy.sources import JointDisplacements, first_order_error, load_clearances
+from pmaccuracy.accuracy.nonlinear import joint_displaced_pose
+from pmaccuracy.model.sources import JointDisplacements, first_order_error
+from pmaccuracy.io.resolve import load_clearances
 
 QUANTITIES = ("dx_max", "dy_max", "dphi_max_deg", "dp_max")
 

@@ -136,20 +136,20 @@ def test_plain_degree_orientations_do_not_warn(phi, capsys):
 @pytest.mark.parametrize("value", [math.pi / 12, math.pi / 6, 0.5236, 0.7854, 1.0472, 1.5708, 3.1416, -0.5236,
                                    2 * math.pi, math.pi / 18, 0.3927])
 def test_radian_looking_values(value):
-    from pmaccuracy.plausibility import looks_like_radians
+    from pmaccuracy.model.plausibility import looks_like_radians
 
     assert looks_like_radians(value)
 
 
 @pytest.mark.parametrize("value", [0, 0.5, 1, 1.5, 2, 2.5, 3, 5, 10, 15, 30, 45, 90, -30, 0.52, 1.57, 7.0, 0.25])
 def test_degree_values_do_not_look_like_radians(value):
-    from pmaccuracy.plausibility import looks_like_radians
+    from pmaccuracy.model.plausibility import looks_like_radians
 
     assert not looks_like_radians(value)
 
 
 def test_clearance_and_linearity_thresholds():
-    from pmaccuracy.plausibility import MAX_ANGLE_RAD, MAX_LENGTH_MM, clearance_messages, linearity_messages
+    from pmaccuracy.model.plausibility import MAX_ANGLE_RAD, MAX_LENGTH_MM, clearance_messages, linearity_messages
 
     assert clearance_messages({"a": (MAX_LENGTH_MM, "mm"), "b": (MAX_ANGLE_RAD, "rad"), "c": (50.0, "block")}) == []
     out = clearance_messages({"a": (1.001, "mm"), "b": (0.0688, "rad"), "c": (0.05, "block"), "d": (2e3, "block")})
@@ -160,9 +160,9 @@ def test_clearance_and_linearity_thresholds():
 
 
 def test_library_issues_plausibility_warnings(tmp_path):
-    from pmaccuracy.plausibility import PlausibilityWarning
-    from pmaccuracy.sources import load_clearances
-    from pmaccuracy.geometry import Manipulator
+    from pmaccuracy.model.plausibility import PlausibilityWarning
+    from pmaccuracy.io.resolve import load_clearances
+    from pmaccuracy.model.manipulator import Manipulator
 
     path = tmp_path / "c.toml"
     path.write_text("[[legs]]\nrevolute_radial = 39\n[[legs]]\n[[legs]]\n")
@@ -204,7 +204,7 @@ def test_debug_variable_reraises_internal_errors(monkeypatch, capsys):
 def test_robot_file_angles_in_radians_warn(tmp_path, capsys):
     import tomli_w
 
-    from pmaccuracy.geometry import Manipulator
+    from pmaccuracy.model.manipulator import Manipulator
 
     data = Manipulator.preset("aalborg_3ppr").to_dict()
     data["legs"][0]["psi_deg"] = 0.5236

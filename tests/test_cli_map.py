@@ -1,7 +1,7 @@
 """``pmaccuracy map`` and ``pmaccuracy reproduce``, run in-process through ``pmaccuracy.cli.main``.
 
 The printed ranges are compared with the files the command wrote and with
-:func:`pmaccuracy.bounds.max_pose_errors` on the map's own grid; the phi = 0 ranges
+:func:`pmaccuracy.accuracy.bounds.max_pose_errors` on the map's own grid; the phi = 0 ranges
 with the paper's values (Sec. 6.1, case 1: dx_max 0.196-0.256 mm, dy_max 0.100 mm,
 dphi_max 0.221 deg, within 1 %). Every user error ends with exit status 2, exactly
 one line on stderr and no traceback.
@@ -17,11 +17,11 @@ import traceback
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
 from pmaccuracy.cli import main
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.maps import load_map
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.maps import load_map
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -1,4 +1,4 @@
-"""Columnar CSV input and output (:mod:`pmaccuracy.csvio`) and the lazy command line.
+"""Columnar CSV input and output (:mod:`pmaccuracy.io.csvio`) and the lazy command line.
 
 * Round trip: any finite doubles written by :func:`write_csv_columns` read back
   bit-identical through :func:`read_poses_csv` and through Python's own ``float``
@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from pmaccuracy.cli import COMMANDS, build_parser, main
-from pmaccuracy.csvio import read_poses_csv, write_csv_columns, write_table_columns
+from pmaccuracy.io.csvio import read_poses_csv, write_csv_columns, write_table_columns
 from pmaccuracy.errors import ConfigError
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)

@@ -1,4 +1,4 @@
-"""The report section "Design decisions" (issue 13, item 6): :mod:`pmaccuracy.design_report` in ``reproduce``.
+"""The report section "Design decisions" (issue 13, item 6): :mod:`pmaccuracy.report.design_report` in ``reproduce``.
 
 The section's numbers are checked against direct calls of the functions it summarizes and against
 independent computations written here:
@@ -25,19 +25,19 @@ import numpy as np
 import pytest
 
 import nonlinear_search_reference as nsr
-from pmaccuracy import certified as C
-from pmaccuracy import design_report as D
-from pmaccuracy import iso9283
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.distributions import pose_statistics
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.global_worst import global_worst, make_region
+from pmaccuracy.accuracy import certified as C
+from pmaccuracy.report import design_report as D
+from pmaccuracy.experiment import iso9283
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.accuracy.distributions import pose_statistics
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.global_worst import global_worst, make_region
 from pmaccuracy.kinematics import inverse_kinematics
 from pmaccuracy.report import reproduce
-from pmaccuracy.sources import ErrorSources
-from pmaccuracy.virtual_rig import grid_poses
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.model.sources import ErrorSources
+from pmaccuracy.experiment.virtual_rig import grid_poses
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 ROBOT = Manipulator.preset("aalborg_3ppr")
 GRID = 11
@@ -209,7 +209,7 @@ def test_synthesis_meets_targets_and_matches_part_b(report):
 
 
 def test_synthesis_agrees_with_direct_call(report):
-    from pmaccuracy.synthesis import parse_targets, synthesize
+    from pmaccuracy.accuracy.synthesis import parse_targets, synthesize
 
     _, _, d = report
     region = make_region(ROBOT, (math.radians(-30), math.radians(30)), None)

@@ -1,4 +1,4 @@
-"""Design comparison (pmaccuracy.designs, ``pmaccuracy compare-designs``) against separately written references.
+"""Design comparison (pmaccuracy.accuracy.designs, ``pmaccuracy compare-designs``) against separately written references.
 
 The references below walk the grids point by point with plain Python loops,
 calling the workspace's ``contains``, ``regular_mask`` and ``max_pose_errors``
@@ -14,13 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from pmaccuracy import designs
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy import designs
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.cli import main
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import regular_mask
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 TRIO = (("symmetric_3rpr", "rpr_typical"), ("symmetric_3rrr", "rrr_typical"), ("symmetric_3prr", "prr_typical"))
 N = 17  # grid points per axis in the brute-force comparisons (the references loop in Python)

@@ -18,12 +18,13 @@ import pytest
 
 import distribution_reference as dref
 import error_reference as eref
-from pmaccuracy import distributions as D
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy import distributions as D
+from pmaccuracy.report import statistics_report
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.errors import ConfigError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.sources import ErrorSources, first_order_error
+from pmaccuracy.model.sources import ErrorSources, first_order_error
 
 N = 100_000
 
@@ -91,7 +92,7 @@ def test_jacobian_errors_equal_first_order_error_of_the_sampled_configurations()
 
 def JointDisplacementsBroadcast(cfg):
     """Fields (n, 3, 3) -> (n, 1, 3, 3) so that they broadcast against poses (1, P, 3)."""
-    from pmaccuracy.sources import JointDisplacements
+    from pmaccuracy.model.sources import JointDisplacements
     return JointDisplacements(*(getattr(cfg, f)[:, None] for f in ("shift", "turn", "sigma", "tau", "dq", "dl", "tilt")))
 
 
@@ -328,7 +329,7 @@ def test_region_statistics_against_pose_statistics():
 
 def test_percentile_map_figure(tmp_path):
     ds = D.region_statistics("aalborg_3ppr", "case1", [0.0], grid=5, samples=500, seed=1)
-    path = D.save_percentile_map_figure(ds, tmp_path / "p.png")
+    path = statistics_report.save_percentile_map_figure(ds, tmp_path / "p.png")
     assert path.stat().st_size > 10_000
 
 
@@ -390,7 +391,7 @@ def test_cli_map_csv(tmp_path, capsys):
 
 
 def test_statistics_section_for_a_report(tmp_path):
-    out = D.statistics_section("aalborg_3ppr", "case1", 0.0, grid=5, samples=500, pose_samples=2000,
+    out = statistics_report.statistics_section("aalborg_3ppr", "case1", 0.0, grid=5, samples=500, pose_samples=2000,
                                figure=tmp_path / "s.png")
     assert out["threshold_dp"] == pytest.approx(round(0.5 * out["pose"]["quantities"]["dp"]["worst"], 4))
     assert out["region"]["orientations"]["0"]["dp"]["exceed"][1] >= 0

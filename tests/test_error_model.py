@@ -14,7 +14,7 @@ not taken from the library):
   leg (``robot.perturbed``), or the actuator (``s``), or adding the revolute
   offset ``t n_i`` (``rho``; ``n_i = E w_i`` by default, random ``varphi`` too).
 * The Cartesian blocks ``J_A..J_D`` are checked by moving the joint points
-  exactly as documented in :func:`pmaccuracy.error_model.cartesian_jacobians`:
+  exactly as documented in :func:`pmaccuracy.accuracy.error_model.cartesian_jacobians`:
   the end point of a link, in the frame of the link it hangs from, moves by
   ``t e`` and the (length, angle) pair is recomputed exactly in polar form.
 * ``pose_error`` for the assembly errors of Table 2 (values typed in from the
@@ -31,8 +31,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy import error_model
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.accuracy import error_model
+from pmaccuracy.model.manipulator import Manipulator
 from reference_model import (PARAMS, directions, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
                              solve_loop_closure, vec)
 

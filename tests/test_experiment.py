@@ -24,12 +24,12 @@ import numpy as np
 import pytest
 
 from pmaccuracy import Manipulator
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
 from pmaccuracy.errors import ConfigError, MeasurementFileError, OutsideJointLimitsError
-from pmaccuracy.experiment import (PUSHES, Measurements, compare, grid_poses, load_measurements, measured_errors,
-                                   plot_boxplots, push_configurations, simulate_experiment, simulate_readings,
-                                   virtual_experiment_section, write_measurements, write_report)
+from pmaccuracy.experiment import PUSHES, Measurements, compare, grid_poses, load_measurements, measured_errors, push_configurations, simulate_experiment, simulate_readings, write_measurements
+from pmaccuracy.report.experiment_plots import plot_boxplots
+from pmaccuracy.report.experiment_report import virtual_experiment_section, write_report
 
 DATA = Path(__file__).parent / "data"
 HAND = DATA / "hand_measurements.csv"

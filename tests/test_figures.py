@@ -1,4 +1,4 @@
-"""Figures of error maps (paper Figs. 9-12): :mod:`pmaccuracy.figures`.
+"""Figures of error maps (paper Figs. 9-12): :mod:`pmaccuracy.report.figures`.
 
 Figures are inspected through matplotlib's object model (axes, colour bars,
 collections, colour limits) and the saved PNG is read back and checked for
@@ -21,9 +21,9 @@ import xarray as xr  # noqa: E402
 from matplotlib.collections import PathCollection, QuadMesh  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from pmaccuracy import figures  # noqa: E402
-from pmaccuracy.clearances import ClearanceSet  # noqa: E402
-from pmaccuracy.maps import error_map  # noqa: E402
+from pmaccuracy.report import figures  # noqa: E402
+from pmaccuracy.model.clearances import ClearanceSet  # noqa: E402
+from pmaccuracy.accuracy.maps import error_map  # noqa: E402
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 UNITS = {"dx_max": "mm", "dy_max": "mm", "dp_max": "mm", "dphi_max": "deg"}
@@ -186,8 +186,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.text import Text  # noqa: E402
 
 from pmaccuracy import experiment  # noqa: E402
-from pmaccuracy.geometry import Manipulator  # noqa: E402
-from pmaccuracy.workspace import constant_orientation_workspace, workspace_figure  # noqa: E402
+from pmaccuracy.report import experiment_plots  # noqa: E402
+from pmaccuracy.model.manipulator import Manipulator  # noqa: E402
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace, workspace_figure  # noqa: E402
 
 
 def _drawn(fig: Figure) -> Figure:
@@ -367,7 +368,7 @@ def _comparison():
 def test_experiment_figures_show_and_name_every_orientation():
     comparison = _comparison()
     n0 = len(comparison.by_orientation()[0.0].measurements)
-    acc = experiment.plot_accuracy(comparison)
+    acc = experiment_plots.plot_accuracy(comparison)
     assert_readable(acc)
     assert "0, 30 deg" in acc.get_suptitle()
     ax_p = acc.axes[0]
@@ -375,13 +376,13 @@ def test_experiment_figures_show_and_name_every_orientation():
     assert len(colours) == 2 and len(ax_p.patches) == len(comparison.measurements)
     heights = sorted(p.get_height() for p in ax_p.patches)           # the bars are the measured dp, Eq. 23d
     assert heights == pytest.approx(sorted(comparison.measured.dp))
-    reg = experiment.plot_regression(comparison, 2.0)
+    reg = experiment_plots.plot_regression(comparison, 2.0)
     assert_readable(reg)
     assert "0, 30 deg" in reg.get_suptitle()
     for ax in reg.axes:
         scatters = [c for c in ax.collections if isinstance(c, PathCollection)]
         assert [len(c.get_offsets()) for c in scatters] == [n0, len(comparison.measurements) - n0]
-    box = experiment.plot_boxplots({f"phi = {p:g} deg": c.measured for p, c in comparison.by_orientation().items()})
+    box = experiment_plots.plot_boxplots({f"phi = {p:g} deg": c.measured for p, c in comparison.by_orientation().items()})
     assert_readable(box)
 
 
@@ -405,7 +406,7 @@ def test_workspace_figure_zooms_to_the_workspace_with_the_whole_robot_beside():
 
 
 def test_workspace_comparison_has_a_common_scale_for_robots_and_for_workspaces():
-    from pmaccuracy.workspace import comparison_figure
+    from pmaccuracy.kinematics.workspace import comparison_figure
 
     robots = [Manipulator.preset(r) for r in ("aalborg_3ppr", "symmetric_3rrr")]
     fig = comparison_figure(robots)

@@ -14,7 +14,7 @@ import pytest
 
 import pmaccuracy as pm
 from pmaccuracy import _optional
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError, MissingDependencyError
 
@@ -38,7 +38,7 @@ def test_every_public_name_resolves_and_is_listed():
                  "pose_statistics", "load_robot", "load_clearances", "Manipulator", "ErrorSources",
                  "PmAccuracyError", "MissingDependencyError"):
         assert name in pm.__all__
-    assert pm.bounds.max_pose_errors is max_pose_errors  # submodules as attributes
+    assert pm.accuracy.bounds.max_pose_errors is max_pose_errors  # submodules as attributes
     with pytest.raises(AttributeError, match="no_such_name"):
         pm.no_such_name  # noqa: B018
 
@@ -102,9 +102,31 @@ def test_missing_extra_on_the_command_line_is_one_line(monkeypatch, tmp_path, ca
 def test_certified_bound_without_cvxpy_stays_valid(monkeypatch):
     """The semidefinite fallback of the dual bound needs the design extra; without it a hard-case row keeps the
     interior point's (valid) bound instead of failing."""
-    from pmaccuracy import certified as C
+    from pmaccuracy.accuracy import certified as C
 
     monkeypatch.setitem(sys.modules, "cvxpy", None)
     P = np.eye(2)[None] * 4.0
     out = C._sdp_dual(P, np.ones((3, 2)), np.zeros((3, 2, 2)))
     assert out.shape == (3,) and np.all(np.isinf(out))
+
+
+def test_one_resolver_gives_the_same_error_for_the_same_mistake(tmp_path):
+    """A robot file that cannot assemble anywhere in its ranges: every entry point refuses it the same way."""
+    data = pm.load_robot("symmetric_3rpr").to_dict()
+    for leg in data["legs"]:
+        leg["length_range"] = [1.0, 10.0]
+    path = tmp_path / "bad.toml"
+    import tomli_w
+
+    path.write_text(tomli_w.dumps(data))
+    calls = [lambda: pm.load_robot(path), lambda: pm.max_pose_errors(path, "rpr_typical", POSES),
+             lambda: pm.inverse_kinematics(path, POSES), lambda: pm.certified_pose_errors(path, "rpr_typical", POSES),
+             lambda: pm.make_region(path, (0.0, 0.0), None), lambda: pm.load_clearances("rpr_typical", path),
+             lambda: pm.error_map(path, "rpr_typical", 0.0, n=5), lambda: pm.constant_orientation_workspace(path, 0.0)]
+    messages = set()
+    for call in calls:
+        with pytest.raises(pm.GeometryError) as info:
+            call()
+        messages.add(str(info.value))
+    assert len(messages) == 1, messages
+    assert "bad.toml" in messages.pop()

@@ -30,8 +30,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from pmaccuracy.cli import main
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.model.manipulator import Manipulator
 
 #: Examples per property (PMACCURACY_FUZZ_EXAMPLES=500 for a long hunt; the default keeps the file near 30 s).
 EXAMPLES = int(os.environ.get("PMACCURACY_FUZZ_EXAMPLES", "40"))

@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 
 from conftest import BAD_ROBOT_CASES, manipulators, random_manipulator
 from pmaccuracy.errors import ConfigError, GeometryError
-from pmaccuracy.geometry import LINK_PARAMETERS, Leg, Manipulator, perp, unit
+from pmaccuracy.model.manipulator import LINK_PARAMETERS, Leg, Manipulator, perp, unit
 
 # Reference geometry, shared/reference/aalborg_3ppr.md (lengths mm, angles deg).
 AALBORG_TABLE = {

@@ -14,14 +14,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError, EmptyWorkspaceError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.global_worst import SingularRegionError, global_worst, grid_best, make_region
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.global_worst import SingularRegionError, global_worst, grid_best, make_region
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.workspace import constant_orientation_workspace, home_pose
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace, home_pose
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 CASE1 = load_clearances("case1", AALBORG)

@@ -11,14 +11,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.global_worst import as_sources, leg_branches
-from pmaccuracy.interval import (Cv, Iv, angle_meets_range, box_maxima, cv_angle, iv_abs, iv_arccos, iv_cos,
-                                 iv_sin, iv_sqr, iv_sqrt, leg_box_state, v_cv)
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.global_worst import as_sources, leg_branches
+from pmaccuracy.accuracy.interval import Cv, Iv, angle_meets_range, box_maxima, cv_angle, iv_abs, iv_arccos, iv_cos, iv_sin, iv_sqr, iv_sqrt, leg_box_state, v_cv
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.workspace import home_pose
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.kinematics.workspace import home_pose
 
 RNG = np.random.default_rng(7)
 

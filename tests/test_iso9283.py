@@ -19,7 +19,7 @@ import pytest
 
 import distribution_reference as dref
 import error_reference as eref
-from pmaccuracy import iso9283 as I
+from pmaccuracy.experiment import iso9283 as I
 from pmaccuracy.errors import ConfigError, MeasurementFileError
 
 
@@ -178,8 +178,8 @@ def test_clearance_prediction_against_the_exact_law():
 def test_virtual_iso_test_agrees_with_the_prediction():
     """Exact loop closures on the virtual rig vs the first-order prediction: the measured RP lies in the
     model's 5-95 % range of one test at most points, and the mean over points agrees closely."""
-    from pmaccuracy.geometry import Manipulator
-    from pmaccuracy.virtual_rig import grid_poses
+    from pmaccuracy.model.manipulator import Manipulator
+    from pmaccuracy.experiment.virtual_rig import grid_poses
 
     robot = Manipulator.load("aalborg_3ppr")
     poses = grid_poses(robot, 0.0, 3)

@@ -18,9 +18,8 @@ from scipy.optimize import brentq, fsolve
 
 from conftest import condition_of_a, manipulators, poses_inside, random_manipulator
 from pmaccuracy.errors import OutsideJointLimitsError, PoseError, SingularPoseError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.kinematics import (DEFAULT_MAX_CONDITION, forward_kinematics, inverse_kinematics, jacobians,
-                                   kinematic_jacobian, require_regular, require_within_limits, singularity)
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.kinematics import DEFAULT_MAX_CONDITION, forward_kinematics, inverse_kinematics, jacobians, kinematic_jacobian, require_regular, require_within_limits, singularity
 
 SETTINGS = settings(max_examples=40, deadline=None)
 

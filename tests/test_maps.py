@@ -1,8 +1,8 @@
-"""Error maps over the constant-orientation workspace (paper Sec. 6, Figs. 9-12): :mod:`pmaccuracy.maps`.
+"""Error maps over the constant-orientation workspace (paper Sec. 6, Figs. 9-12): :mod:`pmaccuracy.accuracy.maps`.
 
 Expected values come from outside the code under test:
 
-* each grid value is compared with :func:`pmaccuracy.bounds.max_pose_errors`
+* each grid value is compared with :func:`pmaccuracy.accuracy.bounds.max_pose_errors`
   evaluated here at the same pose (its own correctness is established in
   ``test_bounds.py``);
 * the NaN mask is recomputed with :func:`pmaccuracy.kinematics.inverse_kinematics`;
@@ -25,13 +25,13 @@ import pytest
 import xarray as xr
 
 from pmaccuracy import __version__
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError, EmptyWorkspaceError, PmAccuracyError, SingularPoseError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.maps import error_map, load_map, save_map, summarize
+from pmaccuracy.accuracy.maps import error_map, load_map, save_map, summarize
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 CASE1 = ClearanceSet.load("case1")

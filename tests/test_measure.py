@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pmaccuracy import measure
+from pmaccuracy.experiment import measure
 from pmaccuracy.errors import ConfigError
 
 

@@ -1,4 +1,4 @@
-"""Checks of the exact (nonlinear) virtual prototype :mod:`pmaccuracy.nonlinear`.
+"""Checks of the exact (nonlinear) virtual prototype :mod:`pmaccuracy.accuracy.nonlinear`.
 
 Independent computations written in this file and in ``reference_model``:
 
@@ -24,10 +24,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy import bounds, nonlinear
-from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
-from pmaccuracy.error_model import assembly_errors
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.accuracy import bounds, nonlinear
+from pmaccuracy.model.clearances import ClearanceDisplacement, ClearanceSet
+from pmaccuracy.accuracy.error_model import assembly_errors
+from pmaccuracy.model.manipulator import Manipulator
 from reference_model import (directions, displace, leg_params, own_A, own_ik, random_poses, random_robot, rot90,
                              solve_loop_closure, vec)
 

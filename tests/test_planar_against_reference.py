@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import planar_reference as ref
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import forward_kinematics, inverse_kinematics, regular_mask
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 GENERATORS = {"3-RPR": ref.random_rpr, "3-RRR": ref.random_rrr, "3-PRR": ref.random_prr, "chain": ref.random_chain}
 N_ROBOTS = 6

@@ -1,8 +1,8 @@
-"""The reproduction report (``pmaccuracy reproduce``): :func:`pmaccuracy.report.reproduce` and :mod:`pmaccuracy.document`.
+"""The reproduction report (``pmaccuracy reproduce``): :func:`pmaccuracy.report.reproduce` and :mod:`pmaccuracy.report.document`.
 
 The numbers in ``results.json`` are checked against
 
-* an independent evaluation of :func:`pmaccuracy.bounds.max_pose_errors` on a grid built here
+* an independent evaluation of :func:`pmaccuracy.accuracy.bounds.max_pose_errors` on a grid built here
   from the reference data (union of the phi = 0 and 30 deg workspace boxes: x in [-25, 40],
   y in [-25, 25] mm, masked with the inverse kinematics);
 * the workspace vertices (at constant phi, dx_max, dy_max and dphi_max are linear in the
@@ -22,13 +22,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import max_pose_errors
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.document import Document
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.accuracy.bounds import max_pose_errors
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.report.document import Document
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics
 from pmaccuracy.report import reproduce
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 GRID = 31

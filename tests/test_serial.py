@@ -1,4 +1,4 @@
-"""Planar serial arms (``pmaccuracy.serial``, ``bounds --joints``) against an independent brute force.
+"""Planar serial arms (``pmaccuracy.model.serial``, ``bounds --joints``) against an independent brute force.
 
 The reference here shares no code with the library: its forward kinematics
 uses real cos/sin and inserts every error source as what it physically is
@@ -25,9 +25,8 @@ from scipy.optimize import minimize_scalar
 
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ClearanceError, ConfigError, OutsideJointLimitsError, PoseError
-from pmaccuracy.serial import (SerialArm, SerialErrorSources, SerialJoint, load_serial_sources, max_serial_errors,
-                               zonotope_max_norm)
-from pmaccuracy.sources import JointErrors
+from pmaccuracy.model.serial import SerialArm, SerialErrorSources, SerialJoint, load_serial_sources, max_serial_errors, zonotope_max_norm
+from pmaccuracy.model.sources import JointErrors
 
 QUANTITIES = ("dx", "dy", "dphi", "dp")
 #: Sources that displace by a vector (two error variables each).

@@ -5,7 +5,7 @@
   independent ``reference_model``) on the presets and on random geometries with any gamma.
 * Closed form: a symmetric 3-RPR at its centre with actuator errors only.
 * The worst configurations attain the maxima, and the exact nonlinear loop closure
-  (:func:`pmaccuracy.nonlinear.joint_displaced_pose`) differs from the first-order model by a
+  (:func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`) differs from the first-order model by a
   second-order amount (the difference shrinks four-fold when the errors are halved).
 * Bad clearance files exit 2 naming leg, joint and key.
 """
@@ -16,16 +16,16 @@ import numpy as np
 import pytest
 import tomli_w
 
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.cli import main
-from pmaccuracy.clearances import ClearanceDisplacement, ClearanceSet
+from pmaccuracy.model.clearances import ClearanceDisplacement, ClearanceSet
 from pmaccuracy.errors import ClearanceError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.legs import RPRLeg
-from pmaccuracy.nonlinear import displaced_pose, joint_displaced_pose
-from pmaccuracy.sources import (ErrorSources, JointErrors, first_order_error, load_clearances,
-                                worst_configuration)
+from pmaccuracy.model.legs import RPRLeg
+from pmaccuracy.accuracy.nonlinear import displaced_pose, joint_displaced_pose
+from pmaccuracy.model.sources import ErrorSources, JointErrors, first_order_error, worst_configuration
+from pmaccuracy.io.resolve import load_clearances
 from reference_model import random_poses, random_robot
 
 QUANTITIES = ("dx", "dy", "dphi", "dp")
@@ -108,7 +108,7 @@ def test_worst_configurations_attain_the_maxima_and_close_to_second_order(name, 
 
 
 def test_generic_virtual_prototype_equals_the_3ppr_one():
-    """The chain-based loop closure reproduces pmaccuracy.nonlinear.displaced_pose of the 3-PPR."""
+    """The chain-based loop closure reproduces pmaccuracy.accuracy.nonlinear.displaced_pose of the 3-PPR."""
     robot = Manipulator.preset("aalborg_3ppr")
     rng = np.random.default_rng(2)
     poses = _inside_poses(robot, rng, 5, spread=20.0)
@@ -116,7 +116,7 @@ def test_generic_virtual_prototype_equals_the_3ppr_one():
     d = ClearanceDisplacement(tau_b=rng.uniform(-1e-3, 1e-3, (n, 3)), sigma_g=rng.uniform(-2e-3, 2e-3, (n, 3)),
                               tau_g=rng.uniform(-1e-4, 1e-4, (n, 3)), rho=rng.uniform(0, 0.04, (n, 3)),
                               varphi=rng.uniform(-np.pi, np.pi, (n, 3)))
-    from pmaccuracy.sources import JointDisplacements
+    from pmaccuracy.model.sources import JointDisplacements
     cfg = JointDisplacements.zeros((n,))
     cfg.sigma[:, :, 0] = d.sigma_g
     cfg.tau[:, :, 0] = d.tau_g

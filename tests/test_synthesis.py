@@ -13,14 +13,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmaccuracy.bounds import max_pose_errors
+from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
-from pmaccuracy.geometry import Manipulator
-from pmaccuracy.global_worst import global_worst, make_region
+from pmaccuracy.model.manipulator import Manipulator
+from pmaccuracy.accuracy.global_worst import global_worst, make_region
 from pmaccuracy.kinematics import inverse_kinematics
-from pmaccuracy.sources import load_clearances
-from pmaccuracy.synthesis import clearance_toml, free_sources, parse_targets, pose_coefficients, synthesize
+from pmaccuracy.io.resolve import load_clearances
+from pmaccuracy.accuracy.synthesis import clearance_toml, free_sources, parse_targets, pose_coefficients, synthesize
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 RNG = np.random.default_rng(5)
@@ -89,7 +89,7 @@ def test_pose_coefficients_reproduce_the_maxima():
     sources = free_sources(tpl)
     lin, Mx, My = pose_coefficients(robot, tpl, sources, pts)
     z = RNG.uniform(0.2, 3.0, len(sources))
-    from pmaccuracy.synthesis import with_values
+    from pmaccuracy.accuracy.synthesis import with_values
     b = max_pose_errors(robot, with_values(tpl, sources, z * [s.value for s in sources], "z"), pts)
     np.testing.assert_allclose(lin @ z, np.column_stack([b.dx_max, b.dy_max, b.dphi_max]), rtol=1e-10)
     np.testing.assert_allclose(np.max(np.hypot(Mx @ z, My @ z), axis=1), b.dp_max, rtol=1e-10)

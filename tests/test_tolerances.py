@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 
 from pmaccuracy import Manipulator
-from pmaccuracy.bounds import load_tolerances, max_pose_errors
+from pmaccuracy.accuracy.bounds import load_tolerances, max_pose_errors
 from pmaccuracy.cli import main
-from pmaccuracy.clearances import ClearanceSet
-from pmaccuracy.error_model import pose_error
+from pmaccuracy.model.clearances import ClearanceSet
+from pmaccuracy.accuracy.error_model import pose_error
 from pmaccuracy.errors import ConfigError
-from pmaccuracy.nonlinear import displaced_pose_error
-from pmaccuracy.workspace import constant_orientation_workspace
+from pmaccuracy.accuracy.nonlinear import displaced_pose_error
+from pmaccuracy.kinematics.workspace import constant_orientation_workspace
 
 PARAMS = ("a", "alpha", "beta", "d", "gamma", "theta", "r", "psi", "s")
 

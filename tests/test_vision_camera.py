@@ -17,8 +17,7 @@ import pytest
 
 from pmaccuracy import vision
 from pmaccuracy.vision import camera_sim
-from pmaccuracy.vision.camera import (CameraModel, disk_image_bias, plane_matrix, plane_to_image, rotation_matrix,
-                                      rotation_vector)
+from pmaccuracy.vision.camera import CameraModel, disk_image_bias, plane_matrix, plane_to_image, rotation_matrix, rotation_vector
 
 K = np.array([[3378.4, 0.0, 645.5], [0.0, 3377.9, 507.5], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.09, 0.05, -1.2e-4, 2.0e-4, 0.01])

@@ -15,10 +15,9 @@ from hypothesis import given, settings
 
 from conftest import manipulators, random_manipulator
 from pmaccuracy.errors import EmptyWorkspaceError
-from pmaccuracy.geometry import Manipulator
+from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.kinematics import inverse_kinematics, require_within_limits
-from pmaccuracy.workspace import (Workspace, constant_orientation_workspace, grid_search_workspace, leg_box,
-                                  plot_workspaces, save_comparison_figure, save_workspace_figure)
+from pmaccuracy.kinematics.workspace import Workspace, constant_orientation_workspace, grid_search_workspace, leg_box, plot_workspaces, save_comparison_figure, save_workspace_figure
 
 SIN60 = np.sqrt(3) / 2
 

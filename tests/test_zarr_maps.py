@@ -1,6 +1,6 @@
-"""Maps streamed to Zarr (:func:`pmaccuracy.maps.write_zarr_map`, ``pmaccuracy map --out X.zarr``).
+"""Maps streamed to Zarr (:func:`pmaccuracy.accuracy.maps.write_zarr_map`, ``pmaccuracy map --out X.zarr``).
 
-The store is compared with the in-memory map of :func:`pmaccuracy.maps.error_map`
+The store is compared with the in-memory map of :func:`pmaccuracy.accuracy.maps.error_map`
 (itself checked point by point against the bounds in ``test_maps.py``) and with
 the NetCDF file of the same map (attributes). Resumption: a run killed by a
 failing tile leaves the finished tiles recorded; the next run computes only the
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pmaccuracy import maps
+from pmaccuracy.accuracy import maps
 from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
-from pmaccuracy.maps import error_map, load_map, save_map, write_zarr_map, zarr_progress
+from pmaccuracy.accuracy.maps import error_map, load_map, save_map, write_zarr_map, zarr_progress
 
 PHIS = np.radians([0.0, 30.0])
 N, TILE = 23, 8  # 2 x 3 x 3 = 18 tiles, the last row and column of tiles partial

@@ -39,28 +39,30 @@ _EXPORTS = {
         "PmAccuracyError", "ConfigError", "GeometryError", "ClearanceError", "PoseError", "OutsideJointLimitsError",
         "SingularPoseError", "NoSolutionError", "CertificationError", "EmptyWorkspaceError", "MeasurementFileError",
         "VisionError", "UnsupportedArchitectureError", "MissingDependencyError")},
-    "SingularRegionError": "global_worst",
-    "PlausibilityWarning": "plausibility",
+    "SingularRegionError": "accuracy.global_worst",
+    "PlausibilityWarning": "model.plausibility",
     # the model: what a robot is, what its errors are
-    "Manipulator": "geometry", "Leg": "geometry",
-    **{name: "legs" for name in ("Chain", "Joint", "PPRLeg", "RPRLeg", "RRRLeg", "PRRLeg", "ChainLeg")},
-    "SerialArm": "serial", "SerialJoint": "serial", "SerialErrorSources": "serial",
-    "ErrorSources": "sources", "JointErrors": "sources", "JointDisplacements": "sources",
-    "ClearanceSet": "clearances",
+    "Manipulator": "model.manipulator", "Leg": "model.manipulator",
+    **{name: "model.legs" for name in ("Chain", "Joint", "PPRLeg", "RPRLeg", "RRRLeg", "PRRLeg", "ChainLeg")},
+    "SerialArm": "model.serial", "SerialJoint": "model.serial", "SerialErrorSources": "model.serial",
+    "ErrorSources": "model.sources", "JointErrors": "model.sources", "JointDisplacements": "model.sources",
+    "ClearanceSet": "model.clearances",
     "load_robot": "api", "load_clearances": "api",
     # kinematics
     **{name: "kinematics" for name in ("FKSolution", "IKSolution", "forward_kinematics", "inverse_kinematics",
                                        "jacobians", "kinematic_jacobian", "singularity")},
-    "constant_orientation_workspace": "workspace",
+    "constant_orientation_workspace": "kinematics.workspace",
     # accuracy
-    "max_pose_errors": "bounds", "PoseErrorBounds": "bounds",
-    "max_serial_errors": "serial",
-    "certified_pose_errors": "certified", "nonlinear_pose_errors": "certified", "CertifiedPoseErrors": "certified",
-    "global_worst": "global_worst", "make_region": "global_worst", "Region": "global_worst",
-    "GlobalWorst": "global_worst", "QuantityWorst": "global_worst",
-    "error_map": "maps", "save_map": "maps", "load_map": "maps",
-    "synthesize": "synthesis", "Synthesis": "synthesis",
-    "pose_statistics": "distributions",
+    "max_pose_errors": "accuracy.bounds", "PoseErrorBounds": "accuracy.bounds",
+    "max_serial_errors": "model.serial",
+    "certified_pose_errors": "accuracy.certified", "nonlinear_pose_errors": "accuracy.certified",
+    "CertifiedPoseErrors": "accuracy.certified",
+    "global_worst": "accuracy.global_worst", "make_region": "accuracy.global_worst",
+    "Region": "accuracy.global_worst",
+    "GlobalWorst": "accuracy.global_worst", "QuantityWorst": "accuracy.global_worst",
+    "error_map": "accuracy.maps", "save_map": "accuracy.maps", "load_map": "accuracy.maps",
+    "synthesize": "accuracy.synthesis", "Synthesis": "accuracy.synthesis",
+    "pose_statistics": "accuracy.distributions",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]
@@ -86,12 +88,12 @@ def __dir__() -> list[str]:
 
 
 class _Package(types.ModuleType):
-    """The package's module type: a submodule named like a public function (``global_worst``) does not
-    replace the function when it is imported (``pm.global_worst`` stays the function; the module is
-    ``sys.modules["pmaccuracy.global_worst"]``)."""
+    """The package's module type: a (deprecated alias) submodule named like a public function
+    (``pmaccuracy.global_worst``) does not replace the function when it is imported (``pm.global_worst`` stays
+    the function; the module is :mod:`pmaccuracy.accuracy.global_worst`)."""
 
     def __setattr__(self, name: str, value) -> None:
-        if name in _EXPORTS and isinstance(value, types.ModuleType):
+        if name in _EXPORTS and isinstance(value, types.ModuleType) and value.__name__ != f"{__name__}.{name}":
             return
         super().__setattr__(name, value)
 

@@ -15,6 +15,10 @@ import os
 from typing import Any
 
 from .errors import ConfigError
+from .io.resolve import load_clearances as _load_clearances
+from .io.resolve import robot_arg
+from .model.manipulator import Manipulator
+from .model.serial import SerialArm, is_serial_spec, load_serial_sources
 
 __all__ = ["load_robot", "load_clearances"]
 
@@ -22,8 +26,8 @@ __all__ = ["load_robot", "load_clearances"]
 def load_robot(spec: Any):
     """The robot of a preset name, a TOML path or an object (returned as it is).
 
-    A parallel robot (any architecture) gives a :class:`~pmaccuracy.geometry.Manipulator`, a robot file
-    with ``architecture = "serial"`` a :class:`~pmaccuracy.serial.SerialArm`. Raises
+    A parallel robot (any architecture) gives a :class:`~pmaccuracy.model.manipulator.Manipulator`, a robot file
+    with ``architecture = "serial"`` a :class:`~pmaccuracy.model.serial.SerialArm`. Raises
     :class:`~pmaccuracy.errors.ConfigError` (or a subclass) naming the file and key of any mistake.
 
     >>> load_robot("aalborg_3ppr").architecture
@@ -31,31 +35,25 @@ def load_robot(spec: Any):
     >>> load_robot("planar_3r_arm").kinds
     'RRR'
     """
-    from .geometry import Manipulator
-    from .serial import SerialArm, is_serial_spec
-
     if isinstance(spec, (Manipulator, SerialArm)):
         return spec
     if not isinstance(spec, (str, os.PathLike)):
         raise ConfigError(f"expected a robot, a preset name or a robot TOML path, got {type(spec).__name__}",
                           key="robot")
-    return SerialArm.load(spec) if is_serial_spec(spec) else Manipulator.load(spec)
+    return SerialArm.load(spec) if is_serial_spec(spec) else robot_arg(spec)
 
 
 def load_clearances(spec: Any, robot: Any):
     """Clearances (or tolerances) for ``robot`` from a preset name, a TOML path or an object.
 
-    A per-joint file gives :class:`~pmaccuracy.sources.ErrorSources` (any architecture; for a serial arm
-    :class:`~pmaccuracy.serial.SerialErrorSources`), the paper's 3-PPR format a
-    :class:`~pmaccuracy.clearances.ClearanceSet`; either is checked against the robot's joints.
+    A per-joint file gives :class:`~pmaccuracy.model.sources.ErrorSources` (any architecture; for a serial arm
+    :class:`~pmaccuracy.model.serial.SerialErrorSources`), the paper's 3-PPR format a
+    :class:`~pmaccuracy.model.clearances.ClearanceSet`; either is checked against the robot's joints.
 
     >>> load_clearances("case2", "aalborg_3ppr").name
     'case2'
     """
-    from .serial import SerialArm, load_serial_sources
-    from .sources import load_clearances as _load
-
     robot = load_robot(robot)
     if isinstance(robot, SerialArm):
         return load_serial_sources(spec, robot)
-    return _load(spec, robot)
+    return _load_clearances(spec, robot)

@@ -7,7 +7,7 @@ and every other failure (file system, memory, an unexpected internal error)
 ends the program with exit status 2 and one line on stderr,
 ``pmaccuracy CMD: error: ...``; set ``PMACCURACY_DEBUG=1`` to get the traceback
 of the failures that are not the user's input errors. Plausibility warnings
-(:mod:`pmaccuracy.plausibility`) and other warnings are printed one line each,
+(:mod:`pmaccuracy.model.plausibility`) and other warnings are printed one line each,
 ``pmaccuracy CMD: warning: ...``, after a successful run (a failing run prints only its error line; a
 long-run estimate is printed at once), unless ``--quiet`` (an option of every command).
 """
@@ -133,11 +133,11 @@ def _os_error(exc: OSError) -> str:
 def _show_warning(command: str, pending: list[str]):
     """A ``warnings.showwarning`` formatting ``pmaccuracy CMD: warning: ...`` on one line.
 
-    A :class:`~pmaccuracy.plausibility.LongRunWarning` is printed at once (before the long computation);
+    A :class:`~pmaccuracy.model.plausibility.LongRunWarning` is printed at once (before the long computation);
     the others are kept in ``pending`` and printed when the command succeeds: a failing command prints
     only its one error line.
     """
-    from ..plausibility import LongRunWarning, PlausibilityWarning
+    from ..model.plausibility import LongRunWarning, PlausibilityWarning
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
         kind = "" if issubclass(category, PlausibilityWarning) else f" ({category.__name__})"
@@ -151,7 +151,7 @@ def _show_warning(command: str, pending: list[str]):
 
 def _option_warnings(args: argparse.Namespace) -> None:
     """Plausibility of the orientations given as options (``--phi-deg``, ``--pose X Y PHI_DEG``)."""
-    from ..plausibility import orientation_messages, warn
+    from ..model.plausibility import orientation_messages, warn
 
     phi = getattr(args, "phi_deg", None)
     if isinstance(phi, (int, float)) and not isinstance(phi, bool):
@@ -222,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "quiet", False):
             warnings.simplefilter("ignore")
         else:
-            from ..plausibility import PlausibilityWarning
+            from ..model.plausibility import PlausibilityWarning
 
             warnings.simplefilter("always", PlausibilityWarning)
         try:

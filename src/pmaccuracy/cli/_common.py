@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from ..csvio import read_poses_csv  # noqa: F401  (columnar reader; kept importable from here)
+from ..io.csvio import read_poses_csv  # noqa: F401  (columnar reader; kept importable from here)
 from ..errors import ConfigError, PmAccuracyError
-from ..geometry import Manipulator
+from ..model.manipulator import Manipulator
+from ..io.resolve import robot_arg
 
 
 #: File types of figure options (``--plot``): what matplotlib writes without extra packages.
@@ -85,8 +86,8 @@ def _can_create_in(folder: Path) -> bool:
 def check_grid_memory(layers: int, n: int, option: str = "--grid") -> None:
     """Refuse (ConfigError naming ``option``) a computation over ``layers`` x ``n`` x ``n`` grid points that
     would not fit in the available memory, before anything is computed: the same rule as an in-memory map
-    (:func:`pmaccuracy.maps.check_fits_in_memory`, four float64 values per point)."""
-    from .. import maps
+    (:func:`pmaccuracy.accuracy.maps.check_fits_in_memory`, four float64 values per point)."""
+    from ..accuracy import maps
 
     need = maps.MEMORY_FACTOR * maps.map_nbytes(layers, n)
     free = maps.available_memory()
@@ -100,7 +101,7 @@ def warn_long_run(seconds: float, what: str, limit: float = 600.0) -> None:
     """A one-line warning printed at once (before computing) when a rough estimate exceeds ``limit`` s."""
     import warnings
 
-    from ..plausibility import LongRunWarning
+    from ..model.plausibility import LongRunWarning
 
     if seconds > limit:
         hours = seconds / 3600
@@ -168,7 +169,7 @@ def add_format(parser: argparse.ArgumentParser) -> None:
 
 
 def load_robot(args: argparse.Namespace) -> Manipulator:
-    return Manipulator.load(args.robot)
+    return robot_arg(args.robot)
 
 
 def _plain(value: Any) -> Any:
@@ -244,7 +245,7 @@ def degrees_as_given(angles_rad: np.ndarray) -> np.ndarray:
     """Degrees of angles (rad) for output: per element the shortest rounding that converts back to the same
     radians (``radians(30)`` prints 30, not 29.999999999999996), so an echoed input reads as it was typed.
 
-    Vectorized :func:`pmaccuracy.geometry.round_trip_degrees`: one pass per number of decimals, over the values
+    Vectorized :func:`pmaccuracy.model.manipulator.round_trip_degrees`: one pass per number of decimals, over the values
     not yet resolved.
     """
     rad = np.asarray(angles_rad, dtype=float)
@@ -268,7 +269,7 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
     if pose_args:
         arr = np.array(pose_args, dtype=float)
     else:
-        from ..plausibility import orientation_messages, warn
+        from ..model.plausibility import orientation_messages, warn
 
         arr = read_poses_csv(csv_path)
         warn(orientation_messages(arr[:, 2], f"{csv_path}: column phi_deg"))

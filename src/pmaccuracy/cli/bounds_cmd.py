@@ -72,7 +72,7 @@ def _configuration(disp) -> dict:
 
 
 def _columns(result) -> dict[str, np.ndarray]:
-    """The output columns of a :class:`~pmaccuracy.bounds.PoseErrorBounds` (same values as its ``records``)."""
+    """The output columns of a :class:`~pmaccuracy.accuracy.bounds.PoseErrorBounds` (same values as its ``records``)."""
     poses = result.poses.reshape(-1, 3)
     return {"x": poses[:, 0], "y": poses[:, 1], "phi_deg": _common.degrees_as_given(poses[:, 2]),
             "dx_max": result.dx_max.reshape(-1), "dy_max": result.dy_max.reshape(-1),
@@ -87,7 +87,7 @@ def _exact_columns(robot, clearances, poses: np.ndarray, tolerances, allow_outsi
     poses, so only one block of the library's intermediate arrays (generators
     ``(n, 3, 3)`` etc.) is alive at a time.
     """
-    from ..bounds import max_pose_errors
+    from ..accuracy.bounds import max_pose_errors
 
     n = poses.shape[0]
     show = (sys.stderr.isatty() if progress is None else progress) and n > PROGRESS_BLOCK
@@ -121,8 +121,9 @@ def _run_naming_poses(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
-    from ..sources import ErrorSources, load_clearances
+    from ..accuracy.bounds import load_tolerances, max_pose_errors, slsqp_max_pose_errors
+    from ..model.sources import ErrorSources
+    from ..io.resolve import load_clearances
 
     from . import serial_cmd
     if serial_cmd.is_serial_robot(args.robot):  # architecture = "serial": joint values instead of poses
@@ -185,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _linear_checked(columns: dict[str, np.ndarray], poses: np.ndarray) -> dict[str, np.ndarray]:
     """Warn (one line) when a dphi_max is beyond the first-order model's validity; returns ``columns``."""
-    from ..plausibility import linearity_messages, warn
+    from ..model.plausibility import linearity_messages, warn
 
     _common.check_finite_results(columns, poses, ("dx_max", "dy_max", "dphi_max_deg", "dp_max"))
     warn(linearity_messages(columns["dphi_max_deg"], poses))
@@ -197,7 +198,7 @@ def with_tolerances(clearances, tolerances):
     sets are independent, so their shares add; the clearance file's guide block length is kept)."""
     from dataclasses import fields, replace
 
-    from ..sources import ErrorSources
+    from ..model.sources import ErrorSources
 
     legs = tuple(tuple(replace(c, **{f.name: getattr(c, f.name) + getattr(t, f.name) for f in fields(c)
                                      if f.name != "block_length"})
@@ -213,9 +214,9 @@ _SOURCE_KEYS = {"turn": ("turn_deg", np.degrees), "tilt": ("angular_deg", np.deg
 def _per_joint_details(robot, sources, result) -> list[dict]:
     """Records of ``bounds --details`` for per-joint sources: per quantity, the value of every non-zero source
     at the maximizing configuration, keyed ``leg<i>.joint<k>.<what>`` (mm, deg; an actuated R's error in
-    deg), from :func:`pmaccuracy.sources.worst_configuration` at the maximizing signs."""
+    deg), from :func:`pmaccuracy.model.sources.worst_configuration` at the maximizing signs."""
     from ..kinematics import inverse_kinematics
-    from ..sources import worst_configuration
+    from ..model.sources import worst_configuration
 
     poses = result.poses.reshape(-1, 3)
     joints = inverse_kinematics(robot, poses).joints
@@ -244,15 +245,15 @@ def _per_joint_details(robot, sources, result) -> list[dict]:
 
 def _columnar_output(columns: dict[str, np.ndarray], fmt: str) -> None:
     """One row per pose on stdout: CSV and table written column-wise (pyarrow for CSV), JSON as records."""
-    from ..csvio import format_columns
+    from ..io.csvio import format_columns
 
     format_columns(columns, fmt, sys.stdout)
 
 
 def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarray, tolerances) -> int:
     """``bounds --certified`` / ``--nonlinear``: the ``bounds`` keys with the certified upper bounds (or the
-    nonlinear maxima) and ``gap`` per quantity (:mod:`pmaccuracy.certified`)."""
-    from ..certified import certified_pose_errors
+    nonlinear maxima) and ``gap`` per quantity (:mod:`pmaccuracy.accuracy.certified`)."""
+    from ..accuracy.certified import certified_pose_errors
 
     if args.certified and args.nonlinear:
         raise PmAccuracyError("--certified and --nonlinear exclude each other (both report the gap between them)")

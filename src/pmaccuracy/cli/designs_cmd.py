@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from . import _common
+from ..io.resolve import robot_arg
 
 HELP = "compare designs of any architectures: workspace areas, mean/max errors, error ratios on the shared region"
 #: Columns of the three blocks of the table format (JSON and CSV carry every column in one record).
@@ -73,13 +74,12 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..designs import compare_designs, save_comparison_figure
+    from ..accuracy.designs import compare_designs, save_comparison_figure
     from ..errors import ConfigError
-    from ..geometry import Manipulator
-    from ..sources import load_clearances
+    from ..io.resolve import load_clearances
     specs = _check_options(args)
     _common.check_grid_memory(len(args.robot) * len(args.phi_deg), args.grid, "--grid")
-    robots = [Manipulator.load(spec) for spec in args.robot]
+    robots = [robot_arg(spec) for spec in args.robot]
     clearances = []
     for spec, robot in zip(specs, robots):
         try:
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
                    if region.inside.any() else "the workspaces share no region")
             print(f"pmaccuracy compare-designs: at phi = {phi_deg:g} deg {why}: ratios are null", file=sys.stderr)
     records = result.records()
-    from ..plausibility import linearity_messages, warn
+    from ..model.plausibility import linearity_messages, warn
 
     warn(linearity_messages([r["dphi_max_deg"] for r in records], what="the largest dphi_max of a design"))
     if args.out is not None:

@@ -11,7 +11,7 @@ Sub-commands:
   check of Fig. 15; with ``--out DIR`` also figures, ``comparison.json`` and a
   self-contained ``report.html``; with ``--repeats R.csv`` (repeated attained poses, ``simulate --repeats N``)
   also ISO 9283 pose accuracy and repeatability beside the repeatability the clearance model predicts
-  (:mod:`pmaccuracy.iso9283`).
+  (:mod:`pmaccuracy.experiment.iso9283`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import sys
 from pathlib import Path
 
 from .. import experiment
-from ..sources import load_clearances
+from ..report import experiment_report
+from ..io.resolve import load_clearances
 from . import _common
 from .bounds_cmd import add_clearances
 
@@ -123,7 +124,7 @@ def run_simulate(args: argparse.Namespace) -> int:
         if value and args.repeats is None:
             raise ConfigError("goes with --repeats N", key=option)
     if args.repeats is not None:
-        from ..distributions import Distribution
+        from ..accuracy.distributions import Distribution
 
         distribution = Distribution.load(args.distribution)
     if args.grid >= 2:
@@ -141,7 +142,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     if args.repeats is not None:
         import numpy as np
 
-        from .. import iso9283
+        from ..experiment import iso9283
 
         out = Path(args.repeats_out) if args.repeats_out else path.with_name(f"{path.stem}_repeats.csv")
         repeats = iso9283.simulate_repeats(robot, clearances, measurements.nominal, args.repeats,
@@ -166,8 +167,8 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.distribution and not args.repeats:
         raise ConfigError("goes with --repeats R.csv (the model's predicted repeatability)", key="--distribution")
     if args.repeats:
-        from .. import iso9283
-        from ..distributions import Distribution
+        from ..experiment import iso9283
+        from ..accuracy.distributions import Distribution
 
         repeats = iso9283.load_repeats(args.repeats)  # before the long computations
         distribution = Distribution.load(args.distribution)
@@ -181,7 +182,7 @@ def run_compare(args: argparse.Namespace) -> int:
         summary["iso9283"] = iso9283.compare_repeatability(robot, clearances, repeats, distribution=distribution,
                                                            noise_mm=args.accuracy_mm, noise_deg=args.accuracy_deg)
     if args.out:
-        files = experiment.write_report(robot, clearances, comparison, args.out, map_grid=args.map_grid)
+        files = experiment_report.write_report(robot, clearances, comparison, args.out, map_grid=args.map_grid)
         summary["files"] = {k: str(p) for k, p in files.items()}
         if repeats is not None:
             import json

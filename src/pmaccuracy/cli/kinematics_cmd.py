@@ -55,7 +55,7 @@ def _passive(robot, joints: np.ndarray) -> list[list[float]]:
 
 
 def run_ik(args: argparse.Namespace) -> int:
-    from ..geometry import round_trip_degrees
+    from ..model.manipulator import round_trip_degrees
     from ..kinematics import inverse_kinematics
 
     robot = _common.load_robot(args)
@@ -96,7 +96,7 @@ def run_fk(args: argparse.Namespace) -> int:
 
     robot = _common.load_robot(args)
     kinds = robot.actuated_kinds
-    from ..plausibility import orientation_messages, warn
+    from ..model.plausibility import orientation_messages, warn
 
     warn(orientation_messages([v for v, k in zip(args.joints, kinds) if k == "R" and v], "--joints", "revolute joint values"))
     q = np.array([np.radians(v) if k == "R" else v for v, k in zip(args.joints, kinds)])

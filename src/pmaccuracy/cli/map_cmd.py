@@ -63,8 +63,8 @@ def prepare_output(path: Path, option: str) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .. import maps
-    from ..sources import load_clearances
+    from ..accuracy import maps
+    from ..io.resolve import load_clearances
 
     out = Path(args.out)
     suffix = out.suffix.lower()
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
             _plots(_thinned(ds), Path(args.plot))
         summary = maps.summarize(ds)
     rows = [{"phi_deg": float(key), **ranges} for key, ranges in summary.items()]
-    from ..plausibility import linearity_messages, warn
+    from ..model.plausibility import linearity_messages, warn
 
     warn(linearity_messages([r["dphi_max_deg"][1] for r in rows], what="the map's largest dphi_max"))
     _common.emit(rows, args.format)
@@ -170,7 +170,7 @@ def _warn_if_long(maps, robot, clearances, phis, args, suffix: str) -> None:
     """A plausibility warning before a long run (the estimate is timed on a sparse sub-grid)."""
     import warnings
 
-    from ..plausibility import LongRunWarning
+    from ..model.plausibility import LongRunWarning
 
     x, y = maps.map_grid(robot, phis, args.grid)
     workers = (args.workers or os.cpu_count() or 1) if suffix == ".zarr" else 1
@@ -218,7 +218,7 @@ def _thinned(ds, max_points: int = 1001):
 
 
 def _plots(ds, plot: Path) -> None:
-    from .. import figures
+    from ..report import figures
 
     for phi in ds.phi.values:
         path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")

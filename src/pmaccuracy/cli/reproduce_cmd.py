@@ -32,8 +32,8 @@ def run(args: argparse.Namespace) -> int:
     _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
     robot = _common.load_robot(args)
     if args.clearances is not None or not robot.is_3ppr:
-        from ..accuracy_report import REPORT_PHIS_DEG, accuracy_report
-        from ..sources import load_clearances
+        from ..report.accuracy_report import REPORT_PHIS_DEG, accuracy_report
+        from ..io.resolve import load_clearances
 
         if args.clearances is None:
             raise ConfigError(f"{robot.name} is a {robot.architecture}: give its clearances with --clearances (e.g. "

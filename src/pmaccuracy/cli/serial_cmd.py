@@ -17,7 +17,7 @@ from ..errors import PmAccuracyError
 
 def is_serial_robot(spec) -> bool:
     """True when ``--robot`` names a serial arm (preset or file with ``architecture = "serial"``)."""
-    from ..serial import is_serial_spec
+    from ..model.serial import is_serial_spec
 
     return is_serial_spec(spec)
 
@@ -53,7 +53,7 @@ def _named(key: str, value: np.ndarray):
 
 def run(args: argparse.Namespace) -> int:
     """Exact worst-case end-effector errors of a serial arm at ``--joints`` configurations."""
-    from ..serial import SerialArm, load_serial_sources, max_serial_errors
+    from ..model.serial import SerialArm, load_serial_sources, max_serial_errors
 
     for option, given in (("--pose", args.pose), ("--poses-csv", args.poses_csv)):
         if given:
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     result = max_serial_errors(arm, sources, q, allow_outside=args.allow_outside, details=args.details)
     columns = result.columns()
     if not args.details:
-        from ..csvio import format_columns
+        from ..io.csvio import format_columns
 
         format_columns(columns, args.format, sys.stdout)
         return 0

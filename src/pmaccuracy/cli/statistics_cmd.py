@@ -89,7 +89,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .. import distributions
+    from ..accuracy import distributions
+    from ..report import statistics_report
 
     if (args.pose is None) == (args.phi_deg is None):
         raise ConfigError("give either --pose X Y PHI_DEG or --phi-deg PHI (with --out) for a map",
@@ -133,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds)
     distributions.save_region_statistics(ds, out)
     if args.plot:
-        distributions.save_percentile_map_figure(ds, args.plot)
+        statistics_report.save_percentile_map_figure(ds, args.plot)
     summary = distributions.summarize_region(ds)
     rows = [{"phi_deg": float(phi), "quantity": q, **stats} for phi, layer in summary["orientations"].items()
             for q, stats in layer.items()]

@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..errors import ConfigError
-    from ..synthesis import clearance_toml, parse_targets, synthesize
+    from ..accuracy.synthesis import clearance_toml, parse_targets, synthesize
 
     targets = parse_targets(args.target)
     mode = args.mode or ("min-cost" if args.cost else "uniform")

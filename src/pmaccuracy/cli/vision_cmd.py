@@ -279,7 +279,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 # ------------------------------------------------------------------------------------------------------ helpers
 def _plausibility_warning() -> type[Warning]:
     try:
-        from ..plausibility import PlausibilityWarning
+        from ..model.plausibility import PlausibilityWarning
     except ImportError:  # pragma: no cover - older tree
         return UserWarning
     return PlausibilityWarning

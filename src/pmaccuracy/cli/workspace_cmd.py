@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from . import _common
+from ..io.resolve import robot_arg
 
 HELP = "constant-orientation workspace: exact region bounded by segments and arcs (Sec. 3, any architecture)"
 
@@ -40,10 +41,9 @@ def _summary(robot, phi_deg: float, ws) -> tuple[dict, dict]:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..geometry import Manipulator
-    from ..workspace import DEFAULT_PHIS_DEG, constant_orientation_workspace
+    from ..kinematics.workspace import DEFAULT_PHIS_DEG, constant_orientation_workspace
 
-    robots = [Manipulator.load(spec) for spec in args.compare] if args.compare else [_common.load_robot(args)]
+    robots = [robot_arg(spec) for spec in args.compare] if args.compare else [_common.load_robot(args)]
     from pathlib import Path
 
     plot = Path(args.plot) if args.plot else None
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
                for robot in robots]
     phis = tuple([args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg])
     if plot is not None:
-        from ..workspace import save_comparison_figure, save_workspace_figure
+        from ..kinematics.workspace import save_comparison_figure, save_workspace_figure
         if args.compare:
             save_comparison_figure(robots, plot, phis_deg=phis)
         else:

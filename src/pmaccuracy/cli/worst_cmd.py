@@ -23,11 +23,11 @@ def add_region(p: argparse.ArgumentParser, *, phi_required: bool) -> None:
 
 
 def parse_region(robot, args: argparse.Namespace):
-    """The :class:`~pmaccuracy.global_worst.Region` of ``--phi-deg`` and ``--region``; checks ``--gap-pct``."""
+    """The :class:`~pmaccuracy.accuracy.global_worst.Region` of ``--phi-deg`` and ``--region``; checks ``--gap-pct``."""
     import numpy as np
 
     from ..errors import ConfigError
-    from ..global_worst import make_region
+    from ..accuracy.global_worst import make_region
 
     if not 0 < args.gap_pct < 100:
         raise ConfigError(f"must be in (0, 100) percent, got {args.gap_pct:g}", key="--gap-pct")
@@ -65,9 +65,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..global_worst import global_worst, grid_best
-    from ..sources import load_clearances
-    from ..synthesis import default_template
+    from ..accuracy.global_worst import global_worst, grid_best
+    from ..io.resolve import load_clearances
+    from ..accuracy.synthesis import default_template
 
     _common.check_grid_memory(args.grid[1], args.grid[0], "--grid")
     robot = _common.load_robot(args)
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         records.append({"quantity": q + ("_deg" if q == "dphi" else ""), "lower": f(w.lower), "upper": f(w.upper),
                         "gap_pct": 100 * w.gap, "x": w.pose[0], "y": w.pose[1], "phi_deg": np.degrees(w.pose[2]),
                         "grid_best": f(grid[i]), "certified": w.converged})
-    from ..plausibility import linearity_messages, warn
+    from ..model.plausibility import linearity_messages, warn
 
     warn(linearity_messages([r["upper"] for r in records if r["quantity"] == "dphi_deg"],
                             what="the region's worst dphi"))

@@ -65,8 +65,7 @@ import numpy as np
 
 from ..errors import ConfigError, VisionError
 from ._util import DEFAULT_SPACING_MM, MIN_CALIBRATION_DOTS, _positive
-from .camera import (CameraModel, disk_image_bias, image_to_plane, local_scale, plane_matrix, plane_to_image,
-                     rotation_matrix, rotation_vector)
+from .camera import CameraModel, disk_image_bias, image_to_plane, local_scale, plane_matrix, plane_to_image, rotation_matrix, rotation_vector
 from .detection import Blobs, find_blobs
 from .grid import find_grid
 from .._optional import require
@@ -267,7 +266,7 @@ class Calibration:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Calibration":
         """Build from the parsed TOML; every problem is a :class:`ConfigError` naming ``source`` and the key."""
-        from .. import _tomlio
+        from ..model import _tomlio
 
         table = data.get("calibration")
         if not isinstance(table, dict):
@@ -348,7 +347,7 @@ class Calibration:
     @classmethod
     def from_toml(cls, path: str | Path) -> "Calibration":
         """Read a calibration TOML file written by :meth:`to_toml`."""
-        from .. import _tomlio
+        from ..model import _tomlio
 
         path = Path(path)
         source = str(path)

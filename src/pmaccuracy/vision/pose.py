@@ -29,8 +29,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import VisionError
-from ._util import (DEFAULT_SIDE_TOLERANCE, DEFAULT_SPACING_MM, PLATFORM_MARKERS, _estimate, _positive,
-                    pixels_to_mm)
+from ._util import DEFAULT_SIDE_TOLERANCE, DEFAULT_SPACING_MM, PLATFORM_MARKERS, _estimate, _positive, pixels_to_mm
 from .detection import Blobs, find_blobs
 from .images import as_gray
 from .._optional import require

@@ -1,9 +1,9 @@
 """Inverse and forward kinematics, Jacobians and singularities of any planar 3-leg manipulator.
 
 The paper's Sec. 3 (Eq. 1-5) in general form: every leg is a chain of three
-one-DOF joints (:class:`~pmaccuracy.legs.Chain`), solved in closed form; the
+one-DOF joints (:class:`~pmaccuracy.model.legs.Chain`), solved in closed form; the
 Jacobians come from the legs' constraint wrenches (screw theory,
-:mod:`pmaccuracy.screws`) and reduce to Eq. 4a/4b for the 3-PPR.
+:mod:`pmaccuracy.numerics.screws`) and reduce to Eq. 4a/4b for the 3-PPR.
 
 Poses are arrays of shape ``(..., 3)`` holding ``[x, y, phi]`` (mm, mm, rad);
 every function broadcasts over the leading axes. Actuated joint values are mm
@@ -12,13 +12,15 @@ every function broadcasts over the leading axes. Actuated joint values are mm
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import GeometryError, NoSolutionError, OutsideJointLimitsError, PoseError, SingularPoseError
-from .geometry import Manipulator, perp, unit
-from .screws import wrap
+from ..errors import ConfigError, GeometryError, NoSolutionError, OutsideJointLimitsError, PoseError, SingularPoseError
+from ..model.manipulator import Manipulator, perp, unit
+from ..numerics.linalg import inverse_3x3
+from ..numerics.screws import wrap
 
 #: A pose computed on the workspace boundary must count as inside: joint limits get this slack (mm or rad).
 LIMIT_TOLERANCE = 1e-9
@@ -72,7 +74,7 @@ class IKSolution:
     within_limits: np.ndarray
     A: np.ndarray
     B: np.ndarray
-    #: The legs' :class:`~pmaccuracy.legs.LegState` (joint geometry and wrenches) behind these values.
+    #: The legs' :class:`~pmaccuracy.model.legs.LegState` (joint geometry and wrenches) behind these values.
     states: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -106,7 +108,7 @@ class IKSolution:
 def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT_TOLERANCE) -> IKSolution:
     """Joint values for poses, every leg on its working mode (closed form per leg).
 
-    Each leg solves its chain for the pose (:meth:`pmaccuracy.legs.Chain.inverse_kinematics`);
+    Each leg solves its chain for the pose (:meth:`pmaccuracy.model.legs.Chain.inverse_kinematics`);
     for the 3-PPR this is Eq. 2a/2b::
 
         s_i = (w_i^T E u_i)^-1 w_i^T E (p - a_i h_i - d_i v_i - r_i k_i)        (Eq. 2a)
@@ -126,15 +128,13 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     >>> (inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6) + 0.0).tolist()   # (+ 0.0: no -0.0)
     [-15.0, -15.0, 0.0]
     """
-    from ._args import robot_arg
-
-    robot = robot_arg(robot)  # a preset name or a TOML path too
+    robot = resolve_robot(robot)  # a preset name or a TOML path too
     poses = as_poses(poses)
     return ik_from_states(robot, leg_states(robot, poses), tol)
 
 
 def leg_states(robot: Manipulator, poses: np.ndarray) -> tuple:
-    """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.legs.LegState` (one pass per leg,
+    """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.model.legs.LegState` (one pass per leg,
     ``exp(i phi)`` shared)."""
     phi = poses[..., 2]
     if phi.size > 1 and phi.min() == phi.max():   # one orientation (a map's layer): its rotation once
@@ -300,7 +300,7 @@ def eliminant(dyads, phi: np.ndarray) -> np.ndarray:
     """The univariate equation in ``phi`` whose real roots are the assembly modes.
 
     Each locked leg reads ``kappa_i |p|^2 + g_i(phi) . p + h_i(phi) = 0``
-    (:meth:`pmaccuracy.legs.Dyad.quadric`; ``kappa = 1`` for a circle, 0 for a
+    (:meth:`pmaccuracy.model.legs.Dyad.quadric`; ``kappa = 1`` for a circle, 0 for a
     line). Treat ``w = |p|^2`` as a third unknown of the linear system
     ``K [w, x, y]^T = -h`` with rows ``K_i = [kappa_i, g_ix, g_iy]``; by
     Cramer's rule ``w = W/D, x = X/D, y = Y/D`` and ``w = x^2 + y^2`` gives::
@@ -438,7 +438,7 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
     """Every assembly mode for actuator values ``q (..., 3)`` (mm or rad), whatever the working modes.
 
     1. Lock each leg's actuated joint: its two passive joints make a dyad,
-       ``kappa |p|^2 + g(phi) . p + h(phi) = 0`` (:meth:`pmaccuracy.legs.Chain.locked`).
+       ``kappa |p|^2 + g(phi) . p + h(phi) = 0`` (:meth:`pmaccuracy.model.legs.Chain.locked`).
     2. Eliminate ``p`` (:func:`eliminant`); sample it at 16 orientations, take
        its exact Fourier coefficients and the roots of the polynomial in
        ``exp(i phi)`` on the unit circle (batched companion matrices). A leg
@@ -452,9 +452,7 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
 
     A 3-PPR has at most two modes (the paper's analytic solution), a 3-RPR up to six.
     """
-    from ._args import robot_arg
-
-    robot = robot_arg(robot)  # a preset name or a TOML path too
+    robot = resolve_robot(robot)  # a preset name or a TOML path too
     try:
         q = np.asarray(q, dtype=float)
     except (TypeError, ValueError):
@@ -583,41 +581,39 @@ def check_reachable(robot: Manipulator, samples: int = 256) -> None:
             "values sampled in their ranges (check the lengths, ranges and attachment points)", key="legs")
 
 
+def resolve_robot(robot, name: str = "robot") -> Manipulator:
+    """A :class:`~pmaccuracy.model.manipulator.Manipulator` from an instance (returned as it is), a preset name or a
+    TOML path: the one place where a robot file is read for the public functions. A file's robot must assemble
+    somewhere within its joint ranges (:func:`check_reachable`), else :class:`GeometryError` naming the file.
+
+    >>> resolve_robot("aalborg_3ppr").architecture
+    '3-PPR'
+    """
+    if isinstance(robot, (str, os.PathLike)):
+        loaded = Manipulator.load(robot)
+        try:
+            check_reachable(loaded)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=os.fspath(robot), key=exc.key) from None
+        return loaded
+    if not hasattr(robot, "chains"):
+        raise ConfigError(f"expected a Manipulator, a preset name or a robot TOML path, got {type(robot).__name__}",
+                          key=name)
+    return robot
+
+
 def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Forward and inverse Jacobians ``A`` and ``B`` (Eq. 3-4 in general form), each ``(..., 3, 3)``.
 
     ``A [p_dot; phi_dot] = B q_dot`` where row ``i`` of ``A`` is leg ``i``'s
     constraint wrench about P, ``[f_x, f_y, m_P]``, and ``B = diag(zeta_i . T_i)``
     its pairing with the actuated joint's twist
-    (:meth:`pmaccuracy.legs.Chain.screws`). For the 3-PPR
+    (:meth:`pmaccuracy.model.legs.Chain.screws`). For the 3-PPR
     ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` and ``B = diag(w_i^T E^T u_i)`` (Eq. 4a, 4b).
     NaN where a leg cannot reach the pose.
     """
     ik = inverse_kinematics(robot, poses)
     return ik.A, ik.B
-
-
-def inverse_3x3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse and determinant of a batch of 3x3 matrices ``(..., 3, 3)`` by cofactors.
-
-    Unlike ``np.linalg.inv`` it never raises: an exactly singular matrix gives
-    non-finite entries, which the callers refuse.
-    """
-    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
-    d, e, f = M[..., 1, 0], M[..., 1, 1], M[..., 1, 2]
-    g, h, i = M[..., 2, 0], M[..., 2, 1], M[..., 2, 2]
-    cof = np.stack([
-        np.stack([e * i - f * h, c * h - b * i, b * f - c * e], axis=-1),
-        np.stack([f * g - d * i, a * i - c * g, c * d - a * f], axis=-1),
-        np.stack([d * h - e * g, b * g - a * h, a * e - b * d], axis=-1),
-    ], axis=-2)
-    det = a * cof[..., 0, 0] + b * cof[..., 1, 0] + c * cof[..., 2, 0]
-    # A determinant at rounding level relative to the rows' sizes (e.g. rank 1, where the cofactors are
-    # noise too) is an exact singularity: make it 0 so the inverse is non-finite rather than plausible.
-    row_norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    det = np.where(np.abs(det) <= 1e-13 * row_norms, 0.0, det)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return cof / det[..., None, None], det
 
 
 @dataclass(frozen=True)
@@ -749,7 +745,7 @@ def check_within_limits(robot: Manipulator, poses: np.ndarray, ik: IKSolution,
     """Raise :class:`OutsideJointLimitsError` naming the first pose outside the ranges, and its joints.
 
     ``ik`` is anything with ``joints`` (``(..., 3, 3)``) and ``within_limits`` (an
-    :class:`IKSolution` or a :class:`pmaccuracy.error_model.PoseState`). For a
+    :class:`IKSolution` or a :class:`pmaccuracy.accuracy.error_model.PoseState`). For a
     3-PPR the joints are named as in the paper (``s1``, ``l2``, ...).
     """
     if np.all(ik.within_limits):

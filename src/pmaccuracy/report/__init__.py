@@ -7,7 +7,7 @@ figures, the NetCDF maps and ``results.json``::
                                "dp_max": [...]}, "30": {...}},
                "case2": {...}},
      "paper_check": [...], "sources": {...}, "assembly": {...}, "design": {...},
-     "design_decisions": {...} (pmaccuracy.design_report), ...}
+     "design_decisions": {...} (pmaccuracy.report.design_report), ...}
 
 (orientation keys in degrees; values in mm and deg).
 """
@@ -21,17 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, figures
-from .bounds import max_pose_errors
-from .clearances import ClearanceSet
+from .. import __version__
+from . import figures
+from ..accuracy.bounds import max_pose_errors
+from ..model.clearances import ClearanceSet
 from .design_report import design_section
 from .document import Document
-from .error_model import assembly_errors, pose_error
-from .geometry import Manipulator
-from .kinematics import inverse_kinematics
-from .maps import MAP_VARIABLES, error_map, save_map, summarize
-from .nonlinear import displaced_pose_error
-from .workspace import constant_orientation_workspace, save_workspace_figure
+from ..accuracy.error_model import assembly_errors, pose_error
+from ..model.manipulator import Manipulator
+from ..kinematics import inverse_kinematics
+from ..accuracy.maps import MAP_VARIABLES, error_map, save_map, summarize
+from ..accuracy.nonlinear import displaced_pose_error
+from ..kinematics.workspace import constant_orientation_workspace, save_workspace_figure
+from ..io.resolve import robot_arg
 
 #: Orientations of the paper's experiments (deg).
 PAPER_PHIS_DEG = (0.0, 30.0)
@@ -72,7 +74,7 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
               seed: int = 0, experiment: bool = True, workers: int = 2, progress: bool | None = None) -> dict:
     """Build the whole reproduction report in ``out_dir`` and return ``results.json``'s content.
 
-    Figures are built and saved by ``workers`` processes (:class:`pmaccuracy.figures.Renderer`;
+    Figures are built and saved by ``workers`` processes (:class:`pmaccuracy.report.figures.Renderer`;
     0: in this process) while the sections are computed; ``progress`` shows one
     bar for the whole report on stderr (default: when stderr is a terminal).
     """
@@ -83,7 +85,7 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
     t0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    robot = Manipulator.load(robot)
+    robot = robot_arg(robot)
     phis = np.radians(PAPER_PHIS_DEG)
     doc = Document(f"pmaccuracy: accuracy of the {robot.name} 3-PPR manipulator with joint clearances")
     results: dict = {"robot": robot.name, "version": __version__, "grid": grid}
@@ -434,12 +436,13 @@ def _virtual_experiment(robot: Manipulator, case: str, out_dir: Path, seed: int,
     """The virtual experiment of one clearance case at the paper's orientations, with the figures the report shows.
 
     Same simulation, comparison and JSON as
-    :func:`pmaccuracy.experiment.virtual_experiment_section` (orientation ``k`` uses
+    :func:`pmaccuracy.report.experiment_report.virtual_experiment_section` (orientation ``k`` uses
     seed ``seed + k``), but only five figures: the maps with twice the maxima
     (the one-sided maps are the same pictures at half the colour scale), the box
     plots, and the accuracy and width-consistent regression over both orientations.
     """
-    from . import experiment as ex
+    from .. import experiment as ex
+    from . import experiment_plots
 
     cs = ClearanceSet.load(case)
     prefix = f"{case}_"
@@ -464,11 +467,11 @@ def _virtual_experiment(robot: Manipulator, case: str, out_dir: Path, seed: int,
         files[name] = str(renderer.submit(
             out_dir / f"{prefix}{name}.png", figures.plot_error_map, ds, phi_deg, measured=measured, scale=2.0,
             title=f"{robot.name}, clearances {cs.name}, $\\phi$ = {phi_deg:g} deg: measured ranges vs 2 x maxima"))
-    files["boxplot"] = str(renderer.submit(out_dir / f"{prefix}boxplot.png", ex.plot_boxplots,
+    files["boxplot"] = str(renderer.submit(out_dir / f"{prefix}boxplot.png", experiment_plots.plot_boxplots,
                                            {f"phi = {p:g} deg": c.measured for p, c in by_phi.items()}))
     # Figs. 14 and 15 over every orientation (each one coloured and named in the figure)
-    files["accuracy"] = str(renderer.submit(out_dir / f"{prefix}accuracy.png", ex.plot_accuracy, comparison))
-    files["regression_x2"] = str(renderer.submit(out_dir / f"{prefix}regression_x2.png", ex.plot_regression,
+    files["accuracy"] = str(renderer.submit(out_dir / f"{prefix}accuracy.png", experiment_plots.plot_accuracy, comparison))
+    files["regression_x2"] = str(renderer.submit(out_dir / f"{prefix}regression_x2.png", experiment_plots.plot_regression,
                                                  comparison, 2.0))
     summary = comparison.summary()
     noise_mm, noise_deg = ex.DEFAULT_ACCURACY_MM, ex.DEFAULT_ACCURACY_DEG

@@ -4,11 +4,11 @@ This module compares measured pose errors with the model's maxima. The parts of
 the validation live in focused modules, re-exported here so that
 ``from pmaccuracy.experiment import ...`` keeps working:
 
-* :mod:`pmaccuracy.measurements` - the push protocol's readings and the measurement CSV file;
+* :mod:`pmaccuracy.experiment.measurements` - the push protocol's readings and the measurement CSV file;
 * this module - Eq. 23 and the comparison statistics (:func:`compare`, :class:`Comparison`);
-* :mod:`pmaccuracy.virtual_rig` - the protocol played on a simulated rig;
-* :mod:`pmaccuracy.experiment_plots` - figures (Figs. 9-15 analogues);
-* :mod:`pmaccuracy.experiment_report` - ``comparison.json``, ``report.html`` and the report section.
+* :mod:`pmaccuracy.experiment.virtual_rig` - the protocol played on a simulated rig;
+* :mod:`pmaccuracy.report.experiment_plots` - figures (Figs. 9-15 analogues);
+* :mod:`pmaccuracy.report.experiment_report` - ``comparison.json``, ``report.html`` and the report section.
 
 Measured errors (Eq. 23a-d)
 ---------------------------
@@ -22,7 +22,7 @@ along ``t in {x, y, r}``::
 
 Comparing with the model: two conventions
 -----------------------------------------
-The model's worst case (Eq. 21-22, :func:`pmaccuracy.bounds.max_pose_errors`)
+The model's worst case (Eq. 21-22, :func:`pmaccuracy.accuracy.bounds.max_pose_errors`)
 is one-sided: the error of x lies in ``[-dx_max, +dx_max]``, a set symmetric
 about the nominal pose. A measured *range* (max - min) therefore spans up to
 ``2 dx_max``, and a distance between two readings is bounded by the diameter
@@ -52,17 +52,15 @@ from typing import Any
 
 import numpy as np
 
-from .bounds import PoseErrorBounds, max_pose_errors
-from .clearances import ClearanceSet
-from .errors import ConfigError, OutsideJointLimitsError
-from .geometry import Manipulator
-from .kinematics import DEFAULT_MAX_CONDITION, check_within_limits, inverse_kinematics
-from .measurements import (CSV_COLUMNS, DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, MAX_DEVIATION_DEG,  # noqa: F401
-                           MAX_DEVIATION_MM, NOMINAL_TOLERANCE, PUSH_AXES, PUSHES, Measurements, _nominal_deg,
-                           _wrap_deg, load_measurements, write_measurements)
-from .sources import load_clearances
-from .virtual_rig import (MODELS, grid_poses, opposite, push_configurations, simulate_experiment,  # noqa: F401
-                          simulate_readings)
+from ..accuracy.bounds import PoseErrorBounds, max_pose_errors
+from ..model.clearances import ClearanceSet
+from ..errors import ConfigError, OutsideJointLimitsError
+from ..model.manipulator import Manipulator
+from ..kinematics import DEFAULT_MAX_CONDITION, check_within_limits, inverse_kinematics
+from .measurements import CSV_COLUMNS, DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, MAX_DEVIATION_DEG, MAX_DEVIATION_MM, NOMINAL_TOLERANCE, PUSH_AXES, PUSHES, Measurements, _nominal_deg, _wrap_deg, load_measurements, write_measurements
+from ..io.resolve import load_clearances
+from .virtual_rig import MODELS, grid_poses, opposite, push_configurations, simulate_experiment, simulate_readings
+from ..io.resolve import robot_arg
 
 #: Compared quantities and their units, in output order (``dphi`` in degrees outside the arrays).
 QUANTITIES = ("dx", "dy", "dp", "dphi_deg")
@@ -130,7 +128,7 @@ class Comparison:
     ----------
     measurements : the readings
     measured : Eq. 23 at each point
-    predicted : :func:`~pmaccuracy.bounds.max_pose_errors` at the nominal poses
+    predicted : :func:`~pmaccuracy.accuracy.bounds.max_pose_errors` at the nominal poses
     robot, clearances : names of the model used
     accuracy_mm, accuracy_deg : ``A_meas`` of the camera (Fig. 15 band ``+- 2 A_meas``)
 
@@ -310,7 +308,7 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     OutsideJointLimitsError : a nominal pose outside the joint ranges (names the point and line)
     SingularPoseError : a nominal pose at or near det A = 0
     """
-    robot = Manipulator.load(robot)
+    robot = robot_arg(robot)
     clearances = load_clearances(clearances, robot)
     if not isinstance(measurements, Measurements):
         measurements = load_measurements(measurements)
@@ -325,24 +323,3 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     return Comparison(measurements=measurements, measured=measured_errors(measurements), predicted=predicted,
                       robot=robot.name, clearances=clearances.name, accuracy_mm=float(accuracy_mm),
                       accuracy_deg=float(accuracy_deg))
-
-
-
-# ============================================================================ re-exports
-#: Names of the plotting and report modules, imported on first use (they import this module,
-#: and matplotlib is only loaded when a figure is drawn).
-_LAZY = {name: "experiment_plots" for name in
-         ("plot_boxplots", "plot_accuracy", "plot_regression", "plot_measured_maps", "write_figures")}
-_LAZY.update({name: "experiment_report" for name in ("render_html", "write_report", "virtual_experiment_section")})
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __package__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,433 @@
+"""Certified global worst case of the pose errors over a region of poses (branch and bound).
+
+The maxima ``dx, dy, dphi, dp`` of Eq. 21-22 (:func:`pmaccuracy.accuracy.bounds.max_pose_errors`)
+are maximized over a region ``R`` of poses: a box ``[x0, x1] x [y0, y1]`` (mm)
+times an orientation interval ``[phi0, phi1]`` (rad), intersected with the
+workspace (every leg reaches the pose on its working mode with every joint in
+its range, as :func:`pmaccuracy.kinematics.inverse_kinematics`). Poses of the box
+outside the workspace are skipped: the result is the maximum over
+``box ∩ workspace``. Region ``"workspace"`` takes a box that provably holds
+every reachable position (each leg's reach, from its link lengths and slide
+ranges).
+
+Branch and bound, for each quantity ``Q``:
+
+* **lower bound** ``L``: the largest ``Q`` at the centres and corners of the
+  boxes (and an initial grid) that are in the workspace, exact at those poses
+  (:func:`~pmaccuracy.accuracy.bounds.max_pose_errors`); the pose attaining it is kept;
+* **upper bound** of a box: interval arithmetic on the closed forms
+  (:func:`pmaccuracy.accuracy.interval.box_maxima`), rigorous over the box's part in the
+  workspace, widened by a relative ``1e-9`` for rounding;
+* a box whose upper bound is ``<= L (1 + gap)`` is closed (its bound is kept in
+  ``U``); the others are bisected along their widest side (phi scaled by the
+  characteristic length) until none is left.
+
+At the end ``U = max`` of the closed boxes' bounds, so ``L <= max_R Q <= U``
+and ``(U - L) / L <= gap``. Boxes whose ``det A`` interval keeps containing 0 down
+to a side of ``min_size`` mm, or any sampled pose of the region with a
+condition number above ``max_condition``, mean the region touches a parallel
+singularity where the maxima are unbounded: :class:`SingularRegionError`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bounds import QUANTITIES, max_pose_errors
+from ..model.clearances import ClearanceSet
+from .._display import html_table
+from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
+from ..model.manipulator import Manipulator
+from .interval import Iv, box_maxima, leg_box_state
+from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
+from ..model.sources import ErrorSources
+from ..io.resolve import robot_arg
+
+#: Default relative gap ``(upper - lower) / lower`` of the certificate.
+DEFAULT_GAP = 1e-3
+#: Relative widening of every interval upper bound (covers floating-point rounding).
+ROUNDING = 1e-9
+#: Absolute tolerance (mm; rad times the characteristic length for dphi): a bound this small certifies a
+#: maximum of 0 (a quantity the sources do not move at first order leaves rounding-level bounds).
+ATOL = 1e-12
+#: Characteristic lengths per radian that turn a box's phi width into mm when choosing the side to split.
+PHI_SCALE = 1.0
+
+
+class SingularRegionError(SingularPoseError):
+    """The region reaches a parallel singularity: the worst-case errors are unbounded there."""
+
+
+@dataclass(frozen=True)
+class Region:
+    """A box of poses: ``x (x0, x1)``, ``y (y0, y1)`` mm, ``phi (phi0, phi1)`` rad; ``workspace`` when the box
+    was derived from the legs' reach (the whole workspace over the orientation interval)."""
+
+    x: tuple[float, float]
+    y: tuple[float, float]
+    phi: tuple[float, float]
+    workspace: bool = False
+
+    def describe(self) -> str:
+        ang = f"phi in [{np.degrees(self.phi[0]):g}, {np.degrees(self.phi[1]):g}] deg"
+        if self.workspace:
+            return f"the workspace at {ang}"
+        return f"x in [{self.x[0]:g}, {self.x[1]:g}] mm, y in [{self.y[0]:g}, {self.y[1]:g}] mm, {ang}"
+
+
+@dataclass(frozen=True)
+class QuantityWorst:
+    """The certified maximum of one quantity (mm; rad for ``dphi``).
+
+    lower : attained value at ``pose`` ``(3,)`` [mm, mm, rad]
+    upper : rigorous bound over the region;  gap : ``(upper - lower) / lower`` (0 when both are 0)
+    converged : the gap reached the requested one (or ``upper - lower`` is below :data:`ATOL`)
+    """
+
+    name: str
+    lower: float
+    upper: float
+    pose: np.ndarray
+    gap: float
+    converged: bool
+
+
+@dataclass(frozen=True)
+class GlobalWorst:
+    """Result of :func:`global_worst`: one :class:`QuantityWorst` per quantity (``dx, dy, dphi, dp``),
+    boxes evaluated, iterations, wall time (s), the requested gap and the region."""
+
+    quantities: dict[str, QuantityWorst]
+    boxes: int
+    iterations: int
+    seconds: float
+    target_gap: float
+    region: Region = field(repr=False)
+
+    def __getitem__(self, name: str) -> QuantityWorst:
+        return self.quantities[name]
+
+    def records(self) -> list[dict]:
+        """One dict per quantity: attained value, certified upper bound (mm; deg for dphi), gap, pose."""
+        out = []
+        for name, w in self.quantities.items():
+            k = 180 / np.pi if name == "dphi" else 1.0
+            out.append({"quantity": name, "unit": "deg" if name == "dphi" else "mm", "attained": w.lower * k,
+                        "upper": w.upper * k, "gap_percent": w.gap * 100, "x": float(w.pose[0]),
+                        "y": float(w.pose[1]), "phi_deg": float(np.degrees(w.pose[2])), "converged": w.converged})
+        return out
+
+    def __repr__(self) -> str:
+        parts = [f"{r['quantity']} {r['attained']:.6g} {r['unit']} (upper {r['upper']:.6g}, gap {r['gap_percent']:.2g} %, "
+                 f"at {r['x']:.4g}, {r['y']:.4g} mm, {r['phi_deg']:.4g} deg)" for r in self.records()]
+        return f"GlobalWorst({', '.join(parts)}; {self.boxes} boxes, {self.seconds:.2g} s)"
+
+    def _repr_html_(self) -> str:
+        return html_table("Certified worst case over the region", self.records())
+
+
+def as_sources(robot: Manipulator, clearances) -> ErrorSources:
+    """Per-joint :class:`~pmaccuracy.model.sources.ErrorSources` of a clearance object (3-PPR format converted)."""
+    if not isinstance(clearances, (ClearanceSet, ErrorSources)):   # a preset name or a file
+        from ..io.resolve import load_clearances
+
+        clearances = load_clearances(clearances, robot)
+    if isinstance(clearances, ClearanceSet):
+        return ErrorSources.from_clearance_set(clearances)
+    return clearances.check(robot)
+
+
+def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
+    """A box holding every reachable position for ``phi`` in the interval (mm): each leg's end frame lies
+    within ``sum |link_k| + max |q_k|`` (slides) of its base, so ``p`` lies in that disc moved by
+    ``-exp(i phi) platform``; the boxes of the three legs intersected.
+
+    Raises :class:`ConfigError` when every leg has an unlimited slide (give a box).
+    """
+    ph = Iv(np.array([phi[0]]), np.array([phi[1]]))
+    from .interval import cv_expi
+    e = cv_expi(ph)
+    xs, ys = [-np.inf, np.inf], [-np.inf, np.inf]
+    for chain in robot.chains:
+        reach = 0.0
+        for joint in chain.joints:
+            reach += abs(complex(*joint.link))
+            if joint.kind == "P":
+                reach += max(abs(joint.range[0]), abs(joint.range[1]))
+        if not np.isfinite(reach):
+            continue
+        att = e * complex(*chain.platform)
+        bx, by = chain.base
+        xs = [max(xs[0], bx - reach - att.re.hi[0]), min(xs[1], bx + reach - att.re.lo[0])]
+        ys = [max(ys[0], by - reach - att.im.hi[0]), min(ys[1], by + reach - att.im.lo[0])]
+    if not np.all(np.isfinite(xs + ys)):
+        raise ConfigError("the legs' reach is unbounded (unlimited slides): give a box x0,x1,y0,y1",
+                          key="--region")
+    if xs[0] >= xs[1] or ys[0] >= ys[1]:
+        raise EmptyWorkspaceError(f"no position is reachable for phi in [{np.degrees(phi[0]):g}, "
+                                  f"{np.degrees(phi[1]):g}] deg")
+    return Region(x=(float(xs[0]), float(xs[1])), y=(float(ys[0]), float(ys[1])), phi=phi, workspace=True)
+
+
+def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, float, float, float] | None
+                ) -> Region:
+    """Check and build a region: ``phi (lo, hi)`` rad with ``lo <= hi``; ``box (x0, x1, y0, y1)`` mm or None
+    for the whole workspace. ``robot``: an object, a preset name or a robot file."""
+    robot = robot_arg(robot)
+    lo, hi = (float(v) for v in phi)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="--phi-deg")
+    if lo > hi:
+        raise ConfigError(f"the orientation interval is reversed: {np.degrees(lo):g} > {np.degrees(hi):g} deg",
+                          key="--phi-deg")
+    if hi - lo >= np.pi:
+        raise ConfigError("the orientation interval must be shorter than 180 deg", key="--phi-deg")
+    if box is None:
+        return reach_region(robot, (lo, hi))
+    x0, x1, y0, y1 = (float(v) for v in box)
+    if not np.all(np.isfinite([x0, x1, y0, y1])):
+        raise ConfigError("the box must be finite", key="--region")
+    if x0 > x1 or y0 > y1:
+        raise ConfigError(f"the box is empty or reversed: x0={x0:g} > x1={x1:g} or y0={y0:g} > y1={y1:g}",
+                          key="--region")
+    return Region(x=(x0, x1), y=(y0, y1), phi=(lo, hi))
+
+
+def leg_branches(robot: Manipulator, pose: np.ndarray) -> tuple[float, float, float]:
+    """Each leg's IK root sign on its working mode: the one whose point evaluation by
+    :func:`pmaccuracy.accuracy.interval.leg_box_state` gives the joint values of :meth:`Chain.state` at ``pose``."""
+    out = []
+    p = np.asarray(pose, dtype=float).reshape(1, 3)
+    x, y, ph = Iv(p[:, 0]), Iv(p[:, 1]), Iv(p[:, 2])
+    for chain in robot.chains:
+        if chain.n_branches == 1:
+            out.append(1.0)
+            continue
+        q = chain.state(p).q[0]
+        errs = []
+        for sigma in (1.0, -1.0):
+            lb = leg_box_state(chain, x, y, ph, sigma)
+            err = 0.0
+            for k, joint in enumerate(chain.joints):
+                d = lb.q[k].lo[0] - q[k]
+                err += abs(d) if joint.kind == "P" else abs(np.angle(np.exp(1j * d)))
+            errs.append(err if np.isfinite(err) else np.inf)
+        out.append(1.0 if errs[0] <= errs[1] else -1.0)
+    return tuple(out)
+
+
+def _exact(robot, clearances, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact maxima ``(m, 4)`` at the poses of the workspace (NaN elsewhere) and the in-workspace mask."""
+    values = np.full((poses.shape[0], 4), np.nan)
+    if poses.shape[0] == 0:
+        return values, np.zeros(0, dtype=bool)
+    inside = inverse_kinematics(robot, poses).within_limits
+    if np.any(inside):
+        b = max_pose_errors(robot, clearances, poses[inside], singular="nan", max_condition=np.inf)
+        values[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max])
+    return values, inside
+
+
+def _check_regular(robot: Manipulator, poses: np.ndarray, region: Region, max_condition: float) -> None:
+    if poses.shape[0] == 0:
+        return
+    cond = singularity(robot, poses).condition
+    bad = cond > max_condition
+    if np.any(bad):
+        k = int(np.argmax(cond))
+        x, y, phi = poses[k]
+        raise SingularRegionError(
+            f"{region.describe()} reaches a parallel singularity (near x={x:g} mm, y={y:g} mm, "
+            f"phi={np.degrees(phi):g} deg: condition number {cond[k]:.3g} > {max_condition:g}); the worst-case "
+            "errors are unbounded there: narrow --phi-deg or --region")
+
+
+def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray:
+    """Corners of the constant-orientation workspaces at the orientations ``phis`` not in ``seen`` (which
+    they are added to), inside the region's box: maxima often sit there (for a 3-PPR at fixed phi the
+    half-widths are affine in the position, the maxima convex, so a maximum is at a corner)."""
+    from ..kinematics.workspace import constant_orientation_workspace
+
+    out = [np.zeros((0, 3))]
+    for phi in np.asarray(phis, dtype=float).ravel():
+        if not np.isfinite(phi) or float(phi) in seen:
+            continue
+        seen.add(float(phi))
+        ws = constant_orientation_workspace(robot, float(phi))
+        v = ws.vertices
+        if v.shape[0]:
+            keep = (v[:, 0] >= region.x[0]) & (v[:, 0] <= region.x[1]) & (v[:, 1] >= region.y[0]) & \
+                (v[:, 1] <= region.y[1])
+            out.append(np.column_stack([v[keep], np.full(int(keep.sum()), float(phi))]))
+    return np.vstack(out)
+
+
+def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float = DEFAULT_GAP,
+                 max_condition: float = DEFAULT_MAX_CONDITION, max_boxes: int = 2_000_000,
+                 min_size: float | None = None, grid: int = 21, candidates: np.ndarray | None = None
+                 ) -> GlobalWorst:
+    """Certified maxima of ``dx, dy, dphi, dp`` over ``region`` (module docstring), within relative ``gap``.
+
+    Parameters
+    ----------
+    clearances : a :class:`~pmaccuracy.model.clearances.ClearanceSet` (3-PPR) or
+        :class:`~pmaccuracy.model.sources.ErrorSources` (any architecture)
+    region : :func:`make_region`
+    gap : requested ``(upper - lower) / lower`` (> 0), default 0.1 %
+    max_boxes : budget of evaluated boxes; when spent, the bounds so far are
+        returned with ``converged = False`` (still valid, wider gap)
+    min_size : mm, boxes are not split below it (default ``1e-7`` of the
+        characteristic length); a singular box that small raises
+    grid : ``grid x grid x (grid or 1)`` initial samples for the lower bounds and the singularity check
+    candidates : optional poses ``(k, 3)`` of the region also tried for the lower bounds (e.g. the best
+        poses of a grid, :func:`grid_best`)
+
+    Notes
+    -----
+    Returns :class:`GlobalWorst`. Raises :class:`EmptyWorkspaceError` when no
+    sampled pose of the region lies in the workspace and the bounds cannot prove
+    it empty, :class:`SingularRegionError` near a parallel singularity.
+
+    >>> robot = Manipulator.preset("aalborg_3ppr")
+    >>> from pmaccuracy.model.clearances import ClearanceSet
+    >>> res = global_worst(robot, ClearanceSet.preset("case1"), make_region(robot, (0.0, 0.0), None))
+    >>> res["dy"].gap <= 1e-3
+    True
+    """
+    robot = robot_arg(robot)
+    if not (gap > 0 and np.isfinite(gap)):
+        raise ConfigError(f"must be > 0, got {gap}", key="gap")
+    t0 = time.perf_counter()
+    sources = as_sources(robot, clearances)
+    L = robot.characteristic_length
+    min_size = 1e-7 * L if min_size is None else float(min_size)
+    scale = np.array([1.0, 1.0, L * PHI_SCALE])
+    atol = ATOL * np.array([1.0, 1.0, 1.0 / L, 1.0])
+    # Initial samples: lower bounds, a pose for the branches, the singularity check.
+    nphi = 1 if region.phi[0] == region.phi[1] else grid
+    gx, gy, gp = (np.linspace(*region.x, grid), np.linspace(*region.y, grid), np.linspace(*region.phi, nphi))
+    samples = np.stack(np.meshgrid(gx, gy, gp, indexing="ij"), axis=-1).reshape(-1, 3)
+    if candidates is not None:
+        c = np.asarray(candidates, dtype=float).reshape(-1, 3)
+        c = c[np.all(np.isfinite(c), axis=1)]
+        lo = np.array([region.x[0], region.y[0], region.phi[0]])
+        hi = np.array([region.x[1], region.y[1], region.phi[1]])
+        samples = np.vstack([samples, c[np.all((c >= lo) & (c <= hi), axis=1)]])
+    values, inside = _exact(robot, clearances, samples)
+    _check_regular(robot, samples[inside], region, max_condition)
+    seen: set[float] = set()
+    extra = _vertices(robot, region, gp, seen)
+    ev, ei = _exact(robot, clearances, extra)
+    samples, values, inside = np.vstack([samples, extra]), np.vstack([values, ev]), np.concatenate([inside, ei])
+    lower = np.zeros(4)
+    lower_pose = np.full((4, 3), np.nan)
+    if np.any(inside):
+        k = np.nanargmax(values, axis=0)
+        lower = values[k, range(4)]
+        lower_pose = samples[k]
+        sigmas = leg_branches(robot, samples[np.flatnonzero(inside)[0]])
+    else:
+        sigmas = leg_branches(robot, np.array([region.x[0], region.y[0], region.phi[0]]))
+    boxes = np.array([[*region.x, *region.y, *region.phi]])
+    active = np.ones((1, 4), dtype=bool)
+    closed_upper = np.zeros(4)
+    n_boxes = 0
+    iterations = 0
+    converged = np.ones(4, dtype=bool)
+    while boxes.shape[0]:
+        iterations += 1
+        n_boxes += boxes.shape[0]
+        upper, infeasible, det_zero = box_maxima(robot, sources, boxes, sigmas)
+        upper = upper * (1 + ROUNDING)
+        keep = ~infeasible
+        boxes, active, upper, det_zero = boxes[keep], active[keep], upper[keep], det_zero[keep]
+        if not boxes.shape[0]:
+            break
+        pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])   # centres, and the workspace's corners at the best phis
+        pts = np.vstack([pts, _vertices(robot, region, lower_pose[:, 2], seen)])
+        vals, ins = _exact(robot, clearances, pts)
+        if np.any(ins):
+            k = np.nanargmax(np.where(np.isnan(vals), -np.inf, vals), axis=0)
+            better = vals[k, range(4)] > lower
+            lower = np.where(better, vals[k, range(4)], lower)
+            lower_pose = np.where(better[:, None], pts[k], lower_pose)
+        sizes = np.column_stack([boxes[:, 1] - boxes[:, 0], boxes[:, 3] - boxes[:, 2],
+                                 boxes[:, 5] - boxes[:, 4]]) * scale
+        small = np.max(sizes, axis=1) <= min_size
+        if np.any(small & det_zero):
+            b = boxes[np.argmax(small & det_zero)]
+            raise SingularRegionError(
+                f"{region.describe()} reaches a parallel singularity near x={b[0]:g} mm, y={b[2]:g} mm, "
+                f"phi={np.degrees(b[4]):g} deg (det A may vanish there); the worst-case errors are unbounded: "
+                "narrow --phi-deg or --region")
+        done = active & ((upper <= lower * (1 + gap) + atol) | small[:, None])
+        closed_upper = np.maximum(closed_upper, np.max(np.where(done, upper, 0.0), axis=0))
+        active = active & ~done
+        alive = np.any(active, axis=1)
+        boxes, active, sizes = boxes[alive], active[alive], sizes[alive]
+        if not boxes.shape[0]:
+            break
+        if n_boxes + 2 * boxes.shape[0] > max_boxes:
+            upper = upper[alive]
+            closed_upper = np.maximum(closed_upper, np.max(np.where(active, upper, 0.0), axis=0))
+            converged = ~np.any(active, axis=0)
+            break
+        # bisect each box along its widest (scaled) side
+        axis = np.argmax(sizes, axis=1)
+        lo_idx, hi_idx = 2 * axis, 2 * axis + 1
+        rows = np.arange(boxes.shape[0])
+        mid = 0.5 * (boxes[rows, lo_idx] + boxes[rows, hi_idx])
+        left, right = boxes.copy(), boxes.copy()
+        left[rows, hi_idx] = mid
+        right[rows, lo_idx] = mid
+        boxes = np.concatenate([left, right])
+        active = np.concatenate([active, active])
+    if not np.any(np.isfinite(lower_pose)):
+        raise EmptyWorkspaceError(f"{region.describe()}: no pose of the region is in the workspace")
+    out = {}
+    for i, q in enumerate(QUANTITIES):
+        lo, up = float(lower[i]), float(max(closed_upper[i], lower[i]))
+        g = (up - lo) / lo if lo > 0 else (0.0 if up == 0 else np.inf)
+        within = up <= lo * (1 + gap) + atol[i]
+        out[q] = QuantityWorst(name=q, lower=lo, upper=up, pose=lower_pose[i].copy(), gap=g,
+                               converged=bool(converged[i] and within))
+    return GlobalWorst(quantities=out, boxes=n_boxes, iterations=iterations, seconds=time.perf_counter() - t0,
+                       target_gap=gap, region=region)
+
+
+def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_phi: int = 7
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The best values on a grid of the region, for comparison with the certificate.
+
+    At ``n_phi`` orientations evenly spaced over the interval (1 if it is a
+    point), an ``n x n`` grid over the region's box cut to the workspace's
+    bounds at that orientation; poses outside the workspace are skipped. Returns
+    the maxima ``(4,)`` (``dx, dy, dphi, dp``; mm, rad) and their poses ``(4, 3)``
+    (NaN when no grid pose is in the workspace).
+    """
+    from ..kinematics.workspace import constant_orientation_workspace
+
+    phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
+    best = np.full(4, -np.inf)
+    poses = np.full((4, 3), np.nan)
+    for phi in phis:
+        ws = constant_orientation_workspace(robot, float(phi))
+        if ws.is_empty:
+            continue
+        (wx0, wx1), (wy0, wy1) = ws.bounds
+        x0, x1 = max(region.x[0], wx0), min(region.x[1], wx1)
+        y0, y1 = max(region.y[0], wy0), min(region.y[1], wy1)
+        if x0 > x1 or y0 > y1:
+            continue
+        X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
+        pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)])
+        vals, _ = _exact(robot, clearances, pts)
+        vals = np.where(np.isnan(vals), -np.inf, vals)
+        k = np.argmax(vals, axis=0)
+        better = vals[k, range(4)] > best
+        best = np.where(better, vals[k, range(4)], best)
+        poses = np.where(better[:, None], pts[k], poses)
+    return np.where(np.isfinite(best), best, np.nan), poses

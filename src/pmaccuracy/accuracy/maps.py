@@ -1,0 +1,548 @@
+"""Maximum pose errors over the constant-orientation workspace (paper Sec. 6, Figs. 9-12).
+
+:func:`error_map` evaluates the exact bounds of :func:`pmaccuracy.accuracy.bounds.max_pose_errors`
+on a regular x-y grid at one or more orientations and returns an
+``xarray.Dataset`` with dims ``(phi, y, x)``:
+
+* coordinates ``x``, ``y`` in mm (one grid spanning the bounding box of every
+  requested workspace) and ``phi`` in **degrees**;
+* variables ``dx_max``, ``dy_max``, ``dp_max`` (mm) and ``dphi_max`` (deg), NaN
+  at grid points outside that orientation's workspace (joint ranges);
+* attributes: robot and clearance set (name and full TOML text), package
+  version, method.
+
+Memory. :func:`error_map` preallocates the four result arrays and fills them
+block by block (bands of about ``chunk_size`` grid points), so its peak memory is
+the dataset plus one block's temporaries; with ``use_dask=True`` the blocks are
+Dask tasks computed a few at a time on whatever scheduler is active (threads by
+default, or a ``dask.distributed.Client`` the caller created, on a cluster
+included). It refuses (:class:`~pmaccuracy.errors.ConfigError`) a map whose
+result would not fit in the available memory.
+
+Maps larger than memory. :func:`write_zarr_map` streams the same map into a
+Zarr store chunked along ``(phi, y, x)``: every chunk is one Dask task that
+computes its tile and writes it in place (a region write), so memory holds a
+few tiles whatever the grid. After each tile the task records its statistics
+(inside points, minima, maxima) in the store's ``_progress/chunks`` array; a
+run that was interrupted resumes where it stopped, recomputing no finished tile.
+The store opens with ``xarray.open_zarr`` and carries the NetCDF output's
+attributes; ``_progress`` is a sub-group that xarray does not show.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from .bounds import bounds_or_nan
+from ..model.clearances import ClearanceSet
+from ..errors import ConfigError, EmptyWorkspaceError
+from ..model.manipulator import Manipulator, round_trip_degrees
+from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
+from ..kinematics.workspace import constant_orientation_workspace
+from .._optional import require
+
+#: Map variables: name -> (units, long name).
+MAP_VARIABLES = {
+    "dx_max": ("mm", "maximum position error along x (Eq. 21)"),
+    "dy_max": ("mm", "maximum position error along y (Eq. 21)"),
+    "dphi_max": ("deg", "maximum orientation error (Eq. 21)"),
+    "dp_max": ("mm", "maximum position error magnitude (Eq. 22)"),
+}
+#: Grid points per block of the in-memory map (its temporaries are about 0.3 kB per point: ~20 MB).
+DEFAULT_CHUNK = 1 << 16
+#: Tile side of a Zarr map along y and x (one orientation per tile): 4 x 8 MB of results per tile.
+DEFAULT_ZARR_TILE = 1024
+#: Bytes per grid point of a map: four float64 variables.
+BYTES_PER_POINT = 8 * len(MAP_VARIABLES)
+#: Peak memory of an in-memory map relative to its dataset (measured by benchmarks/bench_maps.py and
+#: tests/test_maps.py), used to refuse maps that would not fit.
+MEMORY_FACTOR = 1.3
+
+
+def map_grid(robot: Manipulator, phis: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grid coordinates x, y ``(n,)`` (mm) spanning the bounding box of every workspace at ``phis`` (rad).
+
+    Raises :class:`EmptyWorkspaceError` if one of the orientations has no workspace.
+    """
+    if n < 2:
+        raise ConfigError(f"the grid needs at least 2 points per axis, got {n}", key="grid")
+    boxes = []
+    for phi in np.atleast_1d(phis):
+        ws = constant_orientation_workspace(robot, float(phi)).require_nonempty()
+        boxes.append(ws.bounds)
+    boxes = np.array(boxes)  # (k, 2, 2): [[xmin, xmax], [ymin, ymax]]
+    x = np.linspace(boxes[:, 0, 0].min(), boxes[:, 0, 1].max(), n)
+    y = np.linspace(boxes[:, 1, 0].min(), boxes[:, 1, 1].max(), n)
+    return x, y
+
+
+def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_rows: np.ndarray, phi: float,
+                max_condition: float) -> np.ndarray:
+    """One block of a map: grid rows ``y_rows`` at orientation ``phi`` (rad) -> ``(rows, len(x), 4)``.
+
+    Values ``[dx_max mm, dy_max mm, dphi_max deg, dp_max mm]``, NaN where the
+    pose is outside the joint ranges or near a singularity (other architectures
+    than the 3-PPR have singular curves inside their workspaces). The block builds its own poses from the
+    grid vectors, so a Dask task carries only two short vectors (picklable for
+    dask.distributed).
+    """
+    X, Y = np.meshgrid(x, y_rows)
+    poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
+    return bounds_or_nan(robot, clearances, poses, max_condition).reshape(X.shape + (4,))
+
+
+def map_nbytes(n_phi: int, n: int) -> int:
+    """Bytes of the four float64 result arrays of an ``n_phi x n x n`` map."""
+    return BYTES_PER_POINT * n_phi * n * n
+
+
+def available_memory() -> int | None:
+    """Memory the system can give this process now, in bytes (``MemAvailable`` on Linux); ``None`` if unknown."""
+    try:
+        import psutil  # a dependency of dask.distributed; optional here
+
+        return int(psutil.virtual_memory().available)
+    except ImportError:
+        pass
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def format_bytes(nbytes: float) -> str:
+    """``1.47 GB`` or ``30.6 MB``."""
+    return f"{nbytes / 1e9:.3g} GB" if nbytes >= 1e8 else f"{nbytes / 1e6:.3g} MB"
+
+
+def check_fits_in_memory(n_phi: int, n: int) -> None:
+    """Refuse (ConfigError) an in-memory map whose peak (``MEMORY_FACTOR`` x its dataset) exceeds free memory."""
+    need = MEMORY_FACTOR * map_nbytes(n_phi, n)
+    free = available_memory()
+    if free is not None and need > free:
+        raise ConfigError(f"a {n_phi} x {n} x {n} map needs about {format_bytes(need)} of memory but only "
+                          f"{format_bytes(free)} is available: write it to a Zarr store instead (--out FILE.zarr)",
+                          key="grid")
+
+
+def estimate_seconds(robot: Manipulator, clearances: ClearanceSet, phis: np.ndarray, x: np.ndarray, y: np.ndarray,
+                     max_condition: float = DEFAULT_MAX_CONDITION, workers: int = 1) -> float:
+    """Rough single-run time of a whole map, s: a sparse sub-grid of about 1000 points per orientation, timed.
+
+    Small batches carry more overhead per point than the real blocks, so the
+    estimate errs on the long side.
+    """
+    sx, sy = max(1, len(x) // 32), max(1, len(y) // 32)
+    t0 = time.perf_counter()
+    points = 0
+    for phi in phis:
+        _rows_block(robot, clearances, x[::sx], y[::sy], float(phi), max_condition)
+        points += len(x[::sx]) * len(y[::sy])
+    per_point = (time.perf_counter() - t0) / points
+    return per_point * len(phis) * len(x) * len(y) / max(1, workers)
+
+
+def _prepare(robot, clearances, phis, n: int, max_condition: float):
+    """Load and check the inputs of a map; returns ``robot, clearances, phis (rad), x, y``."""
+    from ..io.resolve import clearances_arg, robot_arg
+
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise ConfigError(f"the grid size must be a whole number, got {n!r}", key="n")
+    try:
+        phis = np.atleast_1d(np.asarray(phis, dtype=float))
+    except (TypeError, ValueError):
+        raise ConfigError(f"orientations must be numbers (rad), got {phis!r}", key="phi") from None
+    if not np.all(np.isfinite(phis)):
+        raise ConfigError("orientations must be finite", key="phi")
+    if robot.is_3ppr:  # A depends on phi only: a whole layer is singular or none is
+        require_regular(robot, np.column_stack([np.zeros_like(phis), np.zeros_like(phis), phis]), max_condition)
+    x, y = map_grid(robot, phis, n)
+    return robot, clearances, phis, x, y
+
+
+def _coords(phis: np.ndarray, x: np.ndarray, y: np.ndarray) -> dict:
+    return {"phi": ("phi", np.array([round_trip_degrees(p) for p in phis]),
+                    {"units": "deg", "long_name": "platform orientation"}),
+            "y": ("y", y, {"units": "mm"}), "x": ("x", x, {"units": "mm"})}
+
+
+def _attrs(robot: Manipulator, clearances: ClearanceSet) -> dict[str, str]:
+    """Provenance attributes of a map (every value a string, as NetCDF-3 stores them)."""
+    from .. import __version__
+
+    return {"title": f"Maximum pose errors of {robot.name} with clearances {clearances.name}",
+            "robot": robot.name, "robot_toml": robot.to_toml(),
+            "clearances": clearances.name, "clearances_toml": clearances.to_toml(),
+            "method": "exact first-order worst case (zonotope support functions and vertices, Eq. 21-22)",
+            "source": f"pmaccuracy {__version__}",
+            "reference": "Wu, Bai, Kepler, Caro, ASME J. Mechanisms Robotics 4(4) 041011, 2012"}
+
+
+def _empty_layer_error(phi: float, n: int) -> EmptyWorkspaceError:
+    return EmptyWorkspaceError(f"no point of the {n} x {n} grid lies inside the workspace at phi = "
+                               f"{np.degrees(phi):g} deg: use a finer grid")
+
+
+def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray, n: int = 101, *,
+              chunk_size: int = DEFAULT_CHUNK, use_dask: bool = False, progress: bool | None = None,
+              max_condition: float = DEFAULT_MAX_CONDITION) -> xr.Dataset:
+    """Exact maximum pose errors on an ``n x n`` grid at each orientation, in memory.
+
+    The four result arrays ``(len(phis), n, n)`` are allocated once and filled
+    block by block, so the peak memory stays within :data:`MEMORY_FACTOR` times
+    the dataset (``4 x 8 x len(phis) x n^2`` bytes) for maps of a few MB and up.
+
+    Parameters
+    ----------
+    robot, clearances : objects, preset names or TOML paths
+    phis : orientation(s) in **radians** (scalar or ``(k,)``)
+    n : grid points per axis
+    chunk_size : grid points per block at most (blocks are also kept below 1/80 of the map)
+    use_dask : compute the blocks as Dask tasks, a few at a time (needs ``pip install pmaccuracy[dask]``)
+    progress : show a progress bar; default: only when stderr is a terminal
+
+    Returns
+    -------
+    xarray.Dataset with dims ``(phi, y, x)``; ``phi`` coordinate in degrees.
+
+    Raises
+    ------
+    SingularPoseError : an orientation at or near the parallel singularity (for a
+        3-PPR det A depends on phi only, so a whole layer is singular or none is)
+    EmptyWorkspaceError : an orientation without workspace
+    ConfigError : bad arguments, or a result that would not fit in the available
+        memory (use :func:`write_zarr_map`)
+    """
+    if chunk_size < 1:
+        raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
+    robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
+    check_fits_in_memory(len(phis), n)
+    values = {name: np.empty((len(phis), len(y), len(x))) for name in MAP_VARIABLES}
+    _evaluate(robot, clearances, x, y, phis, chunk_size, use_dask, progress, max_condition, values)
+    for k, phi in enumerate(phis):
+        if not np.isfinite(values["dx_max"][k]).any():
+            raise _empty_layer_error(phi, n)
+    data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
+                 for name, (units, long_name) in MAP_VARIABLES.items()}
+    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=_attrs(robot, clearances))
+
+
+def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np.ndarray, phis: np.ndarray,
+              chunk_size: int, use_dask: bool, progress: bool | None, max_condition: float,
+              out: dict[str, np.ndarray]) -> None:
+    """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
+    show = sys.stderr.isatty() if progress is None else progress
+    # A block's temporaries take about 0.9 kB per point, the result 32 B per point: blocks of at most 1/200 of
+    # the map keep the peak within MEMORY_FACTOR x the dataset for maps of 20 MB and more; never below 8192
+    # points (the kernel's block), where a block's fixed cost (~0.3 ms of numpy calls) would dominate.
+    block = min(chunk_size, max(8192, len(phis) * len(y) * len(x) // 200))
+    rows = max(1, block // len(x))
+    blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
+    names = list(MAP_VARIABLES)
+
+    def store(k: int, j: int, block: np.ndarray) -> None:
+        for v, name in enumerate(names):
+            out[name][k, j:j + block.shape[0]] = block[..., v]
+
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(blocks), disable=not show, desc="error map", unit="block", file=sys.stderr)
+    with bar:
+        if not use_dask:
+            for k, j in blocks:
+                store(k, j, _rows_block(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
+                bar.update()
+            return
+        try:
+            dask = require("dask")
+        except ImportError:  # pragma: no cover - depends on the installation
+            raise ConfigError("use_dask needs Dask: pip install 'pmaccuracy[dask]'", key="use_dask") from None
+        task = dask.delayed(_rows_block, pure=True)
+        # A window of tasks at a time: every worker stays busy, and at most `window` blocks wait to be copied.
+        window = 4 * max(1, os.cpu_count() or 1)
+        for start in range(0, len(blocks), window):
+            part = blocks[start:start + window]
+            results = dask.compute(*[task(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition)
+                                     for k, j in part])
+            for (k, j), block in zip(part, results):
+                store(k, j, block)
+            bar.update(len(part))
+            del results
+
+
+# ------------------------------------------------------------------------------------------------ Zarr
+def _signature(robot: Manipulator, clearances: ClearanceSet, phis: np.ndarray, n: int, tile: int,
+               max_condition: float) -> dict:
+    """What a resumed run must match: inputs, grid and tiling (JSON-able)."""
+    return {"robot_toml": robot.to_toml(), "clearances_toml": clearances.to_toml(),
+            "phi_rad": [float(p).hex() for p in phis], "n": int(n), "tile": int(tile),
+            "max_condition": float(max_condition).hex()}
+
+
+def _tiles(n: int, tile: int) -> int:
+    return -(-n // tile)
+
+
+def _zarr_tile(path: str, k: int, iy: int, ix: int, tile: int, robot: Manipulator, clearances: ClearanceSet,
+               x: np.ndarray, y: np.ndarray, phi: float, block_size: int, max_condition: float) -> int:
+    """Compute tile ``(k, iy, ix)`` of a Zarr map, write it in place, then record it as done; returns its inside points.
+
+    The tile covers ``y[iy*tile : (iy+1)*tile]`` and ``x[ix*tile : (ix+1)*tile]``
+    at orientation ``k`` (``phi`` rad); it is computed in bands of about
+    ``block_size`` points into one ``(4, rows, cols)`` buffer. The record in
+    ``_progress/chunks[k, iy, ix]`` is ``[inside points, 4 minima, 4 maxima]``
+    (order of :data:`MAP_VARIABLES`; NaN extremes for a tile with no inside point).
+    """
+    zarr = require("zarr")
+
+    xs = x[ix * tile:(ix + 1) * tile]
+    ys = y[iy * tile:(iy + 1) * tile]
+    buf = np.empty((len(MAP_VARIABLES), len(ys), len(xs)))
+    rows = max(1, block_size // len(xs))
+    for j in range(0, len(ys), rows):
+        block = _rows_block(robot, clearances, xs, ys[j:j + rows], phi, max_condition)
+        buf[:, j:j + block.shape[0]] = np.moveaxis(block, -1, 0)
+    region = (k, slice(iy * tile, iy * tile + len(ys)), slice(ix * tile, ix * tile + len(xs)))
+    for v, name in enumerate(MAP_VARIABLES):
+        zarr.open_array(store=path, path=name, mode="r+")[region] = buf[v]
+    finite = np.isfinite(buf[0])
+    count = int(finite.sum())
+    stats = np.full(1 + 2 * len(MAP_VARIABLES), np.nan)
+    stats[0] = count
+    if count:
+        stats[1:5] = np.nanmin(buf.reshape(len(MAP_VARIABLES), -1), axis=1)
+        stats[5:9] = np.nanmax(buf.reshape(len(MAP_VARIABLES), -1), axis=1)
+    zarr.open_array(store=path, path="_progress/chunks", mode="r+")[k, iy, ix] = stats
+    return count
+
+
+def _open_progress(path: Path, signature: dict):
+    """The progress array of an existing store made with the same inputs, or a ConfigError."""
+    zarr = require("zarr")
+
+    try:
+        progress = zarr.open_array(store=str(path), path="_progress/chunks", mode="r+")
+    except Exception:  # noqa: BLE001 - zarr raises several kinds for "not there"
+        raise ConfigError("exists but is not a resumable pmaccuracy Zarr map: remove it or choose another path",
+                          source=str(path)) from None
+    if dict(progress.attrs).get("signature") != signature:
+        raise ConfigError("is a Zarr map of another robot, clearance set, grid or tiling: remove it to start "
+                          "afresh or choose another path", source=str(path))
+    return progress
+
+
+def _create_store(path: Path, robot: Manipulator, clearances: ClearanceSet, phis: np.ndarray, x: np.ndarray,
+                  y: np.ndarray, tile: int, signature: dict):
+    """Write the store's metadata, coordinates and attributes (no data yet) and an empty progress array."""
+    da = require("dask.array")
+    zarr = require("zarr")
+
+    shape = (len(phis), len(y), len(x))
+    chunks = (1, min(tile, len(y)), min(tile, len(x)))
+    data_vars = {name: (("phi", "y", "x"), da.full(shape, np.nan, chunks=chunks),
+                        {"units": units, "long_name": long_name})
+                 for name, (units, long_name) in MAP_VARIABLES.items()}
+    template = xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=_attrs(robot, clearances))
+    encoding = {name: {"chunks": chunks, "_FillValue": np.nan} for name in MAP_VARIABLES}
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
+        template.to_zarr(path, mode="w-", compute=False, encoding=encoding, consolidated=True)
+    zarr.open_group(str(path / "_progress"), mode="w")
+    progress = zarr.open_array(store=str(path), path="_progress/chunks", mode="w",
+                               shape=(len(phis), _tiles(len(y), tile), _tiles(len(x), tile), 9),
+                               chunks=(1, 1, 1, 9), dtype="f8", fill_value=np.nan)
+    progress.attrs.update({"signature": signature,
+                           "description": "per tile [phi, y, x]: inside points, minima and maxima of "
+                                          + ", ".join(MAP_VARIABLES) + "; NaN = not computed yet"})
+    return progress
+
+
+def write_zarr_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceSet | str,
+                   phis: float | np.ndarray, n: int = 101, *, tile: int = DEFAULT_ZARR_TILE,
+                   chunk_size: int = DEFAULT_CHUNK, scheduler: str | None = None, workers: int | None = None,
+                   progress: bool | None = None, max_condition: float = DEFAULT_MAX_CONDITION) -> dict:
+    """Stream the map of :func:`error_map` into the Zarr store ``path``, tile by tile, resuming an unfinished one.
+
+    Each tile ``(1, tile, tile)`` of ``(phi, y, x)`` is one Dask task that
+    computes it (bands of ``chunk_size`` points) and writes it into the store, so
+    memory holds about one tile (4 x 8 x tile^2 bytes, 32 MB by default) per worker
+    whatever ``n``. Finished tiles are recorded in ``_progress/chunks``; if
+    ``path`` already holds an unfinished map of the same inputs, only the missing
+    tiles are computed. Open the result with ``xarray.open_zarr(path)``.
+
+    Parameters
+    ----------
+    scheduler : ``None`` (Dask's local threads), a Dask scheduler name
+        (``"threads"``, ``"synchronous"``, ``"processes"``) or the address of a
+        ``dask.distributed`` scheduler (``"tcp://host:8786"``); on a cluster every
+        worker must see ``path`` (a shared file system)
+    workers : threads or processes of a local scheduler (default: one per core)
+
+    Returns
+    -------
+    ``{"summary": {phi_deg: {var: [min, max]}}`` (as :func:`summarize`),
+    ``"tiles": total, "computed": tiles computed by this call, "resumed": tiles found done}``
+
+    Raises
+    ------
+    ConfigError : ``path`` holds something else, or a map of other inputs
+    EmptyWorkspaceError : a layer with no grid point inside its workspace
+    """
+    dask = require("dask")
+
+    if chunk_size < 1 or tile < 1:
+        raise ConfigError("chunk size and tile must be positive", key="chunk_size")
+    robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
+    path = Path(path)
+    signature = _signature(robot, clearances, phis, n, tile, max_condition)
+    if path.exists():
+        record = _open_progress(path, signature)
+    else:
+        record = _create_store(path, robot, clearances, phis, x, y, tile, signature)
+    counts = record[..., 0]
+    todo = [(k, iy, ix) for k, iy, ix in np.argwhere(np.isnan(counts)).tolist()]
+    tiles = int(counts.size)
+    task = dask.delayed(_zarr_tile, pure=False)
+    tasks = [task(str(path), k, iy, ix, tile, robot, clearances, x, y, float(phis[k]), chunk_size, max_condition)
+             for k, iy, ix in todo]
+    show = sys.stderr.isatty() if progress is None else progress
+    _run_tasks(tasks, scheduler, workers, show, resumed=tiles - len(todo), total=tiles)
+    record = zarr_progress(path)
+    for k, phi in enumerate(phis):
+        if not np.nansum(record[k, ..., 0]):
+            raise _empty_layer_error(phi, n)
+    return {"summary": _summary_from_record(record, phis), "tiles": tiles, "computed": len(todo),
+            "resumed": tiles - len(todo)}
+
+
+def zarr_progress(path: str | Path) -> np.ndarray:
+    """The per-tile record ``(n_phi, tiles_y, tiles_x, 9)`` of a Zarr map (NaN rows: tiles not computed yet)."""
+    zarr = require("zarr")
+
+    return zarr.open_array(store=str(path), path="_progress/chunks", mode="r")[...]
+
+
+def _summary_from_record(record: np.ndarray, phis: np.ndarray) -> dict[str, dict[str, list[float]]]:
+    """:func:`summarize` of a whole map from the tiles' minima and maxima."""
+    out = {}
+    for k, phi in enumerate(phis):
+        rec = record[k].reshape(-1, record.shape[-1])
+        rec = rec[rec[:, 0] > 0]
+        key = f"{round_trip_degrees(phi):g}"
+        out[key] = {("dphi_max_deg" if v == "dphi_max" else v): [float(rec[:, 1 + j].min()),
+                                                                 float(rec[:, 5 + j].max())]
+                    for j, v in enumerate(MAP_VARIABLES)}
+    return out
+
+
+def _run_tasks(tasks: list, scheduler: str | None, workers: int | None, show: bool, *, resumed: int,
+               total: int) -> None:
+    """Compute Dask tasks that return nothing big, with one tqdm bar; on a distributed scheduler via futures."""
+    dask = require("dask")
+    from tqdm import tqdm
+
+    with tqdm(total=total, initial=resumed, disable=not show, desc="zarr map", unit="tile",
+              file=sys.stderr) as bar:
+        if scheduler and "://" in scheduler:
+            _distributed = require("distributed")
+            Client, as_completed = _distributed.Client, _distributed.as_completed
+
+            with Client(scheduler) as client:
+                futures = client.compute(tasks)
+                for future in as_completed(futures):
+                    future.result()  # re-raises a task's error here
+                    bar.update()
+                    future.release()
+            return
+        Callback = require("dask.callbacks").Callback
+
+        class _Bar(Callback):
+            def _posttask(self, key, result, dsk, state, worker_id):
+                if "_zarr_tile" in str(key):
+                    bar.update()
+
+        # Waves of a few tasks per worker: an interruption (Ctrl-C) stops after the current wave instead of
+        # waiting for every queued tile, and a wave's tiles are recorded as soon as they are written.
+        wave = 4 * (workers or os.cpu_count() or 1)
+        with _Bar():
+            for start in range(0, len(tasks), wave):
+                dask.compute(*tasks[start:start + wave], scheduler=scheduler or "threads", num_workers=workers)
+
+
+def save_map(ds: xr.Dataset, path: str | Path) -> Path:
+    """Write a map as NetCDF (``.nc``), Zarr (``.zarr``) or CSV (``.csv``, one row per grid point inside the workspace).
+
+    The CSV columns are ``x,y,phi_deg,dx_max,dy_max,dphi_max_deg,dp_max`` (mm,
+    mm, deg, mm, mm, deg, mm), the same as ``pmaccuracy bounds --format csv``,
+    with exact floats (the shortest decimal of each double); it is written one
+    orientation at a time.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".nc":
+        # NetCDF-3 through scipy: no extra dependency; every attribute is a string.
+        ds.to_netcdf(path, engine="scipy")
+    elif suffix == ".zarr":
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
+            ds.to_zarr(path, mode="w", consolidated=True)
+    elif suffix == ".csv":
+        _save_csv(ds, path)
+    else:
+        raise ConfigError(f"unknown map file type {path.suffix!r}: use .nc, .zarr or .csv", source=str(path))
+    return path
+
+
+def _save_csv(ds: xr.Dataset, path: Path) -> None:
+    """CSV of the inside points, layer after layer (rows in (phi, y, x) order); pyarrow writes the floats."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    columns = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]
+    options = pcsv.WriteOptions(include_header=False, quoting_style="none", batch_size=1 << 16)
+    X, Y = np.meshgrid(ds.x.values, ds.y.values)
+    with open(path, "wb") as fh:
+        fh.write((",".join(columns) + "\n").encode())
+        for k, phi in enumerate(ds.phi.values):
+            inside = np.ones(X.shape, dtype=bool)
+            for name in MAP_VARIABLES:
+                inside &= np.isfinite(ds[name].values[k])
+            values = [X[inside], Y[inside], np.full(int(inside.sum()), float(phi))]
+            values += [np.asarray(ds[name].values[k][inside], dtype=float) for name in MAP_VARIABLES]
+            pcsv.write_csv(pa.table(dict(zip(columns, values))), fh, options)
+
+
+def load_map(path: str | Path) -> xr.Dataset:
+    """Read a map written by :func:`save_map` as NetCDF."""
+    try:
+        with xr.open_dataset(path, engine="scipy") as ds:
+            return ds.load()
+    except (OSError, ValueError, TypeError) as exc:
+        raise ConfigError(f"not a pmaccuracy NetCDF map ({exc})", source=str(path)) from None
+
+
+def summarize(ds: xr.Dataset) -> dict[str, dict[str, list[float]]]:
+    """``{phi_deg: {var: [min, max]}}`` over each layer (NaN-aware); keys as in ``results.json``."""
+    out = {}
+    for phi in ds.phi.values:
+        layer = ds.sel(phi=phi)
+        key = f"{phi:g}"
+        out[key] = {("dphi_max_deg" if v == "dphi_max" else v): [float(layer[v].min()), float(layer[v].max())]
+                    for v in MAP_VARIABLES}
+    return out

@@ -1,0 +1,90 @@
+"""The one resolver of names and paths: preset names and TOML files into model objects, at every public entry point.
+
+Every public function that takes a robot or its clearances calls these
+at its top, so ``max_pose_errors("aalborg_3ppr", "case2", poses)`` works like
+the command line, and a wrong type or shape raises the library's own
+:class:`~pmaccuracy.errors.ConfigError` (or :class:`~pmaccuracy.errors.PoseError`)
+naming the parameter, e.g. ``tolerances.theta: expected 3 values (one per
+leg), got 2``, instead of a numpy or attribute error.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from ..errors import ClearanceError, ConfigError
+from ..kinematics import resolve_robot
+from ..model import _tomlio
+from ..model.clearances import ClearanceSet
+from ..model.sources import ErrorSources, is_per_joint
+
+_SPEC = (str, os.PathLike)
+
+
+def _kind(value: Any) -> str:
+    return type(value).__name__
+
+
+def robot_arg(robot: Any, name: str = "robot"):
+    """A :class:`~pmaccuracy.model.manipulator.Manipulator` from an instance, a preset name or a TOML path
+    (:func:`pmaccuracy.kinematics.resolve_robot`: a file's robot must also assemble somewhere)."""
+    return resolve_robot(robot, name)
+
+
+def clearances_arg(clearances: Any, robot, name: str = "clearances"):
+    """Clearances for ``robot`` from an object (:class:`~pmaccuracy.model.clearances.ClearanceSet`,
+    :class:`~pmaccuracy.model.sources.ErrorSources`), a preset name or a TOML path
+    (:func:`load_clearances`); objects are returned as they are."""
+    if isinstance(clearances, _SPEC):
+        return load_clearances(os.fspath(clearances), robot)
+    if not isinstance(clearances, (ClearanceSet, ErrorSources)):
+        raise ConfigError(f"expected a ClearanceSet, ErrorSources, a preset name or a clearance TOML path, got "
+                          f"{_kind(clearances)}", key=name)
+    return clearances
+
+
+def legs_values(value: Any, name: str, *, nonnegative: bool = True) -> np.ndarray:
+    """Three finite per-leg numbers ``(3,)`` from a number or a sequence of three (ConfigError naming ``name``)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected a number or 3 numbers (one per leg), got {value!r}", key=name) from None
+    if arr.ndim > 1 or arr.ndim == 1 and arr.shape[0] != 3:
+        got = f"{arr.shape[0]} values" if arr.ndim == 1 else f"shape {arr.shape}"
+        raise ConfigError(f"expected 3 values (one per leg), got {got}", key=name)
+    arr = np.broadcast_to(arr, (3,)).copy()
+    if not np.all(np.isfinite(arr)) or nonnegative and np.any(arr < 0):
+        raise ConfigError(f"must be finite{' and >= 0' if nonnegative else ''}, got {arr.tolist()}", key=name)
+    return arr
+
+
+def load_clearances(spec, robot):
+    """Clearances for ``robot`` from a preset name, a TOML file, or an object.
+
+    A file listing each leg's ``joints`` gives :class:`ErrorSources` (any
+    architecture); the 3-PPR format (``bearing_angle``, ``guide_lateral``,
+    ``revolute_radial`` per leg) gives a :class:`~pmaccuracy.model.clearances.ClearanceSet`
+    and needs a 3-PPR robot. Either is checked against the robot's joints.
+    """
+    robot = robot_arg(robot)  # a preset name or a TOML path too
+    if isinstance(spec, ErrorSources):
+        return spec.check(robot)
+    if isinstance(spec, ClearanceSet):
+        robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+        return spec
+    data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
+    if is_per_joint(data):
+        sources = ErrorSources.from_dict(data, source=source)
+        try:
+            return sources.check(robot)
+        except ClearanceError as exc:
+            raise ClearanceError(exc.message, source=source, key=exc.key) from None
+    if not robot.is_3ppr:
+        raise ClearanceError(
+            f"this file uses the 3-PPR clearance format (bearing_angle, guide_lateral, revolute_radial per leg) but "
+            f"{robot.name!r} is a {robot.architecture}: list each leg's joints instead, e.g. joints = "
+            "[{radial = 0.02}, {actuator = 0.005}, {radial = 0.02}]", source=source, key="legs")
+    return ClearanceSet.from_dict(data, source=source)

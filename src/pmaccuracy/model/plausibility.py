@@ -1,0 +1,227 @@
+"""Plausibility checks: values that are valid but almost surely in the wrong unit or outside the model's range.
+
+These are warnings, not errors: the value is used as given. Each check is a
+pure function returning a list of one-line messages (empty when all is well);
+:func:`warn` issues them as :class:`PlausibilityWarning` (a :class:`UserWarning`)
+through :mod:`warnings`, which is how the library reports them (loaders of
+clearance and tolerance files, poses read from CSV). The command line prints
+each as one line ``pmaccuracy CMD: warning: ...`` on stderr, or nothing with
+``--quiet``; in Python, silence them with
+``warnings.simplefilter("ignore", PlausibilityWarning)``.
+
+Rules (the physical ranges of joint clearances and tolerances in precision
+mechanisms are micrometres and milliradians):
+
+* a clearance or tolerance **length** (mm) above :data:`MAX_LENGTH_MM` = 1 mm
+  (``revolute_radial = 39`` is 39 um typed as mm);
+* a clearance or tolerance **angle** (rad) above :data:`MAX_ANGLE_RAD` = 0.01
+  rad = 0.57 deg (``bearing_angle = 0.0688`` is 0.0012 rad typed in degrees);
+* a guide **block length** outside [1, 1000] mm;
+* an **angle in degrees that looks like radians** (orientation options, the poses CSV's
+  ``phi_deg``, the ``*_deg`` keys of a robot file): ``0 < |value| <=
+  2 pi`` and within :data:`RADIAN_MATCH` = 5e-4 of a multiple of pi/12, pi/8
+  or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
+  0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
+  to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
+* (command line only) measurement noise or accuracy options above 1 mm or 1 deg, error targets and
+  thresholds above 1 mm or 1 deg (``pmaccuracy.cli._size_messages``);
+* a **first-order result beyond the linear model's validity**: a worst-case
+  ``dphi_max`` above :data:`MAX_LINEAR_DPHI_DEG` = 1 deg. The error model
+  (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
+  term is about ``dphi / 2`` (``1 - cos dphi`` against ``dphi``), 0.9 % at
+  1 deg, and the loop closures bend further near a singularity, which is where
+  such values appear.
+
+Example
+-------
+>>> clearance_messages({"legs[1].revolute_radial": (39.0, "mm")})
+['legs[1].revolute_radial = 39 mm is above 1 mm: clearances are usually micrometres (is it in um?)']
+>>> orientation_messages([0.5236], "--phi-deg")
+['--phi-deg 0.5236 looks like radians (30 deg = 0.5236 rad); orientations are in degrees']
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+#: Largest plausible clearance / tolerance length, mm.
+MAX_LENGTH_MM = 1.0
+#: Largest plausible clearance / tolerance angle, rad (0.57 deg).
+MAX_ANGLE_RAD = 0.01
+#: Plausible guide block lengths, mm.
+BLOCK_LENGTH_RANGE_MM = (1.0, 1000.0)
+#: Distance (in the value's unit) to k pi/12, k pi/8 or k pi/18 below which a degree value looks like radians.
+RADIAN_MATCH = 5e-4
+#: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
+MAX_LINEAR_DPHI_DEG = 1.0
+#: Largest share of the values listed in one message.
+_SHOWN = 3
+
+
+class PlausibilityWarning(UserWarning):
+    """A value is accepted but is almost surely in the wrong unit or outside the model's range of validity."""
+
+
+class LongRunWarning(PlausibilityWarning):
+    """A computation is about to take long (the command line prints it at once, before computing)."""
+
+
+def warn(messages: Iterable[str], stacklevel: int = 2) -> None:
+    """Issue each message as a :class:`PlausibilityWarning`."""
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=stacklevel + 1)
+
+
+def _g(value: float) -> str:
+    return f"{value:.6g}"
+
+
+def clearance_messages(values: Mapping[str, tuple[float, str]], what: str = "clearances") -> list[str]:
+    """Messages for half-widths ``{name: (value, unit)}`` with unit ``"mm"``, ``"rad"`` or ``"block"`` (mm).
+
+    ``what`` names the kind of value in the message (``"clearances"`` or ``"tolerances"``).
+    """
+    import re
+
+    grouped: dict[tuple, list[str]] = {}  # the same value on several legs: one message "legs[1,2,3].key"
+    for name, (value, unit) in values.items():
+        m = re.match(r"^legs\[(\d+)\](.*)$", name)
+        key = (m.group(2), float(value), unit) if m else (name, float(value), unit)
+        grouped.setdefault(key, []).append(m.group(1) if m else "")
+    values = {(f"legs[{','.join(legs)}]{rest}" if legs[0] else rest): (value, unit)
+              for (rest, value, unit), legs in grouped.items()}
+    out = []
+    for name, (value, unit) in values.items():
+        value = float(value)
+        if not math.isfinite(value):
+            continue
+        if unit == "mm" and value > MAX_LENGTH_MM:
+            out.append(f"{name} = {_g(value)} mm is above {_g(MAX_LENGTH_MM)} mm: {what} are usually micrometres "
+                       f"(is it in um?)")
+        elif unit == "rad" and value > MAX_ANGLE_RAD:
+            out.append(f"{name} = {_g(value)} rad ({_g(math.degrees(value))} deg) is above {_g(MAX_ANGLE_RAD)} rad: "
+                       f"{what} are usually milliradians (is it in degrees?)")
+        elif unit == "block" and not BLOCK_LENGTH_RANGE_MM[0] <= value <= BLOCK_LENGTH_RANGE_MM[1]:
+            lo, hi = BLOCK_LENGTH_RANGE_MM
+            out.append(f"{name} = {_g(value)} mm is outside [{_g(lo)}, {_g(hi)}] mm, the range of guide blocks "
+                       f"(is it in m or um?)")
+    return out
+
+
+def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:
+    """True where a value given in degrees looks like an angle in radians (module docstring), same shape."""
+    v = np.abs(np.asarray(phi_deg, dtype=float))
+    hit = np.zeros(v.shape, dtype=bool)
+    for step in (math.pi / 12, math.pi / 8, math.pi / 18):
+        k = np.rint(v / step)
+        hit |= (k >= 1) & (np.abs(v - k * step) <= RADIAN_MATCH)
+    return hit & (v > 0) & (v <= 2 * math.pi + RADIAN_MATCH) & np.isfinite(v)
+
+
+def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations") -> list[str]:
+    """One message if some of the angles (deg) look like radians; ``where`` names the option or file, ``what``
+    the kind of angle."""
+    values = np.asarray(phi_deg, dtype=float).reshape(-1)
+    hits = values[looks_like_radians(values)]
+    if hits.size == 0:
+        return []
+    first = float(hits[0])
+    example = f"{_g(first)} looks like radians ({_g(round(math.degrees(first), 1))} deg = {_g(first)} rad)"
+    if values.size == 1 or hits.size == 1 and values.size <= _SHOWN:
+        return [f"{where} {example}; {what} are in degrees"]
+    return [f"{where}: {hits.size} of {values.size} {what} look like radians, e.g. {example}; {what} are in degrees"]
+
+
+def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None, what: str = "dphi_max") -> list[str]:
+    """One message if a worst-case ``dphi_max`` (deg) exceeds :data:`MAX_LINEAR_DPHI_DEG`.
+
+    ``poses`` ``(N, 3)`` [mm, mm, rad], if given, names the worst pose.
+    """
+    d = np.asarray(dphi_max_deg, dtype=float).reshape(-1)
+    finite = np.isfinite(d)
+    if not finite.any() or d[finite].max() <= MAX_LINEAR_DPHI_DEG:
+        return []
+    k = int(np.nanargmax(np.where(finite, d, -np.inf)))
+    count = int((d[finite] > MAX_LINEAR_DPHI_DEG).sum())
+    at = ""
+    if poses is not None:
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)[k]
+        at = f" at x = {_g(p[0])} mm, y = {_g(p[1])} mm, phi = {_g(math.degrees(p[2]))} deg"
+    many = f" ({count} of {d.size} values)" if d.size > 1 else ""
+    return [f"{what} = {_g(d[k])} deg{at}{many} is beyond the first-order model's validity (about "
+            f"{_g(MAX_LINEAR_DPHI_DEG)} deg; relative second-order error ~ dphi/2): the worst case is only "
+            f"indicative there (near a singularity or clearances too large)"]
+
+
+def _prefixed(source: str | None, messages: list[str]) -> list[str]:
+    return [f"{source}: {m}" for m in messages] if source else messages
+
+
+#: Units of the 3-PPR clearance keys and of the per-joint keys (``actuator``: mm or rad, so the looser 1).
+_SET_UNITS = {"bearing_angle": "rad", "guide_lateral": "mm", "revolute_radial": "mm", "guide_block_length": "block"}
+_JOINT_UNITS = {"radial": "mm", "angular": "rad", "lateral": "mm", "block_length": "block", "position": "mm",
+                "direction": "rad", "length": "mm", "actuator": "mm"}
+
+
+def clearance_set_messages(clearances, source: str | None = None) -> list[str]:
+    """Messages for a 3-PPR :class:`~pmaccuracy.model.clearances.ClearanceSet` (keys ``legs[i].<key>``)."""
+    values = {f"legs[{i + 1}].{key}": (float(getattr(clearances, key)[i]), unit)
+              for i in range(3) for key, unit in _SET_UNITS.items()}
+    return _prefixed(source, clearance_messages(values))
+
+
+def error_sources_messages(sources, source: str | None = None, what: str = "clearances") -> list[str]:
+    """Messages for per-joint :class:`~pmaccuracy.model.sources.ErrorSources` (keys ``legs[i].joints[k].<key>``).
+
+    An ``actuator`` error is mm or rad by the joint: it is held to the mm limit (1), a looser test.
+    """
+    values = {}
+    for i, leg in enumerate(sources.legs, start=1):
+        for k, joint in enumerate(leg, start=1):
+            for key, unit in _JOINT_UNITS.items():
+                value = float(getattr(joint, key, 0.0))
+                if key == "block_length" and not getattr(joint, "lateral", 0.0):
+                    continue  # the default block length is only used with a lateral clearance
+                if value:
+                    values[f"legs[{i}].joints[{k}].{key}"] = (value, unit)
+    return _prefixed(source, clearance_messages(values, what))
+
+
+def tolerance_messages(tolerances: Mapping[str, object], units: Mapping[str, str],
+                       source: str | None = None) -> list[str]:
+    """Messages for tolerance half-widths ``{name: (3,)}`` with ``units[name]`` ``"mm"`` or ``"rad"``."""
+    values = {}
+    for name, t in tolerances.items():
+        arr = np.broadcast_to(np.asarray(t, dtype=float), (3,))
+        for i, v in enumerate(arr, start=1):
+            values[f"legs[{i}].{name}_{units.get(name, 'mm')}"] = (float(v), units.get(name, "mm"))
+    return _prefixed(source, clearance_messages(values, "tolerances"))
+
+
+def degree_key_messages(data: object, where: str = "") -> list[str]:
+    """Messages for values of ``*_deg`` keys of a parsed file (any depth) that look like radians.
+
+    A robot file's angles are degrees (``alpha_deg = 180``); ``alpha_deg = 3.1416`` is almost surely pi
+    typed in radians. One message per key (``legs[2].angle_range_deg``).
+    """
+    out: list[str] = []
+    if isinstance(data, dict):
+        for key, value in data.items():
+            name = f"{where}.{key}" if where else str(key)
+            if str(key).endswith("_deg"):
+                values = value if isinstance(value, list) else [value]
+                numbers = [float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+                hits = [v for v in numbers if v and bool(looks_like_radians(v))]
+                if hits:
+                    out.append(f"{name} = {_g(hits[0])} looks like radians ({_g(round(math.degrees(hits[0]), 1))} "
+                               f"deg = {_g(hits[0])} rad); the file's angles are in degrees")
+            else:
+                out.extend(degree_key_messages(value, name))
+    elif isinstance(data, list):
+        for i, item in enumerate(data, start=1):
+            out.extend(degree_key_messages(item, f"{where}[{i}]"))
+    return out

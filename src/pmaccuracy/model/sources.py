@@ -1,0 +1,396 @@
+"""Error sources of every joint type, and each leg's share of ``A dX = e`` (issue 9's general method).
+
+Hold the actuators. Every error source is a small displacement (a planar twist)
+of the part of a leg beyond it. Pairing that twist with the leg's constraint
+wrench ``zeta_i = (f, m_O)`` (:meth:`pmaccuracy.model.legs.Chain.screws`) gives the
+source's share of row ``i`` of ``A [dp; dphi] = e``. With ``M(c) = m_O - c x f``
+the wrench's moment about a point ``c`` (mm; the pairing with a unit rotation
+about ``c``), the sources of joint ``k`` of a leg and their largest ``|e_i|``:
+
+==============  =======================================================  =======================================
+key             displacement (inserted in the chain at joint k)          largest share of ``|e_i|``
+==============  =======================================================  =======================================
+``radial``      R clearance: the distal part translates, ``|delta| <= eps``  ``eps |f|``
+``angular``     P tilt ``|tau| <= eps`` of the block about its centre        ``eps |M(b_k)|``
+                ``b_k`` (below)
+``lateral``     P play: the block shifts by ``sigma`` normal to the rail     ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
+                and tilts by ``tau`` about its centre ``b_k``, in the
+                rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
+``actuator``    actuated joint error ``|dq| <= eps`` (mm or rad)            ``eps |B_ii|``
+``position``    tolerance: the joint's centre moved, ``|delta| <= t``       ``t |f|``
+``direction``   tolerance: the joint turned about its centre, ``|tau|<=t``  ``t |M(c_k)|``
+``length``      tolerance: the link after joint k longer by ``|dl| <= t``   ``t |f . unit(link_k)|``
+==============  =======================================================  =======================================
+
+The **block** of a P joint is its short member (carriage, bushing, gland),
+which the clearance lets shift and tilt on the long one (rail, rod) about its
+own centre ``b_k`` (:attr:`pmaccuracy.model.legs.Joint.block_kind`): a *carriage*
+travels with the joint value, ``b_k = c_k + q_k e_k`` (the default of an
+actuated P joint); a *bushing* sits at the joint's origin on the proximal part,
+``b_k = c_k``, and the rod slides through it (the default of a passive P
+joint). So the results do not depend on where a file puts a rail's origin.
+Manufacturing tolerances (``direction``) turn the joint about its mounting
+point ``c_k``, the origin the file gives.
+
+The sources of a leg are independent and symmetric, so ``e_i`` fills
+``[-c_i, c_i]`` with ``c_i`` the sum of the shares (:func:`half_widths`), and
+the reachable pose errors are the parallelepiped ``A^-1 diag(c) [-1, 1]^3``
+(:func:`pmaccuracy.accuracy.bounds.max_pose_errors` for every architecture).
+
+For the paper's 3-PPR (Sec. 4.2) the bearing tilt ``delta theta_i`` about
+``C_i`` is ``angular`` on the second joint (a bushing at ``C_i``), the guide
+play on the actuated guide is ``lateral`` (shift normal to the rail, tilt
+about the carriage ``B_i``), and the
+revolute clearance at ``D_i`` is ``radial`` on the third joint:
+``c_i = eps_theta l_i + max(eps_g |H_d|, 2 eps_g |H_gamma| / L_g) + eps_r``.
+
+Clearance files list each leg's joints, base to platform (lengths mm, angles rad)::
+
+    name = "rpr_demo"
+    [[legs]]                        # exactly three
+    joints = [
+      { radial = 0.02 },
+      { actuator = 0.005, angular = 0.0005 },
+      { radial = 0.02 },
+    ]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar
+
+import numpy as np
+
+from . import _tomlio
+from ..errors import ClearanceError, ConfigError
+from ..numerics.screws import cross, dot
+
+#: Keys of one joint's table and the joint types they apply to ("A": the actuated joint).
+KEYS = {"radial": "RP", "actuator": "A", "angular": "P", "lateral": "P", "block_length": "P",
+        "position": "RP", "direction": "RP", "length": "RP"}
+#: Units of the keys, for messages.
+UNITS = {"radial": "mm", "actuator": "mm or rad", "angular": "rad", "lateral": "mm", "block_length": "mm",
+         "position": "mm", "direction": "rad", "length": "mm"}
+#: Default guide block length L (mm), as in the 3-PPR clearance files.
+DEFAULT_BLOCK_LENGTH = 50.0
+
+
+@dataclass(frozen=True)
+class JointErrors:
+    """Half-widths of the error sources of one joint (module docstring); all 0 by default.
+
+    radial, lateral, position, length : mm;  angular, direction : rad;
+    actuator : mm (P) or rad (R);  block_length : mm (the guide's L, with ``lateral``)
+    """
+
+    radial: float = 0.0
+    actuator: float = 0.0
+    angular: float = 0.0
+    lateral: float = 0.0
+    block_length: float = DEFAULT_BLOCK_LENGTH
+    position: float = 0.0
+    direction: float = 0.0
+    length: float = 0.0
+
+    def scaled(self, factor: float) -> "JointErrors":
+        """Every half-width times ``factor`` (the block length is kept)."""
+        return JointErrors(**{f.name: getattr(self, f.name) * (1.0 if f.name == "block_length" else factor)
+                              for f in fields(self)})
+
+
+@dataclass(frozen=True)
+class ErrorSources:
+    """The error sources of a robot: three legs of three :class:`JointErrors`, base to platform."""
+
+    legs: tuple[tuple[JointErrors, JointErrors, JointErrors], ...]
+    name: str = "custom"
+    KIND: ClassVar[str] = "clearance"
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ErrorSources":
+        """Parse the per-joint clearance/tolerance format (module docstring)."""
+        _tomlio.reject_unknown(data, {"name", "description", "legs"}, source=source, where="")
+        legs = []
+        for i, table in enumerate(_tomlio.legs_table(data, source=source), start=1):
+            where = f"legs[{i}]"
+            _tomlio.reject_unknown(table, {"joints"}, source=source, where=where)
+            joints = table.get("joints")
+            if not isinstance(joints, list) or not all(isinstance(j, dict) for j in joints):
+                raise ClearanceError("must be a list of three tables {key = value, ...}, base to platform",
+                                     source=source, key=f"{where}.joints")
+            if len(joints) != 3:
+                raise ClearanceError(f"exactly three joints are needed (base to platform), found {len(joints)}",
+                                     source=source, key=f"{where}.joints")
+            parsed = []
+            for k, jt in enumerate(joints, start=1):
+                jw = f"{where}.joints[{k}]"
+                _tomlio.reject_unknown(jt, set(KEYS), source=source, where=jw)
+                values = {}
+                for key in jt:
+                    values[key] = _tomlio.number(jt, key, source=source, where=jw, nonnegative=True)
+                if "block_length" in values and values["block_length"] <= 0:
+                    raise ClearanceError("must be positive", source=source, key=f"{jw}.block_length")
+                parsed.append(JointErrors(**values))
+            legs.append(tuple(parsed))
+        name = data.get("name", source)
+        if not isinstance(name, str):
+            raise ConfigError("must be a string", source=source, key="name")
+        result = cls(legs=tuple(legs), name=name)
+        from . import plausibility  # values in unlikely units (um as mm, deg as rad): a warning each
+
+        plausibility.warn(plausibility.error_sources_messages(result, source), stacklevel=2)
+        return result
+
+    def to_dict(self) -> dict[str, Any]:
+        """The TOML table (only non-default keys)."""
+        default = JointErrors()
+        legs = []
+        for leg in self.legs:
+            joints = []
+            for j in leg:
+                joints.append({f.name: getattr(j, f.name) for f in fields(j)
+                               if getattr(j, f.name) != getattr(default, f.name)})
+            legs.append({"joints": joints})
+        return {"name": self.name, "legs": legs}
+
+    @classmethod
+    def from_clearance_set(cls, clearances, tolerances: dict[str, np.ndarray] | None = None) -> "ErrorSources":
+        """The 3-PPR clearance format (guide, bearing, revolute per leg) as per-joint sources."""
+        legs = []
+        for i in range(3):
+            legs.append((
+                JointErrors(lateral=float(clearances.guide_lateral[i]),
+                            block_length=float(clearances.guide_block_length[i])),
+                JointErrors(angular=float(clearances.bearing_angle[i])),
+                JointErrors(radial=float(clearances.revolute_radial[i])),
+            ))
+        return cls(legs=tuple(legs), name=clearances.name)
+
+    def to_toml(self) -> str:
+        """The per-joint clearance file as TOML text."""
+        import tomli_w
+        return tomli_w.dumps(self.to_dict())
+
+    def scaled(self, factor: float) -> "ErrorSources":
+        return ErrorSources(legs=tuple(tuple(j.scaled(factor) for j in leg) for leg in self.legs), name=self.name)
+
+    def check(self, robot) -> "ErrorSources":
+        """Refuse sources that do not fit the robot's joints (a key on the wrong joint type), naming leg and joint."""
+        if len(self.legs) != 3:
+            raise ClearanceError(f"exactly three legs are needed, found {len(self.legs)}", source=self.name,
+                                 key="legs")
+        for i, (chain, leg) in enumerate(zip(robot.chains, self.legs), start=1):
+            for k, (joint, errs) in enumerate(zip(chain.joints, leg), start=1):
+                for key, allowed in KEYS.items():
+                    value = getattr(errs, key)
+                    if not math.isfinite(value) or value < 0:
+                        raise ClearanceError(f"must be finite and >= 0, got {value}", source=self.name,
+                                             key=f"legs[{i}].joints[{k}].{key}")
+                    if key == "block_length" or value == 0:
+                        continue
+                    ok = (joint.actuated if allowed == "A" else joint.kind in allowed)
+                    if not ok:
+                        what = "the actuated joint" if allowed == "A" else \
+                            {"P": "prismatic joints", "RP": "any joint"}[allowed]
+                        raise ClearanceError(
+                            f"{key} applies to {what}; joint {k} of leg {i} is a "
+                            f"{'actuated ' if joint.actuated else 'passive '}{joint.kind} joint",
+                            source=self.name, key=f"legs[{i}].joints[{k}].{key}")
+        return self
+
+
+def _leg_states(robot, joints: np.ndarray, poses: np.ndarray) -> tuple:
+    """Each leg's :class:`~pmaccuracy.model.legs.LegState` at joint values ``joints (..., 3, 3)`` and poses ``(..., 3)``."""
+    return tuple(chain.state_at(joints[..., i, :], poses) for i, chain in enumerate(robot.chains))
+
+
+def half_widths(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """``c_i`` (mm), shape ``(..., 3)``: the largest ``|e_i|`` of each leg's sources (module docstring).
+
+    ``joints`` ``(..., 3, 3)`` are the joint values at the poses ``(..., 3)``
+    (:func:`pmaccuracy.kinematics.inverse_kinematics`).
+    """
+    poses = np.asarray(poses, dtype=float)
+    return states_half_widths(robot, sources, _leg_states(robot, joints, poses), poses)
+
+
+def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.ndarray) -> np.ndarray:
+    """:func:`half_widths` from the legs' states (:func:`pmaccuracy.kinematics.leg_states`), ``(..., 3)`` mm.
+
+    Per joint ``k`` with centre ``c_k``, direction ``e_k``, block centre ``b_k``
+    (:func:`block_centre`) and the leg's wrench ``(f, m_P)``: ``M(c) = m_P + (P - c) x f``
+    is the moment about ``c``, and the shares of the table in the module docstring add up.
+    """
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    out = np.empty(poses.shape[:-1] + (3,))
+    for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, states)):
+        f, m_P = st.f, st.m_P
+        i_, j_ = chain.passive_indices
+        couple = chain.joints[i_].kind == "P" and chain.joints[j_].kind == "P"
+        const = 0.0          # shares that do not depend on the pose
+        terms = []
+        for k, (joint, e) in enumerate(zip(chain.joints, leg)):
+            if (e.radial or e.position) and not couple:   # |f| = 1 (a pure couple has f = 0)
+                const += e.radial + e.position
+            if e.direction:
+                terms.append(e.direction * np.abs(m_P + cross(pz - st.centres[k], f)))
+            if e.angular or e.lateral:
+                m_block = np.abs(m_P + cross(pz - block_centre(joint, st, k), f))
+                if e.angular:
+                    terms.append(e.angular * m_block)
+                if e.lateral:
+                    shift = e.lateral * np.abs(cross(st.dirs[k], f))      # f . (E e_k) = e_k x f
+                    terms.append(np.maximum(shift, (2 * e.lateral / e.block_length) * m_block))
+            if e.actuator:
+                terms.append(e.actuator * np.abs(st.B))
+            if e.length and joint.link != (0.0, 0.0):
+                link_dir = st.dirs[k] * (joint.link_z / abs(joint.link_z))
+                terms.append(e.length * np.abs(dot(f, link_dir)))
+        c = const
+        for term in terms:
+            c = c + term
+        out[..., i] = c
+    return out
+
+
+def block_centre(joint, st, k: int):
+    """Centre ``b_k`` (complex mm, base frame) of the block of P joint ``k`` in the leg state ``st``
+    (:class:`~pmaccuracy.model.legs.LegState`): ``c_k + q_k e_k`` for a carriage, ``c_k`` for a bushing
+    (module docstring). A carriage followed by no link is the next frame's origin.
+
+    >>> from pmaccuracy.model.legs import Chain, Joint
+    >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")))
+    >>> st = chain.state(np.array([3.0, 4.0, 0.0]))
+    >>> complex(np.round(block_centre(chain.joints[1], st, 1), 12))
+    (3+4j)
+    >>> complex(np.round(block_centre(Joint("P", block="bushing"), st, 1), 12))
+    0j
+    """
+    if joint.block_kind == "bushing":
+        return st.centres[k]
+    if k < 2 and joint.link_z == 0:
+        return st.centres[k + 1]
+    return st.centres[k] + st.qs[k] * st.dirs[k]
+
+
+def is_per_joint(data: dict[str, Any]) -> bool:
+    """True when a parsed clearance file lists each leg's ``joints`` (this module's format)."""
+    legs = data.get("legs")
+    return isinstance(legs, list) and any(isinstance(leg, dict) and "joints" in leg for leg in legs)
+
+
+@dataclass(frozen=True)
+class JointDisplacements:
+    """Values of the error sources of every joint, arrays ``(..., 3 legs, 3 joints)`` (a configuration).
+
+    Attributes
+    ----------
+    shift : complex mm, translation of the distal part inserted before the joint (``radial``, ``position``)
+    turn : rad, rotation about the joint's centre ``c_k`` inserted before it (``direction``)
+    sigma, tau : mm and rad, a slide's block shifted normal to the rail and tilted about its centre ``b_k``
+        (``lateral``; :func:`block_centre`)
+    dq : mm or rad, actuator error (``actuator``)
+    dl : mm, change of the link length after the joint (``length``)
+    tilt : rad, a slide's block tilted about its centre ``b_k`` (``angular``)
+    """
+
+    shift: np.ndarray
+    turn: np.ndarray
+    sigma: np.ndarray
+    tau: np.ndarray
+    dq: np.ndarray
+    dl: np.ndarray
+    tilt: np.ndarray
+
+    FIELDS: ClassVar[tuple[str, ...]] = ("shift", "turn", "sigma", "tau", "dq", "dl", "tilt")
+
+    @classmethod
+    def zeros(cls, shape: tuple[int, ...] = ()) -> "JointDisplacements":
+        z = lambda: np.zeros(shape + (3, 3))  # noqa: E731 - a separate array for each field
+        return cls(**{k: z().astype(complex) if k == "shift" else z() for k in cls.FIELDS})
+
+    def scaled(self, factor) -> "JointDisplacements":
+        """Every value times ``factor`` (a scalar or an array broadcasting against ``(..., 1, 1)``)."""
+        f = np.asarray(factor, dtype=float)
+        f = f[..., None, None] if f.ndim else f
+        return JointDisplacements(*(getattr(self, k) * f for k in self.FIELDS))
+
+    def __neg__(self) -> "JointDisplacements":
+        return self.scaled(-1.0)
+
+
+def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses: np.ndarray,
+                        signs: np.ndarray) -> JointDisplacements:
+    """The source values making each leg's share ``e_i = t_i c_i`` for signs ``t`` ``(..., 3)``.
+
+    Each source sits at the extreme of its set that moves ``e_i`` the most in the
+    direction ``t_i`` (module docstring): a translation along ``t_i f``, a turn
+    of sign ``t_i sign(M(c_k))``, a block tilt of sign ``t_i sign(M(b_k))``, the
+    guide rhombus vertex that wins (pure shift or pure tilt),
+    ``dq = t_i eps sign(B_ii)``, ``dl = t_i t sign(f . link)``.
+    ``joints`` ``(..., 3, 3)`` are the joint values at the poses ``(..., 3)``.
+    With the signs of a row of ``A^-1`` this is the configuration attaining
+    that quantity's maximum (``max_pose_errors(...).worst_signs``).
+    """
+    poses = np.asarray(poses, dtype=float)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    shape = poses.shape[:-1]
+    out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float) for k in JointDisplacements.FIELDS}
+    sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
+    for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, _leg_states(robot, joints, poses))):
+        centres, dirs, f, m_P, B = st.centres, st.dirs, st.f, st.m_P, st.B
+        t = signs[..., i]
+        unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
+        for k, (joint, e) in enumerate(zip(chain.joints, leg)):
+            if e.radial or e.position:
+                out["shift"][..., i, k] = t * (e.radial + e.position) * unit_f
+            if e.direction:
+                out["turn"][..., i, k] = t * e.direction * sgn(m_P + cross(pz - centres[k], f))
+            if e.angular or e.lateral:
+                b = m_P + cross(pz - block_centre(joint, st, k), f)
+                out["tilt"][..., i, k] = t * e.angular * sgn(b)
+            if e.lateral:
+                a = dot(f, 1j * dirs[k])
+                shift_wins = e.lateral * np.abs(a) >= 2 * e.lateral * np.abs(b) / e.block_length
+                out["sigma"][..., i, k] = np.where(shift_wins, t * e.lateral * sgn(a), 0.0)
+                out["tau"][..., i, k] = np.where(shift_wins, 0.0, t * 2 * e.lateral / e.block_length * sgn(b))
+            if e.actuator:
+                out["dq"][..., i, k] = t * e.actuator * sgn(B)
+            if e.length and joint.link != (0.0, 0.0):
+                link_dir = dirs[k] * joint.link_z / abs(joint.link_z)
+                out["dl"][..., i, k] = t * e.length * sgn(dot(f, link_dir))
+    return JointDisplacements(**out)
+
+
+def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: JointDisplacements) -> np.ndarray:
+    """Pose error ``A^-1 e`` ``(..., 3)`` [mm, mm, rad] of given source values (first order).
+
+    ``e_i`` pairs each source's twist with leg ``i``'s constraint wrench
+    (module docstring); ``joints`` ``(..., 3, 3)`` at the poses ``(..., 3)``.
+    """
+    from ..numerics.linalg import inverse_3x3
+
+    poses = np.asarray(poses, dtype=float)
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    rows, es = [], []
+    for i, (chain, st) in enumerate(zip(robot.chains, _leg_states(robot, joints, poses))):
+        centres, dirs, f, m_P, B, A_row = st.centres, st.dirs, st.f, st.m_P, st.B, st.A_row
+        e = np.zeros(poses.shape[:-1])
+        for k, joint in enumerate(chain.joints):
+            e = e + dot(f, config.shift[..., i, k])
+            e = e + config.turn[..., i, k] * (m_P + cross(pz - centres[k], f))
+            if joint.kind == "P":
+                e = e + config.sigma[..., i, k] * dot(f, 1j * dirs[k])
+                e = e + (config.tau[..., i, k] + config.tilt[..., i, k]) * (
+                    m_P + cross(pz - block_centre(joint, st, k), f))
+            if joint.actuated:
+                e = e + config.dq[..., i, k] * B
+            if joint.link != (0.0, 0.0):
+                e = e + config.dl[..., i, k] * dot(f, dirs[k] * joint.link_z / abs(joint.link_z))
+        rows.append(A_row)
+        es.append(e)
+    A = np.stack(rows, axis=-2)
+    A_inv, _ = inverse_3x3(A)
+    return np.einsum("...ij,...j->...i", A_inv, np.stack(es, axis=-1))

@@ -1,0 +1,361 @@
+"""Figures of error maps like the paper's Figs. 9-12 (Sec. 6).
+
+Figures are built on :class:`matplotlib.figure.Figure` objects (no pyplot state),
+so they can be made in threads and saved with ``fig.savefig``. The map figures
+place their axes at fixed positions (:func:`panel_grid`: a grid of panels, each with a colour bar
+of exactly its height) instead of running a layout engine, which costs more than drawing them.
+Figures are at most :data:`REPORT_WIDTH_IN` wide so that the report shows them at their natural size.
+
+:class:`Renderer` builds and saves figures in worker processes
+(``concurrent.futures.ProcessPoolExecutor``), for reports with many figures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+#: Panels of a four-panel map: variable, measured-data key, title, units.
+PANELS = (
+    ("dx_max", "dx", r"$\delta x_{max}$", "mm"),
+    ("dy_max", "dy", r"$\delta y_{max}$", "mm"),
+    ("dp_max", "dp", r"$\delta p_{max}$", "mm"),
+    ("dphi_max", "dphi_deg", r"$\delta\phi_{max}$", "deg"),
+)
+
+
+#: Colour scales are clipped at this percentile of a map when the values above it (near-singular
+#: edges of a 3-RRR or 3-PRR workspace) would take more than half of the colour range.
+CLIP_PERCENTILE = 95.0
+#: Size of the figures in the reports: at most this wide (inches) at 110 dpi fits the HTML column
+#: (1100 px) at its natural size, so 9-10 pt text stays 9-10 pt on screen.
+REPORT_WIDTH_IN = 10.0
+
+
+@dataclass(frozen=True)
+class ColourRange:
+    """Colour limits of a map: ``lo, hi`` (units of the map); ``clipped`` when ``hi`` is the
+    :data:`CLIP_PERCENTILE` percentile and the map goes on up to ``top``."""
+
+    lo: float
+    hi: float
+    clipped: bool = False
+    top: float = float("nan")
+
+
+def colour_range(values: np.ndarray, extra: np.ndarray | None = None,
+                 percentile: float = CLIP_PERCENTILE) -> ColourRange:
+    """Colour range over a map (and measured values ``extra``); a constant field gets a +-1 % band.
+
+    ``lo`` is the smallest value; ``hi`` the largest, unless the map's values above its
+    ``percentile``-th percentile ``p`` span more than the values below (``max - p > p - min``): then
+    ``hi = max(p, largest measured value)`` and the range is ``clipped`` (the colour bar says so).
+    """
+    field = np.asarray(values, dtype=float)
+    field = field[np.isfinite(field)]
+    pool = field
+    if extra is not None:
+        extra = np.asarray(extra, dtype=float)
+        pool = np.concatenate([pool, extra[np.isfinite(extra)]])
+    if pool.size == 0:
+        return ColourRange(0.0, 1.0)
+    lo, hi = float(pool.min()), float(pool.max())
+    if hi - lo <= 1e-9 * max(abs(hi), 1e-12):
+        pad = max(0.01 * abs(hi), 1e-9)
+        return ColourRange(lo - pad, hi + pad)
+    if field.size:
+        p = float(np.percentile(field, percentile))
+        fmin, fmax = float(field.min()), float(field.max())
+        if fmax - p > p - fmin:
+            cap = p if extra is None or not np.isfinite(extra).any() else max(p, float(np.nanmax(extra)))
+            if cap < hi:
+                return ColourRange(lo, cap, True, hi)
+    return ColourRange(lo, hi)
+
+
+def _limits(values: np.ndarray, extra: np.ndarray | None) -> tuple[float, float]:
+    """``(lo, hi)`` of :func:`colour_range` (kept for callers that want the plain limits)."""
+    r = colour_range(values, extra)
+    return r.lo, r.hi
+
+
+def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04) -> tuple[float, ...]:
+    """``(x0, x1, y0, y1)``: the finite part of a field (its workspace) plus a margin (mm)."""
+    finite = np.isfinite(Z)
+    if not finite.any():
+        return float(x.min()), float(x.max()), float(y.min()), float(y.max())
+    xs, ys = x[finite.any(axis=0)], y[finite.any(axis=1)]
+    dx = (xs.max() - xs.min()) * margin + 1e-9
+    dy = (ys.max() - ys.min()) * margin + 1e-9
+    return float(xs.min() - dx), float(xs.max() + dx), float(ys.min() - dy), float(ys.max() + dy)
+
+
+def panel_grid(fig: Figure, nrows: int, ncols: int, aspect: float, *, width: float = REPORT_WIDTH_IN,
+               top: float = 0.75, bottom: float = 0.15, title_space: float = 0.35) -> list[tuple[Any, Any]]:
+    """Place ``nrows x ncols`` map axes, each with a colour-bar axes of exactly its height, and size ``fig``.
+
+    Every axes box has the height/width ratio ``aspect`` (clamped to [0.3, 1.4]) so that an equal-aspect
+    map fills it; the colour bar sits 0.08 in to its right, 0.15 in wide, from the axes' bottom to its
+    top. ``top``/``bottom``: inches kept free for the title / a legend. Returns ``[(ax, cax), ...]`` row
+    by row. Axes are placed at fixed positions (no layout engine, no divider).
+    """
+    aspect = float(np.clip(aspect, 0.3, 1.4))
+    left, cbar_room, gap = 0.75, 1.1, 0.5       # y label | axes | bar + tick labels + label | next column
+    ax_w = (width - left - ncols * cbar_room - (ncols - 1) * gap - 0.1) / ncols
+    ax_h = ax_w * aspect
+    if ax_h > 4.2:                                  # tall workspaces: keep the figure on one screen
+        ax_h = 4.2
+        ax_w = ax_h / aspect
+    row_h = ax_h + 0.55 + title_space               # x label under, panel title above
+    height = top + nrows * row_h + bottom
+    fig.set_size_inches(width, height)
+    out = []
+    for r in range(nrows):
+        for c in range(ncols):
+            x0 = left + c * (ax_w + cbar_room + gap)
+            y0 = height - top - (r + 1) * row_h + 0.55
+            ax = fig.add_axes((x0 / width, y0 / height, ax_w / width, ax_h / height))
+            cax = fig.add_axes(((x0 + ax_w + 0.08) / width, y0 / height, 0.15 / width, ax_h / height))
+            out.append((ax, cax))
+    return out
+
+
+def fit_limits(ax, x0: float, x1: float, y0: float, y1: float) -> None:
+    """Show at least ``[x0, x1] x [y0, y1]`` (mm) at equal scales in x and y without resizing the axes box:
+    the shorter side of the data box is widened about its centre to the box's height/width ratio."""
+    fig = ax.get_figure()
+    pos = ax.get_position()
+    ratio = (pos.height * fig.get_figheight()) / (pos.width * fig.get_figwidth())
+    w, h = max(x1 - x0, 1e-9), max(y1 - y0, 1e-9)
+    if h / w < ratio:
+        cy, h = (y0 + y1) / 2, w * ratio
+        y0, y1 = cy - h / 2, cy + h / 2
+    else:
+        cx, w = (x0 + x1) / 2, h / ratio
+        x0, x1 = cx - w / 2, cx + w / 2
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal", adjustable="box")
+
+
+def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarray, label: str, units: str, *,
+                rng: ColourRange | None = None, extra: np.ndarray | None = None, contours: bool = True,
+                cmap: str = "viridis") -> Any:
+    """One map panel: the field, contour lines (their levels also marked on the colour bar, so no label
+    can be clipped) and a colour bar labelled ``label [units]``, noting a clipped scale."""
+    rng = rng or colour_range(Z, extra)
+    mesh = ax.pcolormesh(x, y, Z, shading="auto", cmap=cmap, vmin=rng.lo, vmax=rng.hi)
+    fit_limits(ax, *_field_box(x, y, Z))
+    cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither")
+    finite = Z[np.isfinite(Z)]
+    constant = finite.size == 0 or float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300)
+    if contours and not constant:
+        from matplotlib.ticker import MaxNLocator
+
+        levels = MaxNLocator(6).tick_values(rng.lo, rng.hi)
+        levels = levels[(levels > float(finite.min())) & (levels < min(float(finite.max()), rng.hi))]
+        if levels.size:
+            cs = ax.contour(x, y, Z, levels=levels, colors="white", linewidths=0.7, alpha=0.9)
+            cbar.add_lines(cs)
+    text = f"{label} [{units}]" if label else units
+    if rng.clipped:
+        text += f"\nclipped at {CLIP_PERCENTILE:g}th pct. (max {rng.top:.3g})"
+    cbar.set_label(text, fontsize=8 if rng.clipped else 9)
+    cbar.ax.tick_params(labelsize=8)
+    return mesh
+
+
+def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.ndarray] | None = None,
+                   title: str | None = None, scale: float = 1.0) -> Figure:
+    """Four panels (dx_max, dy_max, dp_max in mm; dphi_max in deg) over the workspace at ``phi_deg``.
+
+    Each panel fills a box of the workspace's aspect ratio with a colour bar of exactly its height
+    (:func:`panel_grid`), labelled with what is drawn, factor included (``2 x dx_max [mm]``). Contour
+    lines are marked on the colour bar instead of labelled in the map. A constant field says so in its
+    title. Colour scales dominated by near-singular edges are clipped (:func:`colour_range`).
+
+    Parameters
+    ----------
+    ds : a map from :func:`pmaccuracy.accuracy.maps.error_map`
+    phi_deg : orientation layer to draw (deg)
+    measured : optional measured points, arrays keyed ``x, y`` (mm) and ``dx, dy, dp`` (mm),
+        ``dphi_deg`` (deg), drawn as dots coloured on the same scale with black rims; their legend
+        goes under the title, outside the maps
+    scale : factor applied to the predicted maxima before drawing (e.g. 2 for the
+        width-consistent comparison with measured ranges)
+    """
+    layer = ds.sel(phi=phi_deg, method="nearest")
+    x, y = layer.x.values, layer.y.values
+    x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values)
+    fig = Figure()
+    cells = panel_grid(fig, 2, 2, (y1 - y0) / max(x1 - x0, 1e-9), top=0.95 if measured is not None else 0.7)
+    prefix = f"{scale:g} x " if scale != 1 else ""
+    for (ax, cax), (var, mkey, label, units) in zip(cells, PANELS):
+        values = layer[var].values * scale
+        extra = None if measured is None else np.asarray(measured[mkey], dtype=float)
+        rng = colour_range(values, extra)
+        _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra)
+        panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
+        if measured is not None:
+            ax.scatter(measured["x"], measured["y"], c=extra, cmap="viridis", vmin=rng.lo, vmax=rng.hi, s=30,
+                       edgecolors="black", linewidths=0.9, label="measured", zorder=3)
+        ax.set_title(panel_title, fontsize=10)
+        ax.set_xlabel("x [mm]", fontsize=9)
+        ax.set_ylabel("y [mm]", fontsize=9)
+        ax.tick_params(labelsize=8)
+    if measured is not None:
+        from matplotlib.lines import Line2D
+
+        handles = [Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
+                          markeredgecolor="black")]
+        fig.legend(handles, ["measured points, filled with the measured value on the map's colour scale"],
+                   loc="upper center", bbox_to_anchor=(0.5, 1 - 0.5 / fig.get_figheight()), frameon=False,
+                   fontsize=9)
+    fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}, "
+                          f"$\\phi$ = {float(layer.phi):g} deg", fontsize=11, y=1 - 0.12 / fig.get_figheight(),
+                 va="top")
+    return fig
+
+
+def plot_layers(ds: xr.Dataset, var: str, *, title: str | None = None) -> Figure:
+    """One variable of a map at every orientation, side by side on a common colour scale."""
+    units = ds[var].attrs.get("units", "")
+    n = ds.sizes["phi"]
+    x, y = ds.x.values, ds.y.values
+    boxes = [_field_box(x, y, ds[var].sel(phi=phi).values) for phi in ds.phi.values]
+    aspect = max((b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes)
+    fig = Figure()
+    cells = panel_grid(fig, 1, n, aspect, width=min(REPORT_WIDTH_IN, 3.6 * n + 0.8))
+    rng = colour_range(ds[var].values)
+    for (ax, cax), phi in zip(cells, ds.phi.values):
+        _draw_field(fig, ax, cax, x, y, ds[var].sel(phi=phi).values, var, units, rng=rng)
+        ax.set_title(f"$\\phi$ = {phi:g} deg", fontsize=10)
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+    fig.suptitle(title or f"{var} [{units}]")
+    return fig
+
+
+def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
+    """Save a figure as PNG and return the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+def render(path: str | Path, build: Callable[..., Any], *args: Any, dpi: int = 110, **kwargs: Any) -> Path:
+    """``save(build(*args, **kwargs), path)``: one job of a :class:`Renderer` (runs in a worker process).
+
+    A ``build`` that writes ``path`` itself (returns no Figure) is just called.
+    """
+    result = build(*args, **kwargs)
+    if isinstance(result, Figure):
+        save(result, path, dpi=dpi)
+    return Path(path)
+
+
+class Renderer:
+    """Build and save figures in worker processes while the caller goes on computing.
+
+    ``submit(path, build, *args, **kwargs)`` queues ``build(*args, **kwargs)``
+    (a module-level function returning a Figure; its arguments are pickled) and
+    returns the path at once; leaving the ``with`` block waits for every figure
+    and re-raises the first error. ``on_done`` is called (in a helper thread)
+    after each figure, e.g. to advance a progress bar. ``workers=0`` renders in
+    the calling process (same results, no pool).
+    """
+
+    def __init__(self, workers: int = 2, on_done: Callable[[], None] | None = None):
+        self.workers = workers
+        self.on_done = on_done
+        self._pool: ProcessPoolExecutor | None = None
+        self._futures: list[Future] = []
+
+    def __enter__(self) -> Renderer:
+        if self.workers > 0:
+            import multiprocessing as mp
+
+            # fork (where available) starts workers with numpy and matplotlib already imported
+            context = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        return self
+
+    def submit(self, path: str | Path, build: Callable[..., Figure], *args: Any, **kwargs: Any) -> Path:
+        path = Path(path)
+        if self._pool is None:
+            render(path, build, *args, **kwargs)
+            if self.on_done:
+                self.on_done()
+            return path
+        future = self._pool.submit(render, path, build, *args, **kwargs)
+        if self.on_done:
+            future.add_done_callback(lambda _: self.on_done())
+        self._futures.append(future)
+        return path
+
+    def compute(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
+        """Run any module-level ``function(*args, **kwargs)`` in a worker; a Future of its (pickled) result."""
+        if self._pool is None:
+            future: Future = Future()
+            future.set_result(function(*args, **kwargs))
+            return future
+        return self._pool.submit(function, *args, **kwargs)
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if self._pool is None:
+            return
+        try:
+            if exc_type is None:
+                for future in self._futures:
+                    future.result()
+        finally:
+            self._pool.shutdown(wait=True, cancel_futures=exc_type is not None)
+
+
+def constant_note(values: np.ndarray, units: str) -> str:
+    """``": constant, V units"`` for a field whose finite values are all equal (to 1e-9 relative), else ``""``:
+    a panel title says so instead of showing a flat colour against a meaningless colour bar."""
+    finite = np.asarray(values)[np.isfinite(values)]
+    if finite.size and float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300):
+        return f": constant, {float(finite.max()):.4g} {units}"
+    return ""
+
+
+def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]], *, suptitle: str,
+                shared_scale: bool = False, ncols: int | None = None) -> Figure:
+    """Several scalar fields side by side: each panel is ``(x (n,), y (m,), Z (m, n), title, units)``.
+
+    With ``shared_scale`` every panel uses one colour range (for comparing designs). Each colour bar
+    has its panel's height (:func:`panel_grid`) and is labelled ``units`` (e.g. ``"dp_max [mm]"``).
+    """
+    ncols = ncols or len(panels)
+    nrows = int(np.ceil(len(panels) / ncols))
+    boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
+    aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
+    fig = Figure()
+    cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.4 * ncols + 0.8))
+    common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
+    for (ax, cax), (x, y, Z, title, units) in zip(cells, panels):
+        _draw_field(fig, ax, cax, x, y, Z, "", units, rng=common, contours=False)
+        ax.set_title(title + constant_note(Z, units), fontsize=10)
+        ax.set_xlabel("x [mm]", fontsize=9)
+        ax.set_ylabel("y [mm]", fontsize=9)
+        ax.tick_params(labelsize=8)
+    for ax, cax in cells[len(panels):]:
+        ax.set_visible(False)
+        fig.delaxes(cax)
+    fig.suptitle(suptitle, fontsize=11, y=1 - 0.12 / fig.get_figheight(), va="top")
+    return fig
+
+
+def _crop(ax, x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.05) -> None:
+    """Limit the axes to the finite part of a field (its workspace) plus a margin, at equal scales."""
+    fit_limits(ax, *_field_box(x, y, Z, margin))

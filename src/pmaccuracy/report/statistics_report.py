@@ -1,0 +1,74 @@
+"""Statistics of the pose error drawn and reported: the percentile-map figure and the statistics section.
+
+The numbers come from :mod:`pmaccuracy.accuracy.distributions` (Monte Carlo inside the error set, its
+quadrature references); this module only draws and assembles them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..accuracy.distributions import (Distribution, as_sources, pose_statistics, region_statistics,
+                                      summarize_region)
+from ..errors import ConfigError
+from ..io.resolve import robot_arg
+from . import figures
+
+
+def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = None,
+                               percentile: float | None = None) -> Path:
+    """Figure: for one orientation, the percentile of ``|dp|`` and of ``|dphi|`` beside their worst case and
+    the ratio percentile / worst case (2 x 3 panels). Returns the written path."""
+
+    if phi_deg is None:
+        phi_deg = float(ds.phi.values[0])
+    layer = ds.sel(phi=phi_deg, method="nearest")
+    if percentile is None:
+        names = [n for n in ds.data_vars if n.startswith("dp_p")]
+        if not names:
+            raise ConfigError("the dataset has no percentile map", key="percentile")
+        key = names[0][len("dp_"):]
+    else:
+        key = f"p{percentile:g}"
+    x, y = ds.x.values, ds.y.values
+    panels = []
+    for q, unit, label in (("dp", "mm", r"$|\delta p|$"), ("dphi", "deg", r"$|\delta\phi|$")):
+        pv, mv = layer[f"{q}_{key}"].values, layer[f"{q}_max"].values
+        panels += [(x, y, pv, f"{key[1:]}th percentile of {label}", unit),
+                   (x, y, mv, f"worst case of {label}", unit),
+                   (x, y, pv / mv, f"percentile / worst case, {label}", "ratio")]
+    fig = figures.plot_panels(panels, ncols=3,
+                              suptitle=f"{ds.attrs.get('robot', '')}, {ds.attrs.get('clearances', '')}: "
+                                       f"phi = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} samples")
+    return figures.save(fig, path)
+
+
+def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, samples: int = 10_000,
+                       pose_samples: int = 100_000, seed: int | None = 0, pose=None,
+                       distribution: Distribution | str | None = None, threshold_dp: float | None = None,
+                       figure: str | Path | None = None) -> dict[str, Any]:
+    """Everything a report section on the error statistics needs, JSON-ready.
+
+    At ``pose`` ``(3,)`` [mm, mm, rad] (default: the commanded pose ``(0, 0, phi)``) the
+    :func:`pose_statistics` with ``pose_samples`` samples; over the workspace at ``phi`` (rad) the
+    :func:`summarize_region` of an ``grid x grid`` percentile map (95th percentile) with ``samples``
+    samples; ``threshold_dp`` (mm, default: the worst case of dp at the pose, halved) for the exceedance
+    probabilities; with ``figure`` the :func:`save_percentile_map_figure` written there.
+    Returns ``{"pose": ..., "region": ..., "figure": path or None}``.
+    """
+    pose = np.array([0.0, 0.0, phi]) if pose is None else np.asarray(pose, dtype=float)
+    if threshold_dp is None:
+        from ..accuracy.bounds import max_pose_errors
+
+        robot = robot_arg(robot)
+        threshold_dp = round(0.5 * float(max_pose_errors(robot, as_sources(robot, clearances), pose).dp_max), 4)
+    at_pose = pose_statistics(robot, clearances, pose, samples=pose_samples, seed=seed, distribution=distribution,
+                              thresholds={"dp": threshold_dp})
+    ds = region_statistics(robot, clearances, [phi], grid, samples=samples, seed=seed, distribution=distribution,
+                           percentiles=(95.0,), thresholds={"dp": threshold_dp})
+    path = save_percentile_map_figure(ds, figure) if figure is not None else None
+    return {"pose": at_pose, "region": summarize_region(ds), "threshold_dp": threshold_dp,
+            "figure": None if path is None else str(path)}
