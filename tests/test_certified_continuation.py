@@ -57,7 +57,7 @@ def test_pieces_on_another_branch_are_rejected(monkeypatch):
     def other_branch(model, M, delta, *a, **k):
         return real(model, M, delta, *a, **k) + BRANCH
 
-    monkeypatch.setattr(C, "exact_change", other_branch)
+    monkeypatch.setattr(C.branch, "exact_change", other_branch)  # where the continuation check calls it
     wrong = C.certified_pose_errors(robot, es, PAPER_POSE, **kw)
     assert wrong.rejected[0] >= 4 + 1  # the four pieces of the cut and the branch and bound's root at least
     assert wrong.reason[0] == ""

@@ -1,0 +1,138 @@
+"""The best feasible configuration: local ascent of the exact model from the first-order vertices (the
+lower bound that states the gap)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .closure import _Model, _objective, _take, exact_change
+from .error_set import QUANTITIES, argsupport, project, support
+
+
+def _ascent(model: _Model, M: np.ndarray, sets, q: str, start: np.ndarray, maxiter: int) -> tuple[float, np.ndarray]:
+    """Local ascent (SLSQP) of quantity ``q`` of the exact model of one pose from ``start`` ``(n,)`` over ``S``;
+    returns the best feasible value found and its ``delta`` (the start's own value counts)."""
+    from scipy.optimize import minimize
+
+    n = model.n
+    scale = np.zeros(n)
+    for s in sets:
+        if s.kind == "rhombus":
+            scale[s.cols[0]], scale[s.cols[1]] = s.eps, 2 * s.eps / s.block_length
+        else:
+            scale[list(s.cols)] = s.eps
+    dz0 = exact_change(model, M, start[None])[0]
+    best_val = float(_objective(q, dz0)) if np.all(np.isfinite(dz0)) else -np.inf
+    best = start.copy()
+    row = None if q == "dp" else QUANTITIES.index(q)
+    sign = 1.0 if row is None or not np.isfinite(best_val) else (1.0 if dz0[row] >= 0 else -1.0)
+
+    def fun(u):
+        d = u * scale
+        dz, G = exact_change(model, M, d[None], gradient=True)
+        dz, G = dz[0], G[0]
+        if not np.all(np.isfinite(dz)):
+            return 0.0, np.zeros(n)
+        if row is None:
+            p = dz[:2]
+            norm = max(float(np.hypot(*p)), 1e-300)
+            return -norm, -(p @ G[:2]) / norm * scale
+        return -sign * float(dz[row]), -sign * G[row] * scale
+
+    cons = []
+    for s in sets:
+        if s.kind == "disk":
+            a, b = s.cols
+            cons.append({"type": "ineq", "fun": lambda u, a=a, b=b: 1.0 - u[a] ** 2 - u[b] ** 2,
+                         "jac": lambda u, a=a, b=b: np.eye(n)[a] * (-2 * u[a]) + np.eye(n)[b] * (-2 * u[b])})
+        elif s.kind == "rhombus":
+            a, b = s.cols
+            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                g = np.zeros(n)
+                g[a], g[b] = -sa, -sb
+                cons.append({"type": "ineq", "fun": lambda u, g=g: 1.0 + g @ u, "jac": lambda u, g=g: g})
+    with np.errstate(all="ignore"):
+        res = minimize(fun, start / scale, jac=True, method="SLSQP", bounds=[(-1.0, 1.0)] * n, constraints=cons,
+                       options={"maxiter": maxiter, "ftol": 1e-15})
+    cand = project(sets, res.x * scale)
+    dz = exact_change(model, M, cand[None])[0]
+    if np.all(np.isfinite(dz)):
+        val = float(_objective(q, dz))
+        if val > best_val:
+            best_val, best = val, cand
+    return best_val, best
+
+
+def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
+    """First-order worst vertices ``(4, n_dp, N, n)``: of dx, dy, dphi (signs of the rows of ``M``, as
+    :func:`pmaccuracy.model.sources.worst_configuration`; repeated) and of ``|dp|`` (the vertices maximizing ``u . p``
+    for the ``n_dp`` best local maxima over 720 directions ``u`` of the support function: the nonlinear
+    maximum may belong to a direction that is not the first-order best)."""
+    N = M.shape[0]
+    starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
+    ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    rowmap = np.einsum("kr,nrd->nkd", u, M[:, :2, :])
+    h = support(sets, rowmap)  # (N, 720)
+    peak = (h >= np.roll(h, 1, axis=-1)) & (h >= np.roll(h, -1, axis=-1))
+    order = np.argsort(np.where(peak, -h, np.inf), axis=-1)[:, :n_dp]  # best local maxima first
+    order = np.where(np.take_along_axis(peak, order, axis=-1), order, order[:, :1])  # fewer peaks: repeat the best
+    starts.append(np.stack([argsupport(sets, rowmap[np.arange(N), order[:, k]]) for k in range(n_dp)]))
+    return np.stack(starts)
+
+
+def _objective_gradient(dz: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values ``(4, ...)`` of |dx|, |dy|, |dphi|, |dp| at ``dz (4, ..., 9)`` (quantity q on slice q) and their
+    gradients ``(4, ..., n)`` in ``delta`` from ``G = dDz/ddelta`` ``(4, ..., 9, n)``."""
+    vals, grads = [], []
+    for j in range(3):
+        sgn = np.where(dz[j, ..., j] < 0, -1.0, 1.0)
+        vals.append(np.abs(dz[j, ..., j]))
+        grads.append(sgn[..., None] * G[j, ..., j, :])
+    p = dz[3, ..., :2]
+    norm = np.hypot(p[..., 0], p[..., 1])
+    unit = p / np.where(norm > 0, norm, 1.0)[..., None]
+    vals.append(norm)
+    grads.append(np.einsum("...r,...rd->...d", unit, G[3, ..., :2, :]))
+    return np.stack(vals), np.stack(grads)
+
+
+def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish: int = 0
+               ) -> tuple[dict, dict, dict]:
+    """Best feasible exact values ``{q: (N,)}``, their ``delta`` ``{q: (N, n)}`` and the exact values at the
+    first-order worst vertices ``{q: (N,)}`` (:func:`nonlinear_pose_errors`)."""
+    N, n = M.shape[0], model.n
+    if n == 0:
+        z = {q: np.zeros(N) for q in QUANTITIES}
+        return z, {q: np.zeros((N, 0)) for q in QUANTITIES}, dict(z)
+    d0 = _first_order_starts(sets, M)  # (4, 3, N, n)
+    cur = np.concatenate([d0, -d0], axis=1)  # (4, 6, N, n): both signs of each vertex
+    dz, G = exact_change(model, M, cur, gradient=True)
+    val, grad = _objective_gradient(dz, G)
+    val = np.where(np.isfinite(val), val, -np.inf)
+    vertex = np.max(val, axis=1)  # (4, N)
+    for _ in range(iterations):
+        # successive linearization: the vertex maximizing the exact gradient's linear form over S
+        cand = argsupport(sets, grad)
+        dzc, Gc = exact_change(model, M, cand, gradient=True)
+        vc, gc = _objective_gradient(dzc, Gc)
+        better = np.isfinite(vc) & (vc > val * (1 + 1e-15))
+        if not np.any(better):
+            break
+        cur = np.where(better[..., None], cand, cur)
+        val = np.where(better, vc, val)
+        grad = np.where(better[..., None], gc, grad)
+    pick = np.argmax(val, axis=1)  # (4, N)
+    best_val = np.take_along_axis(val, pick[:, None, :], axis=1)[:, 0]
+    best = np.take_along_axis(cur, pick[:, None, :, None], axis=1)[:, 0]
+    if polish:
+        for k in range(N):
+            mk, Mk = _take(model, k), M[k:k + 1]
+            for qi, q in enumerate(QUANTITIES):
+                v, d = _ascent(mk, Mk, sets, q, best[qi, k], polish)
+                if v > best_val[qi, k]:
+                    best_val[qi, k], best[qi, k] = v, d
+    lower = {q: np.where(np.isfinite(best_val[qi]), best_val[qi], np.nan) for qi, q in enumerate(QUANTITIES)}
+    worst = {q: best[qi] for qi, q in enumerate(QUANTITIES)}
+    at_vertex = {q: np.where(np.isfinite(vertex[qi]), vertex[qi], np.nan) for qi, q in enumerate(QUANTITIES)}
+    return lower, worst, at_vertex
