@@ -14,7 +14,8 @@ import pytest
 from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.accuracy.global_worst import as_sources, leg_branches
-from pmaccuracy.accuracy.interval import Cv, Iv, angle_meets_range, box_maxima, cv_angle, iv_abs, iv_arccos, iv_cos, iv_sin, iv_sqr, iv_sqrt, leg_box_state, v_cv
+from pmaccuracy.accuracy.interval import box_maxima, leg_box_state
+from pmaccuracy.numerics.interval import Cv, Iv, angle_meets_range, cv_angle, iv_abs, iv_arccos, iv_cos, iv_sin, iv_sqr, iv_sqrt, v_cv
 from pmaccuracy.kinematics import inverse_kinematics
 from pmaccuracy.io.resolve import load_clearances
 from pmaccuracy.kinematics.workspace import home_pose

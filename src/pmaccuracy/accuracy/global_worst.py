@@ -148,7 +148,7 @@ def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
     Raises :class:`ConfigError` when every leg has an unlimited slide (give a box).
     """
     ph = Iv(np.array([phi[0]]), np.array([phi[1]]))
-    from .interval import cv_expi
+    from ..numerics.interval import cv_expi
     e = cv_expi(ph)
     xs, ys = [-np.inf, np.inf], [-np.inf, np.inf]
     for chain in robot.chains:
