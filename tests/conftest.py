@@ -18,6 +18,7 @@ Contents
 from __future__ import annotations
 
 import copy
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -31,6 +32,14 @@ from hypothesis import strategies as st
 from pmaccuracy.errors import ConfigError, GeometryError
 from pmaccuracy.model.manipulator import Leg, Manipulator
 from pmaccuracy.kinematics import inverse_kinematics, jacobians
+
+# The suite mirrors the package's layers (tests/model, tests/accuracy, ...); its independent references live
+# in tests/reference. Both folders are importable by plain name from every test module (``import
+# error_reference``, ``from conftest import ...``).
+_HERE = Path(__file__).resolve().parent
+for _folder in (_HERE / "reference", _HERE):
+    if str(_folder) not in sys.path:
+        sys.path.insert(0, str(_folder))
 
 # Property tests run derandomized and without an example database: CI (a clean clone) and a developer's
 # machine see the same examples, so a run's result does not depend on what an earlier run happened to find.

@@ -28,7 +28,7 @@ problems of :mod:`pmaccuracy.accuracy.bounds` exactly solvable.
 
 The text of Eq. 9, 10, 13 and 20b is garbled in the available copy; everything
 here is derived from Eq. 6-8 and checked against finite differences of the
-exact model (``tests/test_error_model.py``).
+exact model (``tests/accuracy/test_error_model.py``).
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ DEFAULT_ZARR_TILE = 1024
 #: Bytes per grid point of a map: four float64 variables.
 BYTES_PER_POINT = 8 * len(MAP_VARIABLES)
 #: Peak memory of an in-memory map relative to its dataset (measured by benchmarks/bench_maps.py and
-#: tests/test_maps.py), used to refuse maps that would not fit.
+#: tests/accuracy/test_maps.py), used to refuse maps that would not fit.
 MEMORY_FACTOR = 1.3
 
 

@@ -95,7 +95,7 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     ``noise_mm`` on x and y and ``noise_deg`` on phi (Sec. 5: 0.01 mm, 0.01 deg),
     drawn from ``numpy.random.default_rng(seed)``.
 
-    What to expect (derived; checked in ``tests/test_experiment.py``).
+    What to expect (derived; checked in ``tests/experiment/test_experiment.py``).
     With ``take_up = 1`` and no noise, the first-order readings of ``+x`` and
     ``-x`` are ``x_nom +- dx_max`` and every other reading lies in between (all
     are points of the symmetric error set), so the range of Eq. 23a is exactly

@@ -3,7 +3,7 @@
 Reading goes through ``pyarrow.csv`` (multithreaded C++ parser, correctly rounded
 float conversion), writing through ``pyarrow.csv.write_csv`` (shortest decimal
 that converts back to the same double). Both keep every float exactly: a value
-written and read back is bit-identical (``tests/test_csvio.py`` checks this
+written and read back is bit-identical (``tests/io/test_csvio.py`` checks this
 with hypothesis). ``pyarrow`` is imported only when a CSV is read or written.
 
 Any file the fast reader does not accept as clean numbers (a bad value, a

@@ -1,4 +1,4 @@
-"""Self-tests of the independent planar reference (tests/planar_reference.py).
+"""Self-tests of the independent planar reference (tests/reference/planar_reference.py).
 
 The reference's methods are checked against each other (per-architecture IK vs chain IK in closed form
 vs multi-start Newton; FK scan vs IK; finite-difference Jacobians vs constraint wrenches; workspace by
@@ -16,7 +16,7 @@ import pytest
 
 import planar_reference as pr
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 GENERATORS = {"rpr": pr.random_rpr, "rrr": pr.random_rrr, "prr": pr.random_prr, "chain": pr.random_chain}
 
 

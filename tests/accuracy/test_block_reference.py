@@ -1,4 +1,4 @@
-"""Self-check of tests/block_reference.py against hand-derived closed forms (no pmaccuracy import)."""
+"""Self-check of tests/reference/block_reference.py against hand-derived closed forms (no pmaccuracy import)."""
 
 from __future__ import annotations
 

@@ -12,7 +12,7 @@ import pytest
 from pmaccuracy.cli import main
 from pmaccuracy.experiment import PUSHES, load_measurements
 
-HAND = Path(__file__).parent / "data" / "hand_measurements.csv"
+HAND = Path(__file__).resolve().parents[1] / "data" / "hand_measurements.csv"
 HAND_LINES = HAND.read_text(encoding="utf-8").splitlines()
 POINT_KEYS = {"point", "x_nom", "y_nom", "phi_nom_deg", "dx", "dy", "dphi_deg", "dp", "dx_max", "dy_max",
               "dphi_max_deg", "dp_max"}

@@ -31,7 +31,7 @@ from pmaccuracy.experiment import PUSHES, Measurements, compare, grid_poses, loa
 from pmaccuracy.report.experiment_plots import plot_boxplots
 from pmaccuracy.report.experiment_report import virtual_experiment_section, write_report
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 HAND = DATA / "hand_measurements.csv"
 HAND_LINES = HAND.read_text(encoding="utf-8").splitlines()
 

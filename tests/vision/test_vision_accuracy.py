@@ -1,4 +1,4 @@
-"""The issue's acceptance claims on an independent renderer of the paper's camera (tests/camera_reference.py).
+"""The issue's acceptance claims on an independent renderer of the paper's camera (tests/reference/camera_reference.py).
 
 Camera: 1280 x 1024 px of 7.4 um, f = 25 mm, 340 mm above the plane, optical
 axis tilted 2.5 deg, about 4 px of lens distortion at the image corner, 30 %

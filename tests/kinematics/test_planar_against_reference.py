@@ -87,7 +87,7 @@ def test_every_assembly_mode_is_found(kind):
 
 
 def test_six_real_assembly_modes():
-    data = tomllib.loads((Path(__file__).parent / "data" / "rpr_six_modes.toml").read_text())
+    data = tomllib.loads((Path(__file__).resolve().parents[1] / "data" / "rpr_six_modes.toml").read_text())
     example = data.pop("fk_example")
     robot = Manipulator.from_dict(data, source="rpr_six_modes.toml")
     fk = forward_kinematics(robot, example["lengths"])

@@ -30,7 +30,7 @@ from pmaccuracy.model.legs import Chain, ChainLeg, Joint, RPRLeg
 from reference_model import directions, leg_params, own_A, own_ik, random_robot, rot90, vec
 
 PRESETS = ("aalborg_3ppr", "symmetric_3ppr", "symmetric_3rpr", "symmetric_3rrr", "symmetric_3prr")
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def run(args, capsys):
