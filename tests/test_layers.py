@@ -135,6 +135,28 @@ def test_no_import_cycles():
     assert not edges, "modules importing each other in a cycle: " + ", ".join(f"{a} -> {b}" for a, b in sorted(edges))
 
 
+#: Where an import of the package's own modules may sit inside a function: the command line loads each
+#: command's module (and what it needs) only when that command runs, so that ``pmaccuracy bounds`` starts
+#: without the map, vision or report code (tests/io/test_csvio.py measures it).
+LAZY_OK = ("pmaccuracy.cli",)
+
+
+def test_imports_inside_functions_only_where_lazy_loading_is_the_point():
+    """An import inside a function is for an optional heavy dependency (``_optional.require``) or the command
+    line's lazy loading, never to hide a cycle."""
+    found = []
+    for path in SRC.rglob("*.py"):
+        mod = module_name(path)
+        if mod.startswith(LAZY_OK) or layer_of(mod) is None:
+            continue
+        for f in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                for node in ast.walk(f):
+                    if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith("pmaccuracy")):
+                        found.append(f"{mod}:{node.lineno}")
+    assert not found, "imports of the package inside functions: " + ", ".join(sorted(found))
+
+
 @pytest.mark.parametrize("name", sorted(ALIASES))
 def test_old_module_names_are_deprecated_aliases(name):
     import importlib

@@ -54,6 +54,14 @@ from ..errors import ConfigError
 from ..model.manipulator import Manipulator, perp
 from ..io.resolve import legs_values
 from ..kinematics import DEFAULT_MAX_CONDITION, LIMIT_TOLERANCE, as_poses, check_within_limits
+from ..io.resolve import clearances_arg, robot_arg
+from ..kinematics import _raise_serial, _raise_singular, ik_from_states
+from ..kinematics import leg_states
+from ..kinematics import raw_transmission
+from ..model import plausibility
+from ..model.sources import ErrorSources
+from ..model.sources import states_half_widths
+from .error_model import VARIATION_UNITS
 
 #: The four quantities of Eq. 21-22, in output order.
 QUANTITIES = ("dx", "dy", "dphi", "dp")
@@ -179,8 +187,6 @@ def tolerances_arg(tolerances: Any, name: str = "tolerances") -> dict[str, np.nd
 def load_tolerances(spec: str) -> dict[str, np.ndarray]:
     """Tolerance half-widths from a variations TOML file or preset (see
     :func:`pmaccuracy.accuracy.error_model.load_variations`); negative or non-finite values are refused."""
-    from ..model import plausibility
-    from .error_model import VARIATION_UNITS
 
     try:
         tolerances = _check_tolerances(load_variations(spec))
@@ -277,8 +283,6 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     >>> round(float(b.dy_max), 6), round(float(b.dphi_max_deg), 4)
     (0.099851, 0.2202)
     """
-    from ..io.resolve import clearances_arg, robot_arg
-    from ..model.sources import ErrorSources
 
     robot = robot_arg(robot)  # preset names and files too; wrong types/shapes: ConfigError naming the parameter
     clearances = clearances_arg(clearances, robot)
@@ -378,7 +382,6 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
     number of the homogenized ``A`` (:data:`~pmaccuracy.kinematics.DEFAULT_MAX_CONDITION`)
     and the legs' transmission indices, for the caller to refuse or blank poses.
     """
-    from ..kinematics import leg_states
 
     states = leg_states(robot, poses)
     n = poses.shape[0]
@@ -407,9 +410,7 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
                               abs_X[2][0] + abs_X[2][1] + L * abs_X[2][2])
         cond = norm_A * norm_inv * inv_abs_det
         cond = np.where(np.isfinite(cond), cond, np.inf)
-    from ..kinematics import raw_transmission
     trans = raw_transmission(robot, states)
-    from ..model.sources import states_half_widths
     c = states_half_widths(robot, sources, states, poses)
     with np.errstate(invalid="ignore", over="ignore"):
         w = [c[:, i] * inv_abs_det for i in range(3)]
@@ -448,7 +449,6 @@ def _refuse(robot: Manipulator, poses: np.ndarray, block: _Block, allow_outside:
             singular: str) -> np.ndarray:
     """Raise for the first pose outside the ranges (unless allowed) or singular (``singular="raise"``);
     returns the mask of regular poses."""
-    from ..kinematics import _raise_serial, _raise_singular, ik_from_states
 
     if not np.all(block.reachable):  # a leg that cannot reach a pose: no model at all
         check_within_limits(robot, poses, ik_from_states(robot, block.states))
@@ -496,8 +496,6 @@ def bounds_or_nan(robot: Manipulator, clearances, poses: np.ndarray,
                   max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
     """``(n, 4)`` [dx_max mm, dy_max mm, dphi_max deg, dp_max mm] at poses ``(n, 3)``, NaN outside the joint
     ranges or near a singularity (one pass: the maps' kernel; no error is raised)."""
-    from ..io.resolve import clearances_arg, robot_arg
-    from ..model.sources import ErrorSources
 
     robot = robot_arg(robot)
     clearances = clearances_arg(clearances, robot)
@@ -587,7 +585,6 @@ def slsqp_max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: n
     This is a baseline for cross-checks and benchmarks, orders of magnitude
     slower than :func:`max_pose_errors`, and never above it (to rounding).
     """
-    from ..io.resolve import clearances_arg, robot_arg
 
     robot = robot_arg(robot)
     clearances = clearances_arg(clearances, robot)

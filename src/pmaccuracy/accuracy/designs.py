@@ -41,6 +41,7 @@ from ..errors import ConfigError
 from ..model.manipulator import Manipulator, round_trip_degrees
 from ..kinematics import DEFAULT_MAX_CONDITION, regular_mask
 from ..kinematics.workspace import Workspace, constant_orientation_workspace
+from ..io.resolve import clearances_arg, robot_arg
 
 #: The compared quantities, in the order of the last axis of every value array (mm, mm, rad, mm).
 QUANTITIES = ("dx_max", "dy_max", "dphi_max", "dp_max")
@@ -314,7 +315,6 @@ def compare_designs(robots: Sequence[Manipulator], clearances: Sequence, phis: S
     ``clearances`` has one entry per robot, as returned by
     :func:`pmaccuracy.load_clearances` for that robot.
     """
-    from ..io.resolve import clearances_arg, robot_arg
 
     if isinstance(robots, (str, os.PathLike)) or isinstance(clearances, (str, os.PathLike)):
         raise ConfigError("expected one entry per robot (a list), got a single name", key="robots/clearances")

@@ -78,6 +78,12 @@ from ..errors import ConfigError
 from ..model.sources import ErrorSources, JointDisplacements
 from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
+from ..kinematics import inverse_kinematics
+from ..model.sources import first_order_error
+from .bounds import max_pose_errors
+from .maps import error_map
+from .maps import save_map
+from .nonlinear import joint_displaced_pose
 
 #: Laws of a source inside its set.
 LAWS = ("uniform", "truncnormal", "boundary")
@@ -255,8 +261,6 @@ def error_jacobian(robot, sources: ErrorSources, poses: np.ndarray) -> np.ndarra
     Column ``k`` is :func:`pmaccuracy.model.sources.first_order_error` of the configuration with variable ``k`` at 1
     (mm or rad) and the others at 0; the error is linear, so ``dX = J z``.
     """
-    from ..kinematics import inverse_kinematics
-    from ..model.sources import first_order_error
 
     poses = np.asarray(poses, dtype=float)
     terms = source_terms(sources)
@@ -406,7 +410,6 @@ def sample_pose_errors(robot, clearances, poses: np.ndarray, n: int, *, seed: in
 def exact_pose_errors(robot, sources: ErrorSources, pose: np.ndarray, Z: np.ndarray) -> np.ndarray:
     """Exact pose errors ``(n, 3)`` [mm, mm, rad] of source states ``Z`` ``(n, K)`` at one pose ``(3,)``: the
     loops closed with the sources inserted (:func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`), minus the pose."""
-    from .nonlinear import joint_displaced_pose
 
     pose = np.asarray(pose, dtype=float)
     poses = np.broadcast_to(pose, (Z.shape[0], 3)).copy()
@@ -493,7 +496,6 @@ def pose_statistics(robot, clearances, pose, *, samples: int = 100_000, seed: in
     ``quantities``: per ``dx, dy, dp`` (mm) and ``dphi_deg`` (deg) the :func:`sample_statistics` (as floats),
     ``rss`` (analytic std; rms for dp) and ``worst`` (:func:`~pmaccuracy.accuracy.bounds.max_pose_errors`).
     """
-    from .bounds import max_pose_errors
 
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
@@ -559,7 +561,6 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     """
     import xarray as xr
 
-    from .maps import error_map
 
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
@@ -613,7 +614,6 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
 def save_region_statistics(ds, path: str | Path) -> Path:
     """Write :func:`region_statistics` as NetCDF (``.nc``) or CSV (``.csv``: the inside points, columns ``x, y,
     phi_deg`` and every variable; the ``dphi`` columns, in degrees, get a ``_deg`` suffix). Returns the path."""
-    from .maps import save_map
 
     path = Path(path)
     if path.suffix.lower() != ".csv":

@@ -43,7 +43,8 @@ import numpy as np
 from ..model import _tomlio
 from ..errors import ConfigError
 from ..model.manipulator import Manipulator, perp, unit
-from ..kinematics import DEFAULT_MAX_CONDITION, as_poses, inverse_kinematics, jacobians, regular_inverse
+from ..kinematics import DEFAULT_MAX_CONDITION, as_poses, inverse_kinematics, regular_inverse
+from ..io.resolve import robot_arg
 
 #: Variations of the link-parameter form (Eq. 10), in column order of :func:`error_jacobian`.
 LINK_VARIATIONS = ("a", "alpha", "s", "beta", "d", "gamma", "theta", "rho", "r", "psi")
@@ -239,7 +240,6 @@ def pose_error(robot: Manipulator, poses: np.ndarray | PoseState,
     """
     import os
 
-    from ..io.resolve import robot_arg
 
     robot = robot_arg(robot)
     if isinstance(variations, (str, os.PathLike)):

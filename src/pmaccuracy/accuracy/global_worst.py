@@ -45,6 +45,9 @@ from .interval import Iv, box_maxima, leg_box_state
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
 from ..model.sources import ErrorSources
 from ..io.resolve import robot_arg
+from ..io.resolve import load_clearances
+from ..kinematics.workspace import constant_orientation_workspace
+from ..numerics.interval import cv_expi
 
 #: Default relative gap ``(upper - lower) / lower`` of the certificate.
 DEFAULT_GAP = 1e-3
@@ -132,7 +135,6 @@ class GlobalWorst:
 def as_sources(robot: Manipulator, clearances) -> ErrorSources:
     """Per-joint :class:`~pmaccuracy.model.sources.ErrorSources` of a clearance object (3-PPR format converted)."""
     if not isinstance(clearances, (ClearanceSet, ErrorSources)):   # a preset name or a file
-        from ..io.resolve import load_clearances
 
         clearances = load_clearances(clearances, robot)
     if isinstance(clearances, ClearanceSet):
@@ -148,7 +150,6 @@ def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
     Raises :class:`ConfigError` when every leg has an unlimited slide (give a box).
     """
     ph = Iv(np.array([phi[0]]), np.array([phi[1]]))
-    from ..numerics.interval import cv_expi
     e = cv_expi(ph)
     xs, ys = [-np.inf, np.inf], [-np.inf, np.inf]
     for chain in robot.chains:
@@ -249,7 +250,6 @@ def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray
     """Corners of the constant-orientation workspaces at the orientations ``phis`` not in ``seen`` (which
     they are added to), inside the region's box: maxima often sit there (for a 3-PPR at fixed phi the
     half-widths are affine in the position, the maxima convex, so a maximum is at a corner)."""
-    from ..kinematics.workspace import constant_orientation_workspace
 
     out = [np.zeros((0, 3))]
     for phi in np.asarray(phis, dtype=float).ravel():
@@ -408,7 +408,6 @@ def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_ph
     the maxima ``(4,)`` (``dx, dy, dphi, dp``; mm, rad) and their poses ``(4, 3)``
     (NaN when no grid pose is in the workspace).
     """
-    from ..kinematics.workspace import constant_orientation_workspace
 
     phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
     best = np.full(4, -np.inf)

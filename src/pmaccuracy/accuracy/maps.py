@@ -47,6 +47,8 @@ from ..model.manipulator import Manipulator, round_trip_degrees
 from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
 from ..kinematics.workspace import constant_orientation_workspace
 from .._optional import require
+from .. import __version__
+from ..io.resolve import clearances_arg, robot_arg
 
 #: Map variables: name -> (units, long name).
 MAP_VARIABLES = {
@@ -158,7 +160,6 @@ def estimate_seconds(robot: Manipulator, clearances: ClearanceSet, phis: np.ndar
 
 def _prepare(robot, clearances, phis, n: int, max_condition: float):
     """Load and check the inputs of a map; returns ``robot, clearances, phis (rad), x, y``."""
-    from ..io.resolve import clearances_arg, robot_arg
 
     robot = robot_arg(robot)
     clearances = clearances_arg(clearances, robot)
@@ -184,7 +185,6 @@ def _coords(phis: np.ndarray, x: np.ndarray, y: np.ndarray) -> dict:
 
 def _attrs(robot: Manipulator, clearances: ClearanceSet) -> dict[str, str]:
     """Provenance attributes of a map (every value a string, as NetCDF-3 stores them)."""
-    from .. import __version__
 
     return {"title": f"Maximum pose errors of {robot.name} with clearances {clearances.name}",
             "robot": robot.name, "robot_toml": robot.to_toml(),

@@ -50,6 +50,7 @@ from ..model.sources import KEYS, ErrorSources, JointErrors, half_widths
 from ..io.resolve import load_clearances
 from .._optional import require
 from ..io.resolve import robot_arg
+from ..kinematics.workspace import constant_orientation_workspace
 
 #: Target names and their units on the command line / in files (dphi in degrees).
 TARGETS = {"dx": "mm", "dy": "mm", "dp": "mm", "dphi_deg": "deg"}
@@ -219,7 +220,6 @@ class Synthesis:
 def _region_grid(robot, region: Region, n: int) -> np.ndarray:
     """Initial constraint poses: an ``n x n`` grid of the region's box cut to the workspace's bounds at
     ``max(3, n // 3)`` orientations (one for a fixed phi), poses in the workspace only."""
-    from ..kinematics.workspace import constant_orientation_workspace
 
     out = [np.zeros((0, 3))]
     for phi in np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else max(3, n // 3)):

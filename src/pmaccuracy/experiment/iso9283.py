@@ -61,6 +61,13 @@ import numpy as np
 
 from ..errors import ConfigError, MeasurementFileError, SingularPoseError
 from ..io.resolve import robot_arg
+from ..accuracy.bounds import max_pose_errors
+from ..accuracy.distributions import Distribution
+from ..accuracy.distributions import as_sources
+from ..accuracy.distributions import error_jacobian, sample_sources
+from ..accuracy.distributions import to_displacements, source_terms
+from ..accuracy.nonlinear import joint_displaced_pose
+from ..kinematics import inverse_kinematics
 
 #: Header of a repeated-pose CSV file.
 REPEAT_COLUMNS = ("point", "x_nom", "y_nom", "phi_nom_deg", "cycle", "x", "y", "phi_deg")
@@ -309,7 +316,6 @@ def predicted_repeatability(robot, clearances, nominal: np.ndarray, cycles: int,
     """RP_l and RP_phi the clearance model predicts at commanded poses ``(m, 3)`` [mm, mm, rad] for ISO tests
     of ``cycles`` cycles: ``tests`` simulated tests per point, each cycle a fresh source state
     (:func:`pmaccuracy.accuracy.distributions.sample_sources`) through the first-order model, plus Gaussian noise."""
-    from ..accuracy.distributions import as_sources, error_jacobian, sample_sources
 
     if int(cycles) != cycles or cycles < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {cycles}", key="cycles")
@@ -343,7 +349,6 @@ def simulate_repeats(robot, clearances, nominal: np.ndarray, cycles: int, *, dis
     with a fresh random source state inside the sets (:func:`pmaccuracy.accuracy.distributions.sample_sources`): the
     pose the perturbed loops close at (``model="exact"``, :func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`) or
     the first-order one, plus Gaussian noise (``noise_mm`` on x and y, ``noise_deg`` on phi)."""
-    from ..accuracy.distributions import as_sources, error_jacobian, sample_sources, to_displacements, source_terms
 
     if model not in ("exact", "first_order"):
         raise ConfigError(f"unknown reading model {model!r} (choose from exact, first_order)", key="model")
@@ -359,7 +364,6 @@ def simulate_repeats(robot, clearances, nominal: np.ndarray, cycles: int, *, dis
     if model == "first_order":
         attained = poses + np.einsum("pqk,pck->pcq", error_jacobian(robot, sources, nominal), Z)
     else:
-        from ..accuracy.nonlinear import joint_displaced_pose
 
         attained = joint_displaced_pose(robot, poses, to_displacements(source_terms(sources), Z))
     attained = attained + rng.standard_normal(attained.shape) * np.array([noise_mm, noise_mm,
@@ -379,8 +383,6 @@ def compare_repeatability(robot, clearances, repeats: RepeatedPoses | str | Path
     model's ``rp_l_model, rp_l_model_lo, rp_l_model_hi`` (mm), ``rp_phi_model_deg, rp_phi_model_lo_deg,
     rp_phi_model_hi_deg`` (deg).
     """
-    from ..accuracy.distributions import Distribution
-    from ..kinematics import inverse_kinematics
 
     robot = robot_arg(robot)
     if not isinstance(repeats, RepeatedPoses):
@@ -392,8 +394,6 @@ def compare_repeatability(robot, clearances, repeats: RepeatedPoses | str | Path
         raise MeasurementFileError(f"point {repeats.points[k]}: the commanded pose is outside the joint ranges",
                                    source=repeats.source, key=f"line {int(repeats.lines[k][repeats.lines[k] > 0].min())}"
                                    if repeats.lines[k].max() else None)
-    from ..accuracy.bounds import max_pose_errors
-    from ..accuracy.distributions import as_sources
 
     try:  # a commanded pose at or near a singularity has no model: refused, naming the point
         max_pose_errors(robot, as_sources(robot, clearances), repeats.nominal, allow_outside=True)

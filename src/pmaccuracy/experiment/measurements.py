@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, MeasurementFileError
+from ..model import plausibility
 
 #: Push directions, in the order of the readings' second axis.
 PUSHES = ("+x", "-x", "+y", "-y", "+r", "-r")
@@ -240,7 +241,6 @@ def load_measurements(path: str | Path, *, max_deviation_mm: float = MAX_DEVIATI
                        f"units (phi_deg and phi_nom_deg must be in degrees, not radians) or wrong point")
             raise _fail(src, msg, int(lines[k, j]))
 
-    from ..model import plausibility  # nominal orientations typed in radians: a warning
 
     plausibility.warn(plausibility.orientation_messages(nominal_arr[:, 2], f"{src}: column phi_nom_deg"))
     nominal_rad = nominal_arr.copy()

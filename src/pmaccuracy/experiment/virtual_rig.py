@@ -28,6 +28,11 @@ from .measurements import DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, Measurement
 from ..model.sources import ErrorSources
 from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
+from ..accuracy.nonlinear import displaced_pose
+from ..accuracy.nonlinear import joint_displaced_pose
+from ..kinematics import inverse_kinematics
+from ..kinematics.workspace import constant_orientation_workspace
+from ..model.sources import first_order_error, worst_configuration
 
 #: Reading models of the virtual experiment.
 MODELS = ("exact", "first_order")
@@ -121,7 +126,6 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     ConfigError : take_up outside [0, 1], negative noise, unknown model
     OutsideJointLimitsError, SingularPoseError : unusable nominal poses
     """
-    from ..accuracy.nonlinear import displaced_pose
 
     robot = robot_arg(robot)
     clearances = load_clearances(clearances, robot)
@@ -157,9 +161,6 @@ def _generic_pushes(robot: Manipulator, sources: ErrorSources, poses: np.ndarray
     of ``max_pose_errors(...).worst_signs["dx"]``), ``-x`` at the opposite one
     (the sets are symmetric), likewise y and the rotation; scaled by ``take_up``.
     """
-    from ..kinematics import inverse_kinematics
-    from ..accuracy.nonlinear import joint_displaced_pose
-    from ..model.sources import first_order_error, worst_configuration
 
     bounds = max_pose_errors(robot, sources, poses, details=True)
     joints = inverse_kinematics(robot, poses).joints
@@ -183,7 +184,6 @@ def grid_poses(robot: Manipulator, phi: float, grid: int) -> np.ndarray:
     (:func:`pmaccuracy.kinematics.regular_mask`), ordered by y, then x;
     coordinates rounded to 1e-10 mm.
     """
-    from ..kinematics.workspace import constant_orientation_workspace
 
     if int(grid) != grid or grid < 2:
         raise ConfigError(f"the grid needs at least 2 points per axis, got {grid}", key="grid")

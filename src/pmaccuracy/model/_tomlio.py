@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 import tomli_w
 
 from ..errors import ConfigError
+from . import plausibility
 
 
 def preset_names(folder: str) -> list[str]:
@@ -54,7 +55,6 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         source = text_spec
     parsed = parse_text(data, source)
     if kind == "robot" and source == text_spec:  # a user's robot file: angles typed in radians? (a warning)
-        from . import plausibility
 
         plausibility.warn([f"{source}: {m}" for m in plausibility.degree_key_messages(parsed)], stacklevel=3)
     return parsed, source

@@ -35,6 +35,8 @@ import numpy as np
 
 from . import _tomlio
 from ..errors import ClearanceError, ConfigError
+from . import plausibility
+from .sources import is_per_joint
 
 #: Keys of one ``[[legs]]`` table of a clearance file.
 CLEARANCE_KEYS = {"bearing_angle", "guide_lateral", "guide_block_length", "revolute_radial"}
@@ -103,7 +105,6 @@ class ClearanceSet(_tomlio.TomlPresets):
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ClearanceSet":
         """Build from the parsed TOML table."""
-        from .sources import is_per_joint
 
         if is_per_joint(data):
             raise ClearanceError("this file lists each leg's joints (the per-joint format of any architecture): "
@@ -123,7 +124,6 @@ class ClearanceSet(_tomlio.TomlPresets):
                     raise ClearanceError(exc.message, source=source, key=exc.key) from None
         name = data.get("name", Path(source).stem)
         result = cls(**columns, name=str(name), description=str(data.get("description", "")))
-        from . import plausibility  # values in unlikely units (um as mm, deg as rad): a warning each
 
         plausibility.warn(plausibility.clearance_set_messages(result, source), stacklevel=2)
         return result

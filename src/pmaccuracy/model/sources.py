@@ -66,6 +66,8 @@ import numpy as np
 from . import _tomlio
 from ..errors import ClearanceError, ConfigError
 from ..numerics.screws import cross, dot
+from . import plausibility
+from ..numerics.linalg import inverse_3x3
 
 #: Keys of one joint's table and the joint types they apply to ("A": the actuated joint).
 KEYS = {"radial": "RP", "actuator": "A", "angular": "P", "lateral": "P", "block_length": "P",
@@ -138,7 +140,6 @@ class ErrorSources:
         if not isinstance(name, str):
             raise ConfigError("must be a string", source=source, key="name")
         result = cls(legs=tuple(legs), name=name)
-        from . import plausibility  # values in unlikely units (um as mm, deg as rad): a warning each
 
         plausibility.warn(plausibility.error_sources_messages(result, source), stacklevel=2)
         return result
@@ -370,7 +371,6 @@ def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: Join
     ``e_i`` pairs each source's twist with leg ``i``'s constraint wrench
     (module docstring); ``joints`` ``(..., 3, 3)`` at the poses ``(..., 3)``.
     """
-    from ..numerics.linalg import inverse_3x3
 
     poses = np.asarray(poses, dtype=float)
     pz = poses[..., 0] + 1j * poses[..., 1]

@@ -34,6 +34,8 @@ from ..accuracy.maps import MAP_VARIABLES, error_map, save_map, summarize
 from ..accuracy.nonlinear import displaced_pose_error
 from ..kinematics.workspace import constant_orientation_workspace, save_workspace_figure
 from ..io.resolve import robot_arg
+from . import experiment_plots
+from .. import experiment as ex
 
 #: Orientations of the paper's experiments (deg).
 PAPER_PHIS_DEG = (0.0, 30.0)
@@ -441,8 +443,6 @@ def _virtual_experiment(robot: Manipulator, case: str, out_dir: Path, seed: int,
     (the one-sided maps are the same pictures at half the colour scale), the box
     plots, and the accuracy and width-consistent regression over both orientations.
     """
-    from .. import experiment as ex
-    from . import experiment_plots
 
     cs = ClearanceSet.load(case)
     prefix = f"{case}_"

@@ -30,6 +30,8 @@ from ..model.sources import ErrorSources, JointErrors, first_order_error, worst_
 from ..io.resolve import load_clearances
 from ..kinematics.workspace import constant_orientation_workspace, save_workspace_figure
 from ..io.resolve import robot_arg
+from .. import experiment as ex
+from ..accuracy.nonlinear import joint_displaced_pose
 
 #: Orientations of the report's maps and workspaces (deg).
 REPORT_PHIS_DEG = (0.0, 30.0)
@@ -184,7 +186,6 @@ def _nonlinear_section(doc, robot, sources, ds, results) -> None:
         pose = poses[j, i][None]
         b = max_pose_errors(robot, sources, pose, details=True)
         joints = inverse_kinematics(robot, pose).joints
-        from ..accuracy.nonlinear import joint_displaced_pose
         for q, row in (("dx", 0), ("dy", 1), ("dphi", 2), ("dp", None)):
             cfg = worst_configuration(robot, sources, joints, pose, b.worst_signs[q])
             lin = first_order_error(robot, joints, pose, cfg)[0]
@@ -207,7 +208,6 @@ def _nonlinear_section(doc, robot, sources, ds, results) -> None:
 
 
 def _experiment_section(doc, robot, sources, phi, seed, out, results, renderer) -> None:
-    from .. import experiment as ex
 
     doc.heading("5. Virtual experiment (the paper's push protocol)")
     meas = ex.simulate_experiment(robot, sources, phi, 5, seed=seed)

@@ -40,6 +40,16 @@ from ..model.clearances import ClearanceSet
 from .document import Document
 from ..model.manipulator import Manipulator
 from ..io.resolve import robot_arg
+from ..accuracy.bounds import max_pose_errors
+from ..accuracy.certified import QUANTITIES, certified_pose_errors
+from ..accuracy.distributions import pose_statistics
+from ..accuracy.global_worst import global_worst, make_region
+from ..accuracy.synthesis import default_template, parse_targets, synthesize
+from ..experiment import iso9283
+from ..experiment.virtual_rig import grid_poses
+from ..kinematics import inverse_kinematics
+from ..kinematics.workspace import constant_orientation_workspace
+from .statistics_report import statistics_section
 
 #: Clearance cases and scale factors of table (a).
 CASES = ("case1", "case2")
@@ -88,8 +98,6 @@ def _ready(value):
 def home_pose(robot: Manipulator) -> np.ndarray:
     """The home pose ``(3,)`` [mm, mm, rad]: ``(0, 0, 0)`` when the robot reaches it, else the mean of the
     phi = 0 workspace's vertices."""
-    from ..kinematics import inverse_kinematics
-    from ..kinematics.workspace import constant_orientation_workspace
 
     home = np.zeros(3)
     if bool(np.asarray(inverse_kinematics(robot, home[None]).within_limits)[0]):
@@ -103,8 +111,6 @@ def check_poses(robot: Manipulator, case: str) -> tuple[np.ndarray, list[str]]:
     workspace with the largest first-order ``dp`` and the corner of the workspaces at the ends of
     :data:`PHI_RANGE_DEG` with the largest one (for a 3-PPR at fixed phi every maximum is convex in the
     position, so these are the worst poses of those orientations)."""
-    from ..accuracy.bounds import max_pose_errors
-    from ..kinematics.workspace import constant_orientation_workspace
 
     cs = ClearanceSet.load(case)
     poses, labels = [home_pose(robot)], ["home"]
@@ -125,7 +131,6 @@ def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: lis
     gap}}`` (mm; deg for ``dphi_deg``) from :func:`pmaccuracy.accuracy.certified.certified_pose_errors` of
     ``ClearanceSet.load(case).scaled(scale)`` (``allow_outside``: the corners lie on the workspace's boundary;
     NaN / None and ``reason`` where no certificate)."""
-    from ..accuracy.certified import QUANTITIES, certified_pose_errors
 
     rows = []
     for scale in scales:
@@ -146,7 +151,6 @@ def global_job(robot: Manipulator, case: str, phi_deg=PHI_RANGE_DEG, gap: float 
     """(b): :func:`pmaccuracy.accuracy.global_worst.global_worst` of ``case`` over the workspace at ``phi`` in
     ``phi_deg``: per quantity ``lower`` (attained at ``x, y, phi_deg``), ``upper`` (certified), ``gap``,
     ``converged``; mm, deg for ``dphi_deg``."""
-    from ..accuracy.global_worst import global_worst, make_region
 
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
     res = global_worst(robot, ClearanceSet.load(case), region, gap=gap)
@@ -162,8 +166,6 @@ def synthesis_job(robot: Manipulator, mode: str, targets: dict = TARGETS, phi_de
     """(c): :func:`pmaccuracy.accuracy.synthesis.synthesize` (default template) for ``targets`` (``dp`` mm,
     ``dphi_deg`` deg) over the workspace at ``phi`` in ``phi_deg``: sources (template and synthesized values,
     mm / rad), ``scale`` (uniform) or ``cost`` (min-cost), and the re-verified certificate per quantity."""
-    from ..accuracy.global_worst import make_region
-    from ..accuracy.synthesis import default_template, parse_targets, synthesize
 
     t0 = time.perf_counter()
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
@@ -183,8 +185,6 @@ def statistics_job(robot: Manipulator, case: str, pose: np.ndarray, grid: int | 
     :data:`THRESHOLD_DP`) with a ``grid x grid`` percentile map at phi = 0 (written to ``figure``); with
     ``grid=None`` only the pose statistics (:func:`~pmaccuracy.accuracy.distributions.pose_statistics`, same
     settings): ``{"pose": ..., "threshold_dp": ...}``."""
-    from ..accuracy.distributions import pose_statistics
-    from .statistics_report import statistics_section
 
     if grid is None:
         return {"pose": pose_statistics(robot, case, pose, samples=POSE_SAMPLES, seed=seed,
@@ -199,9 +199,6 @@ def iso_job(robot: Manipulator, seed: int) -> dict:
     ``(seed, 9283)``) at the corners and centre of the 3 x 3 grid of the virtual experiment at phi = 0,
     compared with the model (:func:`pmaccuracy.experiment.iso9283.compare_repeatability`, same noise); each point
     also gets its worst case ``dp_max`` (mm) and ``dphi_max_deg``."""
-    from ..experiment import iso9283
-    from ..accuracy.bounds import max_pose_errors
-    from ..experiment.virtual_rig import grid_poses
 
     cs = ClearanceSet.load(ISO_CASE)
     grid = grid_poses(robot, 0.0, 3)

@@ -16,6 +16,7 @@ from ..accuracy.distributions import (Distribution, as_sources, pose_statistics,
 from ..errors import ConfigError
 from ..io.resolve import robot_arg
 from . import figures
+from ..accuracy.bounds import max_pose_errors
 
 
 def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = None,
@@ -61,7 +62,6 @@ def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, s
     """
     pose = np.array([0.0, 0.0, phi]) if pose is None else np.asarray(pose, dtype=float)
     if threshold_dp is None:
-        from ..accuracy.bounds import max_pose_errors
 
         robot = robot_arg(robot)
         threshold_dp = round(0.5 * float(max_pose_errors(robot, as_sources(robot, clearances), pose).dp_max), 4)

@@ -31,6 +31,10 @@ import numpy as np
 
 from ..errors import VisionError
 from ._util import DEFAULT_SPACING_MM
+from ..experiment import NOMINAL_TOLERANCE, PUSHES
+from ..experiment import Measurements
+from .images import load_image
+from .pose import measure_pose
 
 #: Columns of a manifest, in order.
 MANIFEST_COLUMNS = ("image", "point", "x_nom", "y_nom", "phi_nom_deg", "push")
@@ -49,7 +53,6 @@ class ManifestRow:
 
 def read_manifest(path: str | Path) -> list[ManifestRow]:
     """Read and check a manifest (module docstring); every problem is a :class:`VisionError` naming file and line."""
-    from ..experiment import NOMINAL_TOLERANCE, PUSHES
 
     path = Path(path)
     src = str(path)
@@ -125,9 +128,6 @@ def measure_batch(rows: Sequence[ManifestRow], calibration: Any, *, height_mm: f
 
     The first photo that fails raises :class:`VisionError` naming it and its manifest line.
     """
-    from ..experiment import PUSHES, Measurements
-    from .images import load_image
-    from .pose import measure_pose
 
     calibration.plane_at(height_mm)  # refuses a height a single-view calibration cannot measure, before any work
     order: dict[str, int] = {}

@@ -69,6 +69,7 @@ from .camera import CameraModel, disk_image_bias, image_to_plane, local_scale, p
 from .detection import Blobs, find_blobs
 from .grid import find_grid
 from .._optional import require
+from ..model import _tomlio
 
 MODELS = ("multi-view", "single-view")
 MULTI_VIEW_PARAMETERS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "rx", "ry", "rz", "tx_mm", "ty_mm",
@@ -266,7 +267,6 @@ class Calibration:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Calibration":
         """Build from the parsed TOML; every problem is a :class:`ConfigError` naming ``source`` and the key."""
-        from ..model import _tomlio
 
         table = data.get("calibration")
         if not isinstance(table, dict):
@@ -347,7 +347,6 @@ class Calibration:
     @classmethod
     def from_toml(cls, path: str | Path) -> "Calibration":
         """Read a calibration TOML file written by :meth:`to_toml`."""
-        from ..model import _tomlio
 
         path = Path(path)
         source = str(path)

@@ -44,6 +44,7 @@ import numpy as np
 from ..errors import VisionError
 from ._util import DEFAULT_SPACING_MM, apply_homography
 from .camera import CameraModel, plane_matrix, plane_to_image, rotation_matrix
+from .pose import platform_markers
 
 #: The paper's camera (Sec. 5): sensor size (px), pixel pitch (mm), focal length (mm), height above the plane (mm).
 AALBORG_SIZE = (1280, 1024)
@@ -327,7 +328,6 @@ def calibration_pose(view: int, *, seed: int = 0, tilt_range_deg: tuple[float, f
 def platform_disks(sim: SimulatedCamera, x: float, y: float, phi: float, height_mm: float, *,
                    spacing_mm: float = DEFAULT_SPACING_MM, marker_radius_mm: float = 1.5) -> list[Disk]:
     """The 2 x 2 markers of the platform pose ``(x, y, phi)`` (mm, mm, rad), ``height_mm`` above the plane."""
-    from .pose import platform_markers
 
     m = sim.plane(height_mm)
     return [Disk((float(p[0]), float(p[1])), marker_radius_mm, m, sim.reflectance_dots)

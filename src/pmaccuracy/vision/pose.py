@@ -33,6 +33,7 @@ from ._util import DEFAULT_SIDE_TOLERANCE, DEFAULT_SPACING_MM, PLATFORM_MARKERS,
 from .detection import Blobs, find_blobs
 from .images import as_gray
 from .._optional import require
+from .camera import disk_image_bias, local_scale
 
 #: Largest ratio between marker areas accepted within one set of four.
 MAX_AREA_RATIO = 1.5
@@ -280,7 +281,6 @@ def pose_from_markers(markers_px: np.ndarray, *, calibration: Any | None = None,
             return calibration.image_to_plane(p, height_mm)
 
         if area_px is not None and len(pts) == PLATFORM_MARKERS:
-            from .camera import disk_image_bias, local_scale
 
             plane = calibration.plane_at(height_mm)
             radius = np.sqrt(np.asarray(area_px, float) * local_scale(calibration.camera, plane, pts) / math.pi)

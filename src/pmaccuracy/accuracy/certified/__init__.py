@@ -209,6 +209,7 @@ from .remainder import (  # noqa: F401 (the package's names)
     _recentre,
     remainder_bounds,
 )
+from ..bounds import max_pose_errors
 
 
 # ============================================================================ certificate
@@ -308,7 +309,6 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     >>> bool(r.first_order["dx"][0] <= r.lower["dx"][0] <= r.upper["dx"][0])
     True
     """
-    from ..bounds import max_pose_errors
 
     if on_failure not in ("raise", "nan"):
         raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
@@ -380,7 +380,6 @@ def nonlinear_pose_errors(robot, clearances, poses, *, allow_outside: bool = Fal
     Returns a :class:`CertifiedPoseErrors` with ``lower`` (the values), ``worst``, ``first_order`` and, when
     the certificate holds, ``upper`` and ``gap`` (NaN otherwise); arguments as :func:`certified_pose_errors`.
     """
-    from ..bounds import max_pose_errors
 
     robot, sources, poses = _prepare(robot, clearances, poses)
     fo = max_pose_errors(robot, sources, poses, allow_outside=allow_outside)

@@ -10,6 +10,7 @@ import numpy as np
 
 from ...errors import NoSolutionError
 from .error_set import QUANTITIES, SourceSet
+from ...kinematics import inverse_kinematics
 
 
 # ============================================================================ closure as rotated terms
@@ -77,7 +78,6 @@ class _Model:
 def _build_model(robot, sets: tuple[SourceSet, ...], poses: np.ndarray) -> _Model:
     """Walk each leg's chain with the sources inserted (as :func:`pmaccuracy.accuracy.nonlinear._perturbed_end`) and
     collect the rotated terms and affine parts at the commanded configuration of ``poses`` ``(N, 3)``."""
-    from ...kinematics import inverse_kinematics
 
     N = poses.shape[0]
     n = sum(len(s.cols) for s in sets)

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from ...model.sources import JointDisplacements
 
 #: The four quantities, in output order.
 QUANTITIES = ("dx", "dy", "dphi", "dp")
@@ -209,7 +210,6 @@ def project(sets: tuple[SourceSet, ...], delta: np.ndarray) -> np.ndarray:
 def to_displacements(sets: tuple[SourceSet, ...], delta: np.ndarray):
     """``delta (..., n)`` as :class:`~pmaccuracy.model.sources.JointDisplacements` ``(..., 3, 3)`` (the
     configuration format of :mod:`pmaccuracy.model.sources` and :func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`)."""
-    from ...model.sources import JointDisplacements
 
     cfg = JointDisplacements.zeros(delta.shape[:-1])
     for s in sets:

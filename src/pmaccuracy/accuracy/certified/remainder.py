@@ -22,12 +22,12 @@ from .error_set import (
     error_set,
     support,
 )
+from ...io.resolve import load_clearances
+from ...model.manipulator import Manipulator
+from ...model.sources import ErrorSources
 
 
 def _prepare(robot, clearances, poses):
-    from ...io.resolve import load_clearances
-    from ...model.manipulator import Manipulator
-    from ...model.sources import ErrorSources
 
     if not isinstance(robot, Manipulator):
         robot = robot_arg(robot)
