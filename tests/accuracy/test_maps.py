@@ -399,3 +399,24 @@ def test_refuses_a_map_larger_than_memory():
     """A grid whose result needs terabytes is refused before anything is allocated."""
     with pytest.raises(ConfigError, match="zarr"):
         error_map(AALBORG, CASE1, PHIS, 400_000)
+
+
+def test_csv_map_written_block_by_block_is_the_same_file(tmp_path, monkeypatch):
+    """The CSV writer goes block by block of grid rows (for memory); any block size writes the same bytes, and
+    the rows are the map's finite points in (phi, y, x) order."""
+    import numpy as np
+
+    from pmaccuracy.accuracy import maps as M
+
+    ds = M.error_map("aalborg_3ppr", "case1", np.radians([0.0, 30.0]), 23, progress=False)
+    whole = M.save_map(ds, tmp_path / "whole.csv").read_bytes()
+    monkeypatch.setattr(M, "CSV_BLOCK_POINTS", 7)   # 1 grid row a block
+    assert M.save_map(ds, tmp_path / "rows.csv").read_bytes() == whole
+    monkeypatch.setattr(M, "CSV_BLOCK_POINTS", 50)  # 2 rows a block, a last block of 1
+    assert M.save_map(ds, tmp_path / "pairs.csv").read_bytes() == whole
+    lines = whole.decode().splitlines()
+    n_inside = int(np.isfinite(ds["dp_max"].values).sum())
+    assert len(lines) == 1 + n_inside
+    first = [float(v) for v in lines[1].split(",")]
+    k = np.argwhere(np.isfinite(ds["dp_max"].values))[0]
+    assert first[:2] == [float(ds.x.values[k[2]]), float(ds.y.values[k[1]])]

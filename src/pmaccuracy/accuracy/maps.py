@@ -509,23 +509,33 @@ def save_map(ds: xr.Dataset, path: str | Path) -> Path:
     return path
 
 
+#: Grid points of one block of :func:`_save_csv` (the peak memory of the CSV writer beyond the map: a few MiB).
+CSV_BLOCK_POINTS = 1 << 17
+
+
 def _save_csv(ds: xr.Dataset, path: Path) -> None:
-    """CSV of the inside points, layer after layer (rows in (phi, y, x) order); pyarrow writes the floats."""
+    """CSV of the inside points, layer after layer and block of grid rows after block (rows in (phi, y, x)
+    order); pyarrow writes the floats."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
     columns = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]
     options = pcsv.WriteOptions(include_header=False, quoting_style="none", batch_size=1 << 16)
-    X, Y = np.meshgrid(ds.x.values, ds.y.values)
+    xs, ys = ds.x.values, ds.y.values
+    rows = max(1, CSV_BLOCK_POINTS // max(1, xs.size))   # grid rows a block: its columns stay a few MiB
     with open(path, "wb") as fh:
         fh.write((",".join(columns) + "\n").encode())
         for k, phi in enumerate(ds.phi.values):
-            inside = np.ones(X.shape, dtype=bool)
-            for name in MAP_VARIABLES:
-                inside &= np.isfinite(ds[name].values[k])
-            values = [X[inside], Y[inside], np.full(int(inside.sum()), float(phi))]
-            values += [np.asarray(ds[name].values[k][inside], dtype=float) for name in MAP_VARIABLES]
-            pcsv.write_csv(pa.table(dict(zip(columns, values))), fh, options)
+            layers = [ds[name].values[k] for name in MAP_VARIABLES]
+            for r0 in range(0, ys.size, rows):
+                block = [layer[r0:r0 + rows] for layer in layers]
+                inside = np.ones(block[0].shape, dtype=bool)
+                for b in block:
+                    inside &= np.isfinite(b)
+                iy, ix = np.nonzero(inside)
+                values = [xs[ix], ys[r0 + iy], np.full(ix.size, float(phi))]
+                values += [np.asarray(b[inside], dtype=float) for b in block]
+                pcsv.write_csv(pa.table(dict(zip(columns, values))), fh, options)
 
 
 def load_map(path: str | Path) -> xr.Dataset:
