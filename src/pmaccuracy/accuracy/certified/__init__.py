@@ -24,10 +24,12 @@ Exact closure as a sum of rotated terms
 ---------------------------------------
 Let ``v = (z, delta)`` with ``z`` the nine unknowns (pose ``x, y, phi`` and the six passive joints) and
 write ``Delta = v - v0`` for the change from the commanded configuration ``v0 = (z0, 0)``. Walking each leg's
-chain (:func:`pmaccuracy.accuracy.nonlinear._perturbed_end`: shift and turn before joint ``k``, joint motion, lateral
-shift and tilt inside a slide, link) every frame angle is *affine* in ``v`` and every translation is a
-term ``r_m(v) exp(i theta_m(v))`` with ``r_m`` (complex) and ``theta_m`` affine, plus affine shifts. So
-the three closures are, for leg ``i``::
+chain (:func:`pmaccuracy.accuracy.nonlinear._perturbed_end`: shift and turn before joint ``k``, joint motion, a
+slide's block shifted and tilted about its centre (a bushing before the slide, a carriage after it), link)
+every frame angle is *affine* in ``v`` and every translation is a term ``r_m(v) exp(i theta_m(v))`` with
+``r_m`` (complex) and ``theta_m`` affine, plus affine shifts; terms whose angles differ by a constant are
+merged into one (:func:`~pmaccuracy.accuracy.certified.closure._merge_terms`). So the three closures are,
+for leg ``i``::
 
     F_i(v) = sum_m r_m exp(i theta_m) + (affine)  - p - exp(i phi) platform_i = 0      (complex, mm)
     G_i(v) = (affine frame angle) - phi - platform_angle_i = 0                          (rad, exact affine)
