@@ -76,7 +76,7 @@ def _meet_angles(a: Iv, b: Iv) -> Iv:
 def leg_box_state(chain, x: Iv, y: Iv, phi: Iv, sigma: float, tol: float = 1e-9) -> LegBox:
     """Interval version of the leg's inverse kinematics on branch ``sigma`` (:meth:`Chain.state`) over boxes.
 
-    Mirrors the closed forms of :meth:`pmaccuracy.model.legs.Chain.ik_branches` (one R:
+    Mirrors the closed forms of :meth:`pmaccuracy.model.chain.Chain.ik_branches` (one R:
     two slides from a 2x2 system; two R: a quadratic in the slide, then the
     turning angle ``t`` from the angles of the matched vectors; three R: law of
     cosines, angles ``t`` and ``u``), vectors as phasor sums (:class:`Vec`).

@@ -1,7 +1,7 @@
 """Inverse and forward kinematics, Jacobians and singularities of any planar 3-leg manipulator.
 
 The paper's Sec. 3 (Eq. 1-5) in general form: every leg is a chain of three
-one-DOF joints (:class:`~pmaccuracy.model.legs.Chain`), solved in closed form; the
+one-DOF joints (:class:`~pmaccuracy.model.chain.Chain`), solved in closed form; the
 Jacobians come from the legs' constraint wrenches (screw theory,
 :mod:`pmaccuracy.numerics.screws`) and reduce to Eq. 4a/4b for the 3-PPR.
 
@@ -74,7 +74,7 @@ class IKSolution:
     within_limits: np.ndarray
     A: np.ndarray
     B: np.ndarray
-    #: The legs' :class:`~pmaccuracy.model.legs.LegState` (joint geometry and wrenches) behind these values.
+    #: The legs' :class:`~pmaccuracy.model.chain.LegState` (joint geometry and wrenches) behind these values.
     states: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -108,7 +108,7 @@ class IKSolution:
 def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT_TOLERANCE) -> IKSolution:
     """Joint values for poses, every leg on its working mode (closed form per leg).
 
-    Each leg solves its chain for the pose (:meth:`pmaccuracy.model.legs.Chain.inverse_kinematics`);
+    Each leg solves its chain for the pose (:meth:`pmaccuracy.model.chain.Chain.inverse_kinematics`);
     for the 3-PPR this is Eq. 2a/2b::
 
         s_i = (w_i^T E u_i)^-1 w_i^T E (p - a_i h_i - d_i v_i - r_i k_i)        (Eq. 2a)
@@ -134,7 +134,7 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
 
 
 def leg_states(robot: Manipulator, poses: np.ndarray) -> tuple:
-    """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.model.legs.LegState` (one pass per leg,
+    """Each leg on its working mode at poses ``(..., 3)``: :class:`~pmaccuracy.model.chain.LegState` (one pass per leg,
     ``exp(i phi)`` shared)."""
     phi = poses[..., 2]
     if phi.size > 1 and phi.min() == phi.max():   # one orientation (a map's layer): its rotation once
@@ -300,7 +300,7 @@ def eliminant(dyads, phi: np.ndarray) -> np.ndarray:
     """The univariate equation in ``phi`` whose real roots are the assembly modes.
 
     Each locked leg reads ``kappa_i |p|^2 + g_i(phi) . p + h_i(phi) = 0``
-    (:meth:`pmaccuracy.model.legs.Dyad.quadric`; ``kappa = 1`` for a circle, 0 for a
+    (:meth:`pmaccuracy.model.chain.Dyad.quadric`; ``kappa = 1`` for a circle, 0 for a
     line). Treat ``w = |p|^2`` as a third unknown of the linear system
     ``K [w, x, y]^T = -h`` with rows ``K_i = [kappa_i, g_ix, g_iy]``; by
     Cramer's rule ``w = W/D, x = X/D, y = Y/D`` and ``w = x^2 + y^2`` gives::
@@ -438,7 +438,7 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
     """Every assembly mode for actuator values ``q (..., 3)`` (mm or rad), whatever the working modes.
 
     1. Lock each leg's actuated joint: its two passive joints make a dyad,
-       ``kappa |p|^2 + g(phi) . p + h(phi) = 0`` (:meth:`pmaccuracy.model.legs.Chain.locked`).
+       ``kappa |p|^2 + g(phi) . p + h(phi) = 0`` (:meth:`pmaccuracy.model.chain.Chain.locked`).
     2. Eliminate ``p`` (:func:`eliminant`); sample it at 16 orientations, take
        its exact Fourier coefficients and the roots of the polynomial in
        ``exp(i phi)`` on the unit circle (batched companion matrices). A leg
@@ -608,7 +608,7 @@ def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.nda
     ``A [p_dot; phi_dot] = B q_dot`` where row ``i`` of ``A`` is leg ``i``'s
     constraint wrench about P, ``[f_x, f_y, m_P]``, and ``B = diag(zeta_i . T_i)``
     its pairing with the actuated joint's twist
-    (:meth:`pmaccuracy.model.legs.Chain.screws`). For the 3-PPR
+    (:meth:`pmaccuracy.model.chain.Chain.screws`). For the 3-PPR
     ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` and ``B = diag(w_i^T E^T u_i)`` (Eq. 4a, 4b).
     NaN where a leg cannot reach the pose.
     """

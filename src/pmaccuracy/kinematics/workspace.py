@@ -3,9 +3,9 @@
 At a fixed orientation ``phi`` each joint limit ``q_k = lo`` or ``hi`` locks
 one joint of a leg; the two joints left make a dyad, whose platform point
 runs on a **circle** (two passive revolutes) or a **line** (a revolute and a
-slide) in ``(x, y)`` (:meth:`pmaccuracy.model.legs.Chain.locked`). Where a leg's
+slide) in ``(x, y)`` (:meth:`pmaccuracy.model.chain.Chain.locked`). Where a leg's
 two inverse-kinematics branches merge (``B_ii = 0``) the working mode's
-branch ends, again on circles or lines (:meth:`pmaccuracy.model.legs.Chain.boundary_curves`).
+branch ends, again on circles or lines (:meth:`pmaccuracy.model.chain.Chain.boundary_curves`).
 The workspace is therefore a region bounded by circular arcs and segments:
 
 1. split every candidate curve at its intersections with all the others;

@@ -60,7 +60,7 @@ class Manipulator(_tomlio.TomlPresets):
     paper, :class:`~pmaccuracy.model.legs.RPRLeg`, :class:`~pmaccuracy.model.legs.RRRLeg`,
     :class:`~pmaccuracy.model.legs.PRRLeg` or the general :class:`~pmaccuracy.model.legs.ChainLeg`,
     mixed as needed); every computation goes through their :attr:`chains`
-    (:class:`~pmaccuracy.model.legs.Chain`), so nothing above the legs depends on
+    (:class:`~pmaccuracy.model.chain.Chain`), so nothing above the legs depends on
     the architecture.
 
     For a 3-PPR the paper's per-leg parameters are available as arrays of
@@ -124,7 +124,7 @@ class Manipulator(_tomlio.TomlPresets):
     # ------------------------------------------------------------------ structure
     @cached_property
     def chains(self) -> tuple[Chain, Chain, Chain]:
-        """The legs in the general chain form (:class:`~pmaccuracy.model.legs.Chain`)."""
+        """The legs in the general chain form (:class:`~pmaccuracy.model.chain.Chain`)."""
         out = []
         for i, leg in enumerate(self.legs, start=1):
             try:

@@ -494,7 +494,7 @@ def error_generators(arm: SerialArm, sources: SerialErrorSources, q: np.ndarray
                 layout.disks[f"{name}.{key}"] = getattr(e, key)
         if e.actuator:
             add(f"{name}.actuator", [e.actuator * (rot(c) if joint.kind == "R" else tr(d))], [e.actuator])
-        block = c if joint.block_kind == "bushing" else c + q[..., k] * d
+        block = c + q[..., k] * d if joint.block_kind == "carriage" else c   # the P block's centre (R: unused)
         for key, centre in (("angular", block), ("direction", c)):
             if getattr(e, key):
                 add(f"{name}.{key}", [getattr(e, key) * rot(centre)], [getattr(e, key)])

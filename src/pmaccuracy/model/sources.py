@@ -2,7 +2,7 @@
 
 Hold the actuators. Every error source is a small displacement (a planar twist)
 of the part of a leg beyond it. Pairing that twist with the leg's constraint
-wrench ``zeta_i = (f, m_O)`` (:meth:`pmaccuracy.model.legs.Chain.screws`) gives the
+wrench ``zeta_i = (f, m_O)`` (:meth:`pmaccuracy.model.chain.Chain.screws`) gives the
 source's share of row ``i`` of ``A [dp; dphi] = e``. With ``M(c) = m_O - c x f``
 the wrench's moment about a point ``c`` (mm; the pairing with a unit rotation
 about ``c``), the sources of joint ``k`` of a leg and their largest ``|e_i|``:
@@ -24,7 +24,7 @@ key             displacement (inserted in the chain at joint k)          largest
 
 The **block** of a P joint is its short member (carriage, bushing, gland),
 which the clearance lets shift and tilt on the long one (rail, rod) about its
-own centre ``b_k`` (:attr:`pmaccuracy.model.legs.Joint.block_kind`): a *carriage*
+own centre ``b_k`` (:attr:`pmaccuracy.model.chain.Joint.block_kind`): a *carriage*
 travels with the joint value, ``b_k = c_k + q_k e_k`` (the default of an
 actuated P joint); a *bushing* sits at the joint's origin on the proximal part,
 ``b_k = c_k``, and the rod slides through it (the default of a passive P
@@ -203,7 +203,7 @@ class ErrorSources:
 
 
 def _leg_states(robot, joints: np.ndarray, poses: np.ndarray) -> tuple:
-    """Each leg's :class:`~pmaccuracy.model.legs.LegState` at joint values ``joints (..., 3, 3)`` and poses ``(..., 3)``."""
+    """Each leg's :class:`~pmaccuracy.model.chain.LegState` at joint values ``joints (..., 3, 3)`` and poses ``(..., 3)``."""
     return tuple(chain.state_at(joints[..., i, :], poses) for i, chain in enumerate(robot.chains))
 
 
@@ -258,7 +258,7 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
 
 def block_centre(joint, st, k: int):
     """Centre ``b_k`` (complex mm, base frame) of the block of P joint ``k`` in the leg state ``st``
-    (:class:`~pmaccuracy.model.legs.LegState`): ``c_k + q_k e_k`` for a carriage, ``c_k`` for a bushing
+    (:class:`~pmaccuracy.model.chain.LegState`): ``c_k + q_k e_k`` for a carriage, ``c_k`` for a bushing
     (module docstring). A carriage followed by no link is the next frame's origin.
 
     >>> from pmaccuracy.model.legs import Chain, Joint
