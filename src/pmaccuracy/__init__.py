@@ -62,7 +62,7 @@ _EXPORTS = {
     "GlobalWorst": "accuracy.global_worst", "QuantityWorst": "accuracy.global_worst",
     "error_map": "accuracy.maps", "save_map": "accuracy.maps", "load_map": "accuracy.maps",
     "synthesize": "accuracy.synthesis", "Synthesis": "accuracy.synthesis",
-    "pose_statistics": "accuracy.distributions",
+    "pose_statistics": "accuracy.distributions", "PoseStatistics": "accuracy.distributions",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

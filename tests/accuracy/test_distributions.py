@@ -140,7 +140,7 @@ def test_case1_at_home_is_a_sum_of_three_uniforms():
         ks = max(np.max(np.arange(1, N + 1) / N - F), np.max(F - np.arange(N) / N))
         assert ks <= math.sqrt(math.log(2 / 1e-4) / (2 * N)), ks
         scale = math.degrees(1) if name == "dphi" else 1.0
-        rec = res["quantities"]["dphi_deg" if name == "dphi" else name]
+        rec = res.quantities["dphi_deg" if name == "dphi" else name]
         # RSS = the analytic std; the Monte Carlo std within 4 of its standard errors
         sd = math.sqrt(dref.variance(uniforms, disks)) * scale
         assert rec["rss"] == pytest.approx(sd, rel=1e-6)
@@ -169,7 +169,7 @@ def test_case1_dp_against_quadrature_over_the_bearing_states():
     U = np.stack(np.meshgrid(u, u, u, indexing="ij"), -1).reshape(-1, 3)
     dp = np.hypot(U @ G[0], U @ G[1])
     rec = D.pose_statistics("aalborg_3ppr", "case1", [0, 0, 0], samples=N, seed=12,
-                            thresholds={"dp": 0.2})["quantities"]["dp"]
+                            thresholds={"dp": 0.2}).quantities["dp"]
     assert abs(rec["mean"] - dp.mean()) <= 4 * rec["se_mean"]
     assert abs(rec["std"] - dp.std()) <= 4 * rec["se_std"]
     p = float(np.mean(dp > 0.2))
@@ -214,10 +214,10 @@ def test_mixed_sources_against_gil_pelaez(clearances, robot, pose):
         top = sum(uniforms) + sum(disks)
         _assert_cdf_close(E[:, q], lambda x: dref.cdf_mixture(x, uniforms, disks), np.linspace(-top, top, 25))
         scale = math.degrees(1) if name == "dphi_deg" else 1.0
-        assert res["quantities"][name]["rss"] == pytest.approx(math.sqrt(dref.variance(uniforms, disks)) * scale,
+        assert res.quantities[name]["rss"] == pytest.approx(math.sqrt(dref.variance(uniforms, disks)) * scale,
                                                               rel=1e-6)
     # dp: its mean square is var dx + var dy
-    rec = res["quantities"]["dp"]
+    rec = res.quantities["dp"]
     ms = dref.variance(*laws[0]) + dref.variance(*laws[1])
     assert rec["rss"] == pytest.approx(math.sqrt(ms), rel=1e-6)
     dp = np.hypot(E[:, 0], E[:, 1])
@@ -255,7 +255,7 @@ def test_other_laws_variances_against_scipy():
         res = D.pose_statistics(robot, sources, pose, samples=50_000, seed=8, distribution=dist)
         for q, name in enumerate(("dx", "dy", "dphi_deg")):
             scale = math.degrees(1) if name == "dphi_deg" else 1.0
-            rec = res["quantities"][name]
+            rec = res.quantities[name]
             assert rec["rss"] == pytest.approx(math.sqrt(var[q]) * scale, rel=1e-6), (law, name)
             assert abs(rec["std"] - rec["rss"]) <= 4 * rec["se_std"], (law, name)
 
@@ -316,7 +316,7 @@ def test_region_statistics_against_pose_statistics():
     j, i = np.argwhere(inside)[3]
     pose = [float(ds.x[i]), float(ds.y[j]), 0.0]
     rec = D.pose_statistics("aalborg_3ppr", "case1", pose, samples=4000, seed=9, thresholds={"dp": 0.15},
-                            percentiles=(90.0,))["quantities"]
+                            percentiles=(90.0,)).quantities
     assert ds["dp_p90"].values[0, j, i] == pytest.approx(rec["dp"]["p90"], rel=1e-12)
     assert ds["dp_exceed"].values[0, j, i] == pytest.approx(rec["dp"]["exceed"], rel=1e-12)
     assert ds["dphi_rss"].values[0, j, i] == pytest.approx(rec["dphi_deg"]["rss"], rel=1e-12)
@@ -367,7 +367,7 @@ def test_cli_pose_json_and_refusals(tmp_path, capsys):
                           "dp=0.1", "--format", "json")
     assert code == 0, err
     lib = D.pose_statistics("aalborg_3ppr", "case1", [0, 0, 0], samples=2000, seed=3, thresholds={"dp": 0.1})
-    assert json.loads(out)["quantities"]["dp"]["exceed"] == lib["quantities"]["dp"]["exceed"]
+    assert json.loads(out)["quantities"]["dp"]["exceed"] == lib.quantities["dp"]["exceed"]
     bad = tmp_path / "d.toml"
     bad.write_text('radial = "gaussian"\n')
     for args, word in ((("--pose", "0", "0", "0", "--distribution", str(bad)), "radial.kind"),
@@ -397,3 +397,17 @@ def test_statistics_section_for_a_report(tmp_path):
     assert out["region"]["orientations"]["0"]["dp"]["exceed"][1] >= 0
     assert (tmp_path / "s.png").stat().st_size > 10_000
     json.dumps(out)
+
+
+def test_pose_statistics_is_a_frozen_result_with_a_readable_repr():
+    import dataclasses
+    res = D.pose_statistics("aalborg_3ppr", "case1", [0, 0, 0], samples=2000, seed=1, exact_samples=5)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.samples = 3
+    text = repr(res)
+    assert text.startswith("PoseStatistics(1 pose: 2000 samples") and "dphi_deg" in text
+    assert "<table" in res._repr_html_()
+    d = res.to_dict()
+    assert d["pose"]["phi_deg"] == 0.0 and d["exact_check"]["samples"] == 5
+    assert d["quantities"]["dp"]["worst"] == res.quantities["dp"]["worst"]
+    json.dumps(d)

@@ -227,7 +227,7 @@ def test_statistics_agree_with_direct_call_and_invariants(report):
         direct = pose_statistics(ROBOT, case, np.zeros(3), samples=D.POSE_SAMPLES, seed=SEED,
                                  thresholds={"dp": D.THRESHOLD_DP})
         q = st["pose"]["quantities"]["dp"]
-        for key, value in direct["quantities"]["dp"].items():
+        for key, value in direct.quantities["dp"].items():
             assert q[key] == pytest.approx(value, rel=1e-12), (case, key)
         assert q["worst"] == pytest.approx(float(max_pose_errors(ROBOT, ClearanceSet.load(case), np.zeros(3)).dp_max))
         assert q["mean"] <= q["rss"]  # E|dp| <= sqrt(E |dp|^2) (Jensen)

@@ -1,27 +1,31 @@
-"""Exact maximum pose errors under joint clearances (paper Sec. 4.3, Eq. 19-22).
+"""Exact maximum pose errors under joint clearances and tolerances (paper Sec. 4.3, Eq. 19-22), any architecture.
 
 The paper maximizes ``(J^c_err,zeta delta^c)^2`` (Eq. 21) and
 ``|J^c_err,p delta^c|^2`` (Eq. 22) over the clearance constraints (Eq. 16-18)
 with a local optimizer (fmincon), pose by pose. Here the problems are solved
-exactly and in closed form.
+exactly and in closed form, by one engine for every robot.
 
-Why it is exact. By Eq. 8 each leg ``i`` adds one scalar to the right-hand
-side of ``A [dp; dphi] = ...``::
+Why it is exact. By Eq. 8 (in general form: each error source's twist paired
+with leg ``i``'s constraint wrench, :mod:`pmaccuracy.model.sources`) the sources
+of leg ``i`` add one scalar ``e_i`` to the right-hand side of
+``A [dp; dphi] = e``. For the paper's 3-PPR::
 
     e_i = H_theta,i dtau_b,i + H_sigma,i dsigma_g,i + H_gamma,i dtau_g,i + H_rho,i drho_i
 
-(``H_sigma = w_i . u_i``: the guide's lateral shift acts normal to the rail,
-:func:`guide_shift`; the paper's ``H_d`` along ``v_i`` is the same when
-``gamma_i = +-90 deg``). The four clearances of a leg are independent of the other legs' and each set
-is symmetric, so ``e_i`` ranges over ``[-c_i, c_i]`` with the half-width::
+(``H_sigma = w_i . u_i``: the guide's lateral shift acts normal to the rail; the
+paper's ``H_d`` along ``v_i`` is the same when ``gamma_i = +-90 deg``). The
+sources of a leg are independent of the other legs' and each set is
+symmetric, so ``e_i`` ranges over ``[-c_i, c_i]``; for the 3-PPR::
 
     c_i = eps_theta,i |l_i|                                      bearing (Eq. 17)
         + max(eps_g,i |H_sigma,i|, 2 eps_g,i |H_gamma,i| / L_g,i)  guide rhombus (Eq. 16): its best vertex
         + eps_r,i                                                revolute disk (Eq. 18): n_i = +-E w_i
+        + sum_q t_q,i |H_q,i|                                    tolerance intervals (Eq. 9)
 
-(the revolute offset acts only through its component normal to the bearing
-axis ``w_i``, ``|H_rho| = |w^T E^T n| <= 1``; the rest is absorbed by the passive
-joint). The set of pose errors is therefore the parallelepiped
+(:meth:`~pmaccuracy.model.sources.ErrorSources.from_clearance_set` reads the
+paper's clearance and tolerance formats into the chain's per-joint sources;
+:func:`~pmaccuracy.model.sources.states_half_widths` gives ``c_i`` of any robot).
+The set of pose errors is therefore the parallelepiped
 ``{A^-1 diag(c) t : t in [-1, 1]^3}``, a zonotope with three generators
 ``g_i = c_i A^-1[:, i]``. Then (Eq. 21, 22)::
 
@@ -30,12 +34,10 @@ joint). The set of pose errors is therefore the parallelepiped
 
 because a convex function (the norm) is maximal at a vertex and every vertex
 of the projected zonotope is the projection of a vertex ``t``. The
-maximizing clearance configurations follow from the signs ``t``.
-
-Tolerance intervals ``|dq_i| <= t_q,i`` on link parameters (manufacturing and
-assembly errors, Eq. 9) add ``t_q,i |H_q,i|`` to ``c_i``, so clearances and
-tolerances together keep this form (:func:`tolerance_half_widths`).
-:func:`slsqp_max_pose_errors` is the paper-style local baseline.
+maximizing configurations follow from the signs ``t``
+(:func:`~pmaccuracy.model.sources.worst_configuration`).
+:func:`slsqp_max_pose_errors` is the paper-style local baseline (on the paper's
+own diagonals ``H_q``, Appendix A).
 """
 
 from __future__ import annotations
@@ -59,8 +61,9 @@ from ..kinematics import _raise_serial, _raise_singular, ik_from_states
 from ..kinematics import leg_states
 from ..kinematics import raw_transmission
 from ..model import plausibility
-from ..model.sources import ErrorSources
-from ..model.sources import states_half_widths
+from ..model.sources import (PPR_TOLERANCE_KEYS, ErrorSources, first_order_error, polar_coefficient,
+                              states_half_widths, worst_configuration)
+from ..numerics.screws import cross, dot
 from .error_model import VARIATION_UNITS
 
 #: The four quantities of Eq. 21-22, in output order.
@@ -141,33 +144,6 @@ def guide_shift(robot: Manipulator, H: dict[str, np.ndarray]) -> dict[str, np.nd
     return out
 
 
-def leg_half_widths(clearances: ClearanceSet, H: dict[str, np.ndarray]) -> np.ndarray:
-    """``c_i`` (mm), shape ``(..., 3)``: the largest |e_i| the clearances of leg i allow (module docstring).
-
-    ``H`` is :func:`pmaccuracy.accuracy.error_model.H_diagonals` at the poses.
-    """
-    eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
-    L = clearances.guide_block_length
-    guide = np.maximum(eps_g * np.abs(H["shift"]), 2 * eps_g * np.abs(H["gamma"]) / L)
-    return eps_b * np.abs(H["theta"]) + guide + eps_r
-
-
-def tolerance_half_widths(tolerances: Mapping[str, Any], H: dict[str, np.ndarray]) -> np.ndarray:
-    """``c_i`` (mm), shape ``(..., 3)``, of tolerance intervals ``|dq_i| <= t_q,i`` on link parameters.
-
-    By Eq. 9 a variation ``dq_i`` adds ``H_q,i dq_i`` to leg i's row of
-    ``A [dp; dphi]``, so intervals add ``sum_q t_q,i |H_q,i|`` to the leg's
-    half-width: the error set stays the parallelepiped ``A^-1 diag(c) [-1, 1]^3``.
-    ``tolerances`` maps names of :data:`pmaccuracy.accuracy.error_model.LINK_VARIATIONS`
-    (``rho``: a radius, any direction) to half-widths ``(3,)`` in mm or rad;
-    ``H`` is :func:`pmaccuracy.accuracy.error_model.H_diagonals` at the poses.
-    """
-    c = np.zeros(H["theta"].shape)
-    for q, t in _check_tolerances(tolerances).items():
-        c = c + t * np.abs(H[q])
-    return c
-
-
 def tolerances_arg(tolerances: Any, name: str = "tolerances") -> dict[str, np.ndarray] | None:
     """Tolerance half-widths ``{parameter: (3,)}`` (mm or rad) from a mapping, a preset name or a TOML path
     (:func:`load_tolerances`); ``None`` (or an empty mapping) stays as it is.
@@ -208,29 +184,6 @@ def _check_tolerances(tolerances: Mapping[str, Any]) -> dict[str, np.ndarray]:
     return out
 
 
-def _worst_variations(tolerances: dict[str, np.ndarray], H: dict[str, np.ndarray],
-                      t: np.ndarray) -> dict[str, np.ndarray]:
-    """Parameter variations at the vertex of the (checked) tolerance box making leg i's term ``t_i`` times its
-    maximum."""
-    return {q: t * tol * _sign(H[q]) for q, tol in tolerances.items()}
-
-
-def _worst_configuration(robot: Manipulator, clearances: ClearanceSet, H: dict[str, np.ndarray],
-                         t: np.ndarray) -> ClearanceDisplacement:
-    """Joint displacements making ``e_i = t_i c_i`` for signs ``t`` ``(..., 3)`` (the argmax of Eq. 21-22)."""
-    eps_b, eps_g, eps_r = clearances.bearing_angle, clearances.guide_lateral, clearances.revolute_radial
-    L = clearances.guide_block_length
-    tau_b = t * eps_b * _sign(H["theta"])
-    # Rhombus vertex: pure shift (+-eps_g, 0) or pure tilt (0, +-2 eps_g / L), whichever moves e_i more.
-    shift_wins = eps_g * np.abs(H["shift"]) >= 2 * eps_g * np.abs(H["gamma"]) / L
-    sigma_g = np.where(shift_wins, t * eps_g * _sign(H["shift"]), 0.0)
-    tau_g = np.where(shift_wins, 0.0, t * 2 * eps_g / L * _sign(H["gamma"]))
-    n = t[..., None] * perp(robot.w)  # n_i = t_i E w_i gives H_rho = t_i
-    varphi = np.arctan2(n[..., 1], n[..., 0])
-    rho = np.broadcast_to(eps_r, t.shape).astype(float)
-    return ClearanceDisplacement(tau_b=tau_b, sigma_g=sigma_g, tau_g=tau_g, rho=rho, varphi=varphi)
-
-
 #: Poses per internal block: keeps every temporary in cache (measured 2.4x faster than one block).
 CHUNK = 8192
 
@@ -249,7 +202,8 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
         or assembly; also a preset name or TOML path of :func:`load_tolerances`),
         ``{name: half-widths (3,)}`` in mm/rad, e.g. ``{"theta":
         [1e-3] * 3, "d": [0.05] * 3}``: worst case over clearances and tolerances
-        together (:func:`tolerance_half_widths`); ``ClearanceSet()`` for
+        together (each becomes the chain's per-joint source of the same effect,
+        :meth:`~pmaccuracy.model.sources.ErrorSources.from_clearance_set`); ``ClearanceSet()`` for
         tolerances alone (per-joint sources carry their tolerances themselves)
     allow_outside : evaluate poses outside the joint ranges too (otherwise
         :class:`~pmaccuracy.errors.OutsideJointLimitsError`)
@@ -267,10 +221,10 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     -----
     Any architecture: each leg's half-width comes from its per-joint
     :class:`~pmaccuracy.model.sources.ErrorSources` paired with its constraint wrench
-    (:func:`pmaccuracy.model.sources.states_half_widths`). A 3-PPR clearance set without
-    details or tolerances takes the same path through
+    (:func:`pmaccuracy.model.sources.states_half_widths`). A 3-PPR clearance set, with or
+    without tolerances, takes the same path through
     :meth:`~pmaccuracy.model.sources.ErrorSources.from_clearance_set` (the same numbers as
-    the paper's Eq. 19-20, to rounding).
+    the paper's Eq. 19-22 on its diagonals ``H_q``, to rounding; ``tests/accuracy/test_one_engine.py``).
 
     Raises
     ------
@@ -291,65 +245,72 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
         raise ConfigError(f"must be 'raise' or 'nan', got {singular!r}", key="singular")
     poses = as_poses(poses)
     flat = poses.reshape(-1, 3)
-    lead = poses.shape[:-1]
     per_joint = isinstance(clearances, ErrorSources)
-    if not per_joint:
-        robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
-    if per_joint or not tolerances:
+    if per_joint:
         if tolerances:
             raise ConfigError("give tolerances per joint in the clearance file (position, direction, length) "
                               "for this robot", key="tolerances")
-        sources = clearances.check(robot) if per_joint else ErrorSources.from_clearance_set(clearances)
-        result = _generic_bounds(robot, sources, poses, flat, allow_outside, details, max_condition, singular)
-        if details and not per_joint:  # the paper's clearance displacements at the same signs (Eq. 16-18)
-            H = guide_shift(robot, H_diagonals(robot, pose_state(robot, flat, max_condition)))
-            worst = {q: _worst_configuration(robot, clearances, H, t.reshape(-1, 3))
-                     for q, t in result.worst_signs.items()}
-            worst = {q: ClearanceDisplacement(*(np.reshape(getattr(d, f), lead + (3,)) for f in
-                                                ("tau_b", "sigma_g", "tau_g", "rho", "varphi")))
-                     for q, d in worst.items()}
-            result = replace(result, worst=worst)
-        return result
-    if singular != "raise":
-        raise ConfigError("singular='nan' needs per-joint sources or no details/tolerances", key="singular")
-    tolerances = _check_tolerances(tolerances or {})
-    parts = [_exact_block(robot, clearances, tolerances, flat[k:k + CHUNK], allow_outside, details, max_condition)
-             for k in range(0, max(flat.shape[0], 1), CHUNK)]
-
-    def joined(key: str, tail: tuple[int, ...] = ()) -> np.ndarray:
-        return np.concatenate([p[key] for p in parts]).reshape(lead + tail)
-
-    worst = {}
-    if details:
-        for q in QUANTITIES:
-            fields = [np.concatenate([getattr(p["worst"][q], f) for p in parts]).reshape(lead + (3,))
-                      for f in ("tau_b", "sigma_g", "tau_g", "rho", "varphi")]
-            worst[q] = ClearanceDisplacement(*fields)
-    worst_variations = {}
-    if details and tolerances:
-        worst_variations = {q: {name: np.concatenate([p["worst_variations"][q][name] for p in parts]).reshape(lead + (3,))
-                                for name in tolerances} for q in QUANTITIES}
-    signs = {q: joined(f"s_{q}", (3,)) for q in QUANTITIES} if details else {}
-    return PoseErrorBounds(poses=poses, dx_max=joined("dx"), dy_max=joined("dy"), dphi_max=joined("dphi"),
-                           dp_max=joined("dp"), half_widths=joined("c", (3,)), generators=joined("G", (3, 3)),
-                           dp_signs=joined("t", (3,)), method="exact", worst=worst,
-                           worst_variations=worst_variations, worst_signs=signs)
+        sources = clearances.check(robot)
+    else:
+        robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
+        tolerances = _check_tolerances(tolerances or {})
+        # the paper's clearances and link-parameter tolerances as the chain's per-joint sources: one engine
+        sources = ErrorSources.from_clearance_set(clearances, tolerances).check(robot)
+    result = _generic_bounds(robot, sources, poses, flat, allow_outside, details, max_condition, singular)
+    if details and not per_joint:  # the paper's clearance displacements and variations at the same signs
+        result = replace(result, **_paper_details(robot, clearances, sources, tolerances, result))
+    return result
 
 
-def zonotope_maxima(A_inv: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
-    """Support functions and largest vertex norm of ``A^-1 diag(c) [-1, 1]^3`` (Eq. 21-22), ``(n, ...)``.
+def _paper_details(robot: Manipulator, clearances: ClearanceSet, sources: ErrorSources,
+                   tolerances: dict[str, np.ndarray], result: PoseErrorBounds) -> dict:
+    """``worst`` (the clearance displacements of Eq. 16-18) and ``worst_variations`` (the link-parameter
+    variations of Eq. 9) of the per-joint configurations at the maximizing signs of each quantity
+    (:func:`~pmaccuracy.model.sources.worst_configuration`, converted to the paper's variables)."""
+    lead = result.poses.shape[:-1]
+    flat = result.poses.reshape(-1, 3)
+    states = leg_states(robot, flat)
+    joints = ik_from_states(robot, states).joints
+    worst, variations = {}, {}
+    for q, signs in result.worst_signs.items():
+        t = signs.reshape(-1, 3)
+        config = worst_configuration(robot, sources, joints, flat, t)
+        unit_f = np.stack([np.broadcast_to(st.f / np.abs(st.f), (flat.shape[0],)) for st in states], axis=-1)
+        disp = ClearanceDisplacement(tau_b=config.tilt[:, :, 1], sigma_g=config.sigma[:, :, 0],
+                                     tau_g=config.tau[:, :, 0],
+                                     rho=np.broadcast_to(clearances.revolute_radial, t.shape).astype(float),
+                                     varphi=np.angle(t * unit_f))
+        worst[q] = ClearanceDisplacement(*(np.reshape(getattr(disp, f), lead + (3,))
+                                           for f in ("tau_b", "sigma_g", "tau_g", "rho", "varphi")))
+        if tolerances:
+            values = {}
+            for name, tol in tolerances.items():
+                k, key = PPR_TOLERANCE_KEYS[name]
+                coef = np.stack([np.broadcast_to(_coefficient(robot, i, k, key, st, flat, unit_f[:, i]),
+                                                  (flat.shape[0],)) for i, st in enumerate(states)], axis=-1)
+                values[name] = (t * tol * _sign(coef)).reshape(lead + (3,))
+            variations[q] = values
+    return {"worst": worst, "worst_variations": variations}
 
-    ``dx, dy, dphi = sum_i c_i |A^-1[row, i]|``; ``dp = max_t |(A^-1 diag(c) t)_xy|``
-    over the vertices ``t`` (one of each +-pair). Returns ``dx, dy, dphi, dp`` ``(n,)``,
-    the generators ``G`` ``(n, 3, 3)`` and the vertex ``t`` ``(n, 3)`` attaining ``dp``.
-    """
-    G = A_inv * c[:, None, :]
-    extents = np.sum(np.abs(G), axis=-1)  # (n, 3): support functions along x, y, phi
-    vertices = np.einsum("nij,vj->nvi", G[:, :2, :], _VERTEX_SIGNS)  # (n, 4, 2)
-    norms = np.hypot(vertices[..., 0], vertices[..., 1])
-    best = np.argmax(norms, axis=-1)
-    return {"dx": extents[:, 0], "dy": extents[:, 1], "dphi": extents[:, 2],
-            "dp": np.take_along_axis(norms, best[:, None], axis=-1)[:, 0], "c": c, "G": G, "t": _VERTEX_SIGNS[best]}
+
+def _coefficient(robot: Manipulator, i: int, k: int, key: str, st, poses: np.ndarray,
+                 unit_f: np.ndarray) -> np.ndarray:
+    """Signed share of ``e_i`` per unit variation of a link parameter (the paper's ``H_q``, Appendix A, in the
+    per-joint sources' sign convention): ``rho`` along ``n_i = E w_i`` (the leg's unit force ``unit_f`` is
+    +-n_i), the actuator's
+    ``B_ii``, a turn's moment, a length's force component, the polar keys'
+    :func:`~pmaccuracy.model.sources.polar_coefficient`."""
+    chain = robot.chains[i]
+    pz = poses[:, 0] + 1j * poses[:, 1]
+    if key == "position":                    # rho with n_i = E w_i (H_rho = +-1): its sign along the offset
+        return dot(unit_f, 1j * complex(robot.w[i, 0], robot.w[i, 1]))
+    if key == "actuator":
+        return st.B
+    if key == "direction":
+        return st.m_P + cross(pz - st.centres[k], st.f)
+    if key == "length":
+        return dot(st.f, st.dirs[k] * chain.joints[k].link_z / abs(chain.joints[k].link_z))
+    return polar_coefficient(chain, k, key, st, poses)
 
 
 @dataclass(frozen=True)
@@ -509,39 +470,16 @@ def bounds_or_nan(robot: Manipulator, clearances, poses: np.ndarray,
     return out
 
 
-def _exact_block(robot: Manipulator, clearances: ClearanceSet, tolerances: dict[str, np.ndarray], poses: np.ndarray,
-                 allow_outside: bool, details: bool, max_condition: float) -> dict:
-    """:func:`max_pose_errors` on one block of poses ``(n, 3)``."""
-    state = pose_state(robot, poses, max_condition)
-    if not allow_outside:
-        check_within_limits(robot, poses, state)
-    H = guide_shift(robot, H_diagonals(robot, state))  # once per block: every half-width and argmax uses it
-    c = leg_half_widths(clearances, H)
-    if tolerances:
-        c = c + tolerance_half_widths(tolerances, H)
-    out = zonotope_maxima(state.A_inv, c)
-    if details:
-        out["worst"] = {q: _worst_configuration(robot, clearances, H, _sign(state.A_inv[:, row, :]))
-                        for row, q in enumerate(("dx", "dy", "dphi"))}
-        out["worst"]["dp"] = _worst_configuration(robot, clearances, H, out["t"])
-        for row, q in enumerate(("dx", "dy", "dphi")):
-            out[f"s_{q}"] = _sign(state.A_inv[:, row, :])
-        out["s_dp"] = out["t"]
-        if tolerances:
-            signs = {q: _sign(state.A_inv[:, row, :]) for row, q in enumerate(("dx", "dy", "dphi"))}
-            signs["dp"] = out["t"]
-            out["worst_variations"] = {q: _worst_variations(tolerances, H, t) for q, t in signs.items()}
-    return out
-
-
 def first_order_pose_error(robot: Manipulator, poses: np.ndarray | PoseState,
                            displacement: ClearanceDisplacement) -> np.ndarray:
-    """Pose error ``J^c_err delta^c`` (Eq. 19, 20) for given clearance displacements, ``(..., 3)`` [mm, mm, rad]."""
+    """Pose error ``J^c_err delta^c`` (Eq. 19, 20) for given clearance displacements, ``(..., 3)`` [mm, mm, rad].
+
+    The displacements become the 3-PPR chain's per-joint values
+    (:meth:`~pmaccuracy.model.clearances.ClearanceDisplacement.to_joint_displacements`), paired with each
+    leg's wrench (:func:`pmaccuracy.model.sources.first_order_error`).
+    """
     state = poses if isinstance(poses, PoseState) else pose_state(robot, poses)
-    H = guide_shift(robot, H_diagonals(robot, state, varphi=displacement.varphi))
-    e = (H["theta"] * displacement.tau_b + H["shift"] * displacement.sigma_g + H["gamma"] * displacement.tau_g
-         + H["rho"] * displacement.rho)
-    return np.einsum("...ij,...j->...i", state.A_inv, e)
+    return first_order_error(robot, state.joints, state.poses, displacement.to_joint_displacements())
 
 
 # ----------------------------------------------------------------------------- baseline

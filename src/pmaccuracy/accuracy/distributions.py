@@ -74,8 +74,9 @@ from typing import Any
 import numpy as np
 
 from ..model import _tomlio
+from .._display import html_table, summary
 from ..errors import ConfigError
-from ..model.sources import ErrorSources, JointDisplacements
+from ..model.sources import ErrorSources, JointDisplacements, refuse_first_order_only
 from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
 from ..kinematics import inverse_kinematics
@@ -213,7 +214,7 @@ def as_sources(robot, clearances) -> ErrorSources:
     sources = load_clearances(clearances, robot)
     if not isinstance(sources, ErrorSources):
         sources = ErrorSources.from_clearance_set(sources)
-    return sources.check(robot)
+    return refuse_first_order_only(sources.check(robot), "the statistics")
 
 
 def source_terms(sources: ErrorSources) -> tuple[Term, ...]:
@@ -483,18 +484,74 @@ def _check_common(percentiles, thresholds: dict[str, float]) -> tuple[tuple[floa
     return pct, thr
 
 
+@dataclass(frozen=True)
+class PoseStatistics:
+    """The distribution of the pose error at one pose (:func:`pose_statistics`).
+
+    Attributes
+    ----------
+    robot, clearances : names;  distribution : its description (:meth:`Distribution.describe`)
+    pose : ``(3,)`` [x mm, y mm, phi rad];  samples, seed : the Monte Carlo settings
+    quantities : per ``dx, dy, dp`` (mm) and ``dphi_deg`` (deg) a dict of floats: the
+        :func:`sample_statistics` (mean, std, percentiles with their confidence bounds, exceedance with its
+        standard error), ``rss`` (analytic std; root mean square for dp), ``worst`` (the exact worst case of
+        :func:`~pmaccuracy.accuracy.bounds.max_pose_errors`) and, with a threshold, ``threshold``
+    exact_check : with ``exact_samples``: ``samples`` and the largest difference between the exact and the
+        first-order errors (``max_diff_dx``, ``max_diff_dy`` mm, ``max_diff_dphi_deg``); else ``None``
+    """
+
+    robot: str
+    clearances: str
+    distribution: str
+    pose: np.ndarray
+    samples: int
+    seed: int | None
+    quantities: dict[str, dict[str, float]]
+    exact_check: dict[str, float] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: ``robot, clearances, distribution, pose`` (x, y mm, phi_deg), ``samples, seed,
+        quantities`` and, when computed, ``exact_check`` (the command line's ``--format json``)."""
+        out = {"robot": self.robot, "clearances": self.clearances, "distribution": self.distribution,
+               "pose": {"x": float(self.pose[0]), "y": float(self.pose[1]),
+                        "phi_deg": float(np.degrees(self.pose[2]))},
+               "samples": self.samples, "seed": self.seed,
+               "quantities": {q: dict(rec) for q, rec in self.quantities.items()}}
+        if self.exact_check is not None:
+            out["exact_check"] = dict(self.exact_check)
+        return out
+
+    def records(self) -> list[dict]:
+        """One row per quantity: its statistics (mm or deg)."""
+        return [{"quantity": q, **rec} for q, rec in self.quantities.items()]
+
+    def __repr__(self) -> str:
+        parts = [f"{q} std {rec['std']:.4g}, worst {rec['worst']:.4g} {'deg' if q == 'dphi_deg' else 'mm'}"
+                 for q, rec in self.quantities.items()]
+        return summary("PoseStatistics", 1, [f"{self.samples} samples"] + parts)
+
+    def _repr_html_(self) -> str:
+        keep = ("quantity", "mean", "std", "rss", "p95", "p99", "exceed", "worst")
+        return html_table(f"Pose error statistics ({self.samples} samples; mm, deg)",
+                          [{k: r[k] for k in keep if k in r} for r in self.records()])
+
+
 def pose_statistics(robot, clearances, pose, *, samples: int = 100_000, seed: int | None = 0,
                     distribution: Distribution | str | None = None, percentiles=(95.0, 99.0),
-                    thresholds: dict[str, float] | None = None, exact_samples: int = 0) -> dict[str, Any]:
+                    thresholds: dict[str, float] | None = None, exact_samples: int = 0) -> PoseStatistics:
     """Distribution of the pose error at one pose ``(3,)`` [mm, mm, rad]: Monte Carlo, RSS and the worst case.
 
     ``thresholds``: ``{"dx" | "dy" | "dp": mm, "dphi_deg": deg}`` for ``P(|dq| > threshold)``.
     ``exact_samples``: also close the loops exactly for that many of the samples and report the largest
     difference from the first-order errors.
 
-    Returns a JSON-ready dict: ``robot, clearances, distribution, pose`` (mm, deg), ``samples, seed`` and
-    ``quantities``: per ``dx, dy, dp`` (mm) and ``dphi_deg`` (deg) the :func:`sample_statistics` (as floats),
-    ``rss`` (analytic std; rms for dp) and ``worst`` (:func:`~pmaccuracy.accuracy.bounds.max_pose_errors`).
+    Returns a :class:`PoseStatistics` (``.to_dict()`` for JSON).
+
+    Example
+    -------
+    >>> st = pose_statistics("aalborg_3ppr", "case1", [0.0, 0.0, 0.0], samples=2000)
+    >>> st.quantities["dp"]["p95"] <= st.quantities["dp"]["worst"]
+    True
     """
 
     robot = robot_arg(robot)
@@ -518,16 +575,16 @@ def pose_statistics(robot, clearances, pose, *, samples: int = 100_000, seed: in
         rec["rss"] = float(sd[q]) * scale
         rec["worst"] = float(worst_q[q]) * scale
         quantities["dphi_deg" if q == "dphi" else q] = rec
-    out = {"robot": robot.name, "clearances": sources.name, "distribution": distribution.describe(),
-           "pose": {"x": float(pose[0]), "y": float(pose[1]), "phi_deg": float(np.degrees(pose[2]))},
-           "samples": int(samples), "seed": seed, "quantities": quantities}
+    check = None
     if exact_samples:
         m = min(int(exact_samples), Z.shape[0])
         exact = exact_pose_errors(robot, sources, pose, Z[:m])
         diff = np.abs(exact - E[:m]).max(axis=0)
-        out["exact_check"] = {"samples": m, "max_diff_dx": float(diff[0]), "max_diff_dy": float(diff[1]),
-                              "max_diff_dphi_deg": float(np.degrees(diff[2]))}
-    return out
+        check = {"samples": m, "max_diff_dx": float(diff[0]), "max_diff_dy": float(diff[1]),
+                 "max_diff_dphi_deg": float(np.degrees(diff[2]))}
+    return PoseStatistics(robot=robot.name, clearances=sources.name, distribution=distribution.describe(),
+                          pose=pose.copy(), samples=int(samples), seed=seed, quantities=quantities,
+                          exact_check=check)
 
 
 #: Variables of a percentile map (besides the worst case): name -> (units of dp/dx/dy, long name).

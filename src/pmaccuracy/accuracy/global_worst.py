@@ -43,7 +43,7 @@ from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
 from ..model.manipulator import Manipulator
 from .interval import Iv, box_maxima, leg_box_state
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
-from ..model.sources import ErrorSources
+from ..model.sources import ErrorSources, refuse_first_order_only
 from ..io.resolve import robot_arg
 from ..io.resolve import load_clearances
 from ..kinematics.workspace import constant_orientation_workspace
@@ -139,7 +139,7 @@ def as_sources(robot: Manipulator, clearances) -> ErrorSources:
         clearances = load_clearances(clearances, robot)
     if isinstance(clearances, ClearanceSet):
         return ErrorSources.from_clearance_set(clearances)
-    return clearances.check(robot)
+    return refuse_first_order_only(clearances.check(robot), "the global worst case (interval enclosures)")
 
 
 def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:

@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         result = distributions.pose_statistics(
             robot, args.clearances, pose, samples=args.samples or 100_000, seed=args.seed,
             distribution=distribution, percentiles=args.percentile or (95.0, 99.0), thresholds=thresholds,
-            exact_samples=args.exact_samples)
+            exact_samples=args.exact_samples).to_dict()
         if args.format == "json":
             _common.emit(result, "json")
         else:

@@ -36,7 +36,7 @@ import numpy as np
 from . import _tomlio
 from ..errors import ClearanceError, ConfigError
 from . import plausibility
-from .sources import is_per_joint
+from .sources import JointDisplacements, is_per_joint
 
 #: Keys of one ``[[legs]]`` table of a clearance file.
 CLEARANCE_KEYS = {"bearing_angle", "guide_lateral", "guide_block_length", "revolute_radial"}
@@ -178,6 +178,25 @@ class ClearanceDisplacement:
         """Every displacement times ``factor`` (the direction ``varphi`` is kept)."""
         return ClearanceDisplacement(self.tau_b * factor, self.sigma_g * factor, self.tau_g * factor,
                                      self.rho * factor, self.varphi)
+
+    def to_joint_displacements(self) -> JointDisplacements:
+        """The same displacements as values of the 3-PPR chain's per-joint sources
+        (:class:`~pmaccuracy.model.sources.JointDisplacements`, ``(..., 3 legs, 3 joints)``): the bearing tilt
+        about ``C_i`` is the second joint's ``tilt``, the guide's shift and tilt its first joint's ``sigma`` and
+        ``tau``, the revolute's offset ``rho vec(varphi)`` the third joint's ``shift``.
+
+        >>> d = ClearanceDisplacement.zeros((2,))
+        >>> d.to_joint_displacements().tilt.shape
+        (2, 3, 3)
+        """
+        fields = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
+                                       (self.tau_b, self.sigma_g, self.tau_g, self.rho, self.varphi)))
+        out = JointDisplacements.zeros(fields[0].shape[:-1])
+        out.tilt[..., 1] = fields[0]
+        out.sigma[..., 0] = fields[1]
+        out.tau[..., 0] = fields[2]
+        out.shift[..., 2] = fields[3] * np.exp(1j * fields[4])
+        return out
 
     def violation(self, clearances: ClearanceSet) -> np.ndarray:
         """Largest relative violation of Eq. 16-18 (<= 0 inside the clearances), shape ``(...)``."""

@@ -164,7 +164,8 @@ def _prefixed(source: str | None, messages: list[str]) -> list[str]:
 #: Units of the 3-PPR clearance keys and of the per-joint keys (``actuator``: mm or rad, so the looser 1).
 _SET_UNITS = {"bearing_angle": "rad", "guide_lateral": "mm", "revolute_radial": "mm", "guide_block_length": "block"}
 _JOINT_UNITS = {"radial": "mm", "angular": "rad", "lateral": "mm", "block_length": "block", "position": "mm",
-                "direction": "rad", "length": "mm", "actuator": "mm"}
+                "direction": "rad", "length": "mm", "actuator": "mm", "base_radius": "mm", "base_turn": "rad",
+                "link_turn": "rad", "platform_radius": "mm", "platform_turn": "rad"}
 
 
 def clearance_set_messages(clearances, source: str | None = None) -> list[str]:

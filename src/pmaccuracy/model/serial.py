@@ -73,7 +73,7 @@ from . import _tomlio
 from ..errors import ClearanceError, ConfigError, GeometryError, OutsideJointLimitsError, PoseError
 from .legs import check_block
 from ..numerics.screws import expi
-from .sources import DEFAULT_BLOCK_LENGTH, KEYS, JointErrors
+from .sources import DEFAULT_BLOCK_LENGTH, FIRST_ORDER_ONLY, KEYS, JointErrors
 
 #: Value of ``architecture`` in a serial arm's robot file.
 ARCHITECTURE = "serial"
@@ -410,6 +410,10 @@ class SerialErrorSources:
 
 def _check_key(arm: SerialArm, k: int, key: str, source: str) -> None:
     """Raise unless source ``key`` applies to joint ``k`` (1-based) of ``arm`` (every joint is actuated)."""
+    if key in FIRST_ORDER_ONLY:
+        raise ClearanceError(f"{key} (a leg's polar tolerance) applies to the legs of parallel robots; give a "
+                             "serial arm's tolerances as position, direction or length", source=source,
+                             key=f"legs[1].joints[{k}].{key}")
     allowed = KEYS[key]
     kind = arm.joints[k - 1].kind
     if allowed == "A" or kind in allowed:

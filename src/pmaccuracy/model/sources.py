@@ -22,6 +22,31 @@ key             displacement (inserted in the chain at joint k)          largest
 ``length``      tolerance: the link after joint k longer by ``|dl| <= t``   ``t |f . unit(link_k)|``
 ==============  =======================================================  =======================================
 
+Link-parameter tolerances in polar form, for robots whose files place the legs
+by radius and angle (the paper's 3-PPR, Eq. 1 and 9: its ``a, alpha, gamma, r,
+psi``); each is a rotation about a point or a translation along a direction:
+
+===================  ==================================================  ================================
+key (joint)          displacement                                        largest share of ``|e_i|``
+===================  ==================================================  ================================
+``base_radius`` (1)  the leg's base point moved along the line from the  ``t |f . unit(c_1)|``
+                     base origin O, ``|da| <= t``
+``base_turn`` (1)    the whole leg turned about O, ``|dalpha| <= t``      ``t |M(O)|``
+``link_turn`` (P)    the link after a slide turned about its start        ``t |M(c_k + q_k e_k)|``
+                     ``c_k + q_k e_k``, ``|dgamma| <= t`` (not the last)
+``platform_radius``  the platform point ``D`` moved along the line from  ``t |f . unit(D - P)|``
+(3)                  the platform centre P, ``|dr| <= t``
+``platform_turn``    the platform point turned about P, ``|dpsi| <= t``  ``t |f . E (D - P)|``
+(3)
+===================  ==================================================  ================================
+
+(the number in brackets is the joint that carries the key: the first, a slide
+that is not the last, the last). These are taken by the first-order layers
+(:func:`~pmaccuracy.accuracy.bounds.max_pose_errors`, maps, design comparison,
+:func:`worst_configuration`, :func:`first_order_error`); the layers that need
+the exact perturbed geometry or interval enclosures refuse them by name
+(:func:`refuse_first_order_only`).
+
 The **block** of a P joint is its short member (carriage, bushing, gland),
 which the clearance lets shift and tilt on the long one (rail, rod) about its
 own centre ``b_k`` (:attr:`pmaccuracy.model.chain.Joint.block_kind`): a *carriage*
@@ -71,10 +96,16 @@ from ..numerics.linalg import inverse_3x3
 
 #: Keys of one joint's table and the joint types they apply to ("A": the actuated joint).
 KEYS = {"radial": "RP", "actuator": "A", "angular": "P", "lateral": "P", "block_length": "P",
-        "position": "RP", "direction": "RP", "length": "RP"}
+        "position": "RP", "direction": "RP", "length": "RP", "base_radius": "RP", "base_turn": "RP",
+        "link_turn": "P", "platform_radius": "RP", "platform_turn": "RP"}
+#: Keys that only one joint of a leg may carry: joint index (0 first, 2 last), or -1 for "any but the last".
+PLACES = {"base_radius": 0, "base_turn": 0, "link_turn": -1, "platform_radius": 2, "platform_turn": 2}
+#: Link-parameter tolerances in polar form (module docstring), taken by the first-order layers only.
+FIRST_ORDER_ONLY = ("base_radius", "base_turn", "link_turn", "platform_radius", "platform_turn")
 #: Units of the keys, for messages.
 UNITS = {"radial": "mm", "actuator": "mm or rad", "angular": "rad", "lateral": "mm", "block_length": "mm",
-         "position": "mm", "direction": "rad", "length": "mm"}
+         "position": "mm", "direction": "rad", "length": "mm", "base_radius": "mm", "base_turn": "rad",
+         "link_turn": "rad", "platform_radius": "mm", "platform_turn": "rad"}
 #: Default guide block length L (mm), as in the 3-PPR clearance files.
 DEFAULT_BLOCK_LENGTH = 50.0
 
@@ -83,7 +114,8 @@ DEFAULT_BLOCK_LENGTH = 50.0
 class JointErrors:
     """Half-widths of the error sources of one joint (module docstring); all 0 by default.
 
-    radial, lateral, position, length : mm;  angular, direction : rad;
+    radial, lateral, position, length, base_radius, platform_radius : mm;
+    angular, direction, base_turn, link_turn, platform_turn : rad;
     actuator : mm (P) or rad (R);  block_length : mm (the guide's L, with ``lateral``)
     """
 
@@ -95,6 +127,11 @@ class JointErrors:
     position: float = 0.0
     direction: float = 0.0
     length: float = 0.0
+    base_radius: float = 0.0
+    base_turn: float = 0.0
+    link_turn: float = 0.0
+    platform_radius: float = 0.0
+    platform_turn: float = 0.0
 
     def scaled(self, factor: float) -> "JointErrors":
         """Every half-width times ``factor`` (the block length is kept)."""
@@ -158,16 +195,34 @@ class ErrorSources:
 
     @classmethod
     def from_clearance_set(cls, clearances, tolerances: dict[str, np.ndarray] | None = None) -> "ErrorSources":
-        """The 3-PPR clearance format (guide, bearing, revolute per leg) as per-joint sources."""
-        legs = []
+        """The 3-PPR clearance format (guide, bearing, revolute per leg), and optionally tolerance intervals on
+        the paper's link parameters (Eq. 9), as per-joint sources of the 3-PPR chain
+        (:class:`~pmaccuracy.model.legs.PPRLeg`: guide, bearing, revolute).
+
+        ``tolerances`` maps names of Eq. 10 to half-widths ``(3,)`` (mm or rad), one per leg; each becomes the
+        source with the same first-order effect (:data:`PPR_TOLERANCE_KEYS`): ``s`` the guide's actuator,
+        ``beta`` and ``theta`` the guide's and the bearing's ``direction``, ``d`` the guide's link ``length``,
+        ``gamma`` the link's ``link_turn`` about the carriage, ``rho`` the revolute's ``position``, and the
+        polar ``a, alpha, r, psi`` as ``base_radius, base_turn, platform_radius, platform_turn``.
+
+        >>> from pmaccuracy.model.clearances import ClearanceSet
+        >>> src = ErrorSources.from_clearance_set(ClearanceSet.preset("case1"), {"d": [0.05, 0.0, 0.0]})
+        >>> src.legs[0][0].length, src.legs[0][1].angular > 0
+        (0.05, True)
+        """
+        values = [[{}, {}, {}] for _ in range(3)]
         for i in range(3):
-            legs.append((
-                JointErrors(lateral=float(clearances.guide_lateral[i]),
-                            block_length=float(clearances.guide_block_length[i])),
-                JointErrors(angular=float(clearances.bearing_angle[i])),
-                JointErrors(radial=float(clearances.revolute_radial[i])),
-            ))
-        return cls(legs=tuple(legs), name=clearances.name)
+            values[i][0].update(lateral=float(clearances.guide_lateral[i]),
+                                block_length=float(clearances.guide_block_length[i]))
+            values[i][1].update(angular=float(clearances.bearing_angle[i]))
+            values[i][2].update(radial=float(clearances.revolute_radial[i]))
+        for name, half_widths in (tolerances or {}).items():
+            k, key = PPR_TOLERANCE_KEYS[name]
+            for i in range(3):
+                values[i][k][key] = float(np.broadcast_to(half_widths, (3,))[i])
+        legs = tuple(tuple(JointErrors(**v) for v in leg) for leg in values)
+        name = clearances.name if not tolerances else f"{clearances.name} + tolerances"
+        return cls(legs=legs, name=name)
 
     def to_toml(self) -> str:
         """The per-joint clearance file as TOML text."""
@@ -199,7 +254,46 @@ class ErrorSources:
                             f"{key} applies to {what}; joint {k} of leg {i} is a "
                             f"{'actuated ' if joint.actuated else 'passive '}{joint.kind} joint",
                             source=self.name, key=f"legs[{i}].joints[{k}].{key}")
+                    self._check_place(chain, i, k, key)
         return self
+
+    def _check_place(self, chain, i: int, k: int, key: str) -> None:
+        """Refuse a polar key on a joint that cannot carry it, or where its direction is undefined."""
+        if key not in PLACES:
+            return
+        where = f"legs[{i}].joints[{k}].{key}"
+        place = PLACES[key]
+        wanted = {0: "the first joint (the leg's base point)", 2: "the last joint (the platform point)",
+                  -1: "a slide that is not the last joint"}[place]
+        if (place == -1 and k == 3) or (place >= 0 and k != place + 1):
+            raise ClearanceError(f"{key} applies to {wanted}, not joint {k}", source=self.name, key=where)
+        if key == "base_radius" and chain.base_z == 0:
+            raise ClearanceError(f"leg {i}'s base point is the base origin, so the radial direction is "
+                                 "undefined; use position (any direction)", source=self.name, key=where)
+        if key == "platform_radius" and chain.platform_z == 0:
+            raise ClearanceError(f"leg {i}'s platform point is the platform centre, so the radial direction "
+                                 "is undefined; use position (any direction)", source=self.name, key=where)
+
+
+#: The paper's link parameters (Eq. 10) as per-joint sources of the 3-PPR chain: ``name -> (joint, key)``
+#: (:meth:`ErrorSources.from_clearance_set`). ``rho`` is a radius in any direction (the clearance's form).
+PPR_TOLERANCE_KEYS = {"a": (0, "base_radius"), "alpha": (0, "base_turn"), "s": (0, "actuator"),
+                      "beta": (0, "direction"), "d": (0, "length"), "gamma": (0, "link_turn"),
+                      "theta": (1, "direction"), "rho": (2, "position"), "r": (2, "platform_radius"),
+                      "psi": (2, "platform_turn")}
+
+
+def refuse_first_order_only(sources: "ErrorSources", what: str) -> "ErrorSources":
+    """``sources`` unchanged, or :class:`~pmaccuracy.errors.ClearanceError` naming the first polar
+    link-parameter tolerance (:data:`FIRST_ORDER_ONLY`), which ``what`` does not model."""
+    for i, leg in enumerate(sources.legs, start=1):
+        for k, joint in enumerate(leg, start=1):
+            for key in FIRST_ORDER_ONLY:
+                if getattr(joint, key):
+                    raise ClearanceError(f"{key} (a link-parameter tolerance) is taken by the first-order bounds "
+                                         f"and maps only; {what} does not model it yet", source=sources.name,
+                                         key=f"legs[{i}].joints[{k}].{key}")
+    return sources
 
 
 def _leg_states(robot, joints: np.ndarray, poses: np.ndarray) -> tuple:
@@ -249,11 +343,51 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
             if e.length and joint.link != (0.0, 0.0):
                 link_dir = st.dirs[k] * (joint.link_z / abs(joint.link_z))
                 terms.append(e.length * np.abs(dot(f, link_dir)))
+            for key in FIRST_ORDER_ONLY:
+                t = getattr(e, key)
+                if t:
+                    terms.append(t * np.abs(polar_coefficient(chain, k, key, st, poses)))
         c = const
         for term in terms:
             c = c + term
         out[..., i] = c
     return out
+
+
+def polar_coefficient(chain, k: int, key: str, st, poses: np.ndarray) -> np.ndarray:
+    """Share of ``e_i`` per unit value of a polar link-parameter tolerance ``key`` on joint ``k`` (0-based) of a
+    leg in state ``st`` at poses ``(..., 3)`` (table in the module docstring; signed, mm or mm/rad).
+
+    With ``P`` the platform centre, ``D = P + Rot(phi) platform`` the platform point and ``M(c)`` the leg
+    wrench's moment about ``c``::
+
+        base_radius      f . unit(c_1)            base_turn        M(O)
+        link_turn        M(c_k + q_k e_k)         platform_radius  -f . unit(D - P)
+        platform_turn    -f . E (D - P)
+
+    (the platform terms: the leg holds ``D``, so the platform centre moves opposite to the point).
+
+    >>> from pmaccuracy.model.legs import Chain, Joint
+    >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")), base=(10.0, 0.0))
+    >>> st = chain.state(np.array([10.0, 5.0, 0.0]))   # the leg points along +y: f = (0, 1)
+    >>> round(float(polar_coefficient(chain, 0, "base_turn", st, np.array([10.0, 5.0, 0.0]))), 9)
+    10.0
+    """
+    poses = np.asarray(poses, dtype=float)
+    f, m_P = st.f, st.m_P
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    if key == "base_radius":
+        return dot(f, chain.base_z / abs(chain.base_z))
+    if key == "base_turn":
+        return m_P + cross(pz, f)
+    if key == "link_turn":
+        return m_P + cross(pz - (st.centres[k] + st.qs[k] * st.dirs[k]), f)
+    tip = np.exp(1j * poses[..., 2]) * chain.platform_z
+    if key == "platform_radius":
+        return -dot(f, tip / abs(chain.platform_z))
+    if key == "platform_turn":
+        return -dot(f, 1j * tip)
+    raise ValueError(f"not a polar key: {key!r}")
 
 
 def block_centre(joint, st, k: int):
@@ -362,7 +496,31 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
             if e.length and joint.link != (0.0, 0.0):
                 link_dir = dirs[k] * joint.link_z / abs(joint.link_z)
                 out["dl"][..., i, k] = t * e.length * sgn(dot(f, link_dir))
+            for key in FIRST_ORDER_ONLY:
+                if getattr(e, key):
+                    value = t * getattr(e, key) * sgn(polar_coefficient(chain, k, key, st, poses))
+                    _add_polar(out, chain, i, k, key, value, st, poses)
     return JointDisplacements(**out)
+
+
+def _add_polar(out: dict, chain, i: int, k: int, key: str, value: np.ndarray, st, poses: np.ndarray) -> None:
+    """Add a polar tolerance's value (:func:`polar_coefficient`) to the fields of a configuration, to first
+    order: a turn about a point ``c`` is a turn about the next joint's centre ``c_j`` and a shift
+    ``value E (c_j - c)`` of the part beyond it; a point moved on the platform shifts the last joint the
+    opposite way."""
+    if key == "base_radius":
+        out["shift"][..., i, 0] += value * (chain.base_z / abs(chain.base_z))
+    elif key == "base_turn":
+        out["turn"][..., i, 0] += value
+        out["shift"][..., i, 0] += value * 1j * st.centres[0]
+    elif key == "link_turn":
+        start = st.centres[k] + st.qs[k] * st.dirs[k]
+        out["turn"][..., i, k + 1] += value
+        out["shift"][..., i, k + 1] += value * 1j * (st.centres[k + 1] - start)
+    else:
+        tip = np.exp(1j * poses[..., 2]) * chain.platform_z
+        step = tip / abs(chain.platform_z) if key == "platform_radius" else 1j * tip
+        out["shift"][..., i, 2] += -value * step
 
 
 def first_order_error(robot, joints: np.ndarray, poses: np.ndarray, config: JointDisplacements) -> np.ndarray:

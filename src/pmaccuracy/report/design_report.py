@@ -188,7 +188,7 @@ def statistics_job(robot: Manipulator, case: str, pose: np.ndarray, grid: int | 
 
     if grid is None:
         return {"pose": pose_statistics(robot, case, pose, samples=POSE_SAMPLES, seed=seed,
-                                        thresholds={"dp": THRESHOLD_DP}), "threshold_dp": THRESHOLD_DP}
+                                        thresholds={"dp": THRESHOLD_DP}).to_dict(), "threshold_dp": THRESHOLD_DP}
     return statistics_section(robot, case, 0.0, grid=grid, samples=MAP_SAMPLES, pose_samples=POSE_SAMPLES,
                               seed=seed, pose=pose, threshold_dp=THRESHOLD_DP, figure=figure)
 

@@ -66,7 +66,7 @@ def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, s
         robot = robot_arg(robot)
         threshold_dp = round(0.5 * float(max_pose_errors(robot, as_sources(robot, clearances), pose).dp_max), 4)
     at_pose = pose_statistics(robot, clearances, pose, samples=pose_samples, seed=seed, distribution=distribution,
-                              thresholds={"dp": threshold_dp})
+                              thresholds={"dp": threshold_dp}).to_dict()
     ds = region_statistics(robot, clearances, [phi], grid, samples=samples, seed=seed, distribution=distribution,
                            percentiles=(95.0,), thresholds={"dp": threshold_dp})
     path = save_percentile_map_figure(ds, figure) if figure is not None else None

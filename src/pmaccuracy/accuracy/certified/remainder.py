@@ -24,7 +24,7 @@ from .error_set import (
 )
 from ...io.resolve import load_clearances
 from ...model.manipulator import Manipulator
-from ...model.sources import ErrorSources
+from ...model.sources import ErrorSources, refuse_first_order_only
 
 
 def _prepare(robot, clearances, poses):
@@ -34,6 +34,7 @@ def _prepare(robot, clearances, poses):
     sources = load_clearances(clearances, robot)
     if not isinstance(sources, ErrorSources):
         sources = ErrorSources.from_clearance_set(sources)
+    refuse_first_order_only(sources, "the certified bound")
     poses = as_poses(poses).reshape(-1, 3)
     return robot, sources, poses
 
