@@ -1,4 +1,4 @@
-"""Exact maximum pose errors under joint clearances and tolerances (paper Sec. 4.3, Eq. 19-22), any architecture.
+r"""Exact maximum pose errors under joint clearances and tolerances (paper Sec. 4.3, Eq. 19-22), any architecture.
 
 The paper maximizes ``(J^c_err,zeta delta^c)^2`` (Eq. 21) and
 ``|J^c_err,p delta^c|^2`` (Eq. 22) over the clearance constraints (Eq. 16-18)
@@ -15,22 +15,30 @@ of leg ``i`` add one scalar ``e_i`` to the right-hand side of
 (``H_sigma = w_i . u_i``: the guide's lateral shift acts normal to the rail; the
 paper's ``H_d`` along ``v_i`` is the same when ``gamma_i = +-90 deg``). The
 sources of a leg are independent of the other legs' and each set is
-symmetric, so ``e_i`` ranges over ``[-c_i, c_i]``; for the 3-PPR::
+symmetric, so ``e_i`` ranges over ``[-c_i, c_i]``; for the 3-PPR (bearing, Eq. 17; the guide rhombus'
+best vertex, Eq. 16; the revolute disk, Eq. 18, with ``n_i = +-E w_i``; tolerance intervals, Eq. 9)
 
-    c_i = eps_theta,i |l_i|                                      bearing (Eq. 17)
-        + max(eps_g,i |H_sigma,i|, 2 eps_g,i |H_gamma,i| / L_g,i)  guide rhombus (Eq. 16): its best vertex
-        + eps_r,i                                                revolute disk (Eq. 18): n_i = +-E w_i
-        + sum_q t_q,i |H_q,i|                                    tolerance intervals (Eq. 9)
+.. math::
+
+    c_i = \varepsilon_{\theta,i} \lvert l_i \rvert
+        + \max\Bigl(\varepsilon_{g,i} \lvert H_{\sigma,i} \rvert,
+                     \frac{2 \varepsilon_{g,i}}{L_{g,i}} \lvert H_{\gamma,i} \rvert\Bigr)
+        + \varepsilon_{r,i} + \sum_q t_{q,i} \lvert H_{q,i} \rvert
 
 (:meth:`~pmaccuracy.model.sources.ErrorSources.from_clearance_set` reads the
 paper's clearance and tolerance formats into the chain's per-joint sources;
 :func:`~pmaccuracy.model.sources.states_half_widths` gives ``c_i`` of any robot).
 The set of pose errors is therefore the parallelepiped
 ``{A^-1 diag(c) t : t in [-1, 1]^3}``, a zonotope with three generators
-``g_i = c_i A^-1[:, i]``. Then (Eq. 21, 22)::
+``g_i = c_i A^-1[:, i]``. Then (Eq. 21, 22)
 
-    dx_max   = sum_i c_i |A^-1[0, i]|       (support function along x; likewise y, phi)
-    dp_max   = max over t in {+-1}^3 of |(A^-1 diag(c) t)_xy|
+.. math::
+
+    \Delta x_{\max} = \sum_i c_i \,\lvert (A^{-1})_{0i} \rvert \quad
+    \text{(support function along } x \text{; likewise } y, \phi),
+    \qquad
+    \lVert \Delta p \rVert_{\max} = \max_{t \in \{\pm 1\}^3}
+    \bigl\lVert \bigl(A^{-1} \operatorname{diag}(c)\, t\bigr)_{xy} \bigr\rVert
 
 because a convex function (the norm) is maximal at a vertex and every vertex
 of the projected zonotope is the projection of a vertex ``t``. The

@@ -1,4 +1,4 @@
-"""First-order error model: sensitivity Jacobians of the pose (paper Sec. 4.1, Eq. 6-15, Appendix A).
+r"""First-order error model: sensitivity Jacobians of the pose (paper Sec. 4.1, Eq. 6-15, Appendix A).
 
 Differentiating the loop closure Eq. 1 of leg ``i`` (Eq. 6)::
 
@@ -11,6 +11,13 @@ passive-joint variation ``dl_i`` (``w^T E^T w = 0``, ``w^T E^T E w = 1``), givin
 one scalar equation per leg (Eq. 8)::
 
     A [dp; dphi] = sum_q diag(H_q) dq,        q in {a, alpha, s, beta, d, gamma, theta, rho, r, psi}
+
+.. math::
+
+    A \begin{bmatrix} \delta p \\ \delta\phi \end{bmatrix} = \sum_q \operatorname{diag}(H_q)\, \delta q,
+    \qquad
+    \begin{bmatrix} \delta x \\ \delta y \\ \delta\phi \end{bmatrix} = \sum_q J_q\, \delta q,
+    \quad J_q = A^{-1} H_q \quad \text{(Eq. 8, 10, 11)}
 
 where ``A`` is the forward Jacobian (Eq. 4a), ``H_s = B`` (Eq. 4b) and the other
 diagonals are (Appendix A, Eq. A-1a..A-1i)::

@@ -1,4 +1,4 @@
-"""Error sources of every joint type, and each leg's share of ``A dX = e`` (issue 9's general method).
+r"""Error sources of every joint type, and each leg's share of ``A dX = e`` (issue 9's general method).
 
 Hold the actuators. Every error source is a small displacement (a planar twist)
 of the part of a leg beyond it. Pairing that twist with the leg's constraint
@@ -7,38 +7,37 @@ source's share of row ``i`` of ``A [dp; dphi] = e``. With ``M(c) = m_O - c x f``
 the wrench's moment about a point ``c`` (mm; the pairing with a unit rotation
 about ``c``), the sources of joint ``k`` of a leg and their largest ``|e_i|``:
 
-==============  =======================================================  =======================================
-key             displacement (inserted in the chain at joint k)          largest share of ``|e_i|``
-==============  =======================================================  =======================================
-``radial``      R clearance: the distal part translates, ``|delta| <= eps``  ``eps |f|``
-``angular``     P tilt ``|tau| <= eps`` of the block about its centre        ``eps |M(b_k)|``
-                ``b_k`` (below)
-``lateral``     P play: the block shifts by ``sigma`` normal to the rail     ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
-                and tilts by ``tau`` about its centre ``b_k``, in the
-                rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
-``actuator``    actuated joint error ``|dq| <= eps`` (mm or rad)            ``eps |B_ii|``
-``position``    tolerance: the joint's centre moved, ``|delta| <= t``       ``t |f|``
-``direction``   tolerance: the joint turned about its centre, ``|tau|<=t``  ``t |M(c_k)|``
-``length``      tolerance: the link after joint k longer by ``|dl| <= t``   ``t |f . unit(link_k)|``
-==============  =======================================================  =======================================
+=============  ============================================================  ============================================
+key            displacement (inserted in the chain at joint k)               largest share of ``|e_i|``
+=============  ============================================================  ============================================
+``radial``     R clearance: the distal part translates, ``|delta| <= eps``   ``eps |f|``
+``angular``    P tilt ``|tau| <= eps`` of the block about its centre         ``eps |M(b_k)|``
+               ``b_k`` (below)
+``lateral``    P play: the block shifts by ``sigma`` normal to the rail      ``max(eps |f . E e_k|, 2 eps |M(b_k)| / L)``
+               and tilts by ``tau`` about its centre ``b_k``, in the
+               rhombus ``|L tau +- 2 sigma| <= 2 eps`` (Eq. 16)
+``actuator``   actuated joint error ``|dq| <= eps`` (mm or rad)              ``eps |B_ii|``
+``position``   tolerance: the joint's centre moved, ``|delta| <= t``         ``t |f|``
+``direction``  tolerance: the joint turned about its centre, ``|tau| <= t``  ``t |M(c_k)|``
+``length``     tolerance: the link after joint k longer by ``|dl| <= t``     ``t |f . unit(link_k)|``
+=============  ============================================================  ============================================
 
 Link-parameter tolerances in polar form, for robots whose files place the legs
 by radius and angle (the paper's 3-PPR, Eq. 1 and 9: its ``a, alpha, gamma, r,
 psi``); each is a rotation about a point or a translation along a direction:
 
-===================  ==================================================  ================================
-key (joint)          displacement                                        largest share of ``|e_i|``
-===================  ==================================================  ================================
-``base_radius`` (1)  the leg's base point moved along the line from the  ``t |f . unit(c_1)|``
-                     base origin O, ``|da| <= t``
-``base_turn`` (1)    the whole leg turned about O, ``|dalpha| <= t``      ``t |M(O)|``
-``link_turn`` (P)    the link after a slide turned about its start        ``t |M(c_k + q_k e_k)|``
-                     ``c_k + q_k e_k``, ``|dgamma| <= t`` (not the last)
-``platform_radius``  the platform point ``D`` moved along the line from  ``t |f . unit(D - P)|``
-(3)                  the platform centre P, ``|dr| <= t``
-``platform_turn``    the platform point turned about P, ``|dpsi| <= t``  ``t |f . E (D - P)|``
-(3)
-===================  ==================================================  ================================
+=======================  ===================================================  ==========================
+key (joint)              displacement                                         largest share of ``|e_i|``
+=======================  ===================================================  ==========================
+``base_radius`` (1)      the leg's base point moved along the line from the   ``t |f . unit(c_1)|``
+                         base origin O, ``|da| <= t``
+``base_turn`` (1)        the whole leg turned about O, ``|dalpha| <= t``      ``t |M(O)|``
+``link_turn`` (P)        the link after a slide turned about its start        ``t |M(c_k + q_k e_k)|``
+                         ``c_k + q_k e_k``, ``|dgamma| <= t`` (not the last)
+``platform_radius`` (3)  the platform point ``D`` moved along the line from   ``t |f . unit(D - P)|``
+                         the platform centre P, ``|dr| <= t``
+``platform_turn`` (3)    the platform point turned about P, ``|dpsi| <= t``   ``t |f . E (D - P)|``
+=======================  ===================================================  ==========================
 
 (the number in brackets is the joint that carries the key: the first, a slide
 that is not the last, the last). These are taken by the first-order layers
@@ -60,7 +59,16 @@ point ``c_k``, the origin the file gives.
 The sources of a leg are independent and symmetric, so ``e_i`` fills
 ``[-c_i, c_i]`` with ``c_i`` the sum of the shares (:func:`half_widths`), and
 the reachable pose errors are the parallelepiped ``A^-1 diag(c) [-1, 1]^3``
-(:func:`pmaccuracy.accuracy.bounds.max_pose_errors` for every architecture).
+
+.. math::
+
+    e_i = \sum_{s \in \text{leg } i} \langle \zeta_i, \xi_s \rangle\, \delta_s, \qquad
+    c_i = \max_{\delta \in \text{sets}} \lvert e_i \rvert = \sum_s h_s\, \lvert \langle \zeta_i, \xi_s
+    \rangle \rvert, \qquad \langle (f, m), \text{rotation about } c \rangle = m_P + (P - c) \times f
+
+with ``xi_s`` the unit twist of source ``s`` and ``h_s`` its half-width (the
+guide rhombus: the larger of its two vertices' shares); the bounds of every
+architecture follow (:func:`pmaccuracy.accuracy.bounds.max_pose_errors`).
 
 For the paper's 3-PPR (Sec. 4.2) the bearing tilt ``delta theta_i`` about
 ``C_i`` is ``angular`` on the second joint (a bushing at ``C_i``), the guide
