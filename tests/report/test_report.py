@@ -239,18 +239,38 @@ def test_document_headings_paragraphs_bullets():
     doc.bullets(["first **b**", "second < 2"])
     md = doc.to_markdown()
     assert md.splitlines()[0] == "# Title <&> x"
-    assert "## Section one" in md.splitlines() and "### Sub" in md.splitlines()
+    assert "## 1. Section one" in md.splitlines() and "### Sub" in md.splitlines()
     assert "Some **bold** and `code` with <script>alert(1)</script> & more" in md
     assert "- first **b**" in md and "- second < 2" in md
     html = doc.to_html()
     assert html.startswith("<!DOCTYPE html>") and html.rstrip().endswith("</html>")
     assert "<title>Title &lt;&amp;&gt; x</title>" in html
     assert "<h1>Title &lt;&amp;&gt; x</h1>" in html
-    assert "<h2>Section one</h2>" in html and "<h3>Sub</h3>" in html
+    assert "<h2 id='s1'>1. Section one</h2>" in html and "<h3>Sub</h3>" in html
     assert "<b>bold</b>" in html and "<code>code</code>" in html
     assert "<script>" not in html and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; more" in html
     assert "<ul><li>first <b>b</b></li><li>second &lt; 2</li></ul>" in html
     assert "**" not in html
+
+
+def test_document_numbers_sections_and_figures_lists_contents_and_has_a_viewport_and_footer(tmp_path):
+    png = tmp_path / "f.png"
+    png.write_bytes(PNG + b"x")
+    doc = Document("T", footer="Written by a test.")
+    assert doc.heading("One") == 1 and doc.next_figure == 1
+    assert doc.figure(png, "first") == 1
+    assert doc.heading("Sub", level=3) is None
+    assert doc.heading("Two") == 2 and doc.heading("Three") == 3
+    assert doc.figure(png, "second") == 2
+    assert doc.heading("Notes", numbered=False) is None
+    html = doc.to_html()
+    assert "<meta name='viewport' content='width=device-width, initial-scale=1'>" in html
+    toc = html[html.index("<nav class='toc'>"):html.index("</nav>")]
+    assert [f"#s{k}" for k in range(1, 5)] == re.findall(r"href='(#s\d)'", toc)
+    assert "Figure 2. second" in html and "<footer>Written by a test.</footer>" in html
+    assert html.index("<nav class='toc'>") < html.index("<h2 id='s1'>")
+    assert "<div class='scroll'><table>" in Document("T", blocks=[("table", (["a"], [[1]]))]).to_html()
+    assert doc.to_markdown().rstrip().endswith("Written by a test.")
 
 
 def test_document_table():
@@ -288,15 +308,15 @@ def test_document_figure(tmp_path):
     payload = PNG + b"not really an image but bytes"
     png.write_bytes(payload)
     doc = Document("F")
-    doc.figure(png, "it's a <figure> & **caption**")
+    assert doc.figure(png, "it's a <figure> & **caption**") == 1
     md = doc.to_markdown(relative_to=tmp_path)
-    assert "![it's a <figure> & **caption**](figs/f.png)" in md
+    assert "![Figure 1. it's a <figure> & **caption**](figs/f.png)" in md
     assert f"]({png.as_posix()})" in doc.to_markdown()  # without relative_to: the path as given
     html = doc.to_html()
     parser = _Tags()
     parser.feed(html)
     imgs = [a for t, a in parser.tags if t == "img"]
     assert len(imgs) == 1
-    assert imgs[0]["alt"] == "it's a <figure> & **caption**"  # escaped in the attribute, parsed back intact
+    assert imgs[0]["alt"] == "Figure 1. it's a <figure> & **caption**"  # escaped in the attribute, parsed back intact
     assert base64.b64decode(imgs[0]["src"].split(",", 1)[1]) == payload
-    assert "<figcaption>it&#x27;s a &lt;figure&gt; &amp; <b>caption</b></figcaption>" in html
+    assert "<figcaption>Figure 1. it&#x27;s a &lt;figure&gt; &amp; <b>caption</b></figcaption>" in html

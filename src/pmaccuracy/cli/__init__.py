@@ -209,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pmaccuracy`` console script; returns the exit status."""
     parser = build_parser(argv)
     args, extras = parser.parse_known_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)   # the command as typed, for reports' footers
     if extras:  # argparse would blame the program ("pmaccuracy: error:"): name the command instead
         _leaf_parser(parser, args).error(f"unrecognized arguments: {' '.join(extras)}")
     debug = os.environ.get("PMACCURACY_DEBUG", "") not in ("", "0")

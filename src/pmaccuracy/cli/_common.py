@@ -155,6 +155,13 @@ def check_finite_results(columns: dict[str, np.ndarray], poses: np.ndarray, name
                                   f"far outside any physical range")
 
 
+def command_line(args: argparse.Namespace) -> str:
+    """The command as typed (``pmaccuracy reproduce --out out``), shell-quoted, for a report's footer."""
+    import shlex
+
+    return "pmaccuracy " + " ".join(shlex.quote(a) for a in getattr(args, "argv", []))
+
+
 def add_robot(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="aalborg_3ppr",
                         help="preset name (aalborg_3ppr, symmetric_3ppr, symmetric_3rpr, symmetric_3rrr, "

@@ -23,13 +23,35 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "paper's reproduction (needed for robots other than a 3-PPR; e.g. rpr_typical)")
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
                    help="orientations of the accuracy report's maps (deg, repeatable; default 0 and 30)")
+    p.add_argument("--target", action="append", metavar="NAME=VALUE",
+                   help="design target of the design section's synthesis, repeatable: dx, dy, dp in mm, dphi_deg in "
+                        "deg (e.g. --target dp=0.1 --target dphi_deg=0.1); default for the paper's robot dp=0.3 and "
+                        "dphi_deg=0.3, for the accuracy report none (no synthesis)")
+    p.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, metavar=("LO", "HI"),
+                   help="orientation interval (deg) of the design section's global worst case and synthesis "
+                        "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
+    p.add_argument("--no-design", action="store_true", help="skip the design section of the accuracy report")
     p.set_defaults(func=run)
+
+
+def _targets(items: list[str] | None) -> dict[str, float] | None:
+    """``--target`` items as ``{name: value}`` (dx, dy, dp mm; dphi_deg deg), checked by the synthesis' parser."""
+    from ..accuracy.synthesis import parse_targets
+
+    if not items:
+        return None
+    parse_targets(items)   # ConfigError naming --target for a bad name or value
+    return {name.strip(): float(value) for name, _, value in (str(i).partition("=") for i in items)}
 
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
+    targets = _targets(args.target)
+    phi_range = tuple(args.phi_range_deg) if args.phi_range_deg else None
+    if phi_range is not None and not phi_range[0] < phi_range[1]:
+        raise ConfigError(f"needs LO < HI, got {phi_range[0]:g} {phi_range[1]:g}", key="--phi-range-deg")
     robot = _common.load_robot(args)
     if args.clearances is not None or not robot.is_3ppr:
         from ..report.accuracy_report import REPORT_PHIS_DEG, accuracy_report
@@ -42,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
         _common.prepare_output(args.out, "--out", folder=True)   # inputs first: a refused run leaves no folder
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,
-                                  experiment=not args.no_experiment)
+                                  experiment=not args.no_experiment, design=not args.no_design, targets=targets,
+                                  phi_range_deg=phi_range, command=_common.command_line(args))
         print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s): {robot.name} with "
               f"{results['clearances']}")
         return 0
@@ -51,8 +74,11 @@ def run(args: argparse.Namespace) -> int:
     _common.prepare_output(args.out, "--out", folder=True)
     from ..report import reproduce
 
+    if args.no_design:
+        raise ConfigError("--no-design applies to the accuracy report (with --clearances)", key="--no-design")
     results = reproduce(Path(args.out), robot, args.grid, seed=args.seed,
-                        experiment=not args.no_experiment)
+                        experiment=not args.no_experiment, command=_common.command_line(args), targets=targets,
+                        phi_range_deg=phi_range)
     ok = sum(c["pass"] for c in results["paper_check"])
     print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s); paper check: {ok} of "
           f"{len(results['paper_check'])} values within 1 %")

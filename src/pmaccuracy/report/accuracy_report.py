@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +22,13 @@ import numpy as np
 from .. import __version__
 from . import figures
 from ..accuracy.bounds import max_pose_errors
-from .document import Document
+from .design_report import design_section, home_pose
+from .document import Document, provenance
 from ..model.manipulator import Manipulator
 from ..kinematics import inverse_kinematics, regular_mask
 from ..accuracy.maps import MAP_VARIABLES, error_map, save_map, summarize
-from ..model.sources import ErrorSources, JointErrors, first_order_error, worst_configuration
+from ..model.sources import (FIRST_ORDER_ONLY, ErrorSources, JointErrors, first_order_error,
+                              worst_configuration)
 from ..io.resolve import load_clearances
 from ..kinematics.workspace import constant_orientation_workspace, save_workspace_figure
 from ..io.resolve import robot_arg
@@ -40,25 +42,30 @@ REPORT_PHIS_DEG = (0.0, 30.0)
 WELL_CONDITIONED = 10.0
 #: The source kinds of a per-joint clearance file, grouped as the report lists them.
 SOURCE_GROUPS = {"revolute clearance": ("radial",), "actuators": ("actuator",), "slide tilt": ("angular",),
-                 "guide play": ("lateral",), "tolerances": ("position", "direction", "length")}
+                 "guide play": ("lateral",),
+                 "tolerances": ("position", "direction", "length") + FIRST_ORDER_ONLY}
 _JSON_KEYS = {"dx_max": "dx_max", "dy_max": "dy_max", "dphi_max": "dphi_max_deg", "dp_max": "dp_max"}
 
 
 def only(sources: ErrorSources, keys: tuple[str, ...]) -> ErrorSources:
     """The sources with every key outside ``keys`` set to zero (block lengths kept)."""
     def keep(j: JointErrors) -> JointErrors:
-        return replace(j, **{k: 0.0 for k in ("radial", "actuator", "angular", "lateral", "position", "direction",
-                                              "length") if k not in keys})
+        return replace(j, **{f.name: 0.0 for f in fields(j) if f.name != "block_length" and f.name not in keys})
     return ErrorSources(legs=tuple(tuple(keep(j) for j in leg) for leg in sources.legs), name=sources.name)
 
 
 def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, grid: int = 101, *,
                     phis_deg: tuple[float, ...] = REPORT_PHIS_DEG, seed: int = 0, experiment: bool = True,
-                    workers: int = 2) -> dict:
+                    workers: int = 2, design: bool = True, targets: dict | None = None,
+                    phi_range_deg: tuple[float, float] | None = None, command: str | None = None) -> dict:
     """Write the accuracy report of ``robot`` with ``clearances`` in ``out_dir``; returns ``results.json``'s content.
 
     ``clearances`` is a per-joint clearance file or preset, or the 3-PPR format
-    for a 3-PPR (converted to per-joint sources).
+    for a 3-PPR (converted to per-joint sources). With ``design`` the report ends with the design decisions
+    (:func:`pmaccuracy.report.design_report.design_section` on these clearances): certified worst cases at
+    named poses, the certified worst case over the workspace for phi in ``phi_range_deg`` (deg; default the
+    range of ``phis_deg``), tolerance synthesis for ``targets`` (``{"dp": mm, "dphi_deg": deg, ...}``; none:
+    skipped, and the verdict says so) and statistics. ``command`` (the command line) goes to the footer.
     """
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -68,7 +75,9 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
     if not isinstance(sources, ErrorSources):
         sources = ErrorSources.from_clearance_set(sources)
     phis = np.radians(np.asarray(phis_deg, dtype=float))
-    doc = Document(f"pmaccuracy: accuracy of {robot.name} ({robot.architecture}) with clearances {sources.name}")
+    doc = Document(f"pmaccuracy: accuracy of {robot.name} ({robot.architecture}) with clearances {sources.name}",
+                   footer=provenance(command, __version__))
+    phi_range = tuple(phi_range_deg) if phi_range_deg is not None else (min(phis_deg), max(phis_deg))
     results: dict = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
                      "version": __version__, "grid": grid}
     with figures.Renderer(workers) as renderer:
@@ -79,10 +88,13 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
         _summary(doc, robot, sources, summary)
         _robot_section(doc, robot, phis_deg, out, results, renderer)
         _maps_section(doc, ds, sources, out, renderer)
-        _sources_section(doc, robot, sources, phis, grid, results)
+        _sources_section(doc, robot, sources, phis, grid, results, out, renderer)
         _nonlinear_section(doc, robot, sources, ds, results)
         if experiment:
             _experiment_section(doc, robot, sources, float(phis[0]), seed, out, results, renderer)
+        if design:
+            design_section(doc, robot, out, results, renderer, seed=seed, cases={sources.name: sources},
+                           targets=targets, phi_range_deg=phi_range)
     results["elapsed_s"] = round(time.perf_counter() - t0, 2)
     _method_section(doc)
     (out / "results.json").write_text(json.dumps(results, indent=2, default=float))
@@ -105,7 +117,7 @@ def _summary(doc: Document, robot: Manipulator, sources: ErrorSources, summary: 
 
 
 def _robot_section(doc, robot, phis_deg, out, results, renderer) -> None:
-    doc.heading("1. The manipulator and its workspace")
+    doc.heading("The manipulator and its workspace")
     rows = []
     for i, c in enumerate(robot.chains, start=1):
         act = c.actuated
@@ -133,7 +145,7 @@ def _robot_section(doc, robot, phis_deg, out, results, renderer) -> None:
 
 
 def _maps_section(doc, ds, sources, out, renderer) -> None:
-    doc.heading("2. Maximum pose errors over the workspace")
+    doc.heading("Maximum pose errors over the workspace")
     doc.paragraph("Exact worst cases at every point of a regular grid: each leg's sources bound its row of "
                   "A [dp; dphi] by a half-width c_i, so the error set is the parallelepiped A^-1 diag(c) [-1, 1]^3. "
                   "Points near a singularity (condition number of A above 100, or a leg's transmission below "
@@ -149,29 +161,59 @@ def _maps_section(doc, ds, sources, out, renderer) -> None:
         doc.figure(path, f"phi = {phi:g} deg: dx_max, dy_max, dp_max (mm) and dphi_max (deg).")
 
 
-def _sources_section(doc, robot, sources, phis, grid, results) -> None:
-    doc.heading("3. What each kind of error source contributes")
-    rows, js = [], {}
+def named_poses(robot: Manipulator, phi: float) -> tuple[np.ndarray, list[str]]:
+    """Poses ``(n, 3)`` [mm, mm, rad] where the report lists each source's share, and their names: the home
+    pose (:func:`pmaccuracy.report.design_report.home_pose`) and the centroid of the workspace at ``phi``."""
+    poses, names = [home_pose(robot)], ["home"]
+    ws = constant_orientation_workspace(robot, phi)
+    if ws.area > 0:
+        poses.append(np.array([*ws.vertices.mean(axis=0), phi]))
+        names.append(f"workspace centre, phi = {np.degrees(phi):g} deg")
+    return np.array(poses), names
+
+
+def _sources_section(doc, robot, sources, phis, grid, results, out, renderer) -> None:
+    doc.heading("What each kind of error source contributes")
+    rows, js, panels, at_rows = [], {}, [], []
     coarse = max(21, grid // 3)
+    poses, names = named_poses(robot, float(phis[0]))
+    regular = np.asarray(regular_mask(robot, poses, WELL_CONDITIONED))
     for name, keys in SOURCE_GROUPS.items():
         part = only(sources, keys)
         if all(getattr(j, k) == 0 for leg in part.legs for j in leg for k in keys):
             continue
-        summ = summarize(error_map(robot, part, phis, coarse, progress=False))
-        js[name] = summ
+        ds = error_map(robot, part, phis, coarse, progress=False)
+        summ = summarize(ds)
+        b = max_pose_errors(robot, part, poses, allow_outside=True, singular="nan")
+        at = {nm: {"dp_max": float(b.dp_max[k]), "dphi_max_deg": float(b.dphi_max_deg[k])}
+              for k, nm in enumerate(names) if regular[k]}
+        js[name] = {"maxima": summ, "at": at}
+        for nm, v in at.items():
+            at_rows.append([name, nm, f"{v['dp_max']:.4g}", f"{v['dphi_max_deg']:.4g}"])
         for phi, v in summ.items():
             rows.append([name, phi, f"{v['dx_max'][1]:.4g}", f"{v['dy_max'][1]:.4g}", f"{v['dphi_max_deg'][1]:.4g}",
                          f"{v['dp_max'][1]:.4g}"])
+        layer = ds.isel(phi=0)
+        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, f"{name} alone", "dp_max [mm]"))
     results["sources"] = js
-    doc.paragraph(f"Each kind of source alone (the others set to zero), largest value over the workspace "
-                  f"({coarse} x {coarse} grid). Contributions add up in each leg's half-width, so these maxima "
-                  "bound the share of each kind.")
+    doc.paragraph("Each kind of source alone (the others set to zero). First at named poses, where a designer "
+                  "reads the share of each kind (mm; deg):")
+    doc.table(["sources", "pose", "dp_max [mm]", "dphi_max [deg]"], at_rows)
+    number = doc.next_figure
+    doc.paragraph(f"Then as maps (Figure {number}, phi = {np.degrees(phis[0]):g} deg) and as the largest value over "
+                  f"the workspace ({coarse} x {coarse} grid). A maximum over the workspace is reached near its "
+                  "edge, where the robot approaches a singularity and every source is amplified: read it as the "
+                  "edge's value, not as the typical share. Contributions add up in each leg's half-width, so "
+                  "dx, dy and dphi maxima are additive over the kinds and dp sub-additive.")
+    doc.figure(renderer.submit(out / "sources_dp_max.png", figures.plot_panels, panels,
+                               suptitle=f"dp_max of each kind of source alone, phi = {np.degrees(phis[0]):g} deg"),
+               f"dp_max of each kind of error source alone at phi = {np.degrees(phis[0]):g} deg (mm).")
     doc.table(["sources", "phi [deg]", "max dx_max [mm]", "max dy_max [mm]", "max dphi_max [deg]",
                "max dp_max [mm]"], rows)
 
 
 def _nonlinear_section(doc, robot, sources, ds, results) -> None:
-    doc.heading("4. Exact nonlinear check of the worst cases")
+    doc.heading("Exact nonlinear check of the worst cases")
     rows, js = [], []
     for phi in ds.phi.values:
         layer = ds.sel(phi=phi)
@@ -209,7 +251,7 @@ def _nonlinear_section(doc, robot, sources, ds, results) -> None:
 
 def _experiment_section(doc, robot, sources, phi, seed, out, results, renderer) -> None:
 
-    doc.heading("5. Virtual experiment (the paper's push protocol)")
+    doc.heading("Virtual experiment: simulated pushes (the paper's protocol)")
     meas = ex.simulate_experiment(robot, sources, phi, 5, seed=seed)
     path = ex.write_measurements(out / "experiment" / "measurements.csv", meas)
     cmp_ = ex.compare(robot, sources, meas)
@@ -219,15 +261,17 @@ def _experiment_section(doc, robot, sources, phi, seed, out, results, renderer) 
     doc.paragraph(f"{len(meas)} points of a 5 x 5 grid of the phi = {np.degrees(phi):g} deg workspace; at each, six "
                   "pushes (+-x, +-y, +-rotation) drive every source to the extreme that moves the platform furthest "
                   "that way, the exact loop closure gives the reading, and camera noise (0.01 mm, 0.01 deg, seed "
-                  f"{seed}) is added. Measured errors are ranges of the six readings (Eq. 23): compared with the "
+                  f"{seed}) is added. **Simulated data**: the errors are ranges of the six simulated readings (Eq. 23), "
+                  "which check the comparison and the model against itself, not the model against a real robot; "
+                  "they are compared with the "
                   "one-sided predicted maxima as the paper does, and with twice them (the full width of the "
                   "symmetric error set).")
-    doc.table(["quantity", "RMSD, paper's convention", "RMSD, measured - 2 x predicted"],
+    doc.table(["quantity", "RMSD, paper's convention", "RMSD, simulated range - 2 x predicted"],
               [[q, f"{paper[q]:.4g}", f"{width[q]:.4g}"] for q in paper])
 
 
 def _method_section(doc: Document) -> None:
-    doc.heading("Method")
+    doc.heading("Method", numbered=False)
     doc.paragraph("Every leg is a chain of three one-DOF joints. With its actuated joint locked it constrains the "
                   "platform through the one wrench reciprocal to its two passive joints' twists (row i of A; its "
                   "pairing with the actuated twist is B_ii). Each error source is a small twist of the part of the "

@@ -39,7 +39,8 @@ import numpy as np
 from ..model.clearances import ClearanceSet
 from .document import Document
 from ..model.manipulator import Manipulator
-from ..io.resolve import robot_arg
+from ..errors import PmAccuracyError
+from ..io.resolve import load_clearances, robot_arg
 from ..accuracy.bounds import max_pose_errors
 from ..accuracy.certified import QUANTITIES, certified_pose_errors
 from ..accuracy.distributions import pose_statistics
@@ -47,10 +48,12 @@ from ..accuracy.global_worst import global_worst, make_region
 from ..accuracy.synthesis import default_template, parse_targets, synthesize
 from ..experiment import iso9283
 from ..experiment.virtual_rig import grid_poses
-from ..kinematics import inverse_kinematics
+from ..kinematics import inverse_kinematics, regular_mask
 from ..kinematics.workspace import constant_orientation_workspace
 from .statistics_report import statistics_section
 
+#: Condition number (of A, and inverse transmission) above which a corner is left out of table (a).
+WELL_CONDITIONED = 10.0
 #: Clearance cases and scale factors of table (a).
 CASES = ("case1", "case2")
 SCALES = (1.0, 10.0)
@@ -106,36 +109,45 @@ def home_pose(robot: Manipulator) -> np.ndarray:
     return np.array([*ws.vertices.mean(axis=0), 0.0])
 
 
-def check_poses(robot: Manipulator, case: str) -> tuple[np.ndarray, list[str]]:
-    """Poses ``(3, 3)`` [mm, mm, rad] of table (a) and their labels: the home pose, the corner of the phi = 0
-    workspace with the largest first-order ``dp`` and the corner of the workspaces at the ends of
-    :data:`PHI_RANGE_DEG` with the largest one (for a 3-PPR at fixed phi every maximum is convex in the
-    position, so these are the worst poses of those orientations)."""
+def _spec(clearances):
+    """A clearance preset name of the paper (``case1``, ``case2``) as its set; objects and paths as they are."""
+    return ClearanceSet.load(clearances) if isinstance(clearances, str) and clearances in CASES else clearances
 
-    cs = ClearanceSet.load(case)
+
+def check_poses(robot: Manipulator, case, phi_range_deg=PHI_RANGE_DEG) -> tuple[np.ndarray, list[str]]:
+    """Poses ``(n <= 3, 3)`` [mm, mm, rad] of table (a) and their labels: the home pose, the corner of the phi = 0
+    workspace with the largest first-order ``dp`` and the corner of the workspaces at the ends of
+    ``phi_range_deg`` with the largest one (for a 3-PPR at fixed phi every maximum is convex in the
+    position, so these are the worst poses of those orientations). Corners farther from a singularity than
+    :data:`WELL_CONDITIONED` allows are left out (a 3-RRR's workspace ends where a leg is stretched)."""
+
+    cs = _spec(case)
     poses, labels = [home_pose(robot)], ["home"]
-    for phis, label in (((0.0,), "worst corner, phi = 0"),
-                        (PHI_RANGE_DEG, f"worst corner, phi = {PHI_RANGE_DEG[0]:g} or {PHI_RANGE_DEG[1]:g}")):
+    lo, hi = phi_range_deg
+    for phis, label in (((0.0,), "worst corner, phi = 0"), ((lo, hi), f"worst corner, phi = {lo:g} or {hi:g}")):
         corners = np.vstack([np.column_stack([v, np.full(len(v), math.radians(p))])
                              for p in phis for v in [constant_orientation_workspace(robot, math.radians(p)).vertices]])
-        dp = max_pose_errors(robot, cs, corners, allow_outside=True).dp_max
-        poses.append(corners[int(np.argmax(dp))])
-        labels.append(label)
+        dp = max_pose_errors(robot, cs, corners, allow_outside=True, singular="nan").dp_max
+        dp = np.where(regular_mask(robot, corners, WELL_CONDITIONED), dp, np.nan)
+        if np.isfinite(dp).any():           # corners at a singularity (a stretched leg) are left out
+            poses.append(corners[int(np.nanargmax(dp))])
+            labels.append(label)
     return np.array(poses), labels
 
 
 # ---------------------------------------------------------------------------------------------- jobs
 def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: list[str],
-                   scales=SCALES) -> list[dict]:
+                   scales=SCALES, clearances=None) -> list[dict]:
     """Table (a) for one clearance case: per scale factor and pose, ``{q: {first_order, nonlinear, certified,
     gap}}`` (mm; deg for ``dphi_deg``) from :func:`pmaccuracy.accuracy.certified.certified_pose_errors` of
-    ``ClearanceSet.load(case).scaled(scale)`` (``allow_outside``: the corners lie on the workspace's boundary;
-    NaN / None and ``reason`` where no certificate)."""
+    the clearances ``case`` (a paper case name, or ``clearances``: any set, labelled ``case``) times each scale
+    (``allow_outside``: the corners lie on the workspace's boundary; NaN / None and ``reason`` where no
+    certificate)."""
 
+    cs = load_clearances(_spec(case) if clearances is None else clearances, robot)
     rows = []
     for scale in scales:
-        r = certified_pose_errors(robot, ClearanceSet.load(case).scaled(scale), poses, allow_outside=True,
-                                  on_failure="nan")
+        r = certified_pose_errors(robot, cs.scaled(scale), poses, allow_outside=True, on_failure="nan")
         for k, (pose, label) in enumerate(zip(poses, labels)):
             qs = {}
             for q in QUANTITIES:
@@ -147,13 +159,13 @@ def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: lis
     return rows
 
 
-def global_job(robot: Manipulator, case: str, phi_deg=PHI_RANGE_DEG, gap: float = GLOBAL_GAP) -> dict:
+def global_job(robot: Manipulator, case, phi_deg=PHI_RANGE_DEG, gap: float = GLOBAL_GAP) -> dict:
     """(b): :func:`pmaccuracy.accuracy.global_worst.global_worst` of ``case`` over the workspace at ``phi`` in
     ``phi_deg``: per quantity ``lower`` (attained at ``x, y, phi_deg``), ``upper`` (certified), ``gap``,
     ``converged``; mm, deg for ``dphi_deg``."""
 
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
-    res = global_worst(robot, ClearanceSet.load(case), region, gap=gap)
+    res = global_worst(robot, _spec(case), region, gap=gap)
     qs = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "gap": float(w.gap),
                     "x": float(w.pose[0]), "y": float(w.pose[1]), "phi_deg": math.degrees(w.pose[2]),
                     "converged": bool(w.converged)} for q, w in res.quantities.items()}
@@ -162,30 +174,33 @@ def global_job(robot: Manipulator, case: str, phi_deg=PHI_RANGE_DEG, gap: float 
 
 
 def synthesis_job(robot: Manipulator, mode: str, targets: dict = TARGETS, phi_deg=PHI_RANGE_DEG,
-                  gap: float = GLOBAL_GAP) -> dict:
+                  gap: float = GLOBAL_GAP, template=None) -> dict:
     """(c): :func:`pmaccuracy.accuracy.synthesis.synthesize` (default template) for ``targets`` (``dp`` mm,
     ``dphi_deg`` deg) over the workspace at ``phi`` in ``phi_deg``: sources (template and synthesized values,
     mm / rad), ``scale`` (uniform) or ``cost`` (min-cost), and the re-verified certificate per quantity."""
 
     t0 = time.perf_counter()
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
-    res = synthesize(robot, region, parse_targets(dict(targets)), mode=mode, gap=gap)
+    res = synthesize(robot, region, parse_targets(dict(targets)), mode=mode, gap=gap,
+                     template=None if template is None else _spec(template))
     worst = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "x": float(w.pose[0]),
                        "y": float(w.pose[1]), "phi_deg": math.degrees(w.pose[2]), "converged": bool(w.converged)}
              for q, w in res.worst.quantities.items()}
-    return {"mode": mode, "template": default_template(robot), "scale": res.scale, "cost": res.cost,
+    name = default_template(robot) if template is None else getattr(_spec(template), "name", str(template))
+    return {"mode": mode, "template": name, "scale": res.scale, "cost": res.cost,
             "cuts": res.cuts, "sources": [{"source": s.label, "template": float(s.value), "value": float(v)}
                                           for s, v in zip(res.sources, res.values)],
             "worst": worst, "seconds": time.perf_counter() - t0}
 
 
-def statistics_job(robot: Manipulator, case: str, pose: np.ndarray, grid: int | None, seed: int,
+def statistics_job(robot: Manipulator, case, pose: np.ndarray, grid: int | None, seed: int,
                    figure: str | Path | None) -> dict:
     """(d): :func:`pmaccuracy.report.statistics_report.statistics_section` of ``case`` at ``pose`` (threshold
     :data:`THRESHOLD_DP`) with a ``grid x grid`` percentile map at phi = 0 (written to ``figure``); with
     ``grid=None`` only the pose statistics (:func:`~pmaccuracy.accuracy.distributions.pose_statistics`, same
     settings): ``{"pose": ..., "threshold_dp": ...}``."""
 
+    case = _spec(case)
     if grid is None:
         return {"pose": pose_statistics(robot, case, pose, samples=POSE_SAMPLES, seed=seed,
                                         thresholds={"dp": THRESHOLD_DP}).to_dict(), "threshold_dp": THRESHOLD_DP}
@@ -218,44 +233,74 @@ def iso_job(robot: Manipulator, seed: int) -> dict:
 
 # ---------------------------------------------------------------------------------------------- section
 def design_section(doc: Document, robot: Manipulator, out: str | Path, results: dict, renderer, *,
-                   seed: int = 0, number: int | None = 7) -> dict:
+                   seed: int = 0, cases: dict | None = None, targets: dict | None = TARGETS,
+                   phi_range_deg: tuple[float, float] = PHI_RANGE_DEG, template=None, scales=SCALES,
+                   iso: bool | None = None) -> dict:
     """Add the section to ``doc`` and its numbers to ``results["design_decisions"]`` (returned too).
 
-    ``results["cases"]`` (the report's grid maps: ``{case: {phi_deg: {"dx_max": [lo, hi], ...}}}``, mm and
-    deg) gives the grid maxima that (b) compares with; ``results["grid"]`` the map grid (the percentile map
-    uses ``min(grid, MAP_GRID)``). ``renderer`` is a :class:`pmaccuracy.report.figures.Renderer` (its workers run
-    the global maxima, the syntheses, the statistics with their figure and the ISO test).
+    ``cases``: ``{label: clearances}`` (a set, a preset name or a path), default the paper's ``case1`` and
+    ``case2``; ``targets`` of the synthesis (``{"dp": mm, "dphi_deg": deg, ...}``; ``None``: no synthesis)
+    over the workspace for phi in ``phi_range_deg`` (deg), scaling ``template`` (default: the last case, or
+    the paper's Case 1 template for the paper's cases); ``iso``: the ISO 9283 test (default: only with the
+    paper's cases). ``results["cases"]`` (the report's grid maps: ``{label: {phi_deg: {"dx_max": [lo, hi],
+    ...}}}``, mm and deg) gives the grid maxima that (b) compares with; ``results["grid"]`` the map grid (the
+    percentile map uses ``min(grid, MAP_GRID)``). ``renderer`` is a :class:`pmaccuracy.report.figures.Renderer`
+    (its workers run the global maxima, the syntheses, the statistics with their figure and the ISO test).
     """
     t0 = time.perf_counter()
     out = Path(out)
     robot = robot_arg(robot)
+    paper = cases is None
+    cases = {c: c for c in CASES} if paper else dict(cases)
+    labels = list(cases)
+    iso = paper and robot.is_3ppr if iso is None else iso
+    if template is None and not paper:
+        template = cases[labels[-1]]
+    phi_range = tuple(float(p) for p in phi_range_deg)
     home = home_pose(robot)
     grid = int(min(results.get("grid", MAP_GRID), MAP_GRID))
     figure = out / "design_percentiles.png"
     # longest first: the workers may still be drawing the figures of the earlier sections
-    jobs = {("synthesis", "min-cost"): renderer.compute(synthesis_job, robot, "min-cost"),
-            ("statistics", CASES[-1]): renderer.compute(statistics_job, robot, CASES[-1], home, grid, seed, figure)}
-    jobs.update({("global", c): renderer.compute(global_job, robot, c) for c in CASES})
-    jobs[("synthesis", "uniform")] = renderer.compute(synthesis_job, robot, "uniform")
-    jobs[("iso", ISO_CASE)] = renderer.compute(iso_job, robot, seed)
-    jobs.update({("statistics", c): renderer.compute(statistics_job, robot, c, home, None, seed, None)
-                 for c in CASES[:-1]})
+    jobs = {}
+    if targets:
+        jobs[("synthesis", "min-cost")] = renderer.compute(synthesis_job, robot, "min-cost", targets, phi_range,
+                                                           GLOBAL_GAP, template)
+    jobs[("statistics", labels[-1])] = renderer.compute(statistics_job, robot, cases[labels[-1]], home, grid, seed,
+                                                         figure)
+    jobs.update({("global", c): renderer.compute(global_job, robot, cases[c], phi_range) for c in labels})
+    if targets:
+        jobs[("synthesis", "uniform")] = renderer.compute(synthesis_job, robot, "uniform", targets, phi_range,
+                                                          GLOBAL_GAP, template)
+    if iso:
+        jobs[("iso", ISO_CASE)] = renderer.compute(iso_job, robot, seed)
+    jobs.update({("statistics", c): renderer.compute(statistics_job, robot, cases[c], home, None, seed, None)
+                 for c in labels[:-1]})
     rows = []
-    for case in CASES:
-        poses, labels = check_poses(robot, case)
-        rows += certified_rows(robot, case, poses, labels)
-    got = {key: job.result() for key, job in jobs.items()}
-    data = {"settings": {"cases": list(CASES), "scales": list(SCALES), "phi_range_deg": list(PHI_RANGE_DEG),
-                         "gap": GLOBAL_GAP, "targets": dict(TARGETS), "threshold_dp": THRESHOLD_DP,
+    for label in labels:
+        poses, pose_labels = check_poses(robot, cases[label], phi_range)
+        rows += certified_rows(robot, label, poses, pose_labels, scales, clearances=_spec(cases[label]))
+    got = {}
+    for key, job in jobs.items():
+        try:
+            got[key] = job.result()
+        except PmAccuracyError as exc:   # e.g. a region that reaches a singularity: said in the text, not hidden
+            if key[0] == "statistics":
+                raise
+            got[key] = {"error": str(exc)}
+    data = {"settings": {"cases": labels, "scales": list(scales), "phi_range_deg": list(phi_range),
+                         "gap": GLOBAL_GAP, "targets": dict(targets or {}), "threshold_dp": THRESHOLD_DP,
                          "pose_samples": POSE_SAMPLES, "map_samples": MAP_SAMPLES, "map_grid": grid, "seed": seed,
+                         "paper_cases": paper,
                          "iso": {"clearances": ISO_CASE, "cycles": ISO_CYCLES, "noise_mm": ISO_NOISE_MM,
-                                 "noise_deg": ISO_NOISE_DEG}},
+                                 "noise_deg": ISO_NOISE_DEG} if iso else None},
             "certified": rows,
-            "global_worst": {c: got[("global", c)] for c in CASES},
-            "synthesis": {m: got[("synthesis", m)] for m in ("uniform", "min-cost")},
-            "statistics": {c: got[("statistics", c)] for c in CASES},
-            "iso9283": got[("iso", ISO_CASE)]}
+            "global_worst": {c: got[("global", c)] for c in labels},
+            "synthesis": ({m: got[("synthesis", m)] for m in ("uniform", "min-cost")} if targets else None),
+            "statistics": {c: got[("statistics", c)] for c in labels},
+            "iso9283": got[("iso", ISO_CASE)] if iso else None}
     for c, gw in data["global_worst"].items():
+        if "error" in gw:
+            continue
         cells = results.get("cases", {}).get(c, {})
         for q, key in GRID_KEYS.items():
             best = max((cell[key][1] for cell in cells.values()), default=None)
@@ -264,7 +309,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     data["seconds"] = time.perf_counter() - t0
     data = _ready(data)
     results["design_decisions"] = data
-    _write(doc, robot, data, figure, number)
+    _write(doc, robot, data, figure)
     return data
 
 
@@ -282,11 +327,51 @@ def _pose(x: float, y: float, phi_deg: float) -> str:
     return f"({x:.4g}, {y:.4g}, {phi_deg:.3g})"
 
 
-def _write(doc: Document, robot: Manipulator, d: dict, figure: Path, number: int | None) -> None:
+def _verdict(d: dict) -> str:
+    """Three lines a designer reads first: the certified worst case, the targets, how far the maps can be
+    trusted (from the section's own numbers)."""
     s = d["settings"]
     lo, hi = s["phi_range_deg"]
-    doc.heading(f"{number}. " * (number is not None)
-                + "Design decisions: certified worst cases, global maxima, tolerance synthesis, statistics")
+    last = s["cases"][-1]
+    if "error" in d["global_worst"][last]:
+        gw = None
+        line1 = (f"**Verdict.** (1) With the clearances `{last}` the worst case over the workspace at phi in "
+                 f"[{lo:g}, {hi:g}] deg has no finite bound: {d['global_worst'][last]['error']}")
+    else:
+        gw = d["global_worst"][last]["quantities"]
+        dp, dphi = gw["dp"], gw["dphi_deg"]
+        line1 = (f"**Verdict.** (1) With the clearances `{last}`, no pose of the workspace at phi in [{lo:g}, "
+                 f"{hi:g}] deg errs by more than dp = {_fmt(dp['upper'])} mm or dphi = {_fmt(dphi['upper'])} deg "
+                 f"(certified; attained {_fmt(dp['lower'])} mm at {_pose(dp['x'], dp['y'], dp['phi_deg'])}).")
+    syn_error = next((v["error"] for v in (d["synthesis"] or {}).values() if "error" in v), None)
+    if syn_error:
+        line2 = f" (2) The clearances could not be sized for the targets: {syn_error}"
+    elif d["synthesis"]:
+        uni = d["synthesis"]["uniform"]
+        tgt = ", ".join(f"{k} <= {v:g} {'deg' if k.endswith('_deg') else 'mm'}" for k, v in s["targets"].items())
+        meets = gw is not None and all(gw[k]["upper"] is not None and gw[k]["upper"] <= v
+                                       for k, v in s["targets"].items())
+        line2 = (f" (2) Against the targets {tgt}: `{last}` {'meets' if meets else 'misses'} them; the clearances "
+                 f"of `{uni['template']}` may be scaled by {uni['scale']:.3g} (uniformly) and still meet them "
+                 "everywhere, certified.")
+    else:
+        line2 = " (2) No targets were given (`--target`), so the clearances were not sized."
+    at1 = [r for r in d["certified"] if r["scale"] == s["scales"][0] and r["case"] == last]
+    excess = [(r["quantities"]["dp"]["certified"] - r["quantities"]["dp"]["first_order"])
+              / r["quantities"]["dp"]["first_order"] for r in at1 if r["quantities"]["dp"]["certified"] is not None]
+    line3 = (f" (3) The first-order maps hold to {100 * max(excess):.2g} % of the exact model at these clearances "
+             "(certified at the poses of (a)), so they can be used as they are." if excess and max(excess) < 0.01
+             else f" (3) The exact model exceeds the first-order maps by up to {100 * max(excess):.2g} % at the "
+                  "poses of (a): use the certified values." if excess
+             else " (3) The exact model could not be certified at the poses of (a): see the reasons there.")
+    return line1 + line2 + line3
+
+
+def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
+    s = d["settings"]
+    lo, hi = s["phi_range_deg"]
+    doc.heading("Design decisions: certified worst cases, global maxima, tolerance synthesis, statistics")
+    doc.paragraph(_verdict(d))
     doc.paragraph(
         f"What a designer of `{robot.name}` needs to fix the clearances: how much the first-order worst case "
         "can be trusted, the worst case over the whole workspace, the largest clearances meeting a target, "
@@ -329,70 +414,80 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path, number: int
         f"remainder grows with the square of the clearances) and the gap {100 * gaps[sc1]:.2f} %: add that "
         "margin to a first-order budget for loose joints, or use the certified value.")
     # (b) -----------------------------------------------------------------------------------------------------
-    gw_rows = []
+    ok = {c: gw for c, gw in d["global_worst"].items() if "error" not in gw}
     for c, gw in d["global_worst"].items():
-        for key, w in gw["quantities"].items():
-            miss = None if w["grid_best"] is None else (w["lower"] - w["grid_best"]) / w["lower"]
-            gw_rows.append([c, key, _fmt(w["lower"], 5), _fmt(w["upper"], 5), _pct(w["gap"], 2),
-                            _pose(w["x"], w["y"], w["phi_deg"]), _fmt(w["grid_best"], 5),
-                            "-" if miss is None else f"{round(100 * miss, 2) + 0.0:.2f}",
-                            "yes" if w["converged"] else "no"])
-    orient = ", ".join(f"{p:g}" for p in next(iter(d["global_worst"].values()))["grid_orientations_deg"])
-    doc.paragraph(
-        f"**(b) Global maximum over the workspace for phi in [{lo:g}, {hi:g}] deg** (`pmaccuracy worst`, "
-        "first-order model): `attained` is the value at the pose shown, `certified max` a rigorous bound over "
-        "every reachable pose of the region (branch and bound with interval arithmetic), `gap` their relative "
-        f"difference. The report's maps sample the region on a grid at phi = {orient} deg only; `grid max` is "
-        "their largest value and the next column how far it lies below the attained maximum.")
-    doc.table(["case", "quantity", "attained", "certified max", "gap [%]", "at (x, y, phi)", "grid max",
-               "grid max below attained [%]", "certified"], gw_rows)
-    ws = [w for gw in d["global_worst"].values() for w in gw["quantities"].values()]
-    misses = [(w["lower"] - w["grid_best"]) / w["lower"] for w in ws if w["grid_best"] is not None]
-    at_end = sum(min(abs(w["phi_deg"] - lo), abs(w["phi_deg"] - hi)) < 1e-6 for w in ws)
-    phis = ", ".join(f"{p:.3g}" for p in sorted({round(w["phi_deg"], 6) + 0.0 for w in ws}))
-    if misses and max(misses) < 1e-3:
-        grid_text = (f"the maps' grid, which holds the corners of the phi = {orient} deg workspaces, already "
-                     f"comes within {100 * max(max(misses), 0.0):.2f} % of every maximum")
-    elif misses:
-        grid_text = f"a grid at a few orientations underestimates the maximum by up to {100 * max(misses):.1f} %"
-    else:
-        grid_text = "the maps give no grid value to compare"
-    doc.paragraph(
-        f"**Reading.** The maxima are attained at phi = {phis} deg ({at_end} of {len(ws)} at an end of the "
-        f"interval); {grid_text}. What the certificate adds is the guarantee: no pose "
-        f"of the region, at any orientation in between, is worse than `certified max`, at most "
-        f"{100 * max(w['gap'] for w in ws):.2f} % above the attained value. That is the number to compare with a "
-        "specification over the whole task space.")
+        if "error" in gw:
+            doc.paragraph(f"**(b) Global maximum over the workspace for phi in [{lo:g}, {hi:g}] deg**, "
+                          f"clearances `{c}`: not bounded. {gw['error']}")
+    if ok:
+        gw_rows = []
+        for c, gw in ok.items():
+            for key, w in gw["quantities"].items():
+                miss = None if w["grid_best"] is None else (w["lower"] - w["grid_best"]) / w["lower"]
+                gw_rows.append([c, key, _fmt(w["lower"], 5), _fmt(w["upper"], 5), _pct(w["gap"], 2),
+                                _pose(w["x"], w["y"], w["phi_deg"]), _fmt(w["grid_best"], 5),
+                                "-" if miss is None else f"{round(100 * miss, 2) + 0.0:.2f}",
+                                "yes" if w["converged"] else "no"])
+        orient = ", ".join(f"{p:g}" for p in next(iter(ok.values()))["grid_orientations_deg"])
+        doc.paragraph(
+            f"**(b) Global maximum over the workspace for phi in [{lo:g}, {hi:g}] deg** (`pmaccuracy worst`, "
+            "first-order model): `attained` is the value at the pose shown, `certified max` a rigorous bound over "
+            "every reachable pose of the region (branch and bound with interval arithmetic), `gap` their relative "
+            f"difference. The report's maps sample the region on a grid at phi = {orient} deg only; `grid max` is "
+            "their largest value and the next column how far it lies below the attained maximum.")
+        doc.table(["case", "quantity", "attained", "certified max", "gap [%]", "at (x, y, phi)", "grid max",
+                   "grid max below attained [%]", "certified"], gw_rows)
+        ws = [w for gw in ok.values() for w in gw["quantities"].values()]
+        misses = [(w["lower"] - w["grid_best"]) / w["lower"] for w in ws if w["grid_best"] is not None]
+        at_end = sum(min(abs(w["phi_deg"] - lo), abs(w["phi_deg"] - hi)) < 1e-6 for w in ws)
+        phis = ", ".join(f"{p:.3g}" for p in sorted({round(w["phi_deg"], 6) + 0.0 for w in ws}))
+        if misses and max(misses) < 1e-3:
+            grid_text = (f"the maps' grid, which holds the corners of the phi = {orient} deg workspaces, already "
+                         f"comes within {100 * max(max(misses), 0.0):.2f} % of every maximum")
+        elif misses:
+            grid_text = f"a grid at a few orientations underestimates the maximum by up to {100 * max(misses):.1f} %"
+        else:
+            grid_text = "the maps give no grid value to compare"
+        doc.paragraph(
+            f"**Reading.** The maxima are attained at phi = {phis} deg ({at_end} of {len(ws)} at an end of the "
+            f"interval); {grid_text}. What the certificate adds is the guarantee: no pose "
+            f"of the region, at any orientation in between, is worse than `certified max`, at most "
+            f"{100 * max(w['gap'] for w in ws):.2f} % above the attained value. That is the number to compare with a "
+            "specification over the whole task space.")
     # (c) -----------------------------------------------------------------------------------------------------
-    syn = d["synthesis"]
-    uni, mc = syn["uniform"], syn["min-cost"]
-    tgt = ", ".join(f"{k} = {v:g} {'deg' if k.endswith('_deg') else 'mm'}" for k, v in s["targets"].items())
-    doc.paragraph(
-        f"**(c) Tolerance synthesis** (`pmaccuracy synthesize`): the largest clearances of the Case 1 template "
-        f"(bearings) that keep the certified worst case within {tgt} everywhere in the workspace for phi in "
-        f"[{lo:g}, {hi:g}] deg. Uniform: the template times one factor; min-cost: per joint, minimizing "
-        "sum eps0 / eps (halving a clearance doubles its cost), equal weights. Values in rad.")
-    doc.table(["source", "template", "uniform", "min-cost"],
-              [[a["source"], f"{a['template']:.6g}", f"{a['value']:.6g}", f"{b['value']:.6g}"]
-               for a, b in zip(uni["sources"], mc["sources"])])
-    ver = []
-    for key in ("dx", "dy", "dphi_deg", "dp"):
-        target = s["targets"].get(key)
-        ver.append([key, "-" if target is None else f"{target:g}", _fmt(uni["worst"][key]["upper"], 5),
-                    _fmt(mc["worst"][key]["upper"], 5)])
-    doc.paragraph("Re-verified certified worst cases of the synthesized clearances (mm, deg):")
-    doc.table(["quantity", "target", "uniform", "min-cost"], ver)
-    binding = [k for k, t in s["targets"].items() if uni["worst"][k]["upper"] >= t * (1 - 2 * s["gap"])]
-    looser = [b["source"] for a, b in zip(uni["sources"], mc["sources"]) if b["value"] > a["value"] * (1 + 1e-4)]
-    tighter = [b["source"] for a, b in zip(uni["sources"], mc["sources"]) if b["value"] < a["value"] * (1 - 1e-4)]
-    change = (f"loosens {', '.join(looser) or 'nothing'} and tightens {', '.join(tighter) or 'nothing'}"
-              if looser or tighter else "is the uniform one to 0.01 %")
-    doc.paragraph(
-        f"**Reading.** Uniform scaling allows {uni['scale']:.4f} times the template "
-        f"({'binding: ' + ', '.join(binding) if binding else 'no target binding'}). The min-cost design "
-        f"{change}, cost {mc['cost']:.4f} against "
-        f"{len(uni['sources']) / uni['scale']:.4f} for the uniform one. Both are certified over the whole "
-        f"region; with a {100 * s['gap']:g} % certificate they are conservative by at most that much.")
+    errors = [v["error"] for v in (d["synthesis"] or {}).values() if "error" in v]
+    if errors:
+        doc.paragraph(f"**(c) Tolerance synthesis**: not possible over this region. {errors[0]}")
+    if d["synthesis"] and not errors:
+        syn = d["synthesis"]
+        uni, mc = syn["uniform"], syn["min-cost"]
+        tgt = ", ".join(f"{k} = {v:g} {'deg' if k.endswith('_deg') else 'mm'}" for k, v in s["targets"].items())
+        doc.paragraph(
+            f"**(c) Tolerance synthesis** (`pmaccuracy synthesize`): the largest clearances of the template "
+            f"`{uni['template']}` (its non-zero sources) that keep the certified worst case within {tgt} everywhere in the workspace for phi in "
+            f"[{lo:g}, {hi:g}] deg. Uniform: the template times one factor; min-cost: per joint, minimizing "
+            "sum eps0 / eps (halving a clearance doubles its cost), equal weights. Values in mm or rad by the source.")
+        doc.table(["source", "template", "uniform", "min-cost"],
+                  [[a["source"], f"{a['template']:.6g}", f"{a['value']:.6g}", f"{b['value']:.6g}"]
+                   for a, b in zip(uni["sources"], mc["sources"])])
+        ver = []
+        for key in ("dx", "dy", "dphi_deg", "dp"):
+            target = s["targets"].get(key)
+            ver.append([key, "-" if target is None else f"{target:g}", _fmt(uni["worst"][key]["upper"], 5),
+                        _fmt(mc["worst"][key]["upper"], 5)])
+        doc.paragraph("Re-verified certified worst cases of the synthesized clearances (mm, deg):")
+        doc.table(["quantity", "target", "uniform", "min-cost"], ver)
+        binding = [k for k, t in s["targets"].items() if uni["worst"][k]["upper"] >= t * (1 - 2 * s["gap"])]
+        looser = [b["source"] for a, b in zip(uni["sources"], mc["sources"]) if b["value"] > a["value"] * (1 + 1e-4)]
+        tighter = [b["source"] for a, b in zip(uni["sources"], mc["sources"]) if b["value"] < a["value"] * (1 - 1e-4)]
+        change = (f"loosens {', '.join(looser) or 'nothing'} and tightens {', '.join(tighter) or 'nothing'}"
+                  if looser or tighter else "is the uniform one to 0.01 %")
+        doc.paragraph(
+            f"**Reading.** Uniform scaling allows {uni['scale']:.4f} times the template "
+            f"({'binding: ' + ', '.join(binding) if binding else 'no target binding'}). The min-cost design "
+            f"{change}, cost {mc['cost']:.4f} against "
+            f"{len(uni['sources']) / uni['scale']:.4f} for the uniform one. Both are certified over the whole "
+            f"region; with a {100 * s['gap']:g} % certificate they are conservative by at most that much.")
     # (d) -----------------------------------------------------------------------------------------------------
     st_rows = []
     for c, st in d["statistics"].items():
@@ -427,31 +522,32 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path, number: int
         doc.figure(figure, f"{s['cases'][-1]}, phi = 0: 95th percentile of |dp| and |dphi| ({s['map_samples']} "
                            "samples per point), their worst case and the ratio.")
     # (e) -----------------------------------------------------------------------------------------------------
-    iso = d["iso9283"]
-    iso_rows = [[r["point"], f"({r['x_nom']:g}, {r['y_nom']:g})", r["n"], _fmt(r["ap_p"]), _fmt(r["rp_l"]),
-                 f"{r['rp_l_model']:.4f} [{r['rp_l_model_lo']:.4f}, {r['rp_l_model_hi']:.4f}]",
-                 _fmt(r["rp_phi_deg"]),
-                 f"{r['rp_phi_model_deg']:.4f} [{r['rp_phi_model_lo_deg']:.4f}, {r['rp_phi_model_hi_deg']:.4f}]",
-                 _fmt(r["dp_max"])] for r in iso["points"]]
-    doc.paragraph(
-        f"**(e) ISO 9283 pose accuracy and repeatability** from a virtual test (`experiment simulate --repeats "
-        f"{s['iso']['cycles']}`): {len(iso['points'])} points at phi = 0, {s['iso']['cycles']} cycles each, "
-        f"clearances {s['iso']['clearances']}, every cycle a fresh uniform clearance state, exact loop closure, "
-        f"camera noise {s['iso']['noise_mm']:g} mm / {s['iso']['noise_deg']:g} deg. Beside the measured AP_p and "
-        "RP the model's predicted RP (mean of 2000 simulated tests, with the 5-95 % range of one test), and the "
-        "worst case dp_max. mm and deg.")
-    doc.table(["point", "(x, y)", "cycles", "AP_p", "RP_l", "RP_l model [5-95 %]", "RP_phi", "RP_phi model [5-95 %]",
-               "dp_max"], iso_rows)
-    ratio = np.mean([r["rp_l"] / r["rp_l_model"] for r in iso["points"]])
-    rl = [r["rp_l"] / r["dp_max"] for r in iso["points"]]
-    rphi = [r["rp_phi_deg"] / r["dphi_max_deg"] for r in iso["points"]]
-    doc.paragraph(
-        f"**Reading.** {100 * iso['share_rp_l_in_model_range']:.0f} % of the measured RP_l lie in the model's "
-        f"range for one test (mean ratio measured / predicted {ratio:.2f}): "
-        + ("the clearance model explains the scatter. " if iso["share_rp_l_in_model_range"] >= 0.6
-           else "the scatter departs from the clearance model. ")
-        + f"AP_p is only the barycentre's scatter: symmetric clearances cause no systematic offset. RP_l "
-        f"is {min(rl):.2f}-{max(rl):.2f} times the worst case dp_max and RP_phi {min(rphi):.2f}-{max(rphi):.2f} "
-        "times dphi_max: an ISO repeatability figure is of the order of the worst case but neither bounds it "
-        "nor is bounded by it, since it counts the spread of random states (3 standard deviations), not the "
-        "extreme configuration.")
+    if d["iso9283"]:
+        iso = d["iso9283"]
+        iso_rows = [[r["point"], f"({r['x_nom']:g}, {r['y_nom']:g})", r["n"], _fmt(r["ap_p"]), _fmt(r["rp_l"]),
+                     f"{r['rp_l_model']:.4f} [{r['rp_l_model_lo']:.4f}, {r['rp_l_model_hi']:.4f}]",
+                     _fmt(r["rp_phi_deg"]),
+                     f"{r['rp_phi_model_deg']:.4f} [{r['rp_phi_model_lo_deg']:.4f}, {r['rp_phi_model_hi_deg']:.4f}]",
+                     _fmt(r["dp_max"])] for r in iso["points"]]
+        doc.paragraph(
+            f"**(e) ISO 9283 pose accuracy and repeatability** from a virtual test (`experiment simulate --repeats "
+            f"{s['iso']['cycles']}`): {len(iso['points'])} points at phi = 0, {s['iso']['cycles']} cycles each, "
+            f"clearances {s['iso']['clearances']}, every cycle a fresh uniform clearance state, exact loop closure, "
+            f"camera noise {s['iso']['noise_mm']:g} mm / {s['iso']['noise_deg']:g} deg. Beside the simulated test's AP_p (ISO "
+            "9283: the offset of the barycentre of the attained positions) and RP the model's predicted RP (mean of 2000 simulated tests, with the 5-95 % range of one test), and the "
+            "worst case dp_max. mm and deg.")
+        doc.table(["point", "(x, y)", "cycles", "AP_p", "RP_l", "RP_l model [5-95 %]", "RP_phi", "RP_phi model [5-95 %]",
+                   "dp_max"], iso_rows)
+        ratio = np.mean([r["rp_l"] / r["rp_l_model"] for r in iso["points"]])
+        rl = [r["rp_l"] / r["dp_max"] for r in iso["points"]]
+        rphi = [r["rp_phi_deg"] / r["dphi_max_deg"] for r in iso["points"]]
+        doc.paragraph(
+            f"**Reading.** {100 * iso['share_rp_l_in_model_range']:.0f} % of the simulated RP_l lie in the model's "
+            f"range for one test (mean ratio simulated / predicted {ratio:.2f}): "
+            + ("the clearance model explains the scatter. " if iso["share_rp_l_in_model_range"] >= 0.6
+               else "the scatter departs from the clearance model. ")
+            + f"AP_p is only the barycentre's scatter: symmetric clearances cause no systematic offset. RP_l "
+            f"is {min(rl):.2f}-{max(rl):.2f} times the worst case dp_max and RP_phi {min(rphi):.2f}-{max(rphi):.2f} "
+            "times dphi_max: an ISO repeatability figure is of the order of the worst case but neither bounds it "
+            "nor is bounded by it, since it counts the spread of random states (3 standard deviations), not the "
+            "extreme configuration.")

@@ -58,9 +58,9 @@ def _phi_list(groups: list[tuple[float, np.ndarray]]) -> str:
 
 
 def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None = None) -> Figure:
-    """Position and orientation accuracy per point as bars (ISO 9283, Eq. 24; paper Fig. 14).
+    """Position and orientation error per point as bars (the paper's Eq. 24 and Fig. 14; not the ISO 9283 AP).
 
-    ``AP_p = dp`` in mm and ``AP_phi = dphi`` in deg, one bar per measured point, the points of each
+    ``dp`` in mm and ``dphi`` in deg, one bar per measured point, the points of each
     nominal orientation grouped and coloured (legend above the panels, outside the bars); the title
     names every orientation. 10 x 5.4 in with 9-11 pt text: readable at the report's column width.
     """
@@ -81,8 +81,8 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
         label = f"$\\phi$ = {phi:g} deg ({idx.size} points)"
         ax_p.bar(pos[idx], errors.dp[idx], width=0.8, color=colour, label=label)
         ax_r.bar(pos[idx], errors.dphi_deg[idx], width=0.8, color=colour)
-    ax_p.set_ylabel("$AP_p = \\delta p$ [mm]", fontsize=10)
-    ax_r.set_ylabel("$AP_\\phi = \\delta\\phi$ [deg]", fontsize=10)
+    ax_p.set_ylabel("$\\delta p$ (Eq. 24) [mm]", fontsize=10)
+    ax_r.set_ylabel("$\\delta\\phi$ (Eq. 24) [deg]", fontsize=10)
     step = max(1, int(np.ceil(n / 30)))          # at most ~30 tick labels
     order = np.argsort(pos)
     ticks = order[::step]
@@ -95,7 +95,7 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
         ax.set_xlim(-1, float(pos.max()) + 1)
     fig.legend(*ax_p.get_legend_handles_labels(), loc="upper center", bbox_to_anchor=(0.5, 0.925),
                ncol=len(groups), frameon=False, fontsize=9)
-    fig.suptitle(title or f"ISO 9283 accuracy at {n} poses, $\\phi$ = {_phi_list(groups)} (Eq. 24, cf. paper Fig. 14)",
+    fig.suptitle(title or f"Pose error per point at {n} poses, $\\phi$ = {_phi_list(groups)} (Eq. 24, cf. paper Fig. 14)",
                  fontsize=11, y=0.985)
     return fig
 
