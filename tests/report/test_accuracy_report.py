@@ -47,3 +47,45 @@ def test_reproduce_other_architecture_needs_clearances(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "--clearances" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_design_section_for_any_robot_uses_its_targets_range_and_clearances(tmp_path, capsys):
+    """The design section of ``reproduce --robot R --clearances C --target ... --phi-range-deg ...``: its certified
+    worst case is at least a brute-force grid over the same region (independent sampling of max_pose_errors), the
+    synthesized clearances meet the target, and the verdict says what the numbers say."""
+    from pmaccuracy.accuracy.bounds import max_pose_errors
+    from pmaccuracy.kinematics.workspace import constant_orientation_workspace
+    from pmaccuracy.model.manipulator import Manipulator
+
+    out = tmp_path / "rep"
+    code = main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--grid", "21",
+                 "--no-experiment", "--target", "dp=0.05", "--phi-range-deg", "-5", "5", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    d = json.loads((out / "results.json").read_text())["design_decisions"]
+    assert d["settings"]["phi_range_deg"] == [-5.0, 5.0] and d["settings"]["targets"] == {"dp": 0.05}
+    gw = d["global_worst"]["rpr_typical"]["quantities"]["dp"]
+    robot = Manipulator.preset("symmetric_3rpr")
+    best = 0.0
+    for phi in np.radians([-5.0, 0.0, 5.0]):
+        ws = constant_orientation_workspace(robot, phi)
+        x, y, inside = ws.grid(41)
+        X, Y = np.meshgrid(x, y)
+        poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1)[inside]
+        best = max(best, float(np.nanmax(max_pose_errors(robot, "rpr_typical", poses, singular="nan").dp_max)))
+    assert best <= gw["upper"] * (1 + 1e-9) and gw["lower"] <= gw["upper"]
+    uni = d["synthesis"]["uniform"]
+    assert uni["worst"]["dp"]["upper"] <= 0.05 * (1 + 1e-9) and uni["template"] == "rpr_typical"
+    html = (out / "report.html").read_text()
+    verdict = html[html.index("Verdict."):][:900]
+    assert ("misses" if gw["upper"] > 0.05 else "meets") in verdict
+    assert f"{uni['scale']:.3g}" in verdict
+
+
+@pytest.mark.parametrize("args, key", [(["--target", "dq=1"], "--target"), (["--target", "dp=-1"], "--target"),
+                                       (["--phi-range-deg", "5", "-5"], "--phi-range-deg")])
+def test_reproduce_design_options_are_checked_first(args, key, tmp_path, capsys):
+    code = main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--out",
+                 str(tmp_path / "x"), *args])
+    err = capsys.readouterr().err
+    assert code == 2 and key in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
