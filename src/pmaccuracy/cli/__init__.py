@@ -45,6 +45,7 @@ COMMANDS = {
     "synthesize": ("synthesize_cmd",
                    "tolerance synthesis: largest clearances per joint meeting worst-case targets everywhere in a region"),
     "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
+    "load": ("load_cmd", "pose error under a known platform load: statics, reactions, clearances taken up (any architecture)"),
 }
 #: Modules of ``pmaccuracy.cli`` that register commands, in help order.
 COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))

@@ -1,0 +1,306 @@
+r"""Clearances under load: the statics of every architecture and the pose error a known wrench produces.
+
+The worst case lets every clearance sit anywhere in its set. Under a load each
+joint's clearance is taken up along its reaction (Venanzi and Parenti-Castelli
+2005, the paper's ref. 10; the paper's own experiment pushes the platform to
+take the clearances up, Sec. 5), so the pose error becomes a definite value.
+
+**Statics.** Hold the actuators. With the passive joints' constraint wrench
+``zeta_i = (f_i, m_P,i)`` of leg ``i`` (unit force, moment about the platform
+centre ``P``: row ``i`` of ``A``, :attr:`pmaccuracy.model.chain.LegState.A_row`) the
+legs push on the platform with ``lambda_i zeta_i``. Equilibrium with the external
+wrench ``W = (f_x, f_y, m)`` (N, N, N mm about ``P``, base frame; what the
+environment applies to the platform) gives
+
+.. math::
+
+    A^T \lambda = -W, \qquad \tau_i = \lambda_i B_{ii}
+
+(``tau_i``: the actuator's force in N, or torque in N mm, on the part beyond it,
+by virtual work with ``A dX = B dq``). Every joint of a massless leg carries the
+same wrench ``lambda_i zeta_i``: an R joint at ``c_k`` the force ``lambda_i f_i``,
+a P joint's block the normal force ``N = lambda_i f_i . E e_k`` and the moment
+``M = lambda_i M_i(b_k)`` about its centre (:func:`pmaccuracy.model.sources.block_centre`),
+i.e. the two end contact forces ``N / 2 -+ M / L`` of a block of length ``L``.
+
+**Loaded pose error.** A clearance lets the platform yield in the direction
+the load does work: the reached error maximizes the virtual work ``W . dX`` over
+the error set. To first order ``dX = A^{-1} e`` with ``e_i`` in ``[-c_i, c_i]``, and
+``W . A^{-1} e = -lambda . e``, so
+
+.. math::
+
+    e_i = -\operatorname{sign}(\lambda_i)\, c_i, \qquad
+    \delta X_{\text{loaded}} = A^{-1} \operatorname{diag}(c)\, t, \quad t = -\operatorname{sign}(\lambda)
+
+the vertex of the error zonotope that supports it in the direction ``W``; each
+source sits at the extreme of its set along its joint's reaction (an R joint's
+pin against the bore opposite the force, a P joint's block on the rhombus
+vertex that ``N`` and ``M`` select, an actuator's backlash against its force:
+:func:`pmaccuracy.model.sources.worst_configuration` with the signs ``t``). The
+exact loaded pose closes the perturbed loops with those values
+(:func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`). A leg whose wrench
+intensity ``|lambda_i|`` is below ``threshold`` is **unloaded**: its state is
+undetermined and the error is a range, the loaded value plus or minus that
+leg's generator ``c_i A^{-1}[:, i]``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._display import html_table, summary, value_range
+from ..errors import ConfigError
+from ..io.resolve import clearances_arg, robot_arg
+from ..kinematics import as_poses, inverse_kinematics, leg_states
+from ..model import plausibility
+from ..model.manipulator import Manipulator
+from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
+from ..numerics.screws import cross, dot
+from .bounds import max_pose_errors
+from .nonlinear import joint_displaced_pose
+
+#: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
+G0 = 9.80665
+#: Default threshold (N) below which a leg's wrench intensity counts as no load.
+DEFAULT_THRESHOLD_N = 1e-6
+#: Forces above this (N) on a planar precision robot look like kN typed as N (a plausibility warning).
+PLAUSIBLE_FORCE_N = 1e5
+
+
+@dataclass(frozen=True)
+class Load:
+    """A load on the platform: a wrench and optionally the platform's weight.
+
+    Attributes
+    ----------
+    fx, fy : N, base frame;  m : N mm, about the platform centre ``P`` (counter-clockwise positive)
+    mass : kg (0: no gravity);  com : ``(2,)`` mm, the centre of mass in the platform frame
+    gravity_deg : direction of gravity in the base plane, deg from the base x-axis (-90: along -y)
+
+    >>> Load(fx=10.0).wrench(np.array([0.0, 0.0, 0.0])).tolist()
+    [10.0, 0.0, 0.0]
+    >>> Load(mass=1.0, com=(10.0, 0.0)).wrench(np.array([0.0, 0.0, 0.0])).round(4).tolist()
+    [0.0, -9.8066, -98.0665]
+    """
+
+    fx: float = 0.0
+    fy: float = 0.0
+    m: float = 0.0
+    mass: float = 0.0
+    com: tuple[float, float] = (0.0, 0.0)
+    gravity_deg: float = -90.0
+
+    def __post_init__(self) -> None:
+        for key in ("fx", "fy", "m", "mass", "gravity_deg"):
+            if not math.isfinite(getattr(self, key)):
+                raise ConfigError(f"must be finite, got {getattr(self, key)}", key=key)
+        if self.mass < 0:
+            raise ConfigError(f"a mass cannot be negative, got {self.mass} kg", key="mass")
+        if len(self.com) != 2 or not all(math.isfinite(c) for c in self.com):
+            raise ConfigError(f"expected two finite values (mm), got {self.com}", key="com")
+
+    def wrench(self, poses: np.ndarray) -> np.ndarray:
+        """``(..., 3)`` [fx N, fy N, m N mm about P] at poses ``(..., 3)``: the given wrench plus the weight
+        ``G0 mass`` along the gravity direction, applied at the centre of mass ``P + Rot(phi) com``."""
+        poses = np.asarray(poses, dtype=float)
+        weight = G0 * self.mass * np.exp(1j * math.radians(self.gravity_deg))
+        arm = np.exp(1j * poses[..., 2]) * complex(*self.com)
+        fx = np.full(poses.shape[:-1], self.fx) + weight.real
+        fy = np.full(poses.shape[:-1], self.fy) + weight.imag
+        m = self.m + cross(arm, weight)
+        return np.stack([fx, fy, np.broadcast_to(m, fx.shape)], axis=-1)
+
+    def check(self, what: str = "load") -> "Load":
+        """Warn (:class:`~pmaccuracy.model.plausibility.PlausibilityWarning`) for forces that look like kN
+        typed as N; returns ``self``."""
+        big = max(abs(self.fx), abs(self.fy), G0 * self.mass)
+        if big > PLAUSIBLE_FORCE_N:
+            plausibility.warn([f"{what}: a force of {big:g} N on a planar precision robot: kN typed as N?"])
+        return self
+
+
+@dataclass(frozen=True)
+class Statics:
+    """Leg wrenches, actuator efforts and joint reactions at a batch of poses (:func:`statics`).
+
+    Attributes (leading shape ``(...)`` of the poses)
+    -------------------------------------------------
+    poses : ``(..., 3)`` [mm, mm, rad];  wrench : ``(..., 3)`` [N, N, N mm], the external load on the platform
+    intensity : ``(..., 3)`` N: ``lambda_i``, each leg's wrench ``lambda_i zeta_i`` on the platform
+    actuator : ``(..., 3)``: ``tau_i = lambda_i B_ii``, N for a P actuator, N mm for an R one
+    force : ``(..., 3 legs, 3 joints)`` complex N: the force each joint transmits (``lambda_i f_i``)
+    normal : ``(..., 3, 3)`` N: a P joint's force normal to its rail (0 for R joints)
+    moment : ``(..., 3, 3)`` N mm: a P joint's moment about its block's centre (0 for R joints)
+    """
+
+    poses: np.ndarray
+    wrench: np.ndarray
+    intensity: np.ndarray
+    actuator: np.ndarray
+    force: np.ndarray
+    normal: np.ndarray
+    moment: np.ndarray
+
+    def contact_forces(self, block_length: float | np.ndarray) -> np.ndarray:
+        """``(..., 3, 3, 2)`` N: the two end contact forces ``N / 2 -+ M / L`` of each P joint's block of length
+        ``L`` (mm; a scalar or ``(3, 3)``), normal to the rail; zero for R joints."""
+        L = np.asarray(block_length, dtype=float)
+        return np.stack([self.normal / 2 - self.moment / L, self.normal / 2 + self.moment / L], axis=-1)
+
+    def __repr__(self) -> str:
+        return summary("Statics", int(np.prod(self.poses.shape[:-1])), [
+            f"leg intensity {value_range(np.abs(self.intensity), 'N')}",
+            f"actuators {value_range(np.abs(self.actuator), 'N or N mm')}"])
+
+
+def statics(robot: Manipulator | str, poses, load: Load) -> Statics:
+    """Leg wrench intensities, actuator efforts and joint reactions under ``load`` at ``poses`` ``(..., 3)``
+    (module docstring: ``A^T lambda = -W``, ``tau = lambda B``).
+
+    Poses outside the joint ranges or near a singularity are refused like
+    :func:`~pmaccuracy.accuracy.bounds.max_pose_errors` (:class:`~pmaccuracy.errors.OutsideJointLimitsError`,
+    :class:`~pmaccuracy.errors.SingularPoseError`): the statics is undefined at a singularity.
+
+    >>> st = statics("symmetric_3rpr", [0.0, 0.0, 0.0], Load(fx=3.0))
+    >>> bool(np.allclose(np.einsum("ij,i->j", wrench_rows("symmetric_3rpr", [0.0, 0.0, 0.0]), st.intensity), [-3, 0, 0]))
+    True
+    """
+    robot = robot_arg(robot)
+    poses = as_poses(poses)
+    if not isinstance(load, Load):
+        raise ConfigError(f"expected a Load, got {type(load).__name__}", key="load")
+    _check_poses(robot, poses)
+    W = load.wrench(poses)
+    states = leg_states(robot, poses)
+    A = np.stack([np.broadcast_to(st.A_row, poses.shape[:-1] + (3,)) for st in states], axis=-2)
+    lam = -np.linalg.solve(np.swapaxes(A, -1, -2), W[..., None])[..., 0]
+    shape = poses.shape[:-1]
+    actuator = np.stack([lam[..., i] * np.broadcast_to(st.B, shape) for i, st in enumerate(states)], axis=-1)
+    force = np.zeros(shape + (3, 3), dtype=complex)
+    normal = np.zeros(shape + (3, 3))
+    moment = np.zeros(shape + (3, 3))
+    pz = poses[..., 0] + 1j * poses[..., 1]
+    for i, (chain, st) in enumerate(zip(robot.chains, states)):
+        li = lam[..., i]
+        for k, joint in enumerate(chain.joints):
+            force[..., i, k] = li * st.f
+            if joint.kind == "P":
+                normal[..., i, k] = li * dot(st.f, 1j * st.dirs[k])
+                moment[..., i, k] = li * (st.m_P + cross(pz - block_centre(joint, st, k), st.f))
+    return Statics(poses=poses, wrench=W, intensity=lam, actuator=actuator, force=force, normal=normal,
+                   moment=moment)
+
+
+def wrench_rows(robot: Manipulator | str, poses) -> np.ndarray:
+    """``A`` ``(..., 3, 3)``: the legs' unit constraint wrenches ``[f_x, f_y, m_P]`` as rows (Eq. 4a in general
+    form; :attr:`pmaccuracy.model.chain.LegState.A_row`)."""
+    robot = robot_arg(robot)
+    poses = as_poses(poses)
+    states = leg_states(robot, poses)
+    return np.stack([np.broadcast_to(st.A_row, poses.shape[:-1] + (3,)) for st in states], axis=-2)
+
+
+def _check_poses(robot: Manipulator, poses: np.ndarray) -> None:
+    """Refuse poses outside the joint ranges or near a singularity (the checks of max_pose_errors)."""
+    max_pose_errors(robot, ErrorSources(legs=tuple((JointErrors(),) * 3 for _ in range(3)), name="none"), poses)
+
+
+@dataclass(frozen=True)
+class LoadedError:
+    """The pose error under a load (:func:`loaded_pose_error`), arrays with the poses' leading shape.
+
+    Attributes
+    ----------
+    statics : the :class:`Statics` behind it
+    first_order : ``(..., 3)`` [mm, mm, rad]: ``A^-1 diag(c) t`` with ``t = -sign(lambda)``
+    exact : ``(..., 3)`` [mm, mm, rad]: the exact loop closure with the same source values (NaN without
+        ``exact``)
+    signs : ``(..., 3)``: ``t``, each leg's contact side (0 where the leg is unloaded)
+    unloaded : ``(..., 3)`` bool: legs with ``|lambda_i| <= threshold``
+    spread : ``(..., 3)`` [mm, mm, rad]: half-width of the range the unloaded legs still span around
+        ``first_order`` (``sum over unloaded i of c_i |A^-1[:, i]|``; 0 when every leg is loaded)
+    configuration : the source values (:class:`~pmaccuracy.model.sources.JointDisplacements`)
+    """
+
+    statics: Statics
+    first_order: np.ndarray
+    exact: np.ndarray
+    signs: np.ndarray
+    unloaded: np.ndarray
+    spread: np.ndarray
+    configuration: object
+
+    def records(self) -> list[dict]:
+        """One dict per pose (mm, deg, N), the command line's columns; ``*_spread``: the half-width of the range
+        the unloaded legs leave (0 when every leg is loaded)."""
+        poses = self.statics.poses.reshape(-1, 3)
+        fo = self.first_order.reshape(-1, 3)
+        ex = self.exact.reshape(-1, 3)
+        lam = self.statics.intensity.reshape(-1, 3)
+        un = self.unloaded.reshape(-1, 3)
+        sp = self.spread.reshape(-1, 3)
+        out = []
+        for k in range(poses.shape[0]):
+            out.append({"x": float(poses[k, 0]), "y": float(poses[k, 1]), "phi_deg": math.degrees(poses[k, 2]),
+                        "dx": float(fo[k, 0]), "dy": float(fo[k, 1]), "dphi_deg": math.degrees(fo[k, 2]),
+                        "dx_exact": float(ex[k, 0]), "dy_exact": float(ex[k, 1]),
+                        "dphi_deg_exact": math.degrees(ex[k, 2]),
+                        **{f"lambda{i + 1}_N": float(lam[k, i]) for i in range(3)},
+                        "unloaded_legs": ",".join(str(i + 1) for i in range(3) if un[k, i]) or "-",
+                        "dx_spread": float(sp[k, 0]), "dy_spread": float(sp[k, 1]),
+                        "dphi_deg_spread": math.degrees(sp[k, 2])})
+        return out
+
+    def __repr__(self) -> str:
+        return summary("LoadedError", int(np.prod(self.first_order.shape[:-1])), [
+            f"dx {value_range(self.first_order[..., 0], 'mm')}", f"dy {value_range(self.first_order[..., 1], 'mm')}",
+            f"dphi {value_range(np.degrees(self.first_order[..., 2]), 'deg')}",
+            f"{int(np.sum(self.unloaded))} unloaded legs"])
+
+    def _repr_html_(self) -> str:
+        return html_table("Loaded pose error (mm, deg, N)", self.records())
+
+
+def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *,
+                      threshold: float = DEFAULT_THRESHOLD_N, exact: bool = True) -> LoadedError:
+    """The pose error that ``load`` produces at ``poses`` ``(..., 3)`` with the clearances taken up along the
+    joints' reactions (module docstring), first order and (with ``exact``) on the exact loop closure.
+
+    Parameters
+    ----------
+    robot, clearances : objects, preset names or paths (any architecture; the 3-PPR clearance format too)
+    poses : ``(..., 3)`` [x mm, y mm, phi rad];  load : a :class:`Load`
+    threshold : N; a leg with ``|lambda_i| <= threshold`` is unloaded (its state undetermined: see ``spread``)
+
+    >>> r = loaded_pose_error("aalborg_3ppr", "case1", [0.0, 0.0, 0.0], Load(fx=5.0))
+    >>> b = max_pose_errors("aalborg_3ppr", "case1", [0.0, 0.0, 0.0])
+    >>> bool(np.isclose(r.first_order[0], b.dx_max))     # a push along +x reaches +dx_max
+    True
+    """
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
+    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
+        ErrorSources.from_clearance_set(clearances)
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
+    poses = as_poses(poses)
+    st = statics(robot, poses, load)
+    b = max_pose_errors(robot, sources, poses, details=True)
+    unloaded = np.abs(st.intensity) <= threshold
+    signs = np.where(unloaded, 0.0, -np.sign(st.intensity))
+    joints = inverse_kinematics(robot, poses).joints
+    config = worst_configuration(robot, sources, joints, poses, signs)
+    first = first_order_error(robot, joints, poses, config)
+    spread = np.einsum("...ij,...j->...i", np.abs(b.generators), unloaded.astype(float))
+    ex = joint_displaced_pose(robot, poses, config) - poses if exact else np.full(first.shape, np.nan)
+    if exact:
+        ex[..., 2] = np.angle(np.exp(1j * ex[..., 2]))
+    return LoadedError(statics=st, first_order=first, exact=ex, signs=signs, unloaded=unloaded, spread=spread,
+                       configuration=config)
+
+
+__all__ = ["DEFAULT_THRESHOLD_N", "G0", "Load", "LoadedError", "Statics", "loaded_pose_error", "statics", "wrench_rows"]

@@ -1,0 +1,77 @@
+"""``pmaccuracy load``: the pose error a known platform load produces, with every joint's reaction."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from . import _common
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "load", help="pose error under a known platform load: statics, reactions, clearances taken up (any architecture)",
+        description="Statics of the platform under a wrench (and optionally its weight): each leg's wrench "
+                    "intensity, the actuator efforts and every joint's reaction; each clearance taken up along its "
+                    "joint's reaction; the resulting pose error, first order and on the exact loop closure. Forces "
+                    "in N, moments in N mm about the platform centre, base frame; poses x mm, y mm, phi deg.")
+    _common.add_robot(p)
+    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
+    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
+                   help="a commanded pose (repeatable)")
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    p.add_argument("--fx", type=_common.finite_float, default=0.0, help="force on the platform along x (N)")
+    p.add_argument("--fy", type=_common.finite_float, default=0.0, help="force on the platform along y (N)")
+    p.add_argument("--m", type=_common.finite_float, default=0.0, metavar="M",
+                   help="moment on the platform about its centre (N mm, counter-clockwise)")
+    p.add_argument("--mass", type=_common.finite_float, default=0.0, help="platform mass (kg; 0: no weight)")
+    p.add_argument("--com", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="centre of mass in the platform frame (mm)")
+    p.add_argument("--gravity-deg", type=_common.finite_float, default=-90.0,
+                   help="direction of gravity in the base plane (deg from x; default -90: along -y)")
+    p.add_argument("--unloaded-below", type=_common.finite_float, default=1e-6, metavar="N",
+                   help="a leg whose wrench intensity is at most this (N) is unloaded: its state is undetermined")
+    p.add_argument("--details", action="store_true",
+                   help="also every joint's reaction: force (R), normal force and moment about the block (P)")
+    p.add_argument("--allow-outside", action="store_true", help=argparse.SUPPRESS)
+    _common.add_format(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..accuracy.loads import Load, loaded_pose_error
+    from ..errors import ConfigError
+    from ..io.resolve import load_clearances
+
+    robot = _common.load_robot(args)
+    clearances = load_clearances(args.clearances, robot)
+    poses = _common.poses_from_args(args.pose, args.poses_csv)
+    if args.mass < 0:
+        raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
+    if args.unloaded_below < 0:
+        raise ConfigError(f"must be >= 0 (N), got {args.unloaded_below:g}", key="--unloaded-below")
+    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com),
+                gravity_deg=args.gravity_deg).check("--fx/--fy/--mass")
+    if not np.any(load.wrench(poses)):
+        raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "
+                          "possible: see `pmaccuracy bounds`)", key="--fx")
+    res = loaded_pose_error(robot, clearances, poses, load, threshold=args.unloaded_below)
+    records = res.records()
+    if args.details:
+        st = res.statics
+        for k, rec in enumerate(records):
+            for i, chain in enumerate(robot.chains):
+                unit = "N" if chain.actuated.kind == "P" else "Nmm"
+                rec[f"leg{i + 1}.actuator_{unit}"] = float(st.actuator[k, i])
+                for j, joint in enumerate(chain.joints):
+                    key = f"leg{i + 1}.joint{j + 1}"
+                    if joint.kind == "R":
+                        rec[f"{key}.force_x_N"] = float(st.force[k, i, j].real)
+                        rec[f"{key}.force_y_N"] = float(st.force[k, i, j].imag)
+                    else:
+                        rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
+                        rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
+    _common.emit(records, args.format)
+    return 0
