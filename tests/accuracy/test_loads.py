@@ -201,3 +201,24 @@ def test_cli_load_matches_the_library_and_refuses_a_zero_load(capsys):
     assert main(["load", "--pose", "0", "0", "0"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "zero" in err
+
+
+def test_virtual_rig_pushes_as_loads_reach_the_support_points_of_the_error_set():
+    """experiment simulate --push-n: each push's first-order reading is the support point of the error set in
+    the push's direction (sum of |W . g_i| over the generators), and a push whose legs are all loaded gives the
+    worst-case push of that direction."""
+    from pmaccuracy.experiment.measurements import PUSHES
+    from pmaccuracy.experiment.virtual_rig import push_loads, simulate_readings
+
+    robot = Manipulator.preset("aalborg_3ppr")
+    poses = inner_poses(robot, 3, 8)
+    loaded = simulate_readings(robot, "case2", poses, noise_mm=0.0, noise_deg=0.0, model="first_order", push_n=10.0)
+    plain = simulate_readings(robot, "case2", poses, noise_mm=0.0, noise_deg=0.0, model="first_order")
+    b = max_pose_errors(robot, "case2", poses, details=True)
+    for k, (push, load) in enumerate(zip(PUSHES, push_loads(robot, 10.0))):
+        W = load.wrench(poses)
+        d = loaded.readings[:, k] - poses
+        support = np.sum(np.abs(np.einsum("ni,nij->nj", W, b.generators)), axis=-1)
+        np.testing.assert_allclose(np.sum(W * d, axis=-1), support, rtol=1e-9)
+        if push in ("+x", "-x"):                   # every leg loaded by a push along x
+            np.testing.assert_allclose(loaded.readings[:, k], plain.readings[:, k], rtol=0, atol=1e-12)

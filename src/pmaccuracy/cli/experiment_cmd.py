@@ -60,6 +60,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="N x N lattice over the workspace's bounding box; points inside are measured (default: 5)")
     sp.add_argument("--take-up", type=_common.finite_float, default=1.0, metavar="F",
                     help="fraction of the clearance a push takes up, in [0, 1] (default: 1)")
+    sp.add_argument("--push-n", type=_common.finite_float, default=None, metavar="N",
+                    help="push with a force of N newtons (a moment of N times the robot's size for +-r): every "
+                         "clearance is taken up along its joint's reaction (the loaded model of `pmaccuracy load`); "
+                         "a leg the push leaves unloaded keeps its clearances centred. Default: each push drives "
+                         "the clearances to the worst case of its direction")
     sp.add_argument("--noise-mm", type=_common.finite_float, default=experiment.DEFAULT_ACCURACY_MM, metavar="S",
                     help=f"camera noise on x and y, standard deviation in mm (default: "
                          f"{experiment.DEFAULT_ACCURACY_MM:g})")
@@ -132,13 +137,16 @@ def run_simulate(args: argparse.Namespace) -> int:
     _common.prepare_output(args.out, "--out", (".csv",))
     if args.repeats_out:
         _common.prepare_output(args.repeats_out, "--repeats-out", (".csv",))
+    if args.push_n is not None and not args.push_n > 0:
+        raise ConfigError(f"must be a force > 0 (N), got {args.push_n:g}", key="--push-n")
     measurements = experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
-        noise_deg=args.noise_deg, model=args.model, seed=args.seed)
+        noise_deg=args.noise_deg, model=args.model, seed=args.seed, push_n=args.push_n)
     path = experiment.write_measurements(args.out, measurements)
     record = {"out": str(path), "points": len(measurements), "rows": len(measurements) * len(experiment.PUSHES),
               "phi_deg": args.phi_deg, "model": args.model, "take_up": args.take_up, "noise_mm": args.noise_mm,
-              "noise_deg": args.noise_deg, "seed": args.seed}
+              "noise_deg": args.noise_deg, "seed": args.seed,
+              **({"push_n": args.push_n} if args.push_n is not None else {})}
     if args.repeats is not None:
         import numpy as np
 

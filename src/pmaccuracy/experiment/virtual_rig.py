@@ -33,6 +33,7 @@ from ..accuracy.nonlinear import joint_displaced_pose
 from ..kinematics import inverse_kinematics
 from ..kinematics.workspace import constant_orientation_workspace
 from ..model.sources import first_order_error, worst_configuration
+from ..accuracy.loads import DEFAULT_THRESHOLD_N, Load, loaded_pose_error
 
 #: Reading models of the virtual experiment.
 MODELS = ("exact", "first_order")
@@ -67,6 +68,29 @@ def push_configurations(bounds: PoseErrorBounds, take_up: float = 1.0) -> tuple[
     return tuple(out)
 
 
+def push_loads(robot: Manipulator, push_n: float) -> tuple[Load, ...]:
+    """The loads of the six pushes :data:`PUSHES` with a push force of ``push_n`` N: ``+-x``, ``+-y`` a force of
+    ``push_n`` N, ``+-r`` a moment of ``push_n`` times the robot's characteristic length (N mm)."""
+    if not (math.isfinite(push_n) and push_n > 0):
+        raise ConfigError(f"must be a force > 0 (N), got {push_n:g}", key="push_n")
+    L = robot.characteristic_length
+    return (Load(fx=push_n), Load(fx=-push_n), Load(fy=push_n), Load(fy=-push_n), Load(m=push_n * L),
+            Load(m=-push_n * L))
+
+
+def predict_pushes(robot: Manipulator | str, clearances, poses: np.ndarray, push_n: float, *,
+                   threshold: float = DEFAULT_THRESHOLD_N) -> tuple[np.ndarray, np.ndarray]:
+    """What each push of force ``push_n`` N does to the platform (first order, loaded model):
+    ``(displacement, spread)``, each ``(n, 6, 3)`` [mm, mm, rad] for the pushes :data:`PUSHES`: the loaded pose
+    error (:func:`pmaccuracy.accuracy.loads.loaded_pose_error`) and the half-width of the range its unloaded legs
+    leave."""
+    robot = robot_arg(robot)
+    poses = as_poses(poses).reshape(-1, 3)
+    out = [loaded_pose_error(robot, clearances, poses, load, threshold=threshold, exact=False)
+           for load in push_loads(robot, push_n)]
+    return np.stack([r.first_order for r in out], axis=1), np.stack([r.spread for r in out], axis=1)
+
+
 def _check_simulation(take_up: float, noise_mm: float, noise_deg: float, model: str) -> None:
     if not (math.isfinite(take_up) and 0.0 <= take_up <= 1.0):
         raise ConfigError(f"must be a fraction in [0, 1] (share of the clearance a push takes up), got {take_up:g}",
@@ -82,7 +106,7 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
                       take_up: float = 1.0, noise_mm: float = DEFAULT_ACCURACY_MM,
                       noise_deg: float = DEFAULT_ACCURACY_DEG, model: str = "exact",
                       seed: int | np.random.Generator | None = None, labels: Sequence[str] | None = None,
-                      source: str = "virtual experiment") -> Measurements:
+                      source: str = "virtual experiment", push_n: float | None = None) -> Measurements:
     """Play the push protocol of Sec. 5.2 on a simulated rig at nominal poses ``(n, 3)`` [mm, mm, rad].
 
     For each pose and push (:func:`push_configurations`) the clearances sit in
@@ -117,6 +141,12 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     ``sigma^2``, and the RMSD becomes ``sigma sqrt(2 (1 + 1/pi))`` for ``k = 2``
     at both ends.
 
+    With ``push_n`` (N) each push is a load instead (:func:`push_loads`): every clearance is taken up along its
+    joint's reaction (:func:`pmaccuracy.accuracy.loads.loaded_pose_error`), so each reading is the predicted
+    loaded pose, not only an extreme of the error set. A leg the push leaves unloaded keeps its clearances
+    centred (its state is undetermined: :func:`predict_pushes` gives the range). For pushes along the axes
+    of a robot whose legs are all loaded this is the same configuration as the worst case of that direction.
+
     Parameters
     ----------
     labels : point labels (default ``"1"``, ``"2"``, ...)
@@ -131,7 +161,10 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     clearances = load_clearances(clearances, robot)
     _check_simulation(float(take_up), float(noise_mm), float(noise_deg), model)
     poses = as_poses(poses).reshape(-1, 3)
-    if isinstance(clearances, ErrorSources):  # any architecture: per-joint sources
+    if push_n is not None:
+        sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
+        readings = _loaded_pushes(robot, sources, poses, float(push_n), float(take_up), model)
+    elif isinstance(clearances, ErrorSources):  # any architecture: per-joint sources
         readings = _generic_pushes(robot, clearances, poses, float(take_up), model)
     else:
         bounds = max_pose_errors(robot, clearances, poses, details=True)
@@ -150,6 +183,18 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     if labels is None:
         labels = [str(k + 1) for k in range(poses.shape[0])]
     return Measurements(points=np.asarray(labels, dtype=str), nominal=poses, readings=readings, source=source)
+
+
+def _loaded_pushes(robot: Manipulator, sources: ErrorSources, poses: np.ndarray, push_n: float, take_up: float,
+                   model: str) -> np.ndarray:
+    """Readings ``(n, 6, 3)`` of the six pushes as loads of ``push_n`` N (:func:`push_loads`)."""
+    readings = []
+    for load in push_loads(robot, push_n):
+        res = loaded_pose_error(robot, sources, poses, load, exact=False)
+        cfg = res.configuration.scaled(take_up)
+        readings.append(poses + res.first_order * take_up if model == "first_order"
+                        else joint_displaced_pose(robot, poses, cfg))
+    return np.stack(readings, axis=1)
 
 
 def _generic_pushes(robot: Manipulator, sources: ErrorSources, poses: np.ndarray, take_up: float,
@@ -197,7 +242,7 @@ def grid_poses(robot: Manipulator, phi: float, grid: int) -> np.ndarray:
 def simulate_experiment(robot: Manipulator | str, clearances: ClearanceSet | str, phi: float, grid: int = 5, *,
                         take_up: float = 1.0, noise_mm: float = DEFAULT_ACCURACY_MM,
                         noise_deg: float = DEFAULT_ACCURACY_DEG, model: str = "exact",
-                        seed: int | np.random.Generator | None = None) -> Measurements:
+                        seed: int | np.random.Generator | None = None, push_n: float | None = None) -> Measurements:
     """Virtual experiment at orientation ``phi`` (rad) on the grid points of :func:`grid_poses`.
 
     See :func:`simulate_readings` for the readings; write them with :func:`write_measurements`.
@@ -209,5 +254,5 @@ def simulate_experiment(robot: Manipulator | str, clearances: ClearanceSet | str
     return simulate_readings(robot, clearances, poses, take_up=take_up, noise_mm=noise_mm, noise_deg=noise_deg,
                              model=model, seed=seed,
                              source=f"virtual experiment ({robot.name}, {clearances.name}, phi = "
-                                    f"{math.degrees(phi):g} deg, {model}, take-up {take_up:g})")
+                                    f"{math.degrees(phi):g} deg, {model}, take-up {take_up:g})", push_n=push_n)
 
