@@ -6,6 +6,8 @@ For each preset with its clearance preset, measured in the same run (wall clock,
   numpy inverse kinematics (:func:`bench_floor.plain_ik`, checked against the library there) of the same
   ``2 n^2`` grid points with trig per pose, and the same with one cosine and sine per layer (goal: 5x the
   per-pose floor);
+* ``pmaccuracy.accuracy.maps.write_map`` of the same map into a NetCDF file (the ``map`` command's path, minus
+  the command's start-up) against the per-pose floor (goal: 5x);
 * ``pm.max_pose_errors`` of ``--poses`` poses inside the workspace against the per-pose floor (goal: 3x);
 * ``pmaccuracy map --grid G`` (NetCDF and CSV output): the peak resident memory of the command (every process,
   ``getrusage`` of the children) above the same command at ``--grid 11``, divided by the map's dataset size
@@ -29,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import pmaccuracy as pm  # noqa: E402
 from bench_floor import inside_poses, plain_ik  # noqa: E402
+from pmaccuracy.accuracy.maps import write_map  # noqa: E402
 
 CASES = (("aalborg_3ppr", "case1", (0.0, 30.0)), ("symmetric_3rpr", "rpr_typical", (0.0, 10.0)),
          ("symmetric_3rrr", "rrr_typical", (0.0, 10.0)), ("symmetric_3prr", "prr_typical", (0.0, 10.0)))
@@ -60,7 +63,7 @@ def main() -> None:
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     print(f"{'robot':<16} {'floor/pose':>10} {'floor/layer':>11} {'error_map':>9} {'ratio':>6} {'(layer)':>7}   "
-          f"{'floor':>7} {'bounds':>7} {'ratio':>6}")
+          f"{'to .nc':>7} {'ratio':>6}   {'floor':>7} {'bounds':>7} {'ratio':>6}")
     for name, clear, phis_deg in CASES:
         robot = pm.load_robot(name)
         cl = pm.load_clearances(clear, robot)
@@ -75,12 +78,15 @@ def main() -> None:
             f_pose = best_wall(lambda: plain_ik(robot, grid), args.repeats)
             f_layer = best_wall(lambda: [plain_ik(robot, layer, constant_phi=True) for layer in layers], args.repeats)
         t_map = best_wall(lambda: pm.error_map(robot, cl, phis, args.grid), args.repeats)
+        with tempfile.TemporaryDirectory() as tmp:   # the map command's path: computed straight into the file
+            t_file = best_wall(lambda: write_map(Path(tmp) / "m.nc", robot, cl, phis, args.grid, progress=False),
+                               args.repeats)
         poses = inside_poses(robot, phis_deg, args.poses, rng)
         f_b = best_wall(lambda: plain_ik(robot, poses), args.repeats)
         t_b = best_wall(lambda: pm.max_pose_errors(robot, cl, poses, singular="nan"), args.repeats)
         print(f"{name:<16} {f_pose:9.3f}s {f_layer:10.3f}s {t_map:8.3f}s {t_map / f_pose:5.2f}x {t_map / f_layer:6.2f}x"
-              f"   {f_b:6.3f}s {t_b:6.3f}s {t_b / f_b:5.2f}x", flush=True)
-    print(f"(maps: 2 x {args.grid}^2 grid points; bounds: {args.poses} poses inside the workspace; wall time, "
+              f"   {t_file:6.3f}s {t_file / f_pose:5.2f}x   {f_b:6.3f}s {t_b:6.3f}s {t_b / f_b:5.2f}x", flush=True)
+    print(f"(maps: 2 x {args.grid}^2 grid points, 'to .nc': maps.write_map, the map command's path; bounds: {args.poses} poses inside the workspace; wall time, "
           f"best of {args.repeats})")
 
     exe = str(Path(sys.executable).with_name("pmaccuracy"))

@@ -19,6 +19,11 @@ default, or a ``dask.distributed.Client`` the caller created, on a cluster
 included). It refuses (:class:`~pmaccuracy.errors.ConfigError`) a map whose
 result would not fit in the available memory.
 
+Files without the map in memory. :func:`write_map` computes the same map straight into a NetCDF or CSV
+file (the bytes :func:`save_map` writes): each block goes to its place in the file as soon as it is
+computed, so memory holds one block whatever the grid; the ``map`` command writes ``.nc`` and ``.csv`` this
+way.
+
 Maps larger than memory. :func:`write_zarr_map` streams the same map into a
 Zarr store chunked along ``(phi, y, x)``: every chunk is one Dask task that
 computes its tile and writes it in place (a region write), so memory holds a
@@ -32,6 +37,7 @@ attributes; ``_progress`` is a sub-group that xarray does not show.
 from __future__ import annotations
 
 import os
+import struct
 import sys
 import time
 import warnings
@@ -243,16 +249,21 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=_attrs(robot, clearances))
 
 
+def _block_rows(n_phi: int, ny: int, nx: int, chunk_size: int) -> int:
+    """Grid rows per computed block of an ``n_phi x ny x nx`` map (bands of about ``chunk_size`` points at most)."""
+    # A block's temporaries take about 0.9 kB per point, the result 32 B per point: blocks of at most 1/200 of
+    # the map keep the peak within MEMORY_FACTOR x the dataset for maps of 20 MB and more; never below 8192
+    # points (the kernel's block), where a block's fixed cost (~0.3 ms of numpy calls) would dominate.
+    block = min(chunk_size, max(8192, n_phi * ny * nx // 200))
+    return max(1, block // nx)
+
+
 def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np.ndarray, phis: np.ndarray,
               chunk_size: int, use_dask: bool, progress: bool | None, max_condition: float,
               out: dict[str, np.ndarray]) -> None:
     """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
     show = sys.stderr.isatty() if progress is None else progress
-    # A block's temporaries take about 0.9 kB per point, the result 32 B per point: blocks of at most 1/200 of
-    # the map keep the peak within MEMORY_FACTOR x the dataset for maps of 20 MB and more; never below 8192
-    # points (the kernel's block), where a block's fixed cost (~0.3 ms of numpy calls) would dominate.
-    block = min(chunk_size, max(8192, len(phis) * len(y) * len(x) // 200))
-    rows = max(1, block // len(x))
+    rows = _block_rows(len(phis), len(y), len(x), chunk_size)
     blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
     names = list(MAP_VARIABLES)
 
@@ -513,29 +524,233 @@ def save_map(ds: xr.Dataset, path: str | Path) -> Path:
 CSV_BLOCK_POINTS = 1 << 17
 
 
+#: Columns of a CSV map (mm, mm, deg, mm, mm, deg, mm).
+CSV_COLUMNS = ("x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max")
+
+
+def _csv_options():
+    pcsv = require("pyarrow.csv")
+    return pcsv.WriteOptions(include_header=False, quoting_style="none", batch_size=1 << 16)
+
+
+def _write_csv_rows(fh, options, xs: np.ndarray, ys: np.ndarray, phi_deg: float, block: list[np.ndarray]) -> None:
+    """Append the CSV lines of the inside points of grid rows ``ys`` ``(r,)`` (mm): ``block`` holds the four
+    ``(r, len(xs))`` layers of :data:`MAP_VARIABLES`; pyarrow writes the floats (shortest round-trip decimals)."""
+    pa = require("pyarrow")
+    pcsv = require("pyarrow.csv")
+
+    inside = np.ones(block[0].shape, dtype=bool)
+    for b in block:
+        inside &= np.isfinite(b)
+    iy, ix = np.nonzero(inside)
+    values = [xs[ix], ys[iy], np.full(ix.size, float(phi_deg))]
+    values += [np.asarray(b[inside], dtype=float) for b in block]
+    pcsv.write_csv(pa.table(dict(zip(CSV_COLUMNS, values))), fh, options)
+
+
 def _save_csv(ds: xr.Dataset, path: Path) -> None:
     """CSV of the inside points, layer after layer and block of grid rows after block (rows in (phi, y, x)
-    order); pyarrow writes the floats."""
-    import pyarrow as pa
-    import pyarrow.csv as pcsv
-
-    columns = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]
-    options = pcsv.WriteOptions(include_header=False, quoting_style="none", batch_size=1 << 16)
+    order)."""
+    options = _csv_options()
     xs, ys = ds.x.values, ds.y.values
     rows = max(1, CSV_BLOCK_POINTS // max(1, xs.size))   # grid rows a block: its columns stay a few MiB
     with open(path, "wb") as fh:
-        fh.write((",".join(columns) + "\n").encode())
+        fh.write((",".join(CSV_COLUMNS) + "\n").encode())
         for k, phi in enumerate(ds.phi.values):
             layers = [ds[name].values[k] for name in MAP_VARIABLES]
             for r0 in range(0, ys.size, rows):
-                block = [layer[r0:r0 + rows] for layer in layers]
-                inside = np.ones(block[0].shape, dtype=bool)
-                for b in block:
-                    inside &= np.isfinite(b)
-                iy, ix = np.nonzero(inside)
-                values = [xs[ix], ys[r0 + iy], np.full(ix.size, float(phi))]
-                values += [np.asarray(b[inside], dtype=float) for b in block]
-                pcsv.write_csv(pa.table(dict(zip(columns, values))), fh, options)
+                _write_csv_rows(fh, options, xs, ys[r0:r0 + rows], float(phi), [layer[r0:r0 + rows] for layer in layers])
+
+
+# ------------------------------------------------------------------------------- streamed NetCDF-3 / CSV files
+# The NetCDF-3 64-bit-offset format ("CDF-2", the one xarray writes through scipy): a header, then each
+# variable's values contiguous and big-endian at the offset ("begin") the header gives. scipy's writer keeps
+# every variable whole in memory until it closes; the header is written here instead, so that the values can
+# go to their place in the file block by block as they are computed.
+_NC_DIMENSION, _NC_VARIABLE, _NC_ATTRIBUTE = 10, 11, 12
+_NC_CHAR, _NC_DOUBLE = 2, 6
+#: Largest variable of a NetCDF-3 file (its size field is 32 bits), bytes.
+NETCDF3_MAX_VARIABLE = 2**32 - 4
+
+
+def _nc_pad(raw: bytes) -> bytes:
+    return raw + b"\0" * (-len(raw) % 4)
+
+
+def _nc_name(name: str) -> bytes:
+    raw = name.encode("utf-8")
+    return struct.pack(">i", len(raw)) + _nc_pad(raw)
+
+
+def _nc_attributes(attrs: dict) -> bytes:
+    """An attribute list: text as characters (UTF-8), numbers as one double."""
+    if not attrs:
+        return b"\0" * 8
+    out = [struct.pack(">ii", _NC_ATTRIBUTE, len(attrs))]
+    for name, value in attrs.items():
+        out.append(_nc_name(name))
+        if isinstance(value, str):
+            raw = value.encode("utf-8")
+            out.append(struct.pack(">ii", _NC_CHAR, len(raw)) + _nc_pad(raw))
+        else:
+            out.append(struct.pack(">iid", _NC_DOUBLE, 1, float(value)))
+    return b"".join(out)
+
+
+def _nc_layout(dims: dict[str, int], attrs: dict, variables: dict[str, tuple[tuple[str, ...], dict]]
+               ) -> tuple[bytes, dict[str, int], int]:
+    """Header of a NetCDF-3 64-bit-offset file of float64 variables, their data offsets (bytes) and the file size.
+
+    ``variables``: name -> (dims, attributes), in the header's order; the values are laid out after the header
+    largest shape first (as scipy's writer does, so the file is the one ``Dataset.to_netcdf(engine="scipy")``
+    writes).
+    """
+    order = list(dims)
+    nbytes = {name: 8 * int(np.prod([dims[d] for d in vdims], dtype=np.int64)) for name, (vdims, _) in
+              variables.items()}
+    shapes = {name: tuple(dims[d] for d in vdims) for name, (vdims, _) in variables.items()}
+    laid = sorted(variables, key=lambda name: shapes[name], reverse=True)
+
+    def header(begins: dict[str, int]) -> bytes:
+        out = [b"CDF\x02", struct.pack(">i", 0), struct.pack(">ii", _NC_DIMENSION, len(dims))]
+        out += [_nc_name(d) + struct.pack(">i", size) for d, size in dims.items()]
+        out.append(_nc_attributes(attrs))
+        out.append(struct.pack(">ii", _NC_VARIABLE, len(variables)))
+        for name, (vdims, vattrs) in variables.items():
+            out.append(_nc_name(name) + struct.pack(">i", len(vdims))
+                       + b"".join(struct.pack(">i", order.index(d)) for d in vdims))
+            out.append(_nc_attributes(vattrs))
+            out.append(struct.pack(">iiq", _NC_DOUBLE, nbytes[name], begins.get(name, 0)))
+        return b"".join(out)
+
+    start = len(header({}))   # every field has a fixed width: the offsets do not change the header's length
+    begins, at = {}, start
+    for name in laid:
+        begins[name] = at
+        at += nbytes[name]
+    return header(begins), begins, at
+
+
+def _nc_map_layout(robot: Manipulator, clearances: ClearanceSet, phis: np.ndarray, x: np.ndarray, y: np.ndarray):
+    """The layout of :func:`save_map`'s NetCDF file for this map: header, offsets, size, coordinate values."""
+    coords = _coords(phis, x, y)
+    fill = {"_FillValue": np.nan}
+    variables = {"y": (("y",), {**coords["y"][2], **fill}), "x": (("x",), {**coords["x"][2], **fill})}
+    variables.update({name: (("phi", "y", "x"), {"units": units, "long_name": long_name, **fill})
+                      for name, (units, long_name) in MAP_VARIABLES.items()})
+    variables["phi"] = (("phi",), {**coords["phi"][2], **fill})
+    header, begins, size = _nc_layout({"phi": len(phis), "y": len(y), "x": len(x)}, _attrs(robot, clearances),
+                                      variables)
+    return header, begins, size, {name: coords[name][1] for name in ("phi", "y", "x")}
+
+
+def check_netcdf_size(n_phi: int, n: int) -> None:
+    """Refuse (ConfigError) a NetCDF-3 map with a variable of 4 GiB or more (the format's limit)."""
+    if 8 * n_phi * n * n > NETCDF3_MAX_VARIABLE:
+        raise ConfigError(f"a {n_phi} x {n} x {n} map has variables of {format_bytes(8 * n_phi * n * n)}, beyond "
+                          f"NetCDF-3's 4 GiB: write it to a Zarr store instead (--out FILE.zarr)", key="grid")
+
+
+def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceSet | str,
+              phis: float | np.ndarray, n: int = 101, *, chunk_size: int = DEFAULT_CHUNK,
+              progress: bool | None = None, max_condition: float = DEFAULT_MAX_CONDITION
+              ) -> dict[str, dict[str, list[float]]]:
+    """Compute the map of :func:`error_map` straight into a NetCDF (``.nc``) or CSV (``.csv``) file, block by block.
+
+    The file is the one ``save_map(error_map(...), path)`` writes (the same bytes), but the map is never held
+    whole: each band of grid rows (the blocks of :func:`error_map`) goes to its place in the file as soon as
+    it is computed, so memory holds one block's temporaries (a few tens of MB) whatever ``n``. For NetCDF the
+    header is written first and each variable's rows at their offset; for CSV the inside points' lines are
+    appended in ``(phi, y, x)`` order.
+
+    Returns the ranges ``{phi_deg: {var: [min, max]}}`` of :func:`summarize`, gathered block by block.
+
+    Raises
+    ------
+    ConfigError : an unknown file type, a NetCDF variable beyond 4 GiB, or errors that overflow (infinite:
+        clearances far outside any physical range; key ``clearances``)
+    EmptyWorkspaceError : a layer with no grid point inside its workspace
+
+    The file is written under a temporary name beside ``path`` and renamed when complete: after an error or
+    an interruption, ``path`` is untouched (a file already there stays as it was).
+    SingularPoseError : as :func:`error_map`
+
+    Example
+    -------
+    >>> import tempfile, pathlib
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     ranges = write_map(pathlib.Path(tmp) / "m.nc", "aalborg_3ppr", "case1", 0.0, n=21, progress=False)
+    ...     ds = load_map(pathlib.Path(tmp) / "m.nc")
+    >>> ds.dx_max.dims, round(ranges["0"]["dy_max"][1], 4)
+    (('phi', 'y', 'x'), 0.0999)
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".nc", ".csv"):
+        raise ConfigError(f"unknown streamed map file type {path.suffix!r}: use .nc or .csv", source=str(path))
+    if chunk_size < 1:
+        raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
+    robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
+    if suffix == ".nc":
+        check_netcdf_size(len(phis), n)
+    phis_deg = [round_trip_degrees(p) for p in phis]
+    record = np.full((len(phis), 1, 1, 1 + 2 * len(MAP_VARIABLES)), np.nan)
+    record[..., 0] = 0
+    rows = _block_rows(len(phis), len(y), len(x), chunk_size)
+    blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
+    show = sys.stderr.isatty() if progress is None else progress
+    from tqdm import tqdm
+
+    partial = path.with_name(f".{path.name}.partial-{os.getpid()}")   # renamed to ``path`` once complete
+    try:
+        with open(partial, "wb") as fh, tqdm(total=len(blocks), disable=not show, desc="error map", unit="block",
+                                          file=sys.stderr) as bar:
+            if suffix == ".nc":
+                header, begins, size, coords = _nc_map_layout(robot, clearances, phis, x, y)
+                fh.write(header)
+                fh.truncate(size)
+                for name, values in coords.items():
+                    fh.seek(begins[name])
+                    fh.write(np.asarray(values, dtype=">f8").tobytes())
+            else:
+                options = _csv_options()
+                fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+            for k, j in blocks:
+                block = _rows_block(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition)
+                if np.isinf(block).any():
+                    raise ConfigError("the errors overflow: the clearances are far outside any physical range; "
+                                      "nothing written", key="clearances")
+                layers = [block[..., v] for v in range(len(MAP_VARIABLES))]
+                if suffix == ".nc":
+                    for name, layer in zip(MAP_VARIABLES, layers):
+                        fh.seek(begins[name] + 8 * (k * len(y) + j) * len(x))
+                        fh.write(np.ascontiguousarray(layer, dtype=">f8"))
+                else:
+                    _write_csv_rows(fh, options, x, y[j:j + rows], phis_deg[k], layers)
+                _record_block(record[k, 0, 0], block)
+                bar.update()
+        for k, phi in enumerate(phis):
+            if not record[k, 0, 0, 0]:
+                raise _empty_layer_error(phi, n)
+        os.replace(partial, path)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+    return _summary_from_record(record, phis)
+
+
+def _record_block(rec: np.ndarray, block: np.ndarray) -> None:
+    """Fold a block ``(rows, nx, 4)`` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN extremes: none yet)."""
+    inside = np.isfinite(block[..., 0])
+    count = int(inside.sum())
+    if not count:
+        return
+    values = block[inside]                     # (count, 4); NaN nowhere (bounds_or_nan fills whole rows)
+    lo, hi = values.min(axis=0), values.max(axis=0)
+    nv = len(MAP_VARIABLES)
+    rec[1:1 + nv] = lo if not rec[0] else np.fmin(rec[1:1 + nv], lo)
+    rec[1 + nv:] = hi if not rec[0] else np.fmax(rec[1 + nv:], hi)
+    rec[0] += count
 
 
 def load_map(path: str | Path) -> xr.Dataset:

@@ -21,11 +21,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "map", help="error maps over constant-orientation workspaces (NetCDF, Zarr or CSV, optional figure)",
         description="Exact maximum pose errors on an N x N grid spanning the workspaces at the given orientations. "
-                    "Writes NetCDF (.nc) or CSV (.csv), computed in memory, or a Zarr store (.zarr), streamed tile "
-                    "by tile with Dask in bounded memory and resumable: run the same command again after an "
-                    "interruption and only the missing tiles are computed. Before computing it prints the size and "
-                    "an estimated time (with --progress or on a terminal) and refuses an in-memory map that would "
-                    "not fit in the available memory. Missing parent folders of --out and --plot are created. "
+                    "Writes NetCDF (.nc) or CSV (.csv), each block of grid rows written to the file as soon as it "
+                    "is computed (assembled in memory first with --dask, --scheduler, or a .csv with --plot), or a "
+                    "Zarr store (.zarr), streamed tile by tile with Dask in bounded memory and resumable: run the "
+                    "same command again after an interruption and only the missing tiles are computed. Before "
+                    "computing it prints the size and an estimated time (with --progress or on a terminal) and "
+                    "refuses a map that would not fit on disk (or, assembled in memory, in the available memory). "
+                    "Missing parent folders of --out and --plot are created. "
                     "Prints the ranges.")
     _common.add_robot(p)
     add_clearances(p)
@@ -33,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="platform orientation in degrees (repeatable, each value once)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
     p.add_argument("--out", required=True, metavar="FILE",
-                   help="output map: .nc or .csv (in memory) or .zarr (streamed, resumable; open with "
+                   help="output map: .nc or .csv (written block by block) or .zarr (streamed, resumable; open with "
                         "xarray.open_zarr); missing parent folders are created")
     p.add_argument("--plot", metavar="FILE.png",
                    help="four-panel figure; with several orientations one file per orientation, FILE-<phi>deg.png "
@@ -89,17 +91,22 @@ def run(args: argparse.Namespace) -> int:
     clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)
-    if suffix != ".zarr":
-        maps.check_fits_in_memory(n_phi, args.grid)  # before anything is computed or created
-    else:
+    # .nc and .csv are written block by block as they are computed (maps.write_map) unless the blocks come from
+    # Dask or a CSV map is also drawn: then the map is assembled in memory first.
+    streamed = suffix != ".zarr" and not args.dask and not args.scheduler and not (suffix == ".csv" and args.plot)
+    if suffix == ".nc":
+        maps.check_netcdf_size(n_phi, args.grid)
+    if suffix == ".zarr" or streamed:   # before anything is computed or created
         _check_disk(maps, out, n_phi, args.grid)
+    else:
+        maps.check_fits_in_memory(n_phi, args.grid)
     _common.prepare_output(out, "--out", OUT_TYPES)
     if args.plot:
         _common.prepare_output(Path(args.plot), "--plot", _common.PLOT_TYPES)
     chunk = args.chunk_size or maps.DEFAULT_CHUNK
     show = sys.stderr.isatty() if args.progress is None else args.progress
     if show:
-        _announce(maps, robot, clearances, phis, args, suffix)
+        _announce(maps, robot, clearances, phis, args, suffix, streamed)
     elif args.grid > LONG_GRID:
         _warn_if_long(maps, robot, clearances, phis, args, suffix)
     if suffix == ".zarr":
@@ -111,6 +118,18 @@ def run(args: argparse.Namespace) -> int:
             import xarray as xr
 
             with xr.open_zarr(out) as ds:
+                _plots(_thinned(ds), Path(args.plot))
+    elif streamed:
+        try:
+            summary = maps.write_map(out, robot, clearances, phis, args.grid, chunk_size=chunk, progress=show)
+        except ConfigError as exc:
+            if exc.key != "clearances":
+                raise
+            raise ConfigError(exc.message, source=str(args.clearances), key="--clearances") from None
+        if args.plot:  # .nc: read back lazily, every k-th point of a large map
+            import xarray as xr
+
+            with xr.open_dataset(out, engine="scipy") as ds:
                 _plots(_thinned(ds), Path(args.plot))
     else:
         try:
@@ -192,13 +211,13 @@ def _in_memory(maps, robot, clearances, phis, args, chunk, show):
         return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show)
 
 
-def _announce(maps, robot, clearances, phis, args, suffix: str) -> None:
+def _announce(maps, robot, clearances, phis, args, suffix: str, streamed: bool) -> None:
     """One line on stderr: size of the result and a rough time, before computing."""
     x, y = maps.map_grid(robot, phis, args.grid)
     size = maps.map_nbytes(len(phis), args.grid)
     workers = (args.workers or os.cpu_count() or 1) if suffix == ".zarr" else 1
     seconds = maps.estimate_seconds(robot, clearances, phis, x, y, workers=workers)
-    where = "streamed to Zarr" if suffix == ".zarr" else "in memory"
+    where = "streamed to Zarr" if suffix == ".zarr" else "written block by block" if streamed else "in memory"
     print(f"map: {len(phis)} x {args.grid} x {args.grid} grid, {maps.format_bytes(size)} of results {where}, "
           f"about {_duration(seconds)}", file=sys.stderr)
 
