@@ -63,7 +63,8 @@ _EXPORTS = {
     "error_map": "accuracy.maps", "save_map": "accuracy.maps", "load_map": "accuracy.maps",
     "synthesize": "accuracy.synthesis", "Synthesis": "accuracy.synthesis",
     "pose_statistics": "accuracy.distributions", "PoseStatistics": "accuracy.distributions",
-    **{name: "accuracy.loads" for name in ("Load", "LoadedError", "Statics", "loaded_pose_error", "statics")},
+    **{name: "accuracy.loads" for name in ("Load", "LoadedError", "Statics", "loaded_pose_error", "statics",
+                                           "WrenchSetErrors", "wrench_set_errors", "Preload", "design_preload")},
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

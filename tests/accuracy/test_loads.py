@@ -222,3 +222,50 @@ def test_virtual_rig_pushes_as_loads_reach_the_support_points_of_the_error_set()
         np.testing.assert_allclose(np.sum(W * d, axis=-1), support, rtol=1e-9)
         if push in ("+x", "-x"):                   # every leg loaded by a push along x
             np.testing.assert_allclose(loaded.readings[:, k], plain.readings[:, k], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name, clear", ROBOTS)
+def test_wrench_set_range_and_flips_against_a_dense_sample_of_the_box(name, clear):
+    from pmaccuracy.accuracy.loads import wrench_set_errors
+
+    robot = Manipulator.preset(name)
+    poses = inner_poses(robot, 2, 30)
+    center, half = np.array([2.0, -3.0, 40.0]), np.array([4.0, 4.0, 150.0])
+    res = wrench_set_errors(robot, clear, poses, center, half)
+    grid = np.linspace(-1.0, 1.0, 7)
+    sample = np.array(np.meshgrid(grid, grid, grid)).reshape(3, -1).T * half + center
+    seen = np.zeros((len(poses), 3))
+    lo, hi = np.full((len(poses), 3), np.inf), np.full((len(poses), 3), -np.inf)
+    sides = [set() for _ in poses]
+    for W in sample:
+        r = loaded_pose_error(robot, clear, poses, Load(fx=W[0], fy=W[1], m=W[2]), exact=False)
+        lo, hi = np.minimum(lo, r.first_order), np.maximum(hi, r.first_order)
+        for n in range(len(poses)):
+            sides[n].add(tuple(r.signs[n]))
+    tol = 1e-12 + 1e-9 * np.abs(hi)
+    assert np.all(res.lower <= lo + tol) and np.all(hi <= res.upper + tol)
+    for n in range(len(poses)):
+        flipped = [len({s[i] for s in sides[n]}) > 1 for i in range(3)]
+        assert all(res.flips[n][i] or not flipped[i] for i in range(3)), (n, flipped, res.flips[n])
+
+
+@pytest.mark.parametrize("name, clear", ROBOTS)
+def test_designed_preload_holds_every_contact_and_two_percent_less_flips_one(name, clear):
+    from pmaccuracy.accuracy.loads import design_preload
+
+    robot = Manipulator.preset(name)
+    pose = inner_poses(robot, 1, 40)[0]
+    center, half = np.array([0.0, 0.0, 0.0]), np.array([5.0, 5.0, 100.0])
+    pre = design_preload(robot, clear, pose, center, half)
+    grid = np.linspace(-1.0, 1.0, 5)
+    sample = np.array(np.meshgrid(grid, grid, grid)).reshape(3, -1).T * half + center
+
+    def signs(P):
+        return np.array([np.sign(statics(robot, pose, Load(fx=P[0] + W[0], fy=P[1] + W[1], m=P[2] + W[2]))
+                                 .intensity) for W in sample])
+
+    held = signs(pre.wrench)
+    assert np.all(held == pre.pattern)
+    assert np.any(signs(0.98 * pre.wrench) != pre.pattern)
+    b = max_pose_errors(robot, clear, pose[None])
+    assert np.all(np.abs(pre.offset) <= np.array([b.dx_max[0], b.dy_max[0], b.dphi_max[0]]) * (1 + 1e-9))

@@ -51,6 +51,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import linprog
 
 from .._display import html_table, summary, value_range
 from ..errors import ConfigError
@@ -303,4 +304,143 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
                        configuration=config)
 
 
-__all__ = ["DEFAULT_THRESHOLD_N", "G0", "Load", "LoadedError", "Statics", "loaded_pose_error", "statics", "wrench_rows"]
+# ----------------------------------------------------------------------------- wrench sets and preload
+def _intensity_map(robot: Manipulator, poses: np.ndarray) -> np.ndarray:
+    """``L`` ``(n, 3, 3)`` with ``lambda = L W`` (``L = -A^{-T}``, module docstring), N per N (or per N mm)."""
+    A = wrench_rows(robot, poses)
+    return -np.linalg.inv(np.swapaxes(A, -1, -2))
+
+
+def _box(center, half) -> tuple[np.ndarray, np.ndarray]:
+    c = np.asarray(center, dtype=float).reshape(3)
+    h = np.asarray(half, dtype=float).reshape(3)
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(h)) and np.all(h >= 0)):
+        raise ConfigError(f"a wrench box needs a finite centre and half-widths >= 0 [N, N, N mm], got {c}, {h}",
+                          key="wrench_set")
+    return c, h
+
+
+#: The eight contact patterns ``s`` (the signs of the legs' intensities).
+_PATTERNS = np.array([[a, b, c] for a in (1.0, -1.0) for b in (1.0, -1.0) for c in (1.0, -1.0)])
+
+
+@dataclass(frozen=True)
+class WrenchSetErrors:
+    """The loaded pose error over a box of process wrenches at a batch of poses (:func:`wrench_set_errors`).
+
+    Attributes
+    ----------
+    poses : ``(n, 3)``;  center, half : ``(3,)`` the box ``center +- half`` [N, N, N mm]
+    patterns : ``(n, 8)`` bool: which contact patterns ``s`` (rows of ``_PATTERNS``, the signs of the legs'
+        intensities) some wrench of the box reaches with every leg loaded above the threshold
+    lower, upper : ``(n, 3)`` [mm, mm, rad]: the range of the first-order loaded error over the box
+    flips : ``(n, 3)`` bool: legs whose contact side changes inside the box (the error jumps there)
+    """
+
+    poses: np.ndarray
+    center: np.ndarray
+    half: np.ndarray
+    patterns: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    flips: np.ndarray
+
+
+def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half, *,
+                      threshold: float = DEFAULT_THRESHOLD_N) -> WrenchSetErrors:
+    """Range of the loaded pose error when the process wrench may be anywhere in the box ``center +- half``
+    ([fx N, fy N, m N mm]), and the legs whose contact flips inside it.
+
+    ``lambda = L W`` is linear, so a contact pattern ``s`` is reached by the box iff the linear program
+    ``max delta s.t. s_i L_i W >= delta, W in the box`` has ``delta > threshold`` (scipy HiGHS, per pose and
+    pattern); the loaded error of pattern ``s`` is ``A^{-1} diag(c) (-s)`` (module docstring), and the range
+    is taken over the reached patterns. A box that reaches a leg's zero (``delta`` in ``[-threshold,
+    threshold]`` only) makes that leg unloaded somewhere: it counts as flipping.
+    """
+    robot = robot_arg(robot)
+    c, h = _box(center, half)
+    poses = as_poses(poses).reshape(-1, 3)
+    _check_poses(robot, poses)
+    b = max_pose_errors(robot, clearances, poses, details=True)
+    L = _intensity_map(robot, poses)
+    reached = np.zeros((poses.shape[0], 8), dtype=bool)
+    bounds = [(ci - hi, ci + hi) for ci, hi in zip(c, h)]
+    for n in range(poses.shape[0]):
+        for k, s in enumerate(_PATTERNS):
+            # variables (W, delta): maximize delta s.t. delta - s_i L_i W <= 0
+            A_ub = np.column_stack([-(s[:, None] * L[n]), np.ones(3)])
+            res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=A_ub, b_ub=np.zeros(3),
+                          bounds=bounds + [(None, 1e300)], method="highs")
+            reached[n, k] = res.status == 0 and -res.fun > threshold
+    errors = np.einsum("nij,kj->nki", b.generators, -_PATTERNS)          # (n, 8, 3): A^-1 diag(c) t
+    masked = np.where(reached[..., None], errors, np.nan)
+    lower, upper = np.nanmin(masked, axis=1), np.nanmax(masked, axis=1)
+    signs = np.where(reached[..., None], _PATTERNS[None], np.nan)
+    flips = ~(np.nanmin(signs, axis=1) == np.nanmax(signs, axis=1))
+    # a leg that can only be loaded on one side but also reaches zero: its state is undetermined there
+    lam_lo = np.einsum("nij,j->ni", L, c) - np.einsum("nij,j->ni", np.abs(L), h)
+    lam_hi = np.einsum("nij,j->ni", L, c) + np.einsum("nij,j->ni", np.abs(L), h)
+    touches = (lam_lo <= threshold) & (lam_hi >= -threshold)
+    flips = flips | touches
+    extra = np.einsum("nij,nj->ni", np.abs(b.generators), (touches & ~flips).astype(float))
+    return WrenchSetErrors(poses=poses, center=c, half=h, patterns=reached, lower=lower - extra,
+                           upper=upper + extra, flips=flips)
+
+
+@dataclass(frozen=True)
+class Preload:
+    """The smallest constant platform wrench that keeps every contact fixed over a box of process wrenches at
+    one pose (:func:`design_preload`).
+
+    Attributes
+    ----------
+    wrench : ``(3,)`` [fx N, fy N, m N mm]: the preload, added to every process wrench
+    size : its size ``max(|fx|, |fy|, |m| / L)`` (N) with ``L`` the robot's characteristic length (mm)
+    pattern : ``(3,)`` the legs' intensity signs it holds for every process wrench
+    offset : ``(3,)`` [mm, mm, rad]: the then constant first-order pose error (calibration removes it)
+    worst : ``(3,)`` [mm, mm, rad]: the unloaded worst case (dx_max, dy_max, dphi_max) beside it
+    """
+
+    wrench: np.ndarray
+    size: float
+    pattern: np.ndarray
+    offset: np.ndarray
+    worst: np.ndarray
+
+
+def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
+                   margin: float = DEFAULT_THRESHOLD_N) -> Preload:
+    """The smallest preload ``P`` (a constant wrench on the platform, size ``max(|P_x|, |P_y|, |P_m| / L)``) such
+    that every leg's intensity keeps its sign, with at least ``margin`` N, for every process wrench of the box
+    ``center +- half``: for a pattern ``s`` the linear program ``min z s.t. s_i L_i (P + W) >= margin for all
+    W in the box`` (``s_i L_i P >= margin - s_i L_i center + sum_j |L_ij| half_j``, ``|P_j| / scale_j <= z``;
+    scipy HiGHS), the best of the eight patterns.
+    """
+    robot = robot_arg(robot)
+    c, h = _box(center, half)
+    pose = as_poses(pose).reshape(1, 3)
+    _check_poses(robot, pose)
+    L = _intensity_map(robot, pose)[0]
+    scale = np.array([1.0, 1.0, robot.characteristic_length])
+    best = None
+    for s in _PATTERNS:
+        rhs = margin - s * (L @ c) + np.abs(L) @ h
+        # variables (P, z): minimize z; -s_i L_i P <= -rhs_i; +-P_j / scale_j - z <= 0
+        A_ub = np.vstack([np.column_stack([-(s[:, None] * L), np.zeros(3)]),
+                          np.column_stack([np.diag(1 / scale), -np.ones(3)]),
+                          np.column_stack([-np.diag(1 / scale), -np.ones(3)])])
+        b_ub = np.concatenate([-rhs, np.zeros(6)])
+        res = linprog(np.array([0.0, 0.0, 0.0, 1.0]), A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 4,
+                      method="highs")
+        if res.status == 0 and (best is None or res.fun < best[0]):
+            best = (res.fun, res.x[:3], s)
+    if best is None:    # cannot happen for a regular pose (A invertible): any pattern is reachable
+        raise ConfigError("no preload keeps the contacts fixed", key="preload")
+    b = max_pose_errors(robot, clearances, pose, details=True)
+    offset = b.generators[0] @ (-best[2])
+    worst = np.array([float(b.dx_max[0]), float(b.dy_max[0]), float(b.dphi_max[0])])
+    return Preload(wrench=best[1], size=float(best[0]), pattern=best[2], offset=offset, worst=worst)
+
+
+__all__ = ["DEFAULT_THRESHOLD_N", "G0", "Load", "LoadedError", "Preload", "Statics", "WrenchSetErrors",
+           "design_preload", "loaded_pose_error", "statics", "wrench_rows", "wrench_set_errors"]
