@@ -352,7 +352,7 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     ([fx N, fy N, m N mm]), and the legs whose contact flips inside it.
 
     ``lambda = L W`` is linear, so a contact pattern ``s`` is reached by the box iff the linear program
-    ``max delta s.t. s_i L_i W >= delta, W in the box`` has ``delta > threshold`` (scipy HiGHS, per pose and
+    ``max delta`` subject to ``s_i L_i W >= delta, W in the box`` has ``delta > threshold`` (scipy HiGHS, per pose and
     pattern); the loaded error of pattern ``s`` is ``A^{-1} diag(c) (-s)`` (module docstring), and the range
     is taken over the reached patterns. A box that reaches a leg's zero (``delta`` in ``[-threshold,
     threshold]`` only) makes that leg unloaded somewhere: it counts as flipping.
@@ -412,7 +412,7 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
                    margin: float = DEFAULT_THRESHOLD_N) -> Preload:
     """The smallest preload ``P`` (a constant wrench on the platform, size ``max(|P_x|, |P_y|, |P_m| / L)``) such
     that every leg's intensity keeps its sign, with at least ``margin`` N, for every process wrench of the box
-    ``center +- half``: for a pattern ``s`` the linear program ``min z s.t. s_i L_i (P + W) >= margin for all
+    ``center +- half``: for a pattern ``s`` the linear program ``min z`` subject to ``s_i L_i (P + W) >= margin for all
     W in the box`` (``s_i L_i P >= margin - s_i L_i center + sum_j |L_ij| half_j``, ``|P_j| / scale_j <= z``;
     scipy HiGHS), the best of the eight patterns.
     """
