@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .bounds import max_pose_errors
+from .._savefig import DEFAULT_DPI, save_figure
 from ..errors import ConfigError
 from ..model.manipulator import Manipulator, round_trip_degrees
 from ..kinematics import DEFAULT_MAX_CONDITION, regular_mask
@@ -550,13 +551,10 @@ def plot_comparison(result: DesignComparison):
     return fig
 
 
-def save_comparison_figure(result: DesignComparison, path: str | Path, dpi: int = 110) -> Path:
-    """Write :func:`plot_comparison` to ``path`` as a PNG (whatever the extension); returns the path."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
+def save_comparison_figure(result: DesignComparison, path: str | Path, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`plot_comparison` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = plot_comparison(result)
-    FigureCanvasAgg(fig)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._savefig import DEFAULT_DPI, save_figure
 from ..errors import EmptyWorkspaceError, GeometryError, PoseError
 from ..model.manipulator import Manipulator
 from . import LIMIT_TOLERANCE, inverse_kinematics, resolve_robot
@@ -630,11 +631,11 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
 
 
 def save_workspace_figure(robot: Manipulator, path: str | Path,
-                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
-    """Write :func:`workspace_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`workspace_figure` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = workspace_figure(robot, phis_deg)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path
 
@@ -688,11 +689,11 @@ def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_P
 
 
 def save_comparison_figure(robots: list[Manipulator], path: str | Path,
-                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
-    """Write :func:`comparison_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`comparison_figure` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = comparison_figure(robots, phis_deg)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path
 
