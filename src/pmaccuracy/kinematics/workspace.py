@@ -569,7 +569,7 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
                 label="leg base frames" if (label and i == 0) else None)
     tri = pts_platform
     ax.add_patch(Polygon(tri, closed=True, facecolor="0.6", alpha=0.5, edgecolor="k", zorder=4,
-                         label=f"platform ($\\phi$ = {np.degrees(pose[2]):g}°)" if label else None))
+                         label=f"platform ($\\phi$ = {np.degrees(pose[2]):g} deg)" if label else None))
     ax.plot(pose[0], pose[1], "k+", markersize=8, zorder=6)
     if label:
         ax.plot([], [], "o", markerfacecolor="tab:red", markeredgecolor="k", label="actuated joint")
@@ -609,7 +609,7 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
         ax = Figure(figsize=(7.5, 7.0)).add_subplot()
     spaces = [constant_orientation_workspace(robot, phi) for phi in phis]
     for j, (phi, ws) in enumerate(zip(phis, spaces)):
-        fill_workspace(ws, ax, _COLORS[j % len(_COLORS)], f"$\\phi$ = {np.degrees(phi):g}°")
+        fill_workspace(ws, ax, _COLORS[j % len(_COLORS)], f"$\\phi$ = {np.degrees(phi):g} deg")
     if not zoom:
         draw_robot(robot, home_pose(robot) if pose is None else np.asarray(pose, float), ax)
     else:
@@ -624,8 +624,8 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
             ax.set_ylim(y0 - m, y1 + m)
     ax.set_aspect("equal", adjustable="datalim" if not zoom else "box")
     ax.autoscale_view()
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
     ax.grid(True, alpha=0.3)
     return ax
 
