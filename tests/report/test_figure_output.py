@@ -301,7 +301,7 @@ def test_percentile_map_colour_steps_no_finer_than_stated_error(mc_maps, tmp_pat
 
     try:
         figures.plot_panels = spy
-        path = statistics_report.save_percentile_map_figure(ds, tmp_path / "p.png", dpi=50)
+        path = statistics_report.save_percentile_map_figure(ds, tmp_path / "p.png", dpi=50, log=True)
     finally:
         figures.plot_panels = real
     assert MAGIC["png"](path.read_bytes())

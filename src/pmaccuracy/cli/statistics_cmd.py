@@ -69,7 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                                  "folders are created")
     _common.add_plot(p, "figure of a map's first orientation: percentile, worst case and their ratio for |dp| "
                         "(mm) and |dphi| (deg), in colour steps no finer than the Monte Carlo error; --vmin/--vmax "
-                        "set the mm panels", maps=True)
+                        "set the mm panels, --log the worst-case panels", maps=True)
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
     p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of numpy.random.default_rng (default: 0)")

@@ -230,7 +230,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
 
     ``log``: logarithmic colour scale (values <= 0 left blank). ``error`` (units of the map): a Monte Carlo
     map's stated error; the colours come in discrete bands of :func:`monte_carlo_levels` (step >= error),
-    and the colour bar states both. ``box``: axis limits ``(x0, x1, y0, y1)`` in mm (default: the field's
+    and the colour bar states both (``log`` does not apply to such a panel: its bands stay linear). ``box``: axis limits ``(x0, x1, y0, y1)`` in mm (default: the field's
     own workspace), e.g. one box for every panel of a comparison.
     """
     from matplotlib.colors import BoundaryNorm, LogNorm, Normalize
@@ -240,6 +240,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
     finite = Z[np.isfinite(Z)]
     lo, hi = rng.lo, rng.hi
     levels = None
+    log = log and error is None              # a Monte Carlo map keeps its bands of the stated error
     if log:
         positive = finite[finite > 0]
         lo = lo if lo > 0 else (float(positive.min()) if positive.size else 1e-12)
