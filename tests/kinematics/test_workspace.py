@@ -309,7 +309,7 @@ def test_plot_workspaces_draws_each_orientation(aalborg):
     ax = plot_workspaces(aalborg)
     labels = ax.get_legend_handles_labels()[1]
     for deg in ("0", "30", "-30"):
-        assert any(f"= {deg}°" in lab for lab in labels), labels
+        assert any(f"= {deg} deg" in lab for lab in labels), labels
     assert any("base" in lab for lab in labels) and any("rails" in lab for lab in labels)
     assert any("platform" in lab for lab in labels) and any("actuated" in lab for lab in labels)
     assert "mm" in ax.get_xlabel() and "mm" in ax.get_ylabel()

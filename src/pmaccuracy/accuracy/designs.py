@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .bounds import max_pose_errors
+from .._savefig import DEFAULT_DPI, SYMBOLS, save_figure
 from ..errors import ConfigError
 from ..model.manipulator import Manipulator, round_trip_degrees
 from ..kinematics import DEFAULT_MAX_CONDITION, regular_mask
@@ -477,16 +478,16 @@ def plot_comparison(result: DesignComparison):
                         alpha=0.35)
             ax.fill([], [], color="0.55", alpha=0.35, label="shared region (grid)")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel("x (mm)")
-        ax.set_ylabel("y (mm)")
-        ax.set_title(f"workspaces at φ = {phi_deg:g}°", fontsize="medium")
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+        ax.set_title(f"workspaces at $\\phi$ = {phi_deg:g} deg", fontsize="medium")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.13), fontsize="small", frameon=False,
                   title="exact areas", title_fontsize="small", alignment="left")
         # (2 .. K) ratio maps of dp_max
         for k in range(1, K):
             ax = axes_at(p, k)
-            ax.set_title(f"δp_max ratio at φ = {phi_deg:g}°\n{result.labels[k]} / {result.labels[0]}",
+            ax.set_title(f"{SYMBOLS['dp_max'][0]} ratio at $\\phi$ = {phi_deg:g} deg\n{result.labels[k]} / {result.labels[0]}",
                          fontsize="small")
             if region.is_empty:
                 why = ("no shared region" if not region.inside.any() else
@@ -503,8 +504,8 @@ def plot_comparison(result: DesignComparison):
             ax.set_xlim(region.x[0], region.x[-1])
             ax.set_ylim(region.y[0], region.y[-1])
             ax.set_aspect("equal", adjustable="box")
-            ax.set_xlabel("x (mm)")
-            ax.set_ylabel("y (mm)")
+            ax.set_xlabel("x [mm]")
+            ax.set_ylabel("y [mm]")
             ax.tick_params(labelsize="small")
             cax = make_axes_locatable(ax).append_axes("right", size="5%", pad=0.06)
             cbar = fig.colorbar(mesh, cax=cax)
@@ -512,7 +513,7 @@ def plot_comparison(result: DesignComparison):
             cbar.ax.yaxis.set_minor_locator(NullLocator())
             cbar.ax.yaxis.set_major_formatter(factor)
             cbar.ax.tick_params(labelsize="small")
-            cbar.set_label("δp_max ratio (factor)", fontsize="small")
+            cbar.set_label(f"{SYMBOLS['dp_max'][0]} ratio [1]", fontsize="small")
             row = result.row(p, k)
             ax.text(0.5, -0.2, f"mean {row.ratio_mean[3]:.3g}×, min {row.ratio_min[3]:.3g}×, "
                                f"max {row.ratio_max[3]:.3g}× ({row.n_shared} points)",
@@ -535,12 +536,12 @@ def plot_comparison(result: DesignComparison):
             note = _bar_scale(a, np.degrees(np.concatenate([np.concatenate([r.mean[idx], r.max[idx]]) for r in rows]))
                               if unit == "deg" else np.concatenate([np.concatenate([r.mean[idx], r.max[idx]])
                                                                     for r in rows]))
-            a.set_ylabel(f"worst-case error ({unit}{note})")
+            a.set_ylabel(f"worst-case error [{unit}]{note}")
             a.grid(True, axis="y", alpha=0.25)
             a.tick_params(labelsize="small")
-        ax_mm.set_xticks(range(3), ["δx_max", "δy_max", "δp_max"])
-        ax_mm.set_title(f"over each workspace, φ = {phi_deg:g}°\nmean (filled), max (outline)", fontsize="small")
-        ax_deg.set_xticks([0], ["δφ_max"])
+        ax_mm.set_xticks(range(3), [SYMBOLS[q][0] for q in ("dx_max", "dy_max", "dp_max")])
+        ax_mm.set_title(f"over each workspace, $\\phi$ = {phi_deg:g} deg\nmean (filled), max (outline)", fontsize="small")
+        ax_deg.set_xticks([0], [SYMBOLS["dphi_max"][0]])
         ax_deg.set_xlim(-0.55, 0.55)
         handles = [Patch(color=_COLORS[k % len(_COLORS)], label=result.labels[k] + (
             "" if np.isfinite(rows[k].mean[3]) else ": empty workspace" if rows[k].n_points == 0
@@ -550,13 +551,10 @@ def plot_comparison(result: DesignComparison):
     return fig
 
 
-def save_comparison_figure(result: DesignComparison, path: str | Path, dpi: int = 110) -> Path:
-    """Write :func:`plot_comparison` to ``path`` as a PNG (whatever the extension); returns the path."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
+def save_comparison_figure(result: DesignComparison, path: str | Path, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`plot_comparison` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = plot_comparison(result)
-    FigureCanvasAgg(fig)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path

@@ -614,7 +614,9 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     dphi (deg): ``q_std`` (Monte Carlo), ``q_rss`` (analytic), ``q_p{p}`` (percentiles of ``|q|``),
     ``q_exceed`` (``P(|q| > threshold)``, with a threshold) and ``q_max`` (worst case). The same ``samples``
     source states are used at every pose; the Monte Carlo error is in the attributes
-    (``exceed_se_max = 0.5 / sqrt(n)``, the binomial bound).
+    (``exceed_se_max = 0.5 / sqrt(n)``, the binomial bound; for each percentile map ``q_p{p}_error``: the
+    largest half-width over the map of the percentile's 95 % order-statistic interval, units of ``q``, and
+    ``q_p{p}_ratio_error``: the largest half-width divided by the worst case ``q_max`` at its pose).
     """
     import xarray as xr
 
@@ -636,6 +638,7 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     poses = np.column_stack([X[idx[:, 1], idx[:, 2]], Y[idx[:, 1], idx[:, 2]], phi_rad[idx[:, 0]]])
     block = max(1, MAX_VALUES_IN_MEMORY // (3 * Z.shape[0]))
     to_deg = math.degrees(1)
+    half = {f"{q}_p{p:g}": np.full(shape, np.nan) for q in QUANTITIES for p in pct}
     for start in range(0, poses.shape[0], block):
         sel = idx[start:start + block]
         where = (sel[:, 0], sel[:, 1], sel[:, 2])
@@ -649,6 +652,7 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
             values[f"{q}_rss"][where] = sd[q] * scale
             for p in pct:
                 values[f"{q}_p{p:g}"][where] = st[f"p{p:g}"] * scale
+                half[f"{q}_p{p:g}"][where] = 0.5 * (st[f"p{p:g}_hi"] - st[f"p{p:g}_lo"]) * scale
             if q in thr:
                 values[f"{q}_exceed"][where] = st["exceed"]
     for q in QUANTITIES:
@@ -665,6 +669,12 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
                   "exceed_se_max": repr(0.5 / math.sqrt(samples))})
     for q, t in thr.items():
         attrs[f"{q}_threshold"] = repr(t * (to_deg if q == "dphi" else 1.0))
+    for key, h in half.items():     # the Monte Carlo error of each percentile map (figures draw no finer)
+        q = key.split("_")[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(values[f"{q}_max"] > 0, h / values[f"{q}_max"], np.nan)
+        attrs[f"{key}_error"] = repr(float(np.nanmax(h)) if np.isfinite(h).any() else float("nan"))
+        attrs[f"{key}_ratio_error"] = repr(float(np.nanmax(ratio)) if np.isfinite(ratio).any() else float("nan"))
     return xr.Dataset(data_vars, coords=ds.coords, attrs=attrs)
 
 

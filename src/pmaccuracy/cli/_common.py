@@ -19,10 +19,12 @@ from ..io.csvio import read_poses_csv  # noqa: F401  (columnar reader; kept impo
 from ..errors import ConfigError, PmAccuracyError
 from ..model.manipulator import Manipulator
 from ..io.resolve import robot_arg
+from .._savefig import DEFAULT_DPI, FIGURE_TYPES, check_dpi, figure_format
 
 
-#: File types of figure options (``--plot``): what matplotlib writes without extra packages.
-PLOT_TYPES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
+#: File types of figure options (``--plot``): what matplotlib writes without extra packages
+#: (:data:`pmaccuracy._savefig.FIGURE_TYPES`, the table :func:`~pmaccuracy._savefig.save_figure` writes by).
+PLOT_TYPES = tuple(FIGURE_TYPES)
 #: The folder policy of every output option, as said in each ``--help``.
 FOLDER_POLICY = "missing parent folders are created"
 
@@ -168,6 +170,51 @@ def add_robot(parser: argparse.ArgumentParser) -> None:
                              "symmetric_3prr; serial arm for bounds --joints: planar_3r_arm) or path to a robot "
                              "TOML file of any architecture "
                              "(default: aalborg_3ppr)")
+
+
+def add_plot(parser: argparse.ArgumentParser, help: str, *, maps: bool = False, units: str = "mm") -> None:
+    """``--plot FILE`` (format by its extension: png, pdf, svg, jpg, ...) and ``--dpi``; with ``maps`` also
+    the colour limits ``--vmin``/``--vmax`` (in ``units``) and ``--log`` (logarithmic colour scale)."""
+    parser.add_argument("--plot", metavar="FILE.png", help=f"{help}; written in the format its extension names "
+                        f"({', '.join(t.lstrip('.') for t in PLOT_TYPES)}); missing folders are created")
+    parser.add_argument("--dpi", type=finite_float, default=DEFAULT_DPI, metavar="DPI",
+                        help=f"dots per inch of a raster --plot (png, jpg, tif, webp; default: {DEFAULT_DPI})")
+    if maps:
+        parser.add_argument("--vmin", type=finite_float, metavar=units.upper(),
+                            help=f"lower end of the colour scale of the {units} panels of --plot, in {units} "
+                                 f"(default: the map's smallest value)")
+        parser.add_argument("--vmax", type=finite_float, metavar=units.upper(),
+                            help=f"upper end of the colour scale of the {units} panels of --plot, in {units} "
+                                 f"(default: the map's largest value, or its 95th percentile when a "
+                                 f"near-singular edge would take over the scale)")
+        parser.add_argument("--log", action="store_true",
+                            help="logarithmic colour scale in --plot (for maps spanning decades)")
+
+
+def check_plot_options(args: argparse.Namespace) -> None:
+    """Check ``--plot``'s file type, ``--dpi`` and the colour options (no file system access): a ConfigError
+    naming the option."""
+    if args.plot:
+        figure_format(args.plot, "--plot")
+    check_dpi(args.dpi, "--dpi")
+    vmin, vmax = getattr(args, "vmin", None), getattr(args, "vmax", None)
+    if vmin is not None and vmax is not None and not vmin < vmax:
+        raise ConfigError(f"must be below --vmax ({vmax:g}), got {vmin:g}", key="--vmin")
+    if getattr(args, "log", False):
+        for option, value in (("--vmin", vmin), ("--vmax", vmax)):
+            if value is not None and value <= 0:
+                raise ConfigError(f"must be > 0 with --log (a logarithmic scale), got {value:g}", key=option)
+    if not args.plot:
+        if vmin is not None or vmax is not None or getattr(args, "log", False):
+            raise ConfigError("colour options go with --plot", key="--vmin" if vmin is not None else
+                              "--vmax" if vmax is not None else "--log")
+
+
+def check_plot(args: argparse.Namespace) -> Path | None:
+    """Check ``--plot`` (file type, folder: :func:`prepare_output`), ``--dpi`` and the colour options before
+    anything is computed; returns the plot path or None. Each problem is a ConfigError naming its option."""
+    check_plot_options(args)
+    return prepare_output(Path(args.plot), "--plot", PLOT_TYPES) if args.plot else None
 
 
 def add_format(parser: argparse.ArgumentParser) -> None:

@@ -39,9 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="platform orientation in degrees (repeatable)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N",
                    help="grid points per axis over each workspace and over the shared region (default: 101)")
-    p.add_argument("--plot", metavar="FILE.png",
-                   help="figure: per orientation the workspaces overlaid, the dp_max ratio maps and bars of the "
-                        "mean/max errors; missing folders are created")
+    _common.add_plot(p, "figure: per orientation the workspaces overlaid, the dp_max ratio maps and bars of the "
+                        "mean/max errors")
     p.add_argument("--out", metavar="FILE.csv", help="also write the full table as CSV (exact floats); missing parent folders are created")
     _common.add_format(p)
     p.set_defaults(func=run)
@@ -86,9 +85,9 @@ def run(args: argparse.Namespace) -> int:
             clearances.append(load_clearances(spec, robot))
         except ConfigError as exc:  # several robots: say which one the file does not fit
             raise type(exc)(f"{exc.message} (--robot {robot.name})", source=exc.source, key=exc.key) from None
-    for path, option, kinds in ((args.plot, "--plot", _common.PLOT_TYPES), (args.out, "--out", (".csv",))):
-        if path is not None:   # inputs first: a refused run creates no folder
-            _common.prepare_output(Path(path), option, kinds)
+    _common.check_plot(args)   # inputs first: a refused run creates no folder
+    if args.out is not None:
+        _common.prepare_output(Path(args.out), "--out", (".csv",))
     result = compare_designs(robots, clearances, np.radians(args.phi_deg), args.grid)
     for phi_deg, region in zip(args.phi_deg, result.shared):
         if region.is_empty:
@@ -103,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         with open(args.out, "w", encoding="utf-8", newline="") as fh:
             _common.emit(records, "csv", stream=fh)
     if args.plot is not None:
-        save_comparison_figure(result, args.plot)
+        save_comparison_figure(result, args.plot, dpi=args.dpi)
     if args.format == "table":
         for b, columns in enumerate(TABLE_BLOCKS):
             if b:

@@ -37,10 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="FILE",
                    help="output map: .nc or .csv (written block by block) or .zarr (streamed, resumable; open with "
                         "xarray.open_zarr); missing parent folders are created")
-    p.add_argument("--plot", metavar="FILE.png",
-                   help="four-panel figure; with several orientations one file per orientation, FILE-<phi>deg.png "
-                        "(large maps are drawn from every k-th grid point; .png, .pdf, .svg, ...); missing parent folders "
-                        "are created")
+    _common.add_plot(p, "four-panel figure (dx_max, dy_max, dp_max in mm; dphi_max in deg); with several "
+                        "orientations one file per orientation, FILE-<phi>deg.png (large maps are drawn from every "
+                        "k-th grid point); --vmin/--vmax set the mm panels, the deg panel keeps its own range",
+                     maps=True)
     p.add_argument("--chunk-size", type=_common.positive_int, default=None, metavar="K",
                    help="grid points per computed block (default: 65536)")
     p.add_argument("--tile", type=_common.positive_int, default=None, metavar="T",
@@ -73,9 +73,7 @@ def run(args: argparse.Namespace) -> int:
     if suffix not in OUT_TYPES:
         raise ConfigError(f"unsupported file type {out.suffix or 'none'!r}: use .nc, .csv or .zarr", source=args.out,
                           key="--out")
-    if args.plot and Path(args.plot).suffix.lower() not in _common.PLOT_TYPES:
-        raise ConfigError(f"unsupported figure type {Path(args.plot).suffix or 'none'!r}: use "
-                          f"{', '.join(_common.PLOT_TYPES)}", source=args.plot, key="--plot")
+    _common.check_plot_options(args)
     if args.grid < 2:
         raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     if args.workers and suffix != ".zarr":
@@ -101,8 +99,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         maps.check_fits_in_memory(n_phi, args.grid)
     _common.prepare_output(out, "--out", OUT_TYPES)
-    if args.plot:
-        _common.prepare_output(Path(args.plot), "--plot", _common.PLOT_TYPES)
+    _common.check_plot(args)
     chunk = args.chunk_size or maps.DEFAULT_CHUNK
     show = sys.stderr.isatty() if args.progress is None else args.progress
     if show:
@@ -118,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
             import xarray as xr
 
             with xr.open_zarr(out) as ds:
-                _plots(_thinned(ds), Path(args.plot))
+                _plots(_thinned(ds), Path(args.plot), args)
     elif streamed:
         try:
             summary = maps.write_map(out, robot, clearances, phis, args.grid, chunk_size=chunk, progress=show)
@@ -130,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
             import xarray as xr
 
             with xr.open_dataset(out, engine="scipy") as ds:
-                _plots(_thinned(ds), Path(args.plot))
+                _plots(_thinned(ds), Path(args.plot), args)
     else:
         try:
             ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
@@ -143,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
                               "written", source=str(args.clearances), key="--clearances")
         maps.save_map(ds, out)
         if args.plot:
-            _plots(_thinned(ds), Path(args.plot))
+            _plots(_thinned(ds), Path(args.plot), args)
         summary = maps.summarize(ds)
     rows = [{"phi_deg": float(key), **ranges} for key, ranges in summary.items()]
     from ..model.plausibility import linearity_messages, warn
@@ -236,9 +233,10 @@ def _thinned(ds, max_points: int = 1001):
     return ds.isel(x=slice(None, None, step), y=slice(None, None, step)).load() if step > 1 else ds.load()
 
 
-def _plots(ds, plot: Path) -> None:
+def _plots(ds, plot: Path, args: argparse.Namespace) -> None:
     from ..report import figures
 
     for phi in ds.phi.values:
         path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")
-        figures.save(figures.plot_error_map(ds, float(phi)), path)
+        fig = figures.plot_error_map(ds, float(phi), vmin=args.vmin, vmax=args.vmax, log=args.log)
+        figures.save_figure(fig, path, dpi=args.dpi, option="--plot")

@@ -67,8 +67,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="grid points per axis of a map (default: 21)")
     p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv; missing parent "
                                                  "folders are created")
-    p.add_argument("--plot", metavar="FILE.png", help="figure of a map's first orientation: percentile, worst case "
-                                                      "and their ratio for |dp| and |dphi|; missing parent folders are created")
+    _common.add_plot(p, "figure of a map's first orientation: percentile, worst case and their ratio for |dp| "
+                        "(mm) and |dphi| (deg), in colour steps no finer than the Monte Carlo error; --vmin/--vmax "
+                        "set the mm panels, --log the worst-case panels", maps=True)
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
     p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of numpy.random.default_rng (default: 0)")
@@ -103,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"the grid needs at least 2 points per axis, got {args.grid}", key="--grid")
     if args.exact_samples < 0 or (args.exact_samples and args.pose is None):
         raise ConfigError("must be a whole number >= 0, with --pose", key="--exact-samples")
+    _common.check_plot_options(args)
     thresholds = dict(args.threshold or [])
     distribution = distributions.Distribution.load(args.distribution)
     robot = _common.load_robot(args)
@@ -127,14 +129,14 @@ def run(args: argparse.Namespace) -> int:
     # rough rate: 2e6 point-samples per second (measured on a 2-core machine; points outside the workspace skipped)
     _common.warn_long_run(len(args.phi_deg) * args.grid ** 2 * (args.samples or 10_000) / 2e6,
                           f"--grid {args.grid} with --samples {args.samples or 10_000}")
-    if args.plot:
-        _common.prepare_output(args.plot, "--plot", _common.PLOT_TYPES)
+    _common.check_plot(args)
     ds = distributions.region_statistics(
         robot, args.clearances, np.radians(args.phi_deg), args.grid, samples=args.samples or 10_000,
         seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds)
     distributions.save_region_statistics(ds, out)
     if args.plot:
-        statistics_report.save_percentile_map_figure(ds, args.plot)
+        statistics_report.save_percentile_map_figure(ds, args.plot, dpi=args.dpi, vmin=args.vmin, vmax=args.vmax,
+                                                     log=args.log)
     summary = distributions.summarize_region(ds)
     rows = [{"phi_deg": float(phi), "quantity": q, **stats} for phi, layer in summary["orientations"].items()
             for q, stats in layer.items()]

@@ -22,9 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="platform orientation in degrees (default: 0)")
     p.add_argument("--compare", nargs="+", metavar="ROBOT",
                    help="compare several robots (preset names or files) instead of --robot")
-    p.add_argument("--plot", metavar="FILE.png",
-                   help="also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg and a "
-                        "zoom on them (with --compare: the robots side by side); missing folders are created")
+    _common.add_plot(p, "also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg and a "
+                        "zoom on them (with --compare: the robots side by side, to one scale)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -47,17 +46,16 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     plot = Path(args.plot) if args.plot else None
-    if plot is not None:
-        _common.prepare_output(plot, "--plot", _common.PLOT_TYPES)
+    _common.check_plot(args)
     results = [_summary(robot, args.phi_deg, constant_orientation_workspace(robot, np.radians(args.phi_deg)))
                for robot in robots]
     phis = tuple([args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg])
     if plot is not None:
         from ..kinematics.workspace import save_comparison_figure, save_workspace_figure
         if args.compare:
-            save_comparison_figure(robots, plot, phis_deg=phis)
+            save_comparison_figure(robots, plot, phis_deg=phis, dpi=args.dpi)
         else:
-            save_workspace_figure(robots[0], plot, phis_deg=phis)
+            save_workspace_figure(robots[0], plot, phis_deg=phis, dpi=args.dpi)
     data = [d for d, _ in results] if args.compare else results[0][0]
     _common.emit(data, args.format, records=[r for _, r in results])
     return 0

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._savefig import DEFAULT_DPI, save_figure
 from ..errors import EmptyWorkspaceError, GeometryError, PoseError
 from ..model.manipulator import Manipulator
 from . import LIMIT_TOLERANCE, inverse_kinematics, resolve_robot
@@ -568,7 +569,7 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
                 label="leg base frames" if (label and i == 0) else None)
     tri = pts_platform
     ax.add_patch(Polygon(tri, closed=True, facecolor="0.6", alpha=0.5, edgecolor="k", zorder=4,
-                         label=f"platform ($\\phi$ = {np.degrees(pose[2]):g}°)" if label else None))
+                         label=f"platform ($\\phi$ = {np.degrees(pose[2]):g} deg)" if label else None))
     ax.plot(pose[0], pose[1], "k+", markersize=8, zorder=6)
     if label:
         ax.plot([], [], "o", markerfacecolor="tab:red", markeredgecolor="k", label="actuated joint")
@@ -608,7 +609,7 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
         ax = Figure(figsize=(7.5, 7.0)).add_subplot()
     spaces = [constant_orientation_workspace(robot, phi) for phi in phis]
     for j, (phi, ws) in enumerate(zip(phis, spaces)):
-        fill_workspace(ws, ax, _COLORS[j % len(_COLORS)], f"$\\phi$ = {np.degrees(phi):g}°")
+        fill_workspace(ws, ax, _COLORS[j % len(_COLORS)], f"$\\phi$ = {np.degrees(phi):g} deg")
     if not zoom:
         draw_robot(robot, home_pose(robot) if pose is None else np.asarray(pose, float), ax)
     else:
@@ -623,18 +624,18 @@ def plot_workspaces(robot: Manipulator, phis: tuple[float, ...] | np.ndarray | N
             ax.set_ylim(y0 - m, y1 + m)
     ax.set_aspect("equal", adjustable="datalim" if not zoom else "box")
     ax.autoscale_view()
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
     ax.grid(True, alpha=0.3)
     return ax
 
 
 def save_workspace_figure(robot: Manipulator, path: str | Path,
-                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
-    """Write :func:`workspace_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+                          phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`workspace_figure` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = workspace_figure(robot, phis_deg)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path
 
@@ -688,11 +689,11 @@ def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_P
 
 
 def save_comparison_figure(robots: list[Manipulator], path: str | Path,
-                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = 110) -> Path:
-    """Write :func:`comparison_figure` to ``path`` as a PNG (whatever its extension); returns the path."""
+                           phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, dpi: int = DEFAULT_DPI) -> Path:
+    """Write :func:`comparison_figure` to ``path`` in the format its extension names (``.png`` at ``dpi``,
+    ``.pdf``, ``.svg``, ...: :func:`pmaccuracy._savefig.save_figure`); returns the path."""
     fig = comparison_figure(robots, phis_deg)
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
+    path = save_figure(fig, path, dpi=dpi)
     fig.clear()
     return path
 

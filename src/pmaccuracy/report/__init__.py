@@ -417,6 +417,7 @@ def _design_section(doc: Document, robot: Manipulator, jobs: dict, out: Path, re
     doc.paragraph(_design_reading(robot.name, other.name, design_json))
     doc.figure(renderer.submit(out / "design_comparison.png", figures.plot_panels, panels,
                                suptitle="dp_max with case 2 clearances (common colour scale)", shared_scale=True,
+                               same_axes=True,
                                ncols=2),
                f"dp_max of {robot.name} (left) and {other_name} (right), case 2, at phi = 0 and 30 deg.")
 

@@ -1,7 +1,8 @@
 """Figures of error maps like the paper's Figs. 9-12 (Sec. 6).
 
 Figures are built on :class:`matplotlib.figure.Figure` objects (no pyplot state),
-so they can be made in threads and saved with ``fig.savefig``. The map figures
+so they can be made in threads, and saved with :func:`save_figure` in the format the file's extension names
+(PNG at 200 dpi by default, PDF, SVG, JPEG, ...). The map figures
 place their axes at fixed positions (:func:`panel_grid`: a grid of panels, each with a colour bar
 of exactly its height) instead of running a layout engine, which costs more than drawing them.
 Figures are at most :data:`REPORT_WIDTH_IN` wide so that the report shows them at their natural size.
@@ -12,6 +13,7 @@ Figures are at most :data:`REPORT_WIDTH_IN` wide so that the report shows them a
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
@@ -22,13 +24,13 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-#: Panels of a four-panel map: variable, measured-data key, title, units.
-PANELS = (
-    ("dx_max", "dx", r"$\delta x_{max}$", "mm"),
-    ("dy_max", "dy", r"$\delta y_{max}$", "mm"),
-    ("dp_max", "dp", r"$\delta p_{max}$", "mm"),
-    ("dphi_max", "dphi_deg", r"$\delta\phi_{max}$", "deg"),
-)
+from ..errors import ConfigError
+from .._savefig import (DEFAULT_DPI, FIGURE_TYPES, SYMBOLS, check_dpi, figure_format,  # noqa: F401  (re-exported)
+                        quantity_label, save_figure)
+
+#: Panels of a four-panel map: variable, measured-data key, title, units (:data:`SYMBOLS`, one notation).
+PANELS = tuple((var, key, *SYMBOLS[var]) for var, key in
+               (("dx_max", "dx"), ("dy_max", "dy"), ("dp_max", "dp"), ("dphi_max", "dphi_deg")))
 
 
 #: Colour scales are clipped at this percentile of a map when the values above it (near-singular
@@ -48,6 +50,8 @@ class ColourRange:
     hi: float
     clipped: bool = False
     top: float = float("nan")
+    #: whether ``hi`` is the user's ``vmax`` (else the :data:`CLIP_PERCENTILE` percentile when clipped)
+    user: bool = False
 
 
 def colour_range(values: np.ndarray, extra: np.ndarray | None = None,
@@ -145,40 +149,144 @@ def fit_limits(ax, x0: float, x1: float, y0: float, y1: float) -> None:
     ax.set_aspect("equal", adjustable="box")
 
 
+def limited_range(rng: ColourRange, vmin: float | None = None, vmax: float | None = None) -> ColourRange:
+    """``rng`` with the user's colour limits (units of the map): ``vmin``/``vmax`` replace ``lo``/``hi``; the
+    range stays marked ``clipped`` (colour bar extended, maximum stated) when the map goes above ``vmax``.
+    A lone ``vmin`` above the map's values (or ``vmax`` below them) keeps a 10 % range on its side."""
+    if vmin is None and vmax is None:
+        return rng
+    top = rng.top if rng.clipped else rng.hi
+    lo = rng.lo if vmin is None else float(vmin)
+    hi = rng.hi if vmax is None else float(vmax)
+    if not hi > lo and vmax is None:
+        hi = lo + max(0.1 * abs(lo), 1e-9)
+    elif not hi > lo and vmin is None:
+        lo = hi - max(0.1 * abs(hi), 1e-9)
+    if not hi > lo:
+        raise ConfigError(f"the colour range is empty: vmin {lo:g} >= vmax {hi:g}", key="vmin")
+    return ColourRange(lo, hi, bool(top > hi), top, user=vmax is not None)
+
+
+def nice_step(step: float) -> float:
+    """The smallest of 1, 2, 2.5, 5 x 10^k that is >= ``step`` (> 0).
+
+    >>> nice_step(0.0013), nice_step(0.02), nice_step(3.1)
+    (0.002, 0.02, 5.0)
+    """
+    k = math.floor(math.log10(step))
+    for m in (1.0, 2.0, 2.5, 5.0, 10.0):
+        value = round(m * 10.0 ** k, 12 - k if k < 0 else 12)
+        if value >= step * (1 - 1e-12):
+            return value
+    return 10.0 ** (k + 1)
+
+
+def monte_carlo_levels(lo: float, hi: float, error: float, max_levels: int = 12) -> np.ndarray:
+    """Colour levels for a Monte Carlo map: a step no finer than its stated ``error`` (the map's units), so
+    that sampling noise below the error cannot show as stripes; at most ``max_levels`` bands over ``[lo, hi]``.
+
+    The step is :func:`nice_step` of ``max(error, (hi - lo) / max_levels)``; levels are multiples of it,
+    from the one at or below ``lo`` to the one at or above ``hi``.
+
+    >>> monte_carlo_levels(0.101, 0.118, 0.003)
+    array([0.1  , 0.105, 0.11 , 0.115, 0.12 ])
+    """
+    if not (math.isfinite(error) and error > 0):
+        raise ConfigError(f"the Monte Carlo error must be a finite value > 0, got {error!r}", key="error")
+    span = max(hi - lo, 0.0)
+    step = nice_step(max(error, span / max_levels, 1e-300))
+    first = math.floor(lo / step + 1e-9)
+    last = max(math.ceil(hi / step - 1e-9), first + 1)
+    return np.round(np.arange(first, last + 1) * step, 12)
+
+
+def _declutter(ax, labels: list, pad_pt: float = 2.0) -> None:
+    """Remove contour labels that would overlap an earlier one (or stick out of the axes), so crowded
+    contours (near a singular edge) keep readable labels. Boxes are estimated from the text's length and
+    font size (0.6 em per character), in display units at the figure's dpi."""
+    fig = ax.get_figure()
+    scale = fig.dpi / 72.0
+    frame = ax.get_window_extent()
+    kept: list[tuple[float, float, float, float]] = []
+    for label in labels:
+        x, y = ax.transData.transform(label.get_position())
+        size = label.get_fontsize()
+        half_w = (0.3 * size * len(label.get_text()) + pad_pt) * scale
+        half_h = (0.6 * size + pad_pt) * scale
+        box = (x - half_w, x + half_w, y - half_h, y + half_h)
+        inside = frame.x0 <= box[0] and box[1] <= frame.x1 and frame.y0 <= box[2] and box[3] <= frame.y1
+        if not inside or any(box[0] < b[1] and b[0] < box[1] and box[2] < b[3] and b[2] < box[3] for b in kept):
+            label.remove()
+        else:
+            kept.append(box)
+
+
 def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarray, label: str, units: str, *,
                 rng: ColourRange | None = None, extra: np.ndarray | None = None, contours: bool = True,
-                cmap: str = "viridis") -> Any:
-    """One map panel: the field, contour lines (their levels also marked on the colour bar, so no label
-    can be clipped) and a colour bar labelled ``label [units]``, noting a clipped scale."""
+                cmap: str = "viridis", log: bool = False, error: float | None = None,
+                box: tuple[float, float, float, float] | None = None) -> Any:
+    """One map panel: the field, labelled contour lines (their levels also marked on the colour bar) and a
+    colour bar labelled ``label [units]``, noting a clipped scale.
+
+    ``log``: logarithmic colour scale (values <= 0 left blank). ``error`` (units of the map): a Monte Carlo
+    map's stated error; the colours come in discrete bands of :func:`monte_carlo_levels` (step >= error),
+    and the colour bar states both (``log`` does not apply to such a panel: its bands stay linear). ``box``: axis limits ``(x0, x1, y0, y1)`` in mm (default: the field's
+    own workspace), e.g. one box for every panel of a comparison.
+    """
+    from matplotlib.colors import BoundaryNorm, LogNorm, Normalize
+    from matplotlib.ticker import LogLocator, MaxNLocator
+
     rng = rng or colour_range(Z, extra)
-    mesh = ax.pcolormesh(x, y, Z, shading="auto", cmap=cmap, vmin=rng.lo, vmax=rng.hi)
-    fit_limits(ax, *_field_box(x, y, Z))
-    cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither")
     finite = Z[np.isfinite(Z)]
+    lo, hi = rng.lo, rng.hi
+    levels = None
+    log = log and error is None              # a Monte Carlo map keeps its bands of the stated error
+    if log:
+        positive = finite[finite > 0]
+        lo = lo if lo > 0 else (float(positive.min()) if positive.size else 1e-12)
+        hi = max(hi, lo * 10 ** 0.01)
+        norm = LogNorm(vmin=lo, vmax=hi)
+        levels = LogLocator(subs=(1.0, 2.0, 5.0)).tick_values(lo, hi)
+    elif error is not None:
+        levels = monte_carlo_levels(lo, hi, error)
+        norm = BoundaryNorm(levels, ncolors=256, extend="max" if rng.clipped else "neither")
+    else:
+        norm = Normalize(vmin=lo, vmax=hi)
+        levels = MaxNLocator(6).tick_values(lo, hi)
+    mesh = ax.pcolormesh(x, y, Z, shading="auto", cmap=cmap, norm=norm)
+    fit_limits(ax, *(box or _field_box(x, y, Z)))
+    cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither")
     constant = finite.size == 0 or float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300)
     if contours and not constant:
-        from matplotlib.ticker import MaxNLocator
-
-        levels = MaxNLocator(6).tick_values(rng.lo, rng.hi)
-        levels = levels[(levels > float(finite.min())) & (levels < min(float(finite.max()), rng.hi))]
-        if levels.size:
-            cs = ax.contour(x, y, Z, levels=levels, colors="white", linewidths=0.7, alpha=0.9)
+        inner = levels[(levels > float(finite.min())) & (levels < min(float(finite.max()), hi))]
+        if inner.size > 8:                                  # keep the map readable: every other level
+            inner = inner[::2]
+        if inner.size:
+            cs = ax.contour(x, y, Z, levels=inner, colors="white", linewidths=0.7, alpha=0.9)
+            _declutter(ax, ax.clabel(cs, inline=True, fontsize=8, fmt="%.3g", colors="white"))
             cbar.add_lines(cs)
     text = f"{label} [{units}]" if label else units
+    if log:
+        text += ", log scale"
+    if error is not None:
+        step = float(levels[1] - levels[0])
+        text += f"\nsteps {step:.2g} >= Monte Carlo error {error:.2g}"
     if rng.clipped:
-        text += f"\nclipped at {CLIP_PERCENTILE:g}th pct. (max {rng.top:.3g})"
-    cbar.set_label(text, fontsize=8 if rng.clipped else 9)
+        at = f"vmax {rng.hi:.3g}" if rng.user else f"{CLIP_PERCENTILE:g}th pct."
+        text += f"\nclipped at {at} (max {rng.top:.3g})"
+    cbar.set_label(text, fontsize=8 if (rng.clipped or error is not None) else 9)
     cbar.ax.tick_params(labelsize=8)
     return mesh
 
 
 def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.ndarray] | None = None,
-                   title: str | None = None, scale: float = 1.0) -> Figure:
+                   title: str | None = None, scale: float = 1.0, vmin: float | None = None,
+                   vmax: float | None = None, log: bool = False) -> Figure:
     """Four panels (dx_max, dy_max, dp_max in mm; dphi_max in deg) over the workspace at ``phi_deg``.
 
     Each panel fills a box of the workspace's aspect ratio with a colour bar of exactly its height
     (:func:`panel_grid`), labelled with what is drawn, factor included (``2 x dx_max [mm]``). Contour
-    lines are marked on the colour bar instead of labelled in the map. A constant field says so in its
+    lines are labelled with their values and marked on the colour bar. A constant field says so in its
     title. Colour scales dominated by near-singular edges are clipped (:func:`colour_range`).
 
     Parameters
@@ -190,6 +298,10 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         goes under the title, outside the maps
     scale : factor applied to the predicted maxima before drawing (e.g. 2 for the
         width-consistent comparison with measured ranges)
+    vmin, vmax : colour limits of the three length panels (mm); the dphi_max panel (deg) keeps its own range
+    log : logarithmic colour scales
+
+    Contour lines are labelled with their values; the title names the robot, the clearances and phi.
     """
     layer = ds.sel(phi=phi_deg, method="nearest")
     x, y = layer.x.values, layer.y.values
@@ -201,7 +313,9 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         values = layer[var].values * scale
         extra = None if measured is None else np.asarray(measured[mkey], dtype=float)
         rng = colour_range(values, extra)
-        _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra)
+        if units == "mm":
+            rng = limited_range(rng, vmin, vmax)
+        _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra, log=log)
         panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
         if measured is not None:
             ax.scatter(measured["x"], measured["y"], c=extra, cmap="viridis", vmin=rng.lo, vmax=rng.hi, s=30,
@@ -235,23 +349,21 @@ def plot_layers(ds: xr.Dataset, var: str, *, title: str | None = None) -> Figure
     cells = panel_grid(fig, 1, n, aspect, width=min(REPORT_WIDTH_IN, 3.6 * n + 0.8))
     rng = colour_range(ds[var].values)
     for (ax, cax), phi in zip(cells, ds.phi.values):
-        _draw_field(fig, ax, cax, x, y, ds[var].sel(phi=phi).values, var, units, rng=rng)
+        _draw_field(fig, ax, cax, x, y, ds[var].sel(phi=phi).values, SYMBOLS.get(var, (var,))[0], units, rng=rng)
         ax.set_title(f"$\\phi$ = {phi:g} deg", fontsize=10)
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-    fig.suptitle(title or f"{var} [{units}]")
+    fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
+                          f"{quantity_label(var, units)}")
     return fig
 
 
-def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
-    """Save a figure as PNG and return the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+def save(fig: Figure, path: str | Path, dpi: int = DEFAULT_DPI) -> Path:
+    """:func:`save_figure` (the format its extension names, ``dpi`` for raster formats); returns the path."""
+    return save_figure(fig, path, dpi=dpi)
 
 
-def render(path: str | Path, build: Callable[..., Any], *args: Any, dpi: int = 110, **kwargs: Any) -> Path:
+def render(path: str | Path, build: Callable[..., Any], *args: Any, dpi: int = DEFAULT_DPI, **kwargs: Any) -> Path:
     """``save(build(*args, **kwargs), path)``: one job of a :class:`Renderer` (runs in a worker process).
 
     A ``build`` that writes ``path`` itself (returns no Figure) is just called.
@@ -330,21 +442,41 @@ def constant_note(values: np.ndarray, units: str) -> str:
 
 
 def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]], *, suptitle: str,
-                shared_scale: bool = False, ncols: int | None = None) -> Figure:
-    """Several scalar fields side by side: each panel is ``(x (n,), y (m,), Z (m, n), title, units)``.
+                shared_scale: bool = False, ncols: int | None = None, same_axes: bool = False,
+                errors: list[float | None] | None = None, vmin: float | None = None, vmax: float | None = None,
+                log: bool = False, limited: list[bool] | None = None, contours: bool = False) -> Figure:
+    """Several scalar fields side by side: each panel is ``(x (n,), y (m,), Z (m, n), title, units)``
+    (x, y in mm).
 
-    With ``shared_scale`` every panel uses one colour range (for comparing designs). Each colour bar
-    has its panel's height (:func:`panel_grid`) and is labelled ``units`` (e.g. ``"dp_max [mm]"``).
+    With ``shared_scale`` every panel uses one colour range (for comparing designs); with ``same_axes``
+    every panel shows the same x and y limits (the union of the fields' workspaces) in boxes of the same
+    size, so that workspaces of different areas are drawn to one scale. Each colour bar has its panel's
+    height (:func:`panel_grid`) and is labelled ``units`` (e.g. ``"dp_max [mm]"``). ``errors``: per panel a
+    Monte Carlo error (units of the panel) or None: such a panel is drawn in colour bands no finer than its
+    error (:func:`monte_carlo_levels`). ``vmin``/``vmax`` (units of the panels marked in ``limited``, default
+    all) and ``log`` set the colour scales.
     """
     ncols = ncols or len(panels)
     nrows = int(np.ceil(len(panels) / ncols))
     boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
-    aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
+    common_box = None
+    if same_axes:
+        common_box = (min(b[0] for b in boxes), max(b[1] for b in boxes), min(b[2] for b in boxes),
+                      max(b[3] for b in boxes))
+        aspect = (common_box[3] - common_box[2]) / max(common_box[1] - common_box[0], 1e-9)
+    else:
+        aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
     fig = Figure()
     cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.4 * ncols + 0.8))
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
-    for (ax, cax), (x, y, Z, title, units) in zip(cells, panels):
-        _draw_field(fig, ax, cax, x, y, Z, "", units, rng=common, contours=False)
+    errors = errors or [None] * len(panels)
+    limited = limited or [True] * len(panels)
+    for (ax, cax), (x, y, Z, title, units), error, lim in zip(cells, panels, errors, limited):
+        rng = common or colour_range(Z)
+        if lim:
+            rng = limited_range(rng, vmin, vmax)
+        _draw_field(fig, ax, cax, x, y, Z, "", units, rng=rng, contours=contours or error is not None,
+                    error=error, log=log, box=common_box)
         ax.set_title(title + constant_note(Z, units), fontsize=10)
         ax.set_xlabel("x [mm]", fontsize=9)
         ax.set_ylabel("y [mm]", fontsize=9)

@@ -20,9 +20,17 @@ from ..accuracy.bounds import max_pose_errors
 
 
 def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = None,
-                               percentile: float | None = None) -> Path:
+                               percentile: float | None = None, dpi: float = figures.DEFAULT_DPI,
+                               vmin: float | None = None, vmax: float | None = None, log: bool = False) -> Path:
     """Figure: for one orientation, the percentile of ``|dp|`` and of ``|dphi|`` beside their worst case and
-    the ratio percentile / worst case (2 x 3 panels). Returns the written path."""
+    the ratio percentile / worst case (2 x 3 panels), written in the format ``path``'s extension names.
+
+    The percentile and ratio panels are drawn in colour bands no finer than the Monte Carlo error stated in
+    ``ds.attrs`` (``dp_p95_error``, ``dp_p95_ratio_error``, ...; :func:`figures.monte_carlo_levels`), so
+    sampling noise shows no stripes. ``vmin``/``vmax`` (mm) set the |dp| panels, ``log`` every scale.
+    Returns the written path."""
+    figures.figure_format(path)
+    figures.check_dpi(dpi)
 
     if phi_deg is None:
         phi_deg = float(ds.phi.values[0])
@@ -35,16 +43,28 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
     else:
         key = f"p{percentile:g}"
     x, y = ds.x.values, ds.y.values
-    panels = []
+    panels, errors, limited = [], [], []
     for q, unit, label in (("dp", "mm", r"$|\delta p|$"), ("dphi", "deg", r"$|\delta\phi|$")):
         pv, mv = layer[f"{q}_{key}"].values, layer[f"{q}_max"].values
         panels += [(x, y, pv, f"{key[1:]}th percentile of {label}", unit),
-                   (x, y, mv, f"worst case of {label}", unit),
-                   (x, y, pv / mv, f"percentile / worst case, {label}", "ratio")]
-    fig = figures.plot_panels(panels, ncols=3,
-                              suptitle=f"{ds.attrs.get('robot', '')}, {ds.attrs.get('clearances', '')}: "
-                                       f"phi = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} samples")
-    return figures.save(fig, path)
+                   (x, y, mv, f"worst case {figures.SYMBOLS[q + '_max'][0]}", unit),
+                   (x, y, pv / mv, f"percentile / worst case, {label}", "ratio [1]")]
+        errors += [_stated_error(ds, f"{q}_{key}_error"), None, _stated_error(ds, f"{q}_{key}_ratio_error")]
+        limited += [unit == "mm", unit == "mm", False]
+    fig = figures.plot_panels(panels, ncols=3, errors=errors, limited=limited, vmin=vmin, vmax=vmax, log=log,
+                              suptitle=f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
+                                       f"$\\phi$ = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} "
+                                       f"Monte Carlo samples")
+    return figures.save_figure(fig, path, dpi=dpi)
+
+
+def _stated_error(ds, name: str) -> float | None:
+    """The Monte Carlo error ``ds.attrs[name]`` (float) or None when the dataset does not state it."""
+    try:
+        value = float(ds.attrs[name])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return value if np.isfinite(value) and value > 0 else None
 
 
 def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, samples: int = 10_000,
