@@ -394,7 +394,10 @@ def test_issue_tracebacks_are_one_line_errors(tmp_path, capsys):
 
 
 def test_issue_long_runs_and_output_folders(tmp_path, capsys):
-    error_line(["map", "--phi-deg", 0, "--grid", 10**7, "--out", tmp_path / "m.nc"], capsys, "grid", "memory")
+    error_line(["map", "--phi-deg", 0, "--grid", 10**7, "--out", tmp_path / "m.nc"], capsys, "grid", "NetCDF-3")
+    error_line(["map", "--phi-deg", 0, "--grid", 10**7, "--out", tmp_path / "m.csv"], capsys, "grid", "disk")
+    error_line(["map", "--phi-deg", 0, "--grid", 10**7, "--out", tmp_path / "m.csv", "--dask"], capsys, "grid",
+               "memory")
     error_line(["map", "--phi-deg", 0, "--grid", 10**7, "--out", tmp_path / "m.zarr"], capsys, "grid", "disk")
     blocker = tmp_path / "hostname"
     blocker.write_text("x")
