@@ -177,3 +177,61 @@ def test_cli_bad_regions_exit_2_with_one_line(capsys, argv, needle):
     assert main(["worst", "--phi-deg", "0", "0", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert needle in err and "\n" not in err
+
+
+def test_error_map_over_a_disc_is_nan_outside_and_exact_inside():
+    from pmaccuracy.accuracy.maps import error_map
+
+    ds = error_map(AALBORG, CASE1, 0.0, 31, region=Disc((5.0, -5.0), 15.0))
+    assert "disc of centre (5, -5)" in ds.attrs["region"]
+    X, Y = np.meshgrid(ds.x.values, ds.y.values)
+    in_disc = np.hypot(X - 5.0, Y + 5.0) <= 15.0
+    finite = np.isfinite(ds["dp_max"].values[0])
+    assert not finite[~in_disc].any()
+    assert finite.sum() > 0.7 * in_disc.sum()
+    b = max_pose_errors(AALBORG, CASE1, np.column_stack([X[finite], Y[finite], np.zeros(finite.sum())]))
+    np.testing.assert_allclose(ds["dp_max"].values[0][finite], b.dp_max, rtol=1e-12)
+    # the map's largest value never exceeds the certified worst case over the disc
+    res = global_worst(AALBORG, CASE1, make_region(AALBORG, (0.0, 0.0), Disc((5.0, -5.0), 15.0)))
+    assert float(ds["dp_max"].max()) <= res["dp"].upper
+
+
+def test_region_statistics_over_a_polygon():
+    from pmaccuracy.accuracy.distributions import region_statistics
+
+    ds = region_statistics(AALBORG, CASE1, [0.0], 15, samples=200, region=Polygon(PENTAGON))
+    X, Y = np.meshgrid(ds.x.values, ds.y.values)
+    ref = MplPath(np.array(PENTAGON + (PENTAGON[0],)), closed=True).contains_points(
+        np.column_stack([X.ravel(), Y.ravel()]), radius=1e-9).reshape(X.shape)
+    finite = np.isfinite(ds["dp_std"].values[0])
+    assert not finite[~ref].any() and finite.any()
+    assert "polygon" in ds.attrs["region"]
+
+
+def test_synthesis_over_a_disc_holds_by_brute_force_and_allows_more_than_its_box():
+    from pmaccuracy.accuracy.synthesis import synthesize
+
+    disc = Disc((5.0, -5.0), 15.0)
+    res = synthesize(AALBORG, make_region(AALBORG, (0.0, 0.0), disc), {"dp": 0.2}, template="case1")
+    box = synthesize(AALBORG, make_region(AALBORG, (0.0, 0.0), disc.bounds), {"dp": 0.2}, template="case1")
+    assert res.scale > box.scale
+    pts = in_disc_points(5.0, -5.0, 15.0)
+    pts = np.column_stack([pts, np.zeros(len(pts))])
+    pts = pts[inverse_kinematics(AALBORG, pts).within_limits]
+    b = max_pose_errors(AALBORG, res.clearances, pts)
+    assert b.dp_max.max() <= 0.2 * (1 + 1e-9)
+    assert b.dp_max.max() >= 0.2 * (1 - 2e-3)          # and the disc's worst pose is close to the target
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["map", "--phi-deg", "0", "--out", "OUT/m.zarr", "--disc", "0", "0", "5"], "--disc: a region applies"),
+    (["map", "--phi-deg", "0", "--out", "OUT/m.nc", "--polygon", "0,0,1"], "--polygon: an odd number"),
+    (["statistics", "--pose", "0", "0", "0", "--disc", "0", "0", "4"], "--disc: a region goes with a map"),
+    (["synthesize", "--target", "dp=0.2", "--disc", "0", "0", "0"], "--disc: the disc's radius must be > 0"),
+])
+def test_cli_regions_on_other_commands_exit_2(capsys, tmp_path, argv, needle):
+    argv = [a.replace("OUT", str(tmp_path)) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err and "\n" not in err
+    assert not (tmp_path / "m.nc").exists()

@@ -8,9 +8,10 @@ import re
 import sys
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import ConfigError, EmptyWorkspaceError
 from . import _common
 from .bounds_cmd import add_clearances
+from .worst_cmd import add_shape, parse_shape, shape_key
 from .._optional import require
 
 #: Output types of ``--out`` by extension.
@@ -32,6 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
                    help="platform orientation in degrees (repeatable, each value once)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
+    add_shape(p)
     p.add_argument("--out", required=True, metavar="FILE",
                    help="output map: .nc or .csv (in memory) or .zarr (streamed, resumable; open with "
                         "xarray.open_zarr); missing parent folders are created")
@@ -85,6 +87,10 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"expected a dask.distributed scheduler address like tcp://10.0.0.1:8786"
                           f"{' (or ' + ', '.join(local) + ')' if suffix == '.zarr' else ''}, got {args.scheduler!r}",
                           key="--scheduler")
+    shape = parse_shape(args)
+    if shape is not None and suffix == ".zarr":
+        raise ConfigError("a region applies to in-memory maps (.nc, .csv), not to .zarr maps", key=shape_key(args))
+    args.shape = shape
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
@@ -115,6 +121,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         try:
             ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        except EmptyWorkspaceError as exc:
+            if shape is None:
+                raise
+            raise ConfigError(str(exc), key=shape_key(args)) from None
         except OSError as exc:  # e.g. the scheduler cannot be reached
             if not args.scheduler or exc.filename:
                 raise
@@ -185,11 +195,12 @@ def _warn_if_long(maps, robot, clearances, phis, args, suffix: str) -> None:
 def _in_memory(maps, robot, clearances, phis, args, chunk, show):
     if not args.scheduler:
         return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
-                              progress=show)
+                              progress=show, region=args.shape)
     Client = require("distributed").Client
 
     with Client(args.scheduler):
-        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show)
+        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show,
+                              region=args.shape)
 
 
 def _announce(maps, robot, clearances, phis, args, suffix: str) -> None:
