@@ -134,6 +134,9 @@ def test_polygon_certified_against_brute_force():
         assert w.upper >= ref[i] * (1 - 1e-12), q
         assert w.lower <= ref[i] * (1 + 2e-3), q
         assert poly.contains(*w.pose[:2]), q
+    box = global_worst(AALBORG, CASE1, make_region(AALBORG, (0.0, 0.0), poly.bounds))
+    for q, w in res.quantities.items():
+        assert w.lower <= box[q].upper, q                            # polygon worst <= bounding box worst
 
 
 def test_largest_disc_against_brute_force():
@@ -228,6 +231,8 @@ def test_synthesis_over_a_disc_holds_by_brute_force_and_allows_more_than_its_box
     (["map", "--phi-deg", "0", "--out", "OUT/m.nc", "--polygon", "0,0,1"], "--polygon: an odd number"),
     (["statistics", "--pose", "0", "0", "0", "--disc", "0", "0", "4"], "--disc: a region goes with a map"),
     (["synthesize", "--target", "dp=0.2", "--disc", "0", "0", "0"], "--disc: the disc's radius must be > 0"),
+    (["synthesize", "--target", "dp=0.2", "--disc", "300", "0", "4"], "--disc: the disc of centre (300, 0)"),
+    (["statistics", "--phi-deg", "0", "--out", "OUT/m.nc", "--disc", "300", "0", "4"], "--disc: the disc of centre"),
 ])
 def test_cli_regions_on_other_commands_exit_2(capsys, tmp_path, argv, needle):
     argv = [a.replace("OUT", str(tmp_path)) for a in argv]

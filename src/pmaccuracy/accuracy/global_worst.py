@@ -442,7 +442,7 @@ def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_ph
 
     At ``n_phi`` orientations evenly spaced over the interval (1 if it is a
     point), an ``n x n`` grid over the region's box cut to the workspace's
-    bounds at that orientation; poses outside the workspace are skipped. Returns
+    bounds at that orientation; poses outside the workspace or the region's shape are skipped. Returns
     the maxima ``(4,)`` (``dx, dy, dphi, dp``; mm, rad) and their poses ``(4, 3)``
     (NaN when no grid pose is in the workspace).
     """
