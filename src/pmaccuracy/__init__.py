@@ -16,7 +16,8 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
   ``b = pm.max_pose_errors(robot, cl, poses)`` -> ``b.dx_max, b.dy_max, b.dphi_max, b.dp_max``;
 * maps over the workspace: ``ds = pm.error_map(robot, cl, phis=[0.0, 0.5], n=101)`` (an xarray Dataset);
 * certified bounds of the exact (nonlinear) model: ``pm.certified_pose_errors(robot, cl, poses)``;
-* the certified worst case over a region: ``pm.global_worst(robot, cl, pm.make_region(robot, (lo, hi), box))``;
+* the certified worst case over a region: ``pm.global_worst(robot, cl, pm.make_region(robot, (lo, hi), box))``
+  (a box, a ``pm.Disc`` or a ``pm.Polygon``; ``pm.largest_disc`` where targets hold);
 * design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
 * kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``.
 
@@ -60,6 +61,9 @@ _EXPORTS = {
     "global_worst": "accuracy.global_worst", "make_region": "accuracy.global_worst",
     "Region": "accuracy.global_worst",
     "GlobalWorst": "accuracy.global_worst", "QuantityWorst": "accuracy.global_worst",
+    "largest_disc": "accuracy.global_worst", "LargestDisc": "accuracy.global_worst",
+    "Disc": "accuracy.regions", "Polygon": "accuracy.regions", "Rect": "accuracy.regions",
+    "load_polygon": "accuracy.regions",
     "error_map": "accuracy.maps", "save_map": "accuracy.maps", "load_map": "accuracy.maps",
     "synthesize": "accuracy.synthesis", "Synthesis": "accuracy.synthesis",
     "pose_statistics": "accuracy.distributions", "PoseStatistics": "accuracy.distributions",

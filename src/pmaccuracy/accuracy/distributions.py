@@ -606,7 +606,7 @@ def _map_variables(pct: tuple[float, ...], thr: dict[str, float]) -> dict[str, t
 
 def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int = 10_000, seed: int | None = 0,
                       distribution: Distribution | str | None = None, percentiles=(95.0,),
-                      thresholds: dict[str, float] | None = None):
+                      thresholds: dict[str, float] | None = None, region=None):
     """Percentile maps over constant-orientation workspaces: an ``xarray.Dataset`` with dims ``(phi, y, x)``.
 
     The grid and the worst case are those of :func:`pmaccuracy.accuracy.maps.error_map` (``phis`` in rad; ``phi``
@@ -617,6 +617,9 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     (``exceed_se_max = 0.5 / sqrt(n)``, the binomial bound; for each percentile map ``q_p{p}_error``: the
     largest half-width over the map of the percentile's 95 % order-statistic interval, units of ``q``, and
     ``q_p{p}_ratio_error``: the largest half-width divided by the worst case ``q_max`` at its pose).
+    ``region``: a shape of :mod:`pmaccuracy.accuracy.regions` (mm) or None: as in
+    :func:`~pmaccuracy.accuracy.maps.error_map`, the grid is cut to its bounding box and the points outside it
+    are NaN (attribute ``region``).
     """
     import xarray as xr
 
@@ -626,7 +629,7 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     distribution = Distribution.load(distribution)
     pct, thr = _check_common(percentiles, thresholds or {})
     Z = sample_sources(sources, samples, seed, distribution)  # checks samples first
-    ds = error_map(robot, sources, phis, grid, progress=False)
+    ds = error_map(robot, sources, phis, grid, progress=False, region=region)
     variances = variable_variances(sources, distribution)
     phi_rad = np.radians(ds.phi.values)
     X, Y = np.meshgrid(ds.x.values, ds.y.values)

@@ -42,6 +42,7 @@ from .._display import html_table
 from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
 from ..model.manipulator import Manipulator
 from .interval import Iv, box_maxima, leg_box_state
+from .regions import OUTSIDE, Disc, Polygon, Rect, Shape
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
 from ..model.sources import ErrorSources, refuse_first_order_only
 from ..io.resolve import robot_arg
@@ -66,18 +67,32 @@ class SingularRegionError(SingularPoseError):
 
 @dataclass(frozen=True)
 class Region:
-    """A box of poses: ``x (x0, x1)``, ``y (y0, y1)`` mm, ``phi (phi0, phi1)`` rad; ``workspace`` when the box
-    was derived from the legs' reach (the whole workspace over the orientation interval)."""
+    """A region of poses: positions in a box ``x (x0, x1)``, ``y (y0, y1)`` mm, or in ``shape`` (a
+    :class:`~pmaccuracy.accuracy.regions.Disc` or :class:`~pmaccuracy.accuracy.regions.Polygon`, whose
+    bounding box ``x, y`` is), times ``phi (phi0, phi1)`` rad; ``workspace`` when the box was derived from
+    the legs' reach (the whole workspace over the orientation interval). Poses outside the workspace are
+    never part of it."""
 
     x: tuple[float, float]
     y: tuple[float, float]
     phi: tuple[float, float]
     workspace: bool = False
+    shape: Shape | None = None
+
+    def contains(self, x, y) -> np.ndarray:
+        """Positions ``(x, y)`` (mm, any broadcastable shapes) in the region's box or shape (not checked
+        against the workspace)."""
+        if self.shape is not None:
+            return self.shape.contains(x, y)
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        return (x >= self.x[0]) & (x <= self.x[1]) & (y >= self.y[0]) & (y <= self.y[1])
 
     def describe(self) -> str:
         ang = f"phi in [{np.degrees(self.phi[0]):g}, {np.degrees(self.phi[1]):g}] deg"
         if self.workspace:
             return f"the workspace at {ang}"
+        if self.shape is not None:
+            return f"{self.shape.describe()}, {ang}"
         return f"x in [{self.x[0]:g}, {self.x[1]:g}] mm, y in [{self.y[0]:g}, {self.y[1]:g}] mm, {ang}"
 
 
@@ -173,10 +188,17 @@ def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
     return Region(x=(float(xs[0]), float(xs[1])), y=(float(ys[0]), float(ys[1])), phi=phi, workspace=True)
 
 
-def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, float, float, float] | None
-                ) -> Region:
-    """Check and build a region: ``phi (lo, hi)`` rad with ``lo <= hi``; ``box (x0, x1, y0, y1)`` mm or None
-    for the whole workspace. ``robot``: an object, a preset name or a robot file."""
+def make_region(robot: Manipulator, phi: tuple[float, float],
+                box: tuple[float, float, float, float] | Shape | None) -> Region:
+    """Check and build a region: ``phi (lo, hi)`` rad with ``lo <= hi``; ``box (x0, x1, y0, y1)`` mm, a shape
+    (:class:`~pmaccuracy.accuracy.regions.Disc`, :class:`~pmaccuracy.accuracy.regions.Polygon` or
+    :class:`~pmaccuracy.accuracy.regions.Rect`) or None for the whole workspace. ``robot``: an object, a
+    preset name or a robot file.
+
+    >>> from pmaccuracy.accuracy.regions import Disc
+    >>> make_region("aalborg_3ppr", (0.0, 0.0), Disc((0.0, 0.0), 20.0)).describe()
+    'the disc of centre (0, 0) mm and radius 20 mm, phi in [0, 0] deg'
+    """
     robot = robot_arg(robot)
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
@@ -188,6 +210,11 @@ def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, 
         raise ConfigError("the orientation interval must be shorter than 180 deg", key="--phi-deg")
     if box is None:
         return reach_region(robot, (lo, hi))
+    if isinstance(box, Rect):
+        box = box.bounds
+    if isinstance(box, (Disc, Polygon)):
+        x0, x1, y0, y1 = box.bounds
+        return Region(x=(x0, x1), y=(y0, y1), phi=(lo, hi), shape=box)
     x0, x1, y0, y1 = (float(v) for v in box)
     if not np.all(np.isfinite([x0, x1, y0, y1])):
         raise ConfigError("the box must be finite", key="--region")
@@ -259,8 +286,7 @@ def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray
         ws = constant_orientation_workspace(robot, float(phi))
         v = ws.vertices
         if v.shape[0]:
-            keep = (v[:, 0] >= region.x[0]) & (v[:, 0] <= region.x[1]) & (v[:, 1] >= region.y[0]) & \
-                (v[:, 1] <= region.y[1])
+            keep = region.contains(v[:, 0], v[:, 1])
             out.append(np.column_stack([v[keep], np.full(int(keep.sum()), float(phi))]))
     return np.vstack(out)
 
@@ -310,12 +336,17 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     nphi = 1 if region.phi[0] == region.phi[1] else grid
     gx, gy, gp = (np.linspace(*region.x, grid), np.linspace(*region.y, grid), np.linspace(*region.phi, nphi))
     samples = np.stack(np.meshgrid(gx, gy, gp, indexing="ij"), axis=-1).reshape(-1, 3)
+    if region.shape is not None:   # the grid's points in the shape, and points on its boundary
+        edge = region.shape.boundary(4 * grid)
+        samples = np.vstack([samples[region.contains(samples[:, 0], samples[:, 1])],
+                             np.column_stack([np.tile(edge, (nphi, 1)), np.repeat(gp, edge.shape[0])])])
     if candidates is not None:
         c = np.asarray(candidates, dtype=float).reshape(-1, 3)
         c = c[np.all(np.isfinite(c), axis=1)]
         lo = np.array([region.x[0], region.y[0], region.phi[0]])
         hi = np.array([region.x[1], region.y[1], region.phi[1]])
-        samples = np.vstack([samples, c[np.all((c >= lo) & (c <= hi), axis=1)]])
+        c = c[np.all((c >= lo) & (c <= hi), axis=1)]
+        samples = np.vstack([samples, c[region.contains(c[:, 0], c[:, 1])]])
     values, inside = _exact(robot, clearances, samples)
     _check_regular(robot, samples[inside], region, max_condition)
     seen: set[float] = set()
@@ -339,6 +370,11 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     converged = np.ones(4, dtype=bool)
     while boxes.shape[0]:
         iterations += 1
+        if region.shape is not None:   # boxes outside the shape are pruned; straddling ones stay (sound)
+            keep = region.shape.classify(boxes[:, :4]) != OUTSIDE
+            boxes, active = boxes[keep], active[keep]
+            if not boxes.shape[0]:
+                break
         n_boxes += boxes.shape[0]
         upper, infeasible, det_zero = box_maxima(robot, sources, boxes, sigmas)
         upper = upper * (1 + ROUNDING)
@@ -347,6 +383,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         if not boxes.shape[0]:
             break
         pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])   # centres, and the workspace's corners at the best phis
+        if region.shape is not None:   # a centre outside the shape moves to the nearest point of the shape
+            pts[:, :2] = region.shape.nearest(pts[:, 0], pts[:, 1])
         pts = np.vstack([pts, _vertices(robot, region, lower_pose[:, 2], seen)])
         vals, ins = _exact(robot, clearances, pts)
         if np.any(ins):
@@ -404,7 +442,7 @@ def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_ph
 
     At ``n_phi`` orientations evenly spaced over the interval (1 if it is a
     point), an ``n x n`` grid over the region's box cut to the workspace's
-    bounds at that orientation; poses outside the workspace are skipped. Returns
+    bounds at that orientation; poses outside the workspace or the region's shape are skipped. Returns
     the maxima ``(4,)`` (``dx, dy, dphi, dp``; mm, rad) and their poses ``(4, 3)``
     (NaN when no grid pose is in the workspace).
     """
@@ -423,10 +461,116 @@ def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_ph
             continue
         X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
         pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)])
+        pts = pts[region.contains(pts[:, 0], pts[:, 1])]
         vals, _ = _exact(robot, clearances, pts)
+        if not pts.shape[0]:
+            continue
         vals = np.where(np.isnan(vals), -np.inf, vals)
         k = np.argmax(vals, axis=0)
         better = vals[k, range(4)] > best
         best = np.where(better, vals[k, range(4)], best)
         poses = np.where(better[:, None], pts[k], poses)
     return np.where(np.isfinite(best), best, np.nan), poses
+
+
+@dataclass(frozen=True)
+class LargestDisc:
+    """Result of :func:`largest_disc`: the targets (mm; rad for ``dphi``) hold, certified, over the disc of
+    radius ``radius_lower`` (mm) around ``centre`` (mm) at every ``phi`` of the interval (rad); over the disc
+    of radius ``radius_upper`` some target certifiably fails (or the disc reaches a parallel singularity,
+    ``singular_above``); ``radius_upper`` is ``inf`` when the targets hold over the whole reachable part.
+    ``holds`` is the certified worst case over the ``radius_lower`` disc (None when it is 0), ``fails`` the
+    one over the ``radius_upper`` disc (None when singular or infinite)."""
+
+    centre: tuple[float, float]
+    phi: tuple[float, float]
+    targets: dict[str, float]
+    radius_lower: float
+    radius_upper: float
+    evaluations: int
+    singular_above: bool = False
+    holds: GlobalWorst | None = field(default=None, repr=False)
+    fails: GlobalWorst | None = field(default=None, repr=False)
+
+
+def largest_disc(robot: Manipulator, clearances, centre: tuple[float, float], phi: tuple[float, float],
+                 targets: dict[str, float], *, tol: float = 0.1, gap: float = DEFAULT_GAP, **kwargs) -> LargestDisc:
+    """The largest disc around ``centre`` (mm) on which every target holds, by bisection on the radius.
+
+    For a radius ``r`` the region is the disc ``D(centre, r)`` times ``phi (lo, hi)`` rad, intersected with
+    the workspace (as every region); :func:`global_worst` certifies ``L_q <= max_D q <= U_q``. The targets
+    hold for ``r`` when ``U_q <= target_q`` for every targeted ``q``, and fail when ``L_q > target_q`` for one
+    (``L_q`` is attained at a pose of the disc); ``max_D q`` grows with ``r``, so bisection keeps
+    ``radius_lower`` (holds) and ``radius_upper`` (fails) until they are within ``tol`` mm. Radii the
+    certificate cannot decide (a target within ``gap`` of the worst case) are skipped: each decided end is
+    then brought within ``tol / 2`` of them, so the interval is at most ``tol`` wider than that undecided
+    band (about ``gap * target / slope`` mm). ``targets``: ``{"dx"|"dy"|"dphi"|"dp": value}``
+    in mm / rad (:func:`pmaccuracy.accuracy.synthesis.parse_targets`). Other keyword arguments go to
+    :func:`global_worst`.
+
+    Raises :class:`ConfigError` when the centre is outside the workspace at ``phi`` or ``tol <= 0``.
+
+    >>> robot = Manipulator.preset("aalborg_3ppr")
+    >>> res = largest_disc(robot, "case1", (0.0, 0.0), (0.0, 0.0), {"dp": 0.2}, tol=1.0)
+    >>> res.radius_upper - res.radius_lower <= 1.0
+    True
+    """
+    robot = robot_arg(robot)
+    if not (tol > 0 and np.isfinite(tol)):
+        raise ConfigError(f"must be > 0 mm, got {tol}", key="tol")
+    unknown = set(targets) - set(QUANTITIES)
+    if unknown or not targets:
+        raise ConfigError(f"targets must be some of {', '.join(QUANTITIES)}, got {sorted(targets)}", key="--target")
+    cx, cy = (float(v) for v in centre)
+    box = make_region(robot, phi, None)   # checks phi; the reach box bounds every disc that matters
+    ends = np.array([[cx, cy, box.phi[0]], [cx, cy, box.phi[1]]])
+    if not (np.all(np.isfinite([cx, cy])) and np.all(inverse_kinematics(robot, ends).within_limits)):
+        raise ConfigError(f"the centre ({cx:g}, {cy:g}) mm is outside the workspace at phi = "
+                          f"{np.degrees(box.phi[0]):g} or {np.degrees(box.phi[1]):g} deg", key="--largest-disc")
+    far = float(max(np.hypot(x - cx, y - cy) for x in box.x for y in box.y))
+    idx = [QUANTITIES.index(q) for q in targets]
+    count = 0
+
+    def evaluate(r):
+        nonlocal count
+        count += 1
+        try:
+            res = global_worst(robot, clearances, make_region(robot, box.phi, Disc((cx, cy), r)), gap=gap, **kwargs)
+        except SingularRegionError:
+            return "fails", None
+        up = [res.quantities[QUANTITIES[i]].upper for i in idx]
+        lo = [res.quantities[QUANTITIES[i]].lower for i in idx]
+        t = [targets[QUANTITIES[i]] for i in idx]
+        if all(u <= v for u, v in zip(up, t)):
+            return "holds", res
+        if any(lv > v for lv, v in zip(lo, t)):
+            return "fails", res
+        return "unknown", res
+
+    state, res = evaluate(far)
+    if state == "holds":
+        return LargestDisc((cx, cy), box.phi, dict(targets), far, np.inf, count, holds=res)
+    r_lo, r_hi, held, failed, singular = 0.0, far, None, res, res is None
+    u_lo, u_hi = (far, far) if state == "unknown" else (np.nan, np.nan)   # radii the certificate left open
+    if state == "unknown":
+        failed = None
+        r_hi = np.inf
+    while True:
+        if np.isnan(u_lo):
+            if r_hi - r_lo <= tol:
+                break
+            mid = 0.5 * (r_lo + r_hi)
+        else:   # shrink the two decided ends towards the undecided radii
+            below, above = u_lo - r_lo, (r_hi - u_hi) if np.isfinite(r_hi) else 0.0
+            if max(below, above) <= 0.5 * tol:
+                break
+            mid = 0.5 * (r_lo + u_lo) if below >= above else 0.5 * (u_hi + r_hi)
+        state, res = evaluate(mid)
+        if state == "holds":
+            r_lo, held = mid, res
+        elif state == "fails":
+            r_hi, failed, singular = mid, res, res is None
+        else:
+            u_lo, u_hi = np.nanmin([u_lo, mid]), np.nanmax([u_hi, mid])
+    return LargestDisc((cx, cy), box.phi, dict(targets), r_lo, float(r_hi), count, singular_above=singular,
+                       holds=held, fails=failed)

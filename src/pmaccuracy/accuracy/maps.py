@@ -47,6 +47,7 @@ import numpy as np
 import xarray as xr
 
 from .bounds import bounds_or_nan
+from .regions import Disc, Polygon, Rect, Shape
 from ..model.clearances import ClearanceSet
 from ..errors import ConfigError, EmptyWorkspaceError
 from ..model.manipulator import Manipulator, round_trip_degrees
@@ -207,7 +208,7 @@ def _empty_layer_error(phi: float, n: int) -> EmptyWorkspaceError:
 
 def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray, n: int = 101, *,
               chunk_size: int = DEFAULT_CHUNK, use_dask: bool = False, progress: bool | None = None,
-              max_condition: float = DEFAULT_MAX_CONDITION) -> xr.Dataset:
+              max_condition: float = DEFAULT_MAX_CONDITION, region: Shape | None = None) -> xr.Dataset:
     """Exact maximum pose errors on an ``n x n`` grid at each orientation, in memory.
 
     The four result arrays ``(len(phis), n, n)`` are allocated once and filled
@@ -222,6 +223,9 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     chunk_size : grid points per block at most (blocks are also kept below 1/80 of the map)
     use_dask : compute the blocks as Dask tasks, a few at a time (needs ``pip install pmaccuracy[dask]``)
     progress : show a progress bar; default: only when stderr is a terminal
+    region : a shape of :mod:`pmaccuracy.accuracy.regions` (disc, polygon, rectangle; mm) or None (the
+        workspace): the grid is cut to the shape's bounding box and the points outside the shape are NaN;
+        the attribute ``region`` describes it
 
     Returns
     -------
@@ -239,14 +243,37 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
         raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
     robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
     check_fits_in_memory(len(phis), n)
+    attrs = _attrs(robot, clearances)
+    if region is not None:
+        if not isinstance(region, (Disc, Polygon, Rect)):
+            raise ConfigError(f"expected a Disc, Polygon or Rect of pmaccuracy.accuracy.regions, got {region!r}",
+                              key="region")
+        x, y = _cut(region, x, y, n)
+        attrs["region"] = f"{region.describe()}: grid cut to its bounding box, NaN outside it"
     values = {name: np.empty((len(phis), len(y), len(x))) for name in MAP_VARIABLES}
     _evaluate(robot, clearances, x, y, phis, chunk_size, use_dask, progress, max_condition, values)
+    if region is not None:
+        outside = ~region.contains(*np.meshgrid(x, y))
+        for name in MAP_VARIABLES:
+            values[name][:, outside] = np.nan
     for k, phi in enumerate(phis):
         if not np.isfinite(values["dx_max"][k]).any():
+            if region is not None:
+                raise EmptyWorkspaceError(f"no point of the {n} x {n} grid lies in both {region.describe()} and "
+                                          f"the workspace at phi = {np.degrees(phi):g} deg")
             raise _empty_layer_error(phi, n)
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
                  for name, (units, long_name) in MAP_VARIABLES.items()}
-    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=_attrs(robot, clearances))
+    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+
+
+def _cut(region: Shape, x: np.ndarray, y: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The grid vectors ``(n,)`` over the part of the workspaces' bounding box in the shape's bounding box."""
+    x0, x1, y0, y1 = region.bounds
+    lo_x, hi_x, lo_y, hi_y = max(x[0], x0), min(x[-1], x1), max(y[0], y0), min(y[-1], y1)
+    if lo_x > hi_x or lo_y > hi_y:
+        raise EmptyWorkspaceError(f"{region.describe()} lies outside the workspace")
+    return np.linspace(lo_x, hi_x, n), np.linspace(lo_y, hi_y, n)
 
 
 def _block_rows(n_phi: int, ny: int, nx: int, chunk_size: int) -> int:

@@ -219,7 +219,7 @@ class Synthesis:
 
 def _region_grid(robot, region: Region, n: int) -> np.ndarray:
     """Initial constraint poses: an ``n x n`` grid of the region's box cut to the workspace's bounds at
-    ``max(3, n // 3)`` orientations (one for a fixed phi), poses in the workspace only."""
+    ``max(3, n // 3)`` orientations (one for a fixed phi), poses in the region's shape and the workspace only."""
 
     out = [np.zeros((0, 3))]
     for phi in np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else max(3, n // 3)):
@@ -231,7 +231,8 @@ def _region_grid(robot, region: Region, n: int) -> np.ndarray:
         if x0 > x1 or y0 > y1:
             continue
         X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
-        out.append(np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)]))
+        keep = region.contains(X.ravel(), Y.ravel())
+        out.append(np.column_stack([X.ravel()[keep], Y.ravel()[keep], np.full(int(keep.sum()), phi)]))
     g = np.vstack(out)
     return g[inverse_kinematics(robot, g).within_limits]
 

@@ -8,9 +8,10 @@ import re
 import sys
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import ConfigError, EmptyWorkspaceError
 from . import _common
 from .bounds_cmd import add_clearances
+from .worst_cmd import add_shape, parse_shape, shape_key
 from .._optional import require
 
 #: Output types of ``--out`` by extension.
@@ -34,6 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
                    help="platform orientation in degrees (repeatable, each value once)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
+    add_shape(p)
     p.add_argument("--out", required=True, metavar="FILE",
                    help="output map: .nc or .csv (written block by block) or .zarr (streamed, resumable; open with "
                         "xarray.open_zarr); missing parent folders are created")
@@ -85,13 +87,19 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"expected a dask.distributed scheduler address like tcp://10.0.0.1:8786"
                           f"{' (or ' + ', '.join(local) + ')' if suffix == '.zarr' else ''}, got {args.scheduler!r}",
                           key="--scheduler")
+    shape = parse_shape(args)
+    if shape is not None and suffix == ".zarr":
+        raise ConfigError("a region applies to in-memory maps (.nc, .csv), not to .zarr maps", key=shape_key(args))
+    args.shape = shape
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)
     # .nc and .csv are written block by block as they are computed (maps.write_map) unless the blocks come from
     # Dask or a CSV map is also drawn: then the map is assembled in memory first.
-    streamed = suffix != ".zarr" and not args.dask and not args.scheduler and not (suffix == ".csv" and args.plot)
+    # a region's map is cut to its bounding box and computed in memory (write_map takes the whole workspace)
+    streamed = (suffix != ".zarr" and not args.dask and not args.scheduler and not (suffix == ".csv" and args.plot)
+                and shape is None)
     if suffix == ".nc":
         maps.check_netcdf_size(n_phi, args.grid)
     if suffix == ".zarr" or streamed:   # before anything is computed or created
@@ -131,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         try:
             ds = _in_memory(maps, robot, clearances, phis, args, chunk, show)
+        except EmptyWorkspaceError as exc:
+            if shape is None:
+                raise
+            raise ConfigError(str(exc), key=shape_key(args)) from None
         except OSError as exc:  # e.g. the scheduler cannot be reached
             if not args.scheduler or exc.filename:
                 raise
@@ -201,11 +213,12 @@ def _warn_if_long(maps, robot, clearances, phis, args, suffix: str) -> None:
 def _in_memory(maps, robot, clearances, phis, args, chunk, show):
     if not args.scheduler:
         return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
-                              progress=show)
+                              progress=show, region=args.shape)
     Client = require("distributed").Client
 
     with Client(args.scheduler):
-        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show)
+        return maps.error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True, progress=show,
+                              region=args.shape)
 
 
 def _announce(maps, robot, clearances, phis, args, suffix: str, streamed: bool) -> None:

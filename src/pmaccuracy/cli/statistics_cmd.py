@@ -12,9 +12,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..errors import ConfigError
+from ..errors import ConfigError, EmptyWorkspaceError
 from . import _common
 from .bounds_cmd import add_clearances
+from .worst_cmd import add_shape, parse_shape, shape_key
 
 HELP = "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"
 
@@ -65,6 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="orientation of a percentile map in degrees (repeatable; needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
                    help="grid points per axis of a map (default: 21)")
+    add_shape(p)
     p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv; missing parent "
                                                  "folders are created")
     _common.add_plot(p, "figure of a map's first orientation: percentile, worst case and their ratio for |dp| "
@@ -105,6 +107,9 @@ def run(args: argparse.Namespace) -> int:
     if args.exact_samples < 0 or (args.exact_samples and args.pose is None):
         raise ConfigError("must be a whole number >= 0, with --pose", key="--exact-samples")
     _common.check_plot_options(args)
+    shape = parse_shape(args)
+    if shape is not None and args.pose is not None:
+        raise ConfigError("a region goes with a map (--phi-deg), not with --pose", key=shape_key(args))
     thresholds = dict(args.threshold or [])
     distribution = distributions.Distribution.load(args.distribution)
     robot = _common.load_robot(args)
@@ -130,9 +135,15 @@ def run(args: argparse.Namespace) -> int:
     _common.warn_long_run(len(args.phi_deg) * args.grid ** 2 * (args.samples or 10_000) / 2e6,
                           f"--grid {args.grid} with --samples {args.samples or 10_000}")
     _common.check_plot(args)
-    ds = distributions.region_statistics(
-        robot, args.clearances, np.radians(args.phi_deg), args.grid, samples=args.samples or 10_000,
-        seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds)
+    try:
+        ds = distributions.region_statistics(
+            robot, args.clearances, np.radians(args.phi_deg), args.grid, samples=args.samples or 10_000,
+            seed=args.seed, distribution=distribution, percentiles=args.percentile or (95.0,), thresholds=thresholds,
+            region=shape)
+    except EmptyWorkspaceError as exc:
+        if shape is None:
+            raise
+        raise ConfigError(str(exc), key=shape_key(args)) from None
     distributions.save_region_statistics(ds, out)
     if args.plot:
         statistics_report.save_percentile_map_figure(ds, args.plot, dpi=args.dpi, vmin=args.vmin, vmax=args.vmax,

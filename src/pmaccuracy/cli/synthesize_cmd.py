@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from . import _common
-from .worst_cmd import add_region, parse_region
+from .worst_cmd import add_region, parse_region, shape_key
 
 HELP = "tolerance synthesis: largest clearances per joint meeting worst-case targets everywhere in a region"
 
@@ -53,8 +53,13 @@ def run(args: argparse.Namespace) -> int:
         _common.prepare_output(out, "--out", (".toml",))
     robot = _common.load_robot(args)
     region = parse_region(robot, args)
-    res = synthesize(robot, region, targets, template=args.clearances, costs=args.cost, mode=mode,
-                     gap=args.gap_pct / 100)
+    from ..errors import EmptyWorkspaceError
+
+    try:
+        res = synthesize(robot, region, targets, template=args.clearances, costs=args.cost, mode=mode,
+                         gap=args.gap_pct / 100)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
     if out is not None:
         out.write_text(clearance_toml(res, robot, region), encoding="utf-8")
     sources = [{"source": s.label, "template": float(t), "synthesized": float(v), "ratio": float(v / t)}

@@ -14,16 +14,70 @@ def add_region(p: argparse.ArgumentParser, *, phi_required: bool) -> None:
     p.add_argument("--phi-deg", nargs=2, type=_common.finite_float, metavar=("LO", "HI"),
                    required=phi_required, default=None if phi_required else [0.0, 0.0],
                    help="orientation interval in degrees, LO <= HI" + ("" if phi_required else " (default: 0 0)"))
-    p.add_argument("--region", default="workspace", metavar="workspace|x0,x1,y0,y1",
-                   help="'workspace' (every pose within the joint ranges) or a box in mm; poses of the box "
-                        "outside the workspace are skipped; write --region=-10,10,-10,10 when x0 is negative "
-                        "(default: workspace)")
+    add_shape(p)
     p.add_argument("--gap-pct", type=_common.finite_float, default=0.1, metavar="PCT",
                    help="certified relative gap (upper - lower) / lower in percent (default: 0.1)")
 
 
+def add_shape(p: argparse.ArgumentParser) -> None:
+    """The region's positions, one of ``--workspace`` (default), ``--box``, ``--disc``, ``--polygon`` and
+    the older ``--region`` (shared with ``synthesize``, ``statistics`` and ``map``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--workspace", action="store_true",
+                   help="every position within the joint ranges at the orientations (the default)")
+    g.add_argument("--box", metavar="x0,x1,y0,y1",
+                   help="a box in mm; write --box=-10,10,-10,10 when x0 is negative")
+    g.add_argument("--disc", nargs=3, type=_common.finite_float, metavar=("X", "Y", "R"),
+                   help="the disc of centre X, Y and radius R > 0 (mm)")
+    g.add_argument("--polygon", metavar="FILE|x1,y1,x2,y2,...",
+                   help="a simple polygon (mm): a .csv file with columns x,y, a .toml file with vertices = "
+                        "[[x, y], ...], or the vertices inline (write --polygon=-10,0,... when x1 is negative)")
+    g.add_argument("--region", default=None, metavar="workspace|x0,x1,y0,y1",
+                   help="'workspace' or a box in mm (as --workspace / --box)")
+    p.epilog = ((p.epilog or "") + " Poses of the region outside the workspace are skipped.").strip()
+
+
+def parse_shape(args: argparse.Namespace):
+    """The shape of ``--box / --disc / --polygon / --region`` (None for the workspace)."""
+    from pathlib import Path
+
+    from ..errors import ConfigError
+    from ..accuracy.regions import Disc, Polygon, Rect, load_polygon, parse_vertices
+
+    if args.disc is not None:
+        return Disc((args.disc[0], args.disc[1]), args.disc[2])
+    if args.polygon is not None:
+        text = args.polygon.strip()
+        if Path(text).suffix.lower() in (".csv", ".toml") or Path(text).is_file():
+            return load_polygon(text)
+        return Polygon(parse_vertices(text))
+    key, text = ("--box", args.box) if args.box is not None else ("--region", args.region)
+    if text is None or text.strip() == "workspace":
+        return None
+    parts = text.split(",")
+    try:
+        box = tuple(float(v) for v in parts)
+    except ValueError:
+        box = ()
+    if len(parts) != 4 or len(box) != 4:
+        raise ConfigError(f"expected x0,x1,y0,y1 in mm, got {text!r}", key=key)
+    try:
+        return Rect((box[0], box[1]), (box[2], box[3]))
+    except ConfigError as exc:
+        raise ConfigError(exc.message, key=key) from None
+
+
+def shape_key(args: argparse.Namespace) -> str:
+    """The option that gave the region (for error messages)."""
+    for key in ("disc", "polygon", "box", "region"):
+        if getattr(args, key, None) is not None:
+            return "--" + key
+    return "--workspace"
+
+
 def parse_region(robot, args: argparse.Namespace):
-    """The :class:`~pmaccuracy.accuracy.global_worst.Region` of ``--phi-deg`` and ``--region``; checks ``--gap-pct``."""
+    """The :class:`~pmaccuracy.accuracy.global_worst.Region` of ``--phi-deg`` and the shape options; checks
+    ``--gap-pct``."""
     import numpy as np
 
     from ..errors import ConfigError
@@ -31,16 +85,7 @@ def parse_region(robot, args: argparse.Namespace):
 
     if not 0 < args.gap_pct < 100:
         raise ConfigError(f"must be in (0, 100) percent, got {args.gap_pct:g}", key="--gap-pct")
-    box = None
-    if args.region != "workspace":
-        parts = args.region.split(",")
-        try:
-            box = tuple(float(v) for v in parts)
-        except ValueError:
-            box = ()
-        if len(parts) != 4 or len(box) != 4:
-            raise ConfigError(f"expected 'workspace' or x0,x1,y0,y1 in mm, got {args.region!r}", key="--region")
-    return make_region(robot, tuple(np.radians(args.phi_deg)), box)
+    return make_region(robot, tuple(np.radians(args.phi_deg)), parse_shape(args))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -58,6 +103,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_region(p, phi_required=True)
     p.add_argument("--grid", nargs=2, type=_common.positive_int, default=[101, 7], metavar=("GRID", "NPHI"),
                    help="comparison grid: GRID x GRID positions at NPHI orientations (default: 101 7)")
+    p.add_argument("--largest-disc", nargs=2, type=_common.finite_float, metavar=("X", "Y"),
+                   help="instead: the largest disc around X, Y (mm) where every --target holds (bisection on "
+                        "the radius with the certified worst case over the disc at the --phi-deg interval)")
+    p.add_argument("--target", action="append", metavar="NAME=VALUE",
+                   help="with --largest-disc, repeatable: dx=MM, dy=MM, dp=MM, dphi_deg=DEG")
+    p.add_argument("--tol-mm", type=_common.finite_float, default=0.1, metavar="MM",
+                   help="with --largest-disc: width of the certified radius interval (default: 0.1)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -69,12 +121,21 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..accuracy.synthesis import default_template
 
+    from ..errors import ConfigError, EmptyWorkspaceError
+
+    if args.largest_disc is not None:
+        return run_largest_disc(args)
+    if args.target:
+        raise ConfigError("targets need --largest-disc X Y (or use the synthesize command)", key="--target")
     _common.check_grid_memory(args.grid[1], args.grid[0], "--grid")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances or default_template(robot), robot)
     region = parse_region(robot, args)
-    grid, grid_poses = grid_best(robot, clearances, region, *args.grid)
-    res = global_worst(robot, clearances, region, gap=args.gap_pct / 100, candidates=grid_poses)
+    try:
+        grid, grid_poses = grid_best(robot, clearances, region, *args.grid)
+        res = global_worst(robot, clearances, region, gap=args.gap_pct / 100, candidates=grid_poses)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
     records = []
     for i, (q, w) in enumerate(res.quantities.items()):
         f = np.degrees if q == "dphi" else float
@@ -89,4 +150,53 @@ def run(args: argparse.Namespace) -> int:
             "region": region.describe(), "target_gap_pct": args.gap_pct, "boxes": res.boxes,
             "iterations": res.iterations, "seconds": res.seconds, "quantities": records}
     _common.emit(data, args.format, records=records)
+    return 0
+
+
+def run_largest_disc(args: argparse.Namespace) -> int:
+    """``--largest-disc X Y --target ...``: the certified radius interval."""
+    import numpy as np
+
+    from ..errors import ConfigError
+    from ..accuracy.global_worst import largest_disc
+    from ..accuracy.synthesis import default_template, parse_targets
+    from ..io.resolve import load_clearances
+
+    if shape_key(args) != "--workspace":
+        raise ConfigError(f"--largest-disc takes no other region ({shape_key(args)})", key="--largest-disc")
+    if not args.target:
+        raise ConfigError("give at least one --target NAME=VALUE", key="--largest-disc")
+    if not args.tol_mm > 0:
+        raise ConfigError(f"must be > 0 mm, got {args.tol_mm:g}", key="--tol-mm")
+    if not 0 < args.gap_pct < 100:
+        raise ConfigError(f"must be in (0, 100) percent, got {args.gap_pct:g}", key="--gap-pct")
+    targets = parse_targets(args.target)
+    robot = _common.load_robot(args)
+    clearances = load_clearances(args.clearances or default_template(robot), robot)
+    res = largest_disc(robot, clearances, tuple(args.largest_disc), tuple(np.radians(args.phi_deg)), targets,
+                       tol=args.tol_mm, gap=args.gap_pct / 100)
+    records = []
+    for label, w in (("holds", res.holds), ("fails", res.fails)):
+        if w is None:
+            continue
+        for q in targets:
+            f = np.degrees if q == "dphi" else float
+            qw = w.quantities[q]
+            records.append({"disc": label, "radius_mm": res.radius_lower if label == "holds" else res.radius_upper,
+                            "quantity": q + ("_deg" if q == "dphi" else ""), "target": f(targets[q]),
+                            "lower": f(qw.lower), "upper": f(qw.upper), "x": qw.pose[0], "y": qw.pose[1],
+                            "phi_deg": np.degrees(qw.pose[2])})
+    data = {"robot": robot.name, "clearances": getattr(clearances, "name", str(args.clearances)),
+            "centre_mm": list(res.centre), "phi_deg": [float(np.degrees(v)) for v in res.phi],
+            "radius_lower_mm": res.radius_lower,
+            "radius_upper_mm": None if not np.isfinite(res.radius_upper) else res.radius_upper,
+            "singular_above": res.singular_above, "evaluations": res.evaluations, "discs": records}
+    if args.format == "table":
+        upper = ("the whole reachable part" if not np.isfinite(res.radius_upper)
+                 else f"{res.radius_upper:.6g} mm" + (" (reaches a singularity)" if res.singular_above else ""))
+        print(f"largest disc around ({res.centre[0]:g}, {res.centre[1]:g}) mm: every target holds up to radius "
+              f"{res.radius_lower:.6g} mm (certified) and fails at {upper}")
+        _common.emit(records, "table")
+    else:
+        _common.emit(data, args.format, records=records)
     return 0
