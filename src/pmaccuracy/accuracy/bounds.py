@@ -245,7 +245,7 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     >>> round(float(b.dy_max), 6), round(float(b.dphi_max_deg), 4)
     (0.099851, 0.2202)
     """
-
+    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)  # preset names and files too; wrong types/shapes: ConfigError naming the parameter
     clearances = clearances_arg(clearances, robot)
     tolerances = tolerances_arg(tolerances)

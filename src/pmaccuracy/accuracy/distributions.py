@@ -76,6 +76,7 @@ import numpy as np
 from ..model import _tomlio
 from .._display import html_table, summary
 from ..errors import ConfigError
+from ..model.plausibility import check_orientations
 from ..model.sources import ErrorSources, JointDisplacements, refuse_first_order_only
 from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
@@ -553,7 +554,7 @@ def pose_statistics(robot, clearances, pose, *, samples: int = 100_000, seed: in
     >>> st.quantities["dp"]["p95"] <= st.quantities["dp"]["worst"]
     True
     """
-
+    check_orientations(pose, "pose", poses=True)
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
     distribution = Distribution.load(distribution)
@@ -618,7 +619,7 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     """
     import xarray as xr
 
-
+    check_orientations(phis, "phis")
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
     distribution = Distribution.load(distribution)

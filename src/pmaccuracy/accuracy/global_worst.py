@@ -41,6 +41,7 @@ from ..model.clearances import ClearanceSet
 from .._display import html_table
 from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
 from ..model.manipulator import Manipulator
+from ..model.plausibility import check_orientations
 from .interval import Iv, box_maxima, leg_box_state
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
 from ..model.sources import ErrorSources, refuse_first_order_only
@@ -176,7 +177,10 @@ def reach_region(robot: Manipulator, phi: tuple[float, float]) -> Region:
 def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, float, float, float] | None
                 ) -> Region:
     """Check and build a region: ``phi (lo, hi)`` rad with ``lo <= hi``; ``box (x0, x1, y0, y1)`` mm or None
-    for the whole workspace. ``robot``: an object, a preset name or a robot file."""
+    for the whole workspace. ``robot``: an object, a preset name or a robot file. Orientations beyond a full
+    turn warn (:func:`pmaccuracy.model.plausibility.check_orientations`); :func:`global_worst` and
+    :func:`~pmaccuracy.accuracy.synthesis.synthesize` take the region as made here."""
+    check_orientations(phi, "phi")
     robot = robot_arg(robot)
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
@@ -297,6 +301,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     >>> res["dy"].gap <= 1e-3
     True
     """
+    if candidates is not None:
+        check_orientations(candidates, "candidates", poses=True)
     robot = robot_arg(robot)
     if not (gap > 0 and np.isfinite(gap)):
         raise ConfigError(f"must be > 0, got {gap}", key="gap")
