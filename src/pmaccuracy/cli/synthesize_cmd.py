@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         _common.prepare_output(out, "--out", (".toml",))
     robot = _common.load_robot(args)
     region = parse_region(robot, args)
-    res = synthesize(robot, region, targets, template=args.clearances, costs=args.cost, mode=mode,
+    res = synthesize(robot, region, targets, clearances=args.clearances, costs=args.cost, mode=mode,
                      gap=args.gap_pct / 100)
     if out is not None:
         out.write_text(clearance_toml(res, robot, region), encoding="utf-8")
