@@ -172,3 +172,40 @@ def test_command_line_does_not_warn_twice(capsys):
     # 900 deg is 15.7 rad for the API, but the command line's angles are degrees by construction: no warning
     assert main(["ik", "--pose", "0", "0", "720"]) == 0
     assert capsys.readouterr().err == ""
+
+
+# ----------------------------------------------------------------------------------- other silent slips
+def test_clearances_and_tolerances_built_in_python_are_checked_like_files():
+    """The loaders warn about clearances in unlikely units; objects built in Python now do too (once)."""
+    from pmaccuracy.model.sources import ErrorSources, JointErrors
+    with pytest.warns(PlausibilityWarning, match=r"ClearanceSet: legs\[1,2,3\].bearing_angle = 0.0688 rad") as rec:
+        pm.ClearanceSet(bearing_angle=0.0688, revolute_radial=0.01)   # 0.0688 deg typed where rad are expected
+    assert len(rec) == 1 and rec[0].filename == __file__
+    z = JointErrors()
+    with pytest.warns(PlausibilityWarning, match=r"ErrorSources: legs\[1,2,3\].joints\[2\].angular = 0.07 rad"):
+        ErrorSources(legs=((z, JointErrors(angular=0.07), z),) * 3)
+    with pytest.warns(PlausibilityWarning, match=r"tolerances: legs\[1,2,3\].theta_rad = 1 rad"):
+        pm.max_pose_errors(PPR, pm.ClearanceSet(), [0.0, 0.0, 0.0], tolerances={"theta": 1.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # presets, files and the package's own objects: silent
+        for robot, name in ((PPR, "case1"), (PPR, "case2"), (RRR, "rrr_typical"), (RRR, "rrr_tolerances")):
+            pm.max_pose_errors(robot, pm.load_clearances(name, robot), [0.0, 0.0, 0.0])
+        pm.ClearanceSet(bearing_angle=0.0012, guide_lateral=0.005, revolute_radial=0.01).scaled(2.0)
+        pm.max_pose_errors(PPR, pm.ClearanceSet(), [0.0, 0.0, 0.0], tolerances={"theta": 0.001})
+
+
+@pytest.mark.parametrize("call, error, words", [
+    (lambda: pm.make_region(PPR, 0.3, None), pm.ConfigError, ["phi", "two numbers"]),
+    (lambda: pm.make_region(PPR, (0.0, 0.1, 0.2), None), pm.ConfigError, ["phi", "two numbers"]),
+    (lambda: pm.make_region(PPR, (0.0, 0.1), (0, 1, 2)), pm.ConfigError, ["box", "four numbers"]),
+    (lambda: pm.error_map(PPR, "case1", [[0.0, 0.1]], n=5), pm.ConfigError, ["phis", "(1, 2)"]),
+    (lambda: pm.error_map(PPR, "case1", [], n=5), pm.ConfigError, ["phis", "non-empty"]),
+    (lambda: pm.pose_statistics(PPR, "case1", [[0, 0, 0], [1, 1, 0]], samples=10), pm.PoseError,
+     ["one pose", "(2, 3)"]),
+    (lambda: pm.global_worst(PPR, "case1", _region(), candidates=np.zeros((2, 2))), pm.PoseError,
+     ["candidates", "(2, 2)"]),
+])
+def test_wrong_shapes_are_refused_by_name(call, error, words):
+    with pytest.raises(error) as err:
+        call()
+    assert all(w in str(err.value) for w in words), str(err.value)

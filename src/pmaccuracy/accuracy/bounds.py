@@ -255,6 +255,7 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)  # preset names and files too; wrong types/shapes: ConfigError naming the parameter
     clearances = clearances_arg(clearances, robot)
+    given_tolerances = tolerances
     tolerances = tolerances_arg(tolerances)
     if singular not in ("raise", "nan"):
         raise ConfigError(f"must be 'raise' or 'nan', got {singular!r}", key="singular")
@@ -269,6 +270,8 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     else:
         robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
         tolerances = _check_tolerances(tolerances or {})
+        if tolerances and isinstance(given_tolerances, Mapping):   # a file's are checked by its reader
+            plausibility.warn_caller(plausibility.tolerance_messages(tolerances, VARIATION_UNITS, "tolerances"))
         # the paper's clearances and link-parameter tolerances as the chain's per-joint sources: one engine
         sources = ErrorSources.from_clearance_set(clearances, tolerances).check(robot)
     result = _generic_bounds(robot, sources, poses, flat, allow_outside, details, max_condition, singular)

@@ -39,7 +39,7 @@ import numpy as np
 from .bounds import QUANTITIES, max_pose_errors
 from ..model.clearances import ClearanceSet
 from .._display import html_table
-from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
+from ..errors import ConfigError, EmptyWorkspaceError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator
 from ..model.plausibility import check_orientations
 from .interval import Iv, box_maxima, leg_box_state
@@ -182,6 +182,12 @@ def make_region(robot: Manipulator, phi: tuple[float, float], box: tuple[float, 
     :func:`~pmaccuracy.accuracy.synthesis.synthesize` take the region as made here."""
     check_orientations(phi, "phi")
     robot = robot_arg(robot)
+    if np.shape(phi) != (2,):
+        raise ConfigError(f"the orientation interval must be two numbers (lo, hi) in rad, got {phi!r}",
+                          key="phi")
+    if box is not None and np.shape(box) != (4,):
+        raise ConfigError(f"the box must be four numbers (x0, x1, y0, y1) in mm or None, got {box!r}",
+                          key="box")
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="--phi-deg")
@@ -317,8 +323,11 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     gx, gy, gp = (np.linspace(*region.x, grid), np.linspace(*region.y, grid), np.linspace(*region.phi, nphi))
     samples = np.stack(np.meshgrid(gx, gy, gp, indexing="ij"), axis=-1).reshape(-1, 3)
     if candidates is not None:
-        c = np.asarray(candidates, dtype=float).reshape(-1, 3)
-        c = c[np.all(np.isfinite(c), axis=1)]
+        c = np.asarray(candidates, dtype=float)
+        if c.ndim == 0 or c.shape[-1] != 3:
+            raise PoseError(f"candidates must have shape (k, 3) = [x mm, y mm, phi rad], got shape {c.shape}")
+        c = c.reshape(-1, 3)
+        c = c[np.all(np.isfinite(c), axis=1)]   # (a grid without a pose inside gives NaN: no candidate)
         lo = np.array([region.x[0], region.y[0], region.phi[0]])
         hi = np.array([region.x[1], region.y[1], region.phi[1]])
         samples = np.vstack([samples, c[np.all((c >= lo) & (c <= hi), axis=1)]])

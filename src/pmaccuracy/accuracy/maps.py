@@ -170,6 +170,9 @@ def _prepare(robot, clearances, phis, n: int, max_condition: float):
         phis = np.atleast_1d(np.asarray(phis, dtype=float))
     except (TypeError, ValueError):
         raise ConfigError(f"orientations must be numbers (rad), got {phis!r}", key="phi") from None
+    if phis.ndim != 1 or phis.size == 0:
+        raise ConfigError(f"orientations must be a number or a non-empty list of numbers (rad), got shape "
+                          f"{phis.shape}", key="phis")
     if not np.all(np.isfinite(phis)):
         raise ConfigError("orientations must be finite", key="phi")
     if robot.is_3ppr:  # A depends on phi only: a whole layer is singular or none is

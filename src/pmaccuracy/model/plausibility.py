@@ -156,6 +156,22 @@ def _called_from_package(depth: int) -> bool:
     return name == "pmaccuracy" or name.startswith("pmaccuracy.")
 
 
+def called_by_user(skip: int = 0) -> bool:
+    """Whether the function calling this was called from outside the package (user code), ``skip`` package
+    frames (a dataclass's generated ``__init__``) further up; the package's own calls and the command line
+    have checked their values already (:func:`check_orientations`)."""
+    return not _called_from_package(2 + skip)
+
+
+def warn_caller(messages: Iterable[str]) -> None:
+    """Issue ``messages`` as :class:`PlausibilityWarning` pointing at the caller of the public function that
+    calls this, only when that caller is outside the package (as :func:`check_orientations`)."""
+    if _called_from_package(2):
+        return
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=3)
+
+
 def check_orientations(phi_rad, where: str, what: str = "orientations", *, poses: bool = False) -> None:
     """Warn (:class:`PlausibilityWarning`, one line) when angles passed in radians look like degrees.
 
