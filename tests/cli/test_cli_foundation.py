@@ -242,3 +242,38 @@ def test_console_script_subprocess(tmp_path):
     assert done.returncode == 2 and done.stdout == ""
     assert len(done.stderr.splitlines()) == 1 and "Traceback" not in done.stderr
     assert str(bad) in done.stderr and "legs" in done.stderr
+
+
+def test_workspace_several_orientations(tmp_path, capsys, monkeypatch):
+    """``--phi-deg 0 30 --phi-deg -30`` reports (and draws) every orientation, not only the last (issue 25).
+    Areas: the Aalborg robot's 50 x 50 mm square at 0 deg, and its workspace at +-30 deg measured by brute
+    force (the share of a fine grid whose inverse kinematics lies in the joint ranges)."""
+    from pmaccuracy.kinematics import inverse_kinematics
+    from pmaccuracy.kinematics import workspace as ws_module
+
+    g = np.linspace(-60.0, 60.0, 601)
+    X, Y = np.meshgrid(g, g)
+    cell = (g[1] - g[0]) ** 2
+
+    def brute_area(phi_deg):
+        poses = np.stack([X, Y, np.full(X.shape, np.radians(phi_deg))], axis=-1)
+        return inverse_kinematics("aalborg_3ppr", poses).within_limits.sum() * cell
+
+    code, out, err = run(["workspace", "--phi-deg", 0, 30, "--phi-deg", -30, "--format", "json"], capsys)
+    assert code == 0 and err == ""
+    data = json.loads(out)
+    assert [d["phi_deg"] for d in data] == [0, 30, -30]
+    for d in data:
+        assert d["area"] == pytest.approx(brute_area(d["phi_deg"]), rel=0.02)
+    assert data[0]["area"] == pytest.approx(2500, abs=1e-6) and data[1]["area"] != pytest.approx(data[0]["area"])
+    code, out, _ = run(["workspace", "--phi-deg", 0, 30, "--format", "csv"], capsys)
+    assert [float(r["phi_deg"]) for r in csv.DictReader(io.StringIO(out))] == [0, 30]
+    code, out, _ = run(["workspace", "--compare", "aalborg_3ppr", "symmetric_3ppr", "--phi-deg", 0, 30,
+                        "--format", "json"], capsys)
+    assert [(d["robot"], d["phi_deg"]) for d in json.loads(out)] == [
+        ("aalborg_3ppr", 0), ("aalborg_3ppr", 30), ("symmetric_3ppr", 0), ("symmetric_3ppr", 30)]
+    drawn = {}
+    monkeypatch.setattr(ws_module, "save_workspace_figure",
+                        lambda robot, path, phis_deg: drawn.setdefault("phis", phis_deg))
+    code, _, _ = run(["workspace", "--phi-deg", 10, "--phi-deg", -20, 10, "--plot", tmp_path / "w.png"], capsys)
+    assert code == 0 and drawn["phis"] == (10.0, -20.0)   # exactly the requested ones, each once

@@ -97,8 +97,15 @@ class PoseErrorBounds:
     generators : ``(..., 3, 3)`` columns ``g_i = c_i A^-1[:, i]`` of the error zonotope; with ``details``
     dp_signs : ``(..., 3)`` the vertex ``t`` attaining ``dp_max``; with ``details``
     method : ``"exact"`` or ``"slsqp"``
-    worst, worst_variations : maximizing clearance displacements and parameter
-        variations per quantity (with ``details=True``; 3-PPR clearance format)
+    worst : per quantity (``dx, dy, dphi, dp``), the configuration attaining its maximum (with
+        ``details=True``): for per-joint :class:`~pmaccuracy.model.sources.ErrorSources` (any architecture) a
+        :class:`~pmaccuracy.model.sources.JointDisplacements` with arrays ``(..., 3 legs, 3 joints)``
+        (:func:`~pmaccuracy.model.sources.worst_configuration` at ``worst_signs``), whose first-order pose
+        error (:func:`~pmaccuracy.model.sources.first_order_error`) is ``+dx_max`` in x (likewise ``+dy_max``,
+        ``+dphi_max``, and ``|(dx, dy)| = dp_max``); its negative attains the opposite extreme. For the
+        3-PPR clearance format a :class:`~pmaccuracy.model.clearances.ClearanceDisplacement` (Eq. 16-18)
+    worst_variations : maximizing parameter variations per quantity (3-PPR clearance format with
+        ``tolerances``, ``details=True``)
     worst_signs : per quantity, the signs ``t_i`` ``(..., 3)`` of each leg's share ``e_i = t_i c_i`` at the
         maximum (per-joint sources of any architecture: each source then sits at its own extreme); with
         ``details`` (empty otherwise: only the four result arrays are built)
@@ -245,9 +252,10 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     >>> round(float(b.dy_max), 6), round(float(b.dphi_max_deg), 4)
     (0.099851, 0.2202)
     """
-
+    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)  # preset names and files too; wrong types/shapes: ConfigError naming the parameter
     clearances = clearances_arg(clearances, robot)
+    given_tolerances = tolerances
     tolerances = tolerances_arg(tolerances)
     if singular not in ("raise", "nan"):
         raise ConfigError(f"must be 'raise' or 'nan', got {singular!r}", key="singular")
@@ -262,12 +270,29 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
     else:
         robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
         tolerances = _check_tolerances(tolerances or {})
+        if tolerances and isinstance(given_tolerances, Mapping):   # a file's are checked by its reader
+            plausibility.warn_caller(plausibility.tolerance_messages(tolerances, VARIATION_UNITS, "tolerances"))
         # the paper's clearances and link-parameter tolerances as the chain's per-joint sources: one engine
         sources = ErrorSources.from_clearance_set(clearances, tolerances).check(robot)
     result = _generic_bounds(robot, sources, poses, flat, allow_outside, details, max_condition, singular)
     if details and not per_joint:  # the paper's clearance displacements and variations at the same signs
         result = replace(result, **_paper_details(robot, clearances, sources, tolerances, result))
+    elif details:                  # per-joint sources: each at its own extreme for the maximizing signs
+        result = replace(result, worst=_joint_details(robot, sources, result))
     return result
+
+
+def _joint_details(robot: Manipulator, sources: ErrorSources, result: PoseErrorBounds) -> dict:
+    """``worst`` of per-joint sources: per quantity the :class:`~pmaccuracy.model.sources.JointDisplacements`
+    ``(..., 3, 3)`` at the maximizing signs (:func:`~pmaccuracy.model.sources.worst_configuration`)."""
+    lead = result.poses.shape[:-1]
+    flat = result.poses.reshape(-1, 3)
+    joints = ik_from_states(robot, leg_states(robot, flat)).joints
+    out = {}
+    for q, signs in result.worst_signs.items():
+        config = worst_configuration(robot, sources, joints, flat, signs.reshape(-1, 3))
+        out[q] = type(config)(*(getattr(config, f).reshape(lead + (3, 3)) for f in config.FIELDS))
+    return out
 
 
 def _paper_details(robot: Manipulator, clearances: ClearanceSet, sources: ErrorSources,

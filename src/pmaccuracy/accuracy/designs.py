@@ -40,6 +40,7 @@ from .bounds import max_pose_errors
 from .._savefig import DEFAULT_DPI, SYMBOLS, save_figure
 from ..errors import ConfigError
 from ..model.manipulator import Manipulator, round_trip_degrees
+from ..model.plausibility import check_orientations
 from ..kinematics import DEFAULT_MAX_CONDITION, regular_mask
 from ..kinematics.workspace import Workspace, constant_orientation_workspace
 from ..io.resolve import clearances_arg, robot_arg
@@ -316,7 +317,7 @@ def compare_designs(robots: Sequence[Manipulator], clearances: Sequence, phis: S
     ``clearances`` has one entry per robot, as returned by
     :func:`pmaccuracy.load_clearances` for that robot.
     """
-
+    check_orientations(phis, "phis")
     if isinstance(robots, (str, os.PathLike)) or isinstance(clearances, (str, os.PathLike)):
         raise ConfigError("expected one entry per robot (a list), got a single name", key="robots/clearances")
     robots = tuple(robot_arg(r, f"robots[{k}]") for k, r in enumerate(robots))

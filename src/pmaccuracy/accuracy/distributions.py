@@ -75,11 +75,12 @@ import numpy as np
 
 from ..model import _tomlio
 from .._display import html_table, summary
-from ..errors import ConfigError
+from ..errors import ConfigError, PoseError
+from ..model.plausibility import check_orientations
 from ..model.sources import ErrorSources, JointDisplacements, refuse_first_order_only
 from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
-from ..kinematics import inverse_kinematics
+from ..kinematics import as_poses, inverse_kinematics
 from ..model.sources import first_order_error
 from .bounds import max_pose_errors
 from .maps import error_map
@@ -553,12 +554,15 @@ def pose_statistics(robot, clearances, pose, *, samples: int = 100_000, seed: in
     >>> st.quantities["dp"]["p95"] <= st.quantities["dp"]["worst"]
     True
     """
-
+    check_orientations(pose, "pose", poses=True)
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
     distribution = Distribution.load(distribution)
     pct, thr = _check_common(percentiles, thresholds or {})
-    pose = np.asarray(pose, dtype=float).reshape(3)
+    pose = as_poses(pose)
+    if pose.shape != (3,):
+        raise PoseError(f"pose must be one pose (3,) = [x mm, y mm, phi rad], got shape {pose.shape} (several "
+                        f"poses: call it once per pose, or region_statistics for maps)")
     worst = max_pose_errors(robot, sources, pose)
     Z = sample_sources(sources, samples, seed, distribution)
     J = error_jacobian(robot, sources, pose)
@@ -623,7 +627,7 @@ def region_statistics(robot, clearances, phis, grid: int = 21, *, samples: int =
     """
     import xarray as xr
 
-
+    check_orientations(phis, "phis")
     robot = robot_arg(robot)
     sources = as_sources(robot, clearances)
     distribution = Distribution.load(distribution)

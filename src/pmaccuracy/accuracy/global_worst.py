@@ -39,8 +39,9 @@ import numpy as np
 from .bounds import QUANTITIES, max_pose_errors
 from ..model.clearances import ClearanceSet
 from .._display import html_table
-from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
+from ..errors import ConfigError, EmptyWorkspaceError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator
+from ..model.plausibility import check_orientations
 from .interval import Iv, box_maxima, leg_box_state
 from .regions import OUTSIDE, Disc, Polygon, Rect, Shape
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
@@ -198,8 +199,18 @@ def make_region(robot: Manipulator, phi: tuple[float, float],
     >>> from pmaccuracy.accuracy.regions import Disc
     >>> make_region("aalborg_3ppr", (0.0, 0.0), Disc((0.0, 0.0), 20.0)).describe()
     'the disc of centre (0, 0) mm and radius 20 mm, phi in [0, 0] deg'
+
+    Orientations beyond a full turn warn (:func:`pmaccuracy.model.plausibility.check_orientations`);
+    :func:`global_worst` and :func:`~pmaccuracy.accuracy.synthesis.synthesize` take the region as made here.
     """
+    check_orientations(phi, "phi")
     robot = robot_arg(robot)
+    if np.shape(phi) != (2,):
+        raise ConfigError(f"the orientation interval must be two numbers (lo, hi) in rad, got {phi!r}",
+                          key="phi")
+    if box is not None and np.shape(box) != (4,):
+        raise ConfigError(f"the box must be four numbers (x0, x1, y0, y1) in mm or None, got {box!r}",
+                          key="box")
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="--phi-deg")
@@ -323,6 +334,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     >>> res["dy"].gap <= 1e-3
     True
     """
+    if candidates is not None:
+        check_orientations(candidates, "candidates", poses=True)
     robot = robot_arg(robot)
     if not (gap > 0 and np.isfinite(gap)):
         raise ConfigError(f"must be > 0, got {gap}", key="gap")
@@ -341,8 +354,11 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         samples = np.vstack([samples[region.contains(samples[:, 0], samples[:, 1])],
                              np.column_stack([np.tile(edge, (nphi, 1)), np.repeat(gp, edge.shape[0])])])
     if candidates is not None:
-        c = np.asarray(candidates, dtype=float).reshape(-1, 3)
-        c = c[np.all(np.isfinite(c), axis=1)]
+        c = np.asarray(candidates, dtype=float)
+        if c.ndim == 0 or c.shape[-1] != 3:
+            raise PoseError(f"candidates must have shape (k, 3) = [x mm, y mm, phi rad], got shape {c.shape}")
+        c = c.reshape(-1, 3)
+        c = c[np.all(np.isfinite(c), axis=1)]   # (a grid without a pose inside gives NaN: no candidate)
         lo = np.array([region.x[0], region.y[0], region.phi[0]])
         hi = np.array([region.x[1], region.y[1], region.phi[1]])
         c = c[np.all((c >= lo) & (c <= hi), axis=1)]

@@ -51,6 +51,7 @@ from .regions import Disc, Polygon, Rect, Shape
 from ..model.clearances import ClearanceSet
 from ..errors import ConfigError, EmptyWorkspaceError
 from ..model.manipulator import Manipulator, round_trip_degrees
+from ..model.plausibility import check_orientations
 from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
 from ..kinematics.workspace import constant_orientation_workspace
 from .._optional import require
@@ -176,6 +177,9 @@ def _prepare(robot, clearances, phis, n: int, max_condition: float):
         phis = np.atleast_1d(np.asarray(phis, dtype=float))
     except (TypeError, ValueError):
         raise ConfigError(f"orientations must be numbers (rad), got {phis!r}", key="phi") from None
+    if phis.ndim != 1 or phis.size == 0:
+        raise ConfigError(f"orientations must be a number or a non-empty list of numbers (rad), got shape "
+                          f"{phis.shape}", key="phis")
     if not np.all(np.isfinite(phis)):
         raise ConfigError("orientations must be finite", key="phi")
     if robot.is_3ppr:  # A depends on phi only: a whole layer is singular or none is
@@ -238,7 +242,11 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     EmptyWorkspaceError : an orientation without workspace
     ConfigError : bad arguments, or a result that would not fit in the available
         memory (use :func:`write_zarr_map`)
+
+    Orientations beyond a full turn warn (:func:`pmaccuracy.model.plausibility.check_orientations`):
+    ``error_map(robot, cl, 15.0)`` is almost surely 15 deg typed as radians.
     """
+    check_orientations(phis, "phis")
     if chunk_size < 1:
         raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
     robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
@@ -442,6 +450,7 @@ def write_zarr_map(path: str | Path, robot: Manipulator | str, clearances: Clear
     ConfigError : ``path`` holds something else, or a map of other inputs
     EmptyWorkspaceError : a layer with no grid point inside its workspace
     """
+    check_orientations(phis, "phis")
     dask = require("dask")
 
     if chunk_size < 1 or tile < 1:

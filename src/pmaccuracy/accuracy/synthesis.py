@@ -37,12 +37,14 @@ certified to meet the targets.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from ..model import _tomlio
 from ..errors import ConfigError
+from ..model.clearances import ClearanceSet
 from ..model.manipulator import Manipulator
 from .global_worst import DEFAULT_GAP, GlobalWorst, Region, as_sources, global_worst
 from ..kinematics import inverse_3x3, inverse_kinematics
@@ -296,21 +298,67 @@ def _solve(lin, Mx, My, targets: dict, weights: np.ndarray, free: np.ndarray) ->
     return out
 
 
-def synthesize(robot: Manipulator, region: Region, targets: dict, *, template=None, costs=None,
-               mode: str = "uniform", gap: float = DEFAULT_GAP, grid: int = 15, max_cuts: int = 10,
-               name: str | None = None) -> Synthesis:
-    """Largest clearances meeting ``targets`` (``{quantity: value}``, mm / rad, :func:`parse_targets`) over
-    ``region`` (:func:`pmaccuracy.accuracy.global_worst.make_region`), certified by the global worst case.
+def targets_arg(targets) -> dict[str, float]:
+    """Targets ``{quantity: value}`` (mm / rad) from what :func:`synthesize` takes: a mapping with the
+    quantities ``dx, dy, dp`` (mm) and ``dphi`` (rad) or ``dphi_deg`` (deg), or ``["dp=0.3", "dphi_deg=0.3"]``
+    (:func:`parse_targets`). Unknown or repeated names and values that are not finite and > 0 raise
+    :class:`ConfigError` (key ``targets``)."""
+    if isinstance(targets, Mapping):
+        items = dict(targets)
+        dphi = items.pop("dphi", None)
+        if dphi is not None and "dphi_deg" in items:
+            raise ConfigError("give dphi (rad) or dphi_deg (deg), not both", key="targets")
+        try:
+            out = parse_targets(items) if items or dphi is None else {}
+        except ConfigError as exc:
+            raise ConfigError(exc.message, key="targets") from None
+        if dphi is not None:
+            try:
+                value = float(dphi)
+            except (TypeError, ValueError):
+                raise ConfigError(f"dphi: not a number: {dphi!r}", key="targets") from None
+            if not (np.isfinite(value) and value > 0):
+                raise ConfigError(f"dphi must be finite and > 0 rad, got {dphi}", key="targets")
+            out["dphi"] = value
+        return out
+    if isinstance(targets, (list, tuple)) and all(isinstance(t, str) for t in targets):
+        return parse_targets(targets)
+    raise ConfigError(f"expected a mapping {{quantity: value}} (dx, dy, dp mm; dphi rad or dphi_deg deg) or "
+                      f"['dp=0.3', ...], got {type(targets).__name__}", key="targets")
 
+
+def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=None, template=None,
+               costs=None, mode: str = "uniform", gap: float = DEFAULT_GAP, grid: int = 15, max_cuts: int = 10,
+               name: str | None = None) -> Synthesis:
+    """Largest clearances meeting ``targets`` over ``region`` (:func:`pmaccuracy.accuracy.global_worst.make_region`),
+    certified by the global worst case.
+
+    ``targets``: ``{quantity: value}`` with ``dx, dy, dp`` in mm and ``dphi`` in rad (or ``dphi_deg`` in
+    deg), or ``["dp=0.3", "dphi_deg=0.3"]`` (:func:`targets_arg`).
+    ``clearances``: your clearances (a preset name, a file or an object, as everywhere in the package): the
+    template whose non-zero sources are the unknowns, starting from their values; ``template`` is the same
+    argument under its older name (give one of them). Without either, :func:`default_template`.
     ``mode="uniform"``: the template times the largest factor (module docstring);
     ``"min-cost"``: per-source values minimizing ``sum b_j eps0_j / eps_j`` with
     the weights of ``costs`` (:func:`load_costs`: a file, or an array ``(m,)``).
-    ``template``: clearance preset/file/object (default :func:`default_template`).
+
+    Raises :class:`ConfigError` naming the argument: ``region`` not a :class:`Region` (clearances passed
+    in its place, as the other functions' second argument: they go in ``clearances=``), ``clearances`` and
+    ``template`` both given, unknown targets.
     """
     robot = robot_arg(robot)
+    if not isinstance(region, Region):
+        hint = " (the clearances to scale go in clearances=)" \
+            if isinstance(region, (ErrorSources, ClearanceSet, str)) else ""
+        raise ConfigError(f"expected a Region (make_region), got {type(region).__name__}{hint}", key="region")
+    targets = targets_arg(targets)
     if mode not in ("uniform", "min-cost"):
         raise ConfigError(f"mode must be 'uniform' or 'min-cost', got {mode!r}", key="mode")
-    tpl = as_sources(robot, load_clearances(default_template(robot) if template is None else template, robot))
+    if clearances is not None and template is not None and clearances is not template:
+        raise ConfigError("give the clearances to scale once: clearances= (template= is its older name)",
+                          key="clearances")
+    given = clearances if clearances is not None else template
+    tpl = as_sources(robot, load_clearances(default_template(robot) if given is None else given, robot))
     sources = free_sources(tpl)
     eps0 = np.array([s.value for s in sources])
     name = name or f"synthesized_{robot.name}"
@@ -382,5 +430,5 @@ def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str
     return "\n".join(lines) + "\n" + tomli_w.dumps(data)
 
 
-__all__ = ["TARGETS", "Synthesis", "parse_targets", "synthesize", "free_sources", "pose_coefficients",
+__all__ = ["TARGETS", "Synthesis", "parse_targets", "targets_arg", "synthesize", "free_sources", "pose_coefficients",
            "clearance_toml", "load_costs", "default_template", "with_values", "JointErrors"]

@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import EmptyWorkspaceError
 
     try:
-        res = synthesize(robot, region, targets, template=args.clearances, costs=args.cost, mode=mode,
+        res = synthesize(robot, region, targets, clearances=args.clearances, costs=args.cost, mode=mode,
                          gap=args.gap_pct / 100)
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None

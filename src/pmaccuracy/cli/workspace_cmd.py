@@ -16,14 +16,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="At a fixed orientation the joint limits bound the platform centre by lines and circles; prints "
                     "the exact region: area in mm^2 (Green's theorem over its arcs and segments), bounds and the "
                     "corners of its boundary in mm. An empty workspace prints area 0, null bounds and no corners. "
-                    "With --compare, one row per robot and a side-by-side figure (--plot).")
+                    "Several orientations (--phi-deg 0 30, or the option repeated) print one row each (JSON: a "
+                    "list). With --compare, one row per robot and orientation and a side-by-side figure (--plot).")
     _common.add_robot(p)
-    p.add_argument("--phi-deg", type=_common.finite_float, default=0.0, metavar="PHI",
-                   help="platform orientation in degrees (default: 0)")
+    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", default=None,
+                   metavar="PHI",
+                   help="platform orientation(s) in degrees, several values and/or the option repeated (default: "
+                        "0)")
     p.add_argument("--compare", nargs="+", metavar="ROBOT",
                    help="compare several robots (preset names or files) instead of --robot")
-    _common.add_plot(p, "also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg and a "
-                        "zoom on them (with --compare: the robots side by side, to one scale)")
+    _common.add_plot(p, "also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg (at "
+                        "exactly the PHIs when several are given) and a zoom on them (with --compare: the robots "
+                        "side by side, to one scale)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -47,15 +51,19 @@ def run(args: argparse.Namespace) -> int:
 
     plot = Path(args.plot) if args.plot else None
     _common.check_plot(args)
-    results = [_summary(robot, args.phi_deg, constant_orientation_workspace(robot, np.radians(args.phi_deg)))
-               for robot in robots]
-    phis = tuple([args.phi_deg] + [p for p in DEFAULT_PHIS_DEG if p != args.phi_deg])
+    requested = list(dict.fromkeys(args.phi_deg or [0.0]))    # in the given order, each once
+    results = [_summary(robot, phi, constant_orientation_workspace(robot, np.radians(phi)))
+               for robot in robots for phi in requested]
+    if len(requested) == 1:   # the orientation asked for, then the usual three for context
+        phis = tuple(requested + [p for p in DEFAULT_PHIS_DEG if p != requested[0]])
+    else:
+        phis = tuple(requested)
     if plot is not None:
         from ..kinematics.workspace import save_comparison_figure, save_workspace_figure
         if args.compare:
             save_comparison_figure(robots, plot, phis_deg=phis, dpi=args.dpi)
         else:
             save_workspace_figure(robots[0], plot, phis_deg=phis, dpi=args.dpi)
-    data = [d for d, _ in results] if args.compare else results[0][0]
+    data = [d for d, _ in results] if args.compare or len(results) > 1 else results[0][0]
     _common.emit(data, args.format, records=[r for _, r in results])
     return 0

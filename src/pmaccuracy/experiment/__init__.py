@@ -56,6 +56,7 @@ from ..accuracy.bounds import PoseErrorBounds, max_pose_errors
 from ..model.clearances import ClearanceSet
 from ..errors import ConfigError, OutsideJointLimitsError
 from ..model.manipulator import Manipulator
+from ..model.plausibility import check_orientations
 from ..kinematics import DEFAULT_MAX_CONDITION, check_within_limits, inverse_kinematics
 from .measurements import CSV_COLUMNS, DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, MAX_DEVIATION_DEG, MAX_DEVIATION_MM, NOMINAL_TOLERANCE, PUSH_AXES, PUSHES, Measurements, _nominal_deg, _wrap_deg, load_measurements, write_measurements
 from ..io.resolve import load_clearances
@@ -308,6 +309,8 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     OutsideJointLimitsError : a nominal pose outside the joint ranges (names the point and line)
     SingularPoseError : a nominal pose at or near det A = 0
     """
+    if isinstance(measurements, Measurements):   # a file's phi_nom_deg is checked by its reader
+        check_orientations(measurements.nominal, "measurements.nominal", poses=True)
     robot = robot_arg(robot)
     clearances = load_clearances(clearances, robot)
     if not isinstance(measurements, Measurements):

@@ -68,6 +68,7 @@ from ..accuracy.distributions import error_jacobian, sample_sources
 from ..accuracy.distributions import to_displacements, source_terms
 from ..accuracy.nonlinear import joint_displaced_pose
 from ..kinematics import inverse_kinematics
+from ..model.plausibility import check_orientations
 
 #: Header of a repeated-pose CSV file.
 REPEAT_COLUMNS = ("point", "x_nom", "y_nom", "phi_nom_deg", "cycle", "x", "y", "phi_deg")
@@ -316,6 +317,7 @@ def predicted_repeatability(robot, clearances, nominal: np.ndarray, cycles: int,
     """RP_l and RP_phi the clearance model predicts at commanded poses ``(m, 3)`` [mm, mm, rad] for ISO tests
     of ``cycles`` cycles: ``tests`` simulated tests per point, each cycle a fresh source state
     (:func:`pmaccuracy.accuracy.distributions.sample_sources`) through the first-order model, plus Gaussian noise."""
+    check_orientations(nominal, "nominal", poses=True)
 
     if int(cycles) != cycles or cycles < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {cycles}", key="cycles")
@@ -349,6 +351,7 @@ def simulate_repeats(robot, clearances, nominal: np.ndarray, cycles: int, *, dis
     with a fresh random source state inside the sets (:func:`pmaccuracy.accuracy.distributions.sample_sources`): the
     pose the perturbed loops close at (``model="exact"``, :func:`pmaccuracy.accuracy.nonlinear.joint_displaced_pose`) or
     the first-order one, plus Gaussian noise (``noise_mm`` on x and y, ``noise_deg`` on phi)."""
+    check_orientations(nominal, "nominal", poses=True)
 
     if model not in ("exact", "first_order"):
         raise ConfigError(f"unknown reading model {model!r} (choose from exact, first_order)", key="model")
@@ -383,6 +386,8 @@ def compare_repeatability(robot, clearances, repeats: RepeatedPoses | str | Path
     model's ``rp_l_model, rp_l_model_lo, rp_l_model_hi`` (mm), ``rp_phi_model_deg, rp_phi_model_lo_deg,
     rp_phi_model_hi_deg`` (deg).
     """
+    if isinstance(repeats, RepeatedPoses):   # a file's orientations are degrees, checked by its reader
+        check_orientations(repeats.nominal, "repeats.nominal", poses=True)
 
     robot = robot_arg(robot)
     if not isinstance(repeats, RepeatedPoses):

@@ -23,6 +23,7 @@ from ..model.clearances import ClearanceDisplacement, ClearanceSet
 from ..accuracy.error_model import pose_state
 from ..errors import ConfigError
 from ..model.manipulator import Manipulator
+from ..model.plausibility import check_orientations
 from ..kinematics import as_poses, regular_mask
 from .measurements import DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, Measurements
 from ..model.sources import ErrorSources
@@ -156,7 +157,7 @@ def simulate_readings(robot: Manipulator | str, clearances: ClearanceSet | str, 
     ConfigError : take_up outside [0, 1], negative noise, unknown model
     OutsideJointLimitsError, SingularPoseError : unusable nominal poses
     """
-
+    check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     clearances = load_clearances(clearances, robot)
     _check_simulation(float(take_up), float(noise_mm), float(noise_deg), model)
@@ -247,6 +248,7 @@ def simulate_experiment(robot: Manipulator | str, clearances: ClearanceSet | str
 
     See :func:`simulate_readings` for the readings; write them with :func:`write_measurements`.
     """
+    check_orientations(phi, "phi")
     robot = robot_arg(robot)
     clearances = load_clearances(clearances, robot)
     _check_simulation(float(take_up), float(noise_mm), float(noise_deg), model)

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import ConfigError, GeometryError, NoSolutionError, OutsideJointLimitsError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator, perp, unit
+from ..model.plausibility import check_orientations
 from ..numerics.linalg import inverse_3x3
 from ..numerics.screws import wrap
 
@@ -128,6 +129,7 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     >>> (inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6) + 0.0).tolist()   # (+ 0.0: no -0.0)
     [-15.0, -15.0, 0.0]
     """
+    check_orientations(poses, "poses", poses=True)
     robot = resolve_robot(robot)  # a preset name or a TOML path too
     poses = as_poses(poses)
     return ik_from_states(robot, leg_states(robot, poses), tol)
@@ -461,6 +463,9 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
         raise PoseError(f"actuator values must have shape (..., 3), got {q.shape}")
     if not np.all(np.isfinite(q)):
         raise PoseError("actuator values must be finite")
+    revolute = [chain.actuated.kind == "R" for chain in robot.chains]
+    if any(revolute):   # revolute actuators' values in rad: degrees typed in warn
+        check_orientations(q[..., revolute], "q (revolute actuators)", "revolute joint values")
     if np.any(np.abs(q) > MAX_ACTUATOR_VALUE):  # the eliminant's coefficients would overflow
         raise PoseError(f"actuator values must be below {MAX_ACTUATOR_VALUE:g} in magnitude (mm or rad), got "
                         f"{q[np.abs(q) > MAX_ACTUATOR_VALUE].reshape(-1)[0]:g}")
@@ -612,6 +617,7 @@ def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.nda
     ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` and ``B = diag(w_i^T E^T u_i)`` (Eq. 4a, 4b).
     NaN where a leg cannot reach the pose.
     """
+    check_orientations(poses, "poses", poses=True)
     ik = inverse_kinematics(robot, poses)
     return ik.A, ik.B
 
@@ -685,6 +691,8 @@ def raw_transmission(robot: Manipulator, states: tuple) -> list:
 
 def singularity(robot: Manipulator, poses: np.ndarray) -> Singularity:
     """det A, the condition number of the homogenized A and the legs' transmission indices (Eq. 4a-4b)."""
+    check_orientations(poses, "poses", poses=True)
+    robot = resolve_robot(robot)  # a preset name or a TOML path too
     poses = as_poses(poses)
     ik = inverse_kinematics(robot, poses)
     A_inv, det = inverse_3x3(ik.A)
@@ -785,5 +793,7 @@ def require_within_limits(robot: Manipulator, poses: np.ndarray, tol: float = LI
 def kinematic_jacobian(robot: Manipulator, poses: np.ndarray,
                        max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
     """``J = A^-1 B`` (Eq. 5), ``(..., 3, 3)``: ``[dx, dy, dphi] = J dq``. Refuses singular poses."""
+    check_orientations(poses, "poses", poses=True)
+    robot = resolve_robot(robot)  # a preset name or a TOML path too
     A, B = jacobians(robot, poses)
     return regular_inverse(robot, A, poses, max_condition) @ B

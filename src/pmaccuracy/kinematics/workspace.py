@@ -35,6 +35,7 @@ import numpy as np
 from .._savefig import DEFAULT_DPI, save_figure
 from ..errors import EmptyWorkspaceError, GeometryError, PoseError
 from ..model.manipulator import Manipulator
+from ..model.plausibility import check_orientations
 from . import LIMIT_TOLERANCE, inverse_kinematics, resolve_robot
 from ..model.legs import Curve
 
@@ -273,8 +274,10 @@ def constant_orientation_workspace(robot: Manipulator, phi: float, tol: float = 
     """The exact workspace of ``robot`` at orientation ``phi`` (rad), paper Sec. 3 (module docstring).
 
     Raises :class:`GeometryError` when the region is unbounded (passive slides
-    without ranges); an empty workspace is returned as such (``is_empty``).
+    without ranges); an empty workspace is returned as such (``is_empty``). An orientation beyond a full
+    turn warns (:func:`pmaccuracy.model.plausibility.check_orientations`: degrees typed as radians).
     """
+    check_orientations(phi, "phi")
     robot = resolve_robot(robot)  # a preset name or a TOML path too
     try:
         phi = float(phi)

@@ -92,6 +92,8 @@ class ClearanceSet(_tomlio.TomlPresets):
         object.__setattr__(self, "revolute_radial", _as3("revolute_radial", revolute_radial))
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "description", description)
+        if plausibility.called_by_user():   # built in Python (files are checked by their reader): units
+            plausibility.warn(plausibility.clearance_set_messages(self, "ClearanceSet"))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ClearanceSet):

@@ -25,6 +25,11 @@ mechanisms are micrometres and milliradians):
   to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
 * (command line only) measurement noise or accuracy options above 1 mm or 1 deg, error targets and
   thresholds above 1 mm or 1 deg (``pmaccuracy.cli._size_messages``);
+* (Python API) an **orientation in radians that looks like degrees**: ``|phi| > 2 pi`` (more than a
+  full turn, :data:`MAX_ORIENTATION_RAD`), the one rule no legitimate orientation breaks: a planar platform's
+  orientation never needs more than a turn, while 15, 30, 90 deg typed as radians all exceed it.
+  :func:`check_orientations` issues it, once per call of a public function (the package's own calls and
+  the command line, whose angles are degrees by construction, are not checked again);
 * a **first-order result beyond the linear model's validity**: a worst-case
   ``dphi_max`` above :data:`MAX_LINEAR_DPHI_DEG` = 1 deg. The error model
   (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
@@ -43,6 +48,7 @@ Example
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 
@@ -58,6 +64,8 @@ BLOCK_LENGTH_RANGE_MM = (1.0, 1000.0)
 RADIAN_MATCH = 5e-4
 #: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
 MAX_LINEAR_DPHI_DEG = 1.0
+#: Largest |orientation| (rad) the API takes without a warning: a full turn (module docstring).
+MAX_ORIENTATION_RAD = 2 * math.pi
 #: Largest share of the values listed in one message.
 _SHOWN = 3
 
@@ -110,6 +118,93 @@ def clearance_messages(values: Mapping[str, tuple[float, str]], what: str = "cle
             out.append(f"{name} = {_g(value)} mm is outside [{_g(lo)}, {_g(hi)}] mm, the range of guide blocks "
                        f"(is it in m or um?)")
     return out
+
+
+def looks_like_degrees(phi_rad: np.ndarray | float) -> np.ndarray:
+    """True where an angle given in radians looks like degrees: ``|phi| > 2 pi`` (:data:`MAX_ORIENTATION_RAD`
+    plus 1e-9 of rounding), same shape; NaN and infinities are left to the callers' own checks."""
+    v = np.abs(np.asarray(phi_rad, dtype=float))
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(v) & (v > MAX_ORIENTATION_RAD + 1e-9)
+
+
+def degree_slip_messages(phi_rad: np.ndarray | float, where: str, what: str = "orientations") -> list[str]:
+    """One message if some angles (rad, any shape) look like degrees (:func:`looks_like_degrees`); ``where``
+    names the argument, ``what`` the kind of angle.
+
+    >>> degree_slip_messages(15.0, "phi")
+    ['phi = 15 rad = 859.4 deg: pass radians, e.g. np.radians(15)']
+    """
+    values = np.asarray(phi_rad, dtype=float).reshape(-1)
+    hits = values[looks_like_degrees(values)]
+    if hits.size == 0:
+        return []
+    first = float(hits[0])
+    example = f"{_g(first)} rad = {_g(round(math.degrees(first), 1))} deg: pass radians, e.g. np.radians({_g(first)})"
+    if values.size == 1:
+        return [f"{where} = {example}"]
+    return [f"{where}: {hits.size} of {values.size} {what} beyond a full turn (2 pi rad), e.g. {example}"]
+
+
+def _called_from_package(depth: int) -> bool:
+    """Whether the frame ``depth`` levels above the caller belongs to this package (its own calls, the CLI)."""
+    try:
+        frame = sys._getframe(depth + 1)
+    except ValueError:
+        return False
+    name = frame.f_globals.get("__name__", "")
+    return name == "pmaccuracy" or name.startswith("pmaccuracy.")
+
+
+def called_by_user(skip: int = 0) -> bool:
+    """Whether the function calling this was called from outside the package (user code), ``skip`` package
+    frames (a dataclass's generated ``__init__``) further up; the package's own calls and the command line
+    have checked their values already (:func:`check_orientations`)."""
+    return not _called_from_package(2 + skip)
+
+
+def warn_caller(messages: Iterable[str]) -> None:
+    """Issue ``messages`` as :class:`PlausibilityWarning` pointing at the caller of the public function that
+    calls this, only when that caller is outside the package (as :func:`check_orientations`)."""
+    if _called_from_package(2):
+        return
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=3)
+
+
+def check_orientations(phi_rad, where: str, what: str = "orientations", *, poses: bool = False) -> None:
+    """Warn (:class:`PlausibilityWarning`, one line) when angles passed in radians look like degrees.
+
+    The rule: ``|phi| > 2 pi`` (:func:`looks_like_degrees`): a full turn, which no planar orientation needs and
+    which 15, 30, 90 deg typed as radians all exceed. ``phi_rad``: angles of any shape (rad), or with
+    ``poses=True`` poses ``(..., 3)`` [mm, mm, rad] whose last column is checked (``where`` then names the
+    argument, the message says ``where[..., 2]``). Malformed input is left to the caller's own checks.
+
+    Call it first thing in a public function: it checks only when that function was called from outside the
+    package (user code), so the package's own calls, and the command line (which converts degrees itself
+    and checks them with :func:`orientation_messages`), never warn twice for one slip. The warning points
+    at the user's line.
+
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_orientations([[0.0, 0.0, 15.0]], "poses", poses=True)
+    >>> print(caught[0].message)
+    poses[..., 2] = 15 rad = 859.4 deg: pass radians, e.g. np.radians(15)
+    """
+    if _called_from_package(2):
+        return
+    try:
+        values = np.asarray(phi_rad, dtype=float)
+        if poses:
+            if values.ndim == 0 or values.shape[-1] != 3:
+                return
+            values, where = values[..., 2], f"{where}[..., 2]"
+        messages = degree_slip_messages(values, where, what)
+    except (TypeError, ValueError):
+        return
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=3)
 
 
 def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:

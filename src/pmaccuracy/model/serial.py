@@ -72,6 +72,7 @@ import numpy as np
 from . import _tomlio
 from ..errors import ClearanceError, ConfigError, GeometryError, OutsideJointLimitsError, PoseError
 from .legs import check_block
+from .plausibility import check_orientations
 from ..numerics.screws import expi
 from .sources import DEFAULT_BLOCK_LENGTH, FIRST_ORDER_ONLY, KEYS, JointErrors
 
@@ -615,6 +616,12 @@ def max_serial_errors(arm: SerialArm, sources, q: np.ndarray, *, allow_outside: 
     :class:`~pmaccuracy.errors.OutsideJointLimitsError` unless ``allow_outside``.
     ``details=True`` adds the worst-case source values (:class:`SerialErrorBounds`).
     """
+    try:   # revolute joint values in rad: degrees typed in warn (malformed q: check_joints names it)
+        revolute = np.asarray(q, dtype=float)[..., [k == "R" for k in arm.kinds]]
+    except (TypeError, ValueError, IndexError):
+        revolute = None
+    if revolute is not None:
+        check_orientations(revolute, "q (revolute joints)", "revolute joint values")
     sources = load_serial_sources(sources, arm)
     q = arm.check_joints(q, allow_outside=allow_outside)
     G, layout = error_generators(arm, sources, q)

@@ -155,6 +155,16 @@ class ErrorSources:
     name: str = "custom"
     KIND: ClassVar[str] = "clearance"
 
+    def __post_init__(self) -> None:
+        """Built in Python (not read from a file, whose reader checks it): warn about values in unlikely units
+        (:func:`pmaccuracy.model.plausibility.error_sources_messages`)."""
+        if plausibility.called_by_user(skip=1):   # the caller of the generated __init__
+            try:
+                messages = plausibility.error_sources_messages(self, "ErrorSources")
+            except (TypeError, ValueError, AttributeError):   # malformed: check() names it
+                return
+            plausibility.warn(messages, stacklevel=3)
+
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "ErrorSources":
         """Parse the per-joint clearance/tolerance format (module docstring)."""

@@ -161,6 +161,7 @@ import numpy as np
 from ..._display import html_table, summary, value_range
 
 from ...errors import CertificationError
+from ...model.plausibility import check_orientations
 from .ascent import _ascent, _first_order_starts, _nonlinear, _objective_gradient  # noqa: F401 (the package's names)
 from .branch import (  # noqa: F401 (the package's names)
     DISK_SECTORS,
@@ -311,7 +312,7 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     >>> bool(r.first_order["dx"][0] <= r.lower["dx"][0] <= r.upper["dx"][0])
     True
     """
-
+    check_orientations(poses, "poses", poses=True)
     if on_failure not in ("raise", "nan"):
         raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
     robot, sources, poses = _prepare(robot, clearances, poses)
@@ -382,7 +383,7 @@ def nonlinear_pose_errors(robot, clearances, poses, *, allow_outside: bool = Fal
     Returns a :class:`CertifiedPoseErrors` with ``lower`` (the values), ``worst``, ``first_order`` and, when
     the certificate holds, ``upper`` and ``gap`` (NaN otherwise); arguments as :func:`certified_pose_errors`.
     """
-
+    check_orientations(poses, "poses", poses=True)
     robot, sources, poses = _prepare(robot, clearances, poses)
     fo = max_pose_errors(robot, sources, poses, allow_outside=allow_outside)
     rb = remainder_bounds(robot, sources, poses)
