@@ -88,6 +88,12 @@ def _calls():
         "predicted_repeatability": lambda phi: predicted_repeatability(PPR, "case1", _pose(phi), 3, tests=3),
         "simulate_repeats": lambda phi: simulate_repeats(PPR, "case1", _pose(phi), 3, model="first_order"),
         "compare_repeatability": lambda phi: compare_repeatability(PPR, "case1", _repeats(phi), tests=3),
+        "statics": lambda phi: pm.statics(PPR, _pose(phi), pm.Load(fx=1.0)),
+        "largest_disc": lambda phi: pm.largest_disc(PPR, "case1", (0.0, 0.0), (phi, phi), {"dp": 0.5}, tol=10.0),
+        "loaded_pose_error": lambda phi: pm.loaded_pose_error(PPR, "case1", _pose(phi), pm.Load(fx=1.0),
+                                                              exact=False),
+        "wrench_set_errors": lambda phi: pm.wrench_set_errors(PPR, "case1", _pose(phi), [1.0, 0, 0], [1.0, 1, 1]),
+        "design_preload": lambda phi: pm.design_preload(PPR, "case1", _pose(phi)[0], [0.0, 0, 0], [1.0, 1, 1]),
     }
 
 
@@ -103,6 +109,7 @@ NO_ORIENTATION = {
     "load_robot": "a robot spec", "load_clearances": "a clearance spec", "save_map": "a dataset and a path",
     "load_map": "a path (the map's phi coordinate is in degrees)",
     "synthesize": "a Region, checked where it is made (make_region)",
+    "load_polygon": "a polygon file (mm)",
 }
 
 

@@ -208,7 +208,7 @@ def make_region(robot: Manipulator, phi: tuple[float, float],
     if np.shape(phi) != (2,):
         raise ConfigError(f"the orientation interval must be two numbers (lo, hi) in rad, got {phi!r}",
                           key="phi")
-    if box is not None and np.shape(box) != (4,):
+    if box is not None and not isinstance(box, (Disc, Polygon, Rect)) and np.shape(box) != (4,):
         raise ConfigError(f"the box must be four numbers (x0, x1, y0, y1) in mm or None, got {box!r}",
                           key="box")
     lo, hi = (float(v) for v in phi)
@@ -531,6 +531,7 @@ def largest_disc(robot: Manipulator, clearances, centre: tuple[float, float], ph
     >>> res.radius_upper - res.radius_lower <= 1.0
     True
     """
+    check_orientations(phi, "phi")
     robot = robot_arg(robot)
     if not (tol > 0 and np.isfinite(tol)):
         raise ConfigError(f"must be > 0 mm, got {tol}", key="tol")

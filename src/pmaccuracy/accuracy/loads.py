@@ -170,6 +170,7 @@ def statics(robot: Manipulator | str, poses, load: Load) -> Statics:
     >>> bool(np.allclose(np.einsum("ij,i->j", wrench_rows("symmetric_3rpr", [0.0, 0.0, 0.0]), st.intensity), [-3, 0, 0]))
     True
     """
+    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     poses = as_poses(poses)
     if not isinstance(load, Load):
@@ -282,6 +283,7 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     >>> bool(np.isclose(r.first_order[0], b.dx_max))     # a push along +x reaches +dx_max
     True
     """
+    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     clearances = clearances_arg(clearances, robot)
     sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
@@ -357,6 +359,7 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     is taken over the reached patterns. A box that reaches a leg's zero (``delta`` in ``[-threshold,
     threshold]`` only) makes that leg unloaded somewhere: it counts as flipping.
     """
+    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     c, h = _box(center, half)
     poses = as_poses(poses).reshape(-1, 3)
@@ -416,6 +419,7 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
     W in the box`` (``s_i L_i P >= margin - s_i L_i center + sum_j |L_ij| half_j``, ``|P_j| / scale_j <= z``;
     scipy HiGHS), the best of the eight patterns.
     """
+    plausibility.check_orientations(pose, "pose", poses=True)
     robot = robot_arg(robot)
     c, h = _box(center, half)
     pose = as_poses(pose).reshape(1, 3)
