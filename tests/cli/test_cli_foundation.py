@@ -274,6 +274,6 @@ def test_workspace_several_orientations(tmp_path, capsys, monkeypatch):
         ("aalborg_3ppr", 0), ("aalborg_3ppr", 30), ("symmetric_3ppr", 0), ("symmetric_3ppr", 30)]
     drawn = {}
     monkeypatch.setattr(ws_module, "save_workspace_figure",
-                        lambda robot, path, phis_deg: drawn.setdefault("phis", phis_deg))
+                        lambda robot, path, phis_deg, **kw: drawn.setdefault("phis", phis_deg))
     code, _, _ = run(["workspace", "--phi-deg", 10, "--phi-deg", -20, 10, "--plot", tmp_path / "w.png"], capsys)
     assert code == 0 and drawn["phis"] == (10.0, -20.0)   # exactly the requested ones, each once
