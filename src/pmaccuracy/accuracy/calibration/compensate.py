@@ -78,8 +78,8 @@ def compensate(ident: Identification, targets: np.ndarray, *, clearances=None, s
     cov = np.einsum("til,lk,tjk->tij", A, ident.covariance, A)
     sigma = np.sqrt(np.clip(np.einsum("tii->ti", cov), 0, None))
     fit = ident.residuals_after
-    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma,
-               fit_rms_position=float(np.sqrt(np.nanmean(np.sum(fit[:, :2] ** 2, axis=1)))))
+    rms = float(np.sqrt(np.nanmean(np.sum(fit[:, :2] ** 2, axis=1)))) if len(fit) else float("nan")
+    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma, fit_rms_position=rms)
     if clearances is not None:
         robot = pv.split(ident.values)[0]
         poses = frame_apply(ident.values[-3:], targets)

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, stats
 
-from ...errors import GeometryError, MeasurementFileError
+from ...errors import ConfigError, GeometryError, MeasurementFileError
+from ...model.manipulator import Manipulator
 from .data import CalibrationData
 from .identifiability import Identifiability, RTOL, analyse
 from .parameters import ParameterVector, error_parameters, frame_apply, joint_values
@@ -240,3 +241,53 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
                           rms_after=float(np.sqrt(np.mean(sol.fun ** 2))),
                           outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
                           nfev=int(nfev), n_points=len(data))
+
+
+def identification_to_dict(ident: Identification) -> dict:
+    """A JSON-ready record of ``ident``: the nominal robot file, every parameter (nominal, estimate, sigma;
+    angles in rad, as in the code, units stated), the covariance of the identified ones, the
+    identifiability (fixed parameters and their combinations in words, singular values, O1-O4) and the fit."""
+    idf = ident.identifiability
+    return {"robot": ident.parameters.robot.to_dict(), "parameters": ident.estimates(),
+            "covariance": ident.covariance.tolist(),
+            "identifiability": {"identified": list(idf.identified), "fixed": list(idf.fixed),
+                                "combinations": list(idf.combinations),
+                                "singular_values": idf.singular_values.tolist(), "condition": idf.condition,
+                                "O1": idf.O1, "O2": idf.O2, "O3": idf.O3, "O4": idf.O4},
+            "fit": {"points": ident.n_points, "rms_before": ident.rms_before, "rms_after": ident.rms_after,
+                    "scale": ident.scale, "outliers": list(ident.outliers), "nfev": ident.nfev,
+                    "rms_position_before_mm": _rms_mm(ident.residuals_before),
+                    "rms_position_after_mm": _rms_mm(ident.residuals_after)}}
+
+
+def _rms_mm(res: np.ndarray) -> float:
+    return float(np.sqrt(np.nanmean(np.sum(res[:, :2] ** 2, axis=1))))
+
+
+def identification_from_dict(record: dict, source: str = "<identification>") -> Identification:
+    """Rebuild an :class:`Identification` from :func:`identification_to_dict` (for compensation); raises
+    :class:`~pmaccuracy.errors.ConfigError` naming the key of a malformed record."""
+    try:
+        pv = error_parameters(Manipulator.from_dict(record["robot"], source=source))
+        by_name = {p["name"]: p for p in record["parameters"]}
+        values = np.array([float(by_name[n]["estimate"]) for n in pv.names])
+        sigma = np.array([float(by_name[n]["sigma"]) for n in pv.names])
+        idf = record["identifiability"]
+        fit = record["fit"]
+        cov = np.array(record["covariance"], dtype=float).reshape(len(idf["identified"]), len(idf["identified"]))
+        ident = Identifiability(identified=tuple(idf["identified"]), fixed=tuple(idf["fixed"]),
+                                combinations=tuple(idf["combinations"]),
+                                null_directions=np.zeros((len(idf["fixed"]), len(pv.names))),
+                                singular_values=np.array(idf["singular_values"], dtype=float),
+                                condition=float(idf["condition"]), O1=float(idf["O1"]), O2=float(idf["O2"]),
+                                O3=float(idf["O3"]), O4=float(idf["O4"]))
+        pv.index(ident.identified)
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, ConfigError):
+            raise ConfigError(exc.message, source=source, key=exc.key) from None
+        raise ConfigError(f"not an identification record ({exc.__class__.__name__}: {exc})", source=source) from None
+    empty = np.zeros((0, 3))
+    return Identification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=ident,
+                          residuals_before=empty, residuals_after=empty, rms_before=float(fit["rms_before"]),
+                          rms_after=float(fit["rms_after"]), outliers=tuple(fit["outliers"]),
+                          scale=float(fit["scale"]), nfev=int(fit["nfev"]), n_points=int(fit["points"]))

@@ -203,6 +203,7 @@ def robot_file(pv: ParameterVector, values: np.ndarray, name: str | None = None)
     robot, _, _, _ = pv.split(values)
     out = robot.to_dict()
     out["name"] = name or f"{pv.robot.name}_identified"
+    out["description"] = f"{pv.robot.name} with its geometry identified by kinematic calibration"
     return out
 
 

@@ -63,11 +63,12 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
 
 @dataclass(frozen=True)
 class Experiment:
-    """Result of :func:`simulate`: the ``true`` parameters, the ``identification``, the ``compensation`` at the
+    """Result of :func:`simulate`: the ``true`` parameters, the measured ``data``, the ``identification``, the ``compensation`` at the
     targets, and the pose errors measured on the true robot at the targets before (nominal commands) and after
     (compensated commands): ``errors_before`` / ``errors_after`` ``(T, 3)`` (mm, mm, rad, measurement frame)."""
 
     true: np.ndarray
+    data: CalibrationData
     identification: Identification
     compensation: Compensation
     targets: np.ndarray
@@ -109,5 +110,5 @@ def simulate(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sig
                     clearances=clearances, seed=seed + 3) - targets
     for e in (before, after):
         e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
-    return Experiment(true=true, identification=ident, compensation=comp, targets=targets, errors_before=before,
+    return Experiment(true=true, data=data, identification=ident, compensation=comp, targets=targets, errors_before=before,
                       errors_after=after)
