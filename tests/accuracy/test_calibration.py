@@ -15,7 +15,7 @@ from pmaccuracy.accuracy.calibration.data import CalibrationData, read_calibrati
 from pmaccuracy.accuracy.calibration.identify import identify
 from pmaccuracy.accuracy.calibration.parameters import error_parameters, joint_values, robot_file
 from pmaccuracy.accuracy.calibration.plan import candidate_poses, plan_poses
-from pmaccuracy.accuracy.calibration.simulate import measure, simulate, true_parameters
+from pmaccuracy.accuracy.calibration.simulate import measure, simulate_calibration, true_parameters
 from pmaccuracy.errors import ConfigError, MeasurementFileError
 from pmaccuracy.model.legs import ChainLeg
 from pmaccuracy.model.manipulator import Manipulator
@@ -115,7 +115,7 @@ def test_planned_poses_beat_random_and_grid(name):
 
 def test_noisy_fit_within_three_sigma_and_compensation_within_floor():
     pv = error_parameters(_robot("symmetric_3rrr", 5))
-    ex = simulate(pv, 40, seed=3, clearances="rrr_typical", true_fixed=("frame.x", "frame.y", "frame.phi"))
+    ex = simulate_calibration(pv, 40, seed=3, clearances="rrr_typical", true_fixed=("frame.x", "frame.y", "frame.phi"))
     ident = ex.identification
     free = pv.index(ident.identifiability.identified)
     z = (ident.values - ex.true)[free] / ident.sigma[free]

@@ -218,7 +218,7 @@ def run_simulate(args: argparse.Namespace) -> int:
 
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.data import write_calibration_csv
-    from ..accuracy.calibration.simulate import simulate
+    from ..accuracy.calibration.simulate import simulate_calibration
     from ..errors import ConfigError
 
     for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
@@ -229,7 +229,7 @@ def run_simulate(args: argparse.Namespace) -> int:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
     pv = error_parameters(_common.load_robot(args))
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
-    ex = simulate(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
+    ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
                   error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)})
     ident = ex.identification
     if args.data_out:

@@ -28,7 +28,7 @@ from ...errors import ConfigError, GeometryError, MeasurementFileError
 from ...model.manipulator import Manipulator
 from .data import CalibrationData
 from .identifiability import Identifiability, RTOL, analyse
-from .parameters import ParameterVector, error_parameters, frame_apply, joint_values
+from .parameters import ParameterVector, error_parameters, frame_apply, joint_values, leg_joint_value
 
 #: Outlier threshold: the chi-square(3) quantile of a point's whitened residual norm squared.
 OUTLIER_QUANTILE = 0.999
@@ -46,8 +46,8 @@ def _steps(pv: ParameterVector) -> np.ndarray:
 def raw_residuals(pv: ParameterVector, values: np.ndarray, commands: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """``r (N, 3)``: exact IK actuated values at the measured poses minus ``offset + gain * command`` (mm/rad;
     revolute differences wrapped to (-pi, pi]); NaN where a leg cannot reach."""
-    _, off, gain, _ = pv.split(values)
-    r = joint_values(pv, values, poses) - (off + gain * commands)
+    off_i, gain_i = pv.actuator_slices
+    r = joint_values(pv, values, poses) - (values[off_i] + values[gain_i] * commands)
     rev = np.array([c.actuated.kind == "R" for c in pv.robot.chains])
     return np.where(rev, np.angle(np.exp(1j * r)), r)
 
@@ -87,12 +87,40 @@ def whitened(pv, values, data, W) -> np.ndarray:
     return np.where(np.isfinite(e), e, UNREACHABLE)
 
 
+def _leg_of(pv: ParameterVector, j: int) -> int | None:
+    """The leg (0-based) whose residual alone parameter ``j`` changes; None for the frame."""
+    name = pv.names[j]
+    return int(name[3]) - 1 if name.startswith("leg") else None
+
+
 def jacobian(pv, values, data, W, cols=None) -> np.ndarray:
-    """``de/dtheta (3N, len(cols))`` by central differences of the exact model."""
+    """``de/dtheta (3N, len(cols))`` by central differences of the exact model (a leg's parameter changes only
+    that leg's residual ``r_i``: ``de/dtheta_j = W[:, :, i] dr_i/dtheta_j``, one leg's inverse kinematics)."""
     cols = range(len(pv.names)) if cols is None else cols
     h = _steps(pv)
+    values = np.asarray(values, dtype=float)
+    poses = frame_apply(values[-3:], data.poses)
+    off_i, gain_i = pv.actuator_slices
+    rev = [c.actuated.kind == "R" for c in pv.robot.chains]
     out = []
     for j in cols:
+        i = _leg_of(pv, j)
+        if i is not None:
+            vp, vm = values.copy(), values.copy()
+            vp[j] += h[j]
+            vm[j] -= h[j]
+            try:
+                d = [leg_joint_value(pv, v, i, poses) - (v[off_i[i]] + v[gain_i[i]] * data.commands[:, i])
+                     for v in (vp, vm)]
+            except GeometryError:
+                out.append(np.zeros(3 * len(data)))
+                continue
+            dr = d[0] - d[1]
+            if rev[i]:
+                dr = np.angle(np.exp(1j * dr))
+            col = W[:, :, i] * (dr / (2 * h[j]))[:, None]
+            out.append(np.where(np.isfinite(col), col, 0.0).ravel())
+            continue
         vp, vm = values.copy(), values.copy()
         vp[j] += h[j]
         vm[j] -= h[j]

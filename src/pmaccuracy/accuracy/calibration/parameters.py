@@ -158,6 +158,24 @@ class ParameterVector:
         off_i, gain_i = self.actuator_slices
         return robot, values[off_i], values[gain_i], values[-3:]
 
+    @property
+    def leg_slices(self) -> tuple[slice, slice, slice]:
+        """Positions of each leg's geometric parameters in the vector."""
+        out, k = [], 0
+        for leg in self.robot.legs:
+            n = len(_leg_spec(leg))
+            out.append(slice(k, k + n))
+            k += n
+        return tuple(out)
+
+    def leg_chain(self, values: np.ndarray, i: int):
+        """The chain (:class:`~pmaccuracy.model.chain.Chain`) of leg ``i`` (0-based) with the geometry in
+        ``values``, without building the robot (fast path of the identification)."""
+        leg = self.robot.legs[i]
+        for v, (_, _, _, put) in zip(np.asarray(values, dtype=float)[self.leg_slices[i]], _leg_spec(leg)):
+            leg = put(leg, v)
+        return leg.chain
+
     def table(self, values: np.ndarray | None = None) -> dict[str, float]:
         """``{name: value}`` of ``values`` (default: the nominal)."""
         values = self.nominal if values is None else np.asarray(values, dtype=float)
@@ -230,9 +248,15 @@ def frame_inverse(frame: np.ndarray, poses: np.ndarray) -> np.ndarray:
 def joint_values(pv: ParameterVector, values: np.ndarray, measured: np.ndarray) -> np.ndarray:
     """Actuated joint values ``(N, 3)`` (mm / rad) of the robot ``values`` at measured poses ``(N, 3)``: its
     exact inverse kinematics on each leg's working mode; NaN where a leg cannot reach the pose."""
-    robot, _, _, frame = pv.split(values)
-    poses = frame_apply(frame, measured)
-    return np.stack([c.inverse_kinematics(poses)[0][:, c.actuated_index] for c in robot.chains], axis=-1)
+    values = np.asarray(values, dtype=float)
+    poses = frame_apply(values[-3:], measured)
+    return np.stack([leg_joint_value(pv, values, i, poses) for i in range(3)], axis=-1)
+
+
+def leg_joint_value(pv: ParameterVector, values: np.ndarray, i: int, poses: np.ndarray) -> np.ndarray:
+    """Actuated joint value ``(N,)`` of leg ``i`` (0-based) at robot-frame poses ``(N, 3)``."""
+    c = pv.leg_chain(values, i)
+    return c.inverse_kinematics(poses)[0][:, c.actuated_index]
 
 
 def commands_for(pv: ParameterVector, values: np.ndarray, measured: np.ndarray) -> np.ndarray:

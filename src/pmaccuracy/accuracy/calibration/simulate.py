@@ -63,7 +63,7 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
 
 @dataclass(frozen=True)
 class Experiment:
-    """Result of :func:`simulate`: the ``true`` parameters, the measured ``data``, the ``identification``, the ``compensation`` at the
+    """Result of :func:`simulate_calibration`: the ``true`` parameters, the measured ``data``, the ``identification``, the ``compensation`` at the
     targets, and the pose errors measured on the true robot at the targets before (nominal commands) and after
     (compensated commands): ``errors_before`` / ``errors_after`` ``(T, 3)`` (mm, mm, rad, measurement frame)."""
 
@@ -81,7 +81,7 @@ class Experiment:
         return f"Experiment(max position error {b:.4g} mm -> {a:.4g} mm at {len(self.targets)} targets)"
 
 
-def simulate(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
+def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
              noise=(0.01, 0.01, np.radians(0.01)), clearances=None, n_targets: int = 50,
              true_fixed: tuple[str, ...] = ()) -> Experiment:
     """Run the virtual calibration experiment (module docstring): plan ``n_poses``, measure, identify,
