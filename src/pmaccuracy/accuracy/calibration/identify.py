@@ -33,8 +33,8 @@ from .parameters import ParameterVector, error_parameters, frame_apply, joint_va
 #: Outlier threshold: the chi-square(3) quantile of a point's whitened residual norm squared.
 OUTLIER_QUANTILE = 0.999
 #: A measured pose further than this (mm, or deg) from where the nominal robot puts the commands is refused.
-MAX_START_DEVIATION_MM = 5.0
-MAX_START_DEVIATION_DEG = 5.0
+MAX_START_DEVIATION_MM = 10.0
+MAX_START_DEVIATION_DEG = 10.0
 #: Penalty (whitened units) of a residual where the model cannot reach a measured pose during the fit.
 UNREACHABLE = 1e6
 
@@ -129,8 +129,10 @@ def jacobian(pv, values, data, W, cols=None) -> np.ndarray:
 
 
 def check_start(pv: ParameterVector, data: CalibrationData, frame: np.ndarray | None = None) -> None:
-    """Refuse points the nominal robot (and frame) cannot explain: a frame far from the robot's, a pose in
-    radians or metres, a command for another point. :class:`MeasurementFileError` naming the row."""
+    """Refuse data the nominal robot (and frame) cannot explain: a pose it cannot reach, or more than half the
+    points further than :data:`MAX_START_DEVIATION_MM` / :data:`MAX_START_DEVIATION_DEG` (first order) from where
+    it puts the commands (a frame far from the robot's, poses in radians or metres, commands of other points).
+    :class:`MeasurementFileError` naming the (first) row."""
     values = pv.nominal.copy()
     if frame is not None:
         values[-3:] = frame
@@ -138,19 +140,24 @@ def check_start(pv: ParameterVector, data: CalibrationData, frame: np.ndarray | 
     G = pose_sensitivity(pv, values, data.commands, data.poses)
     with np.errstate(all="ignore"):
         dm = np.linalg.solve(G, r[..., None])[..., 0]
+    far = np.zeros(len(data), dtype=bool)
     for n in range(len(data)):
         where = f"row {n + 1} (point {data.labels[n]})"
         if not np.all(np.isfinite(dm[n])):
             raise MeasurementFileError("the nominal robot cannot reach the measured pose: a measurement frame far "
                                        "from the robot's (give its pose, --frame X Y PHI_DEG) or a pose in other "
                                        "units (x, y in mm, phi_deg in degrees)", source=data.source, key=where)
+        far[n] = (np.hypot(*dm[n, :2]) > MAX_START_DEVIATION_MM or
+                  np.degrees(abs(dm[n, 2])) > MAX_START_DEVIATION_DEG)
+    if far.sum() > len(data) // 2:   # a single far point is left to the robust fit (an outlier)
+        n = int(np.flatnonzero(far)[0])
         dxy, dphi = float(np.hypot(*dm[n, :2])), float(np.degrees(abs(dm[n, 2])))
-        if dxy > MAX_START_DEVIATION_MM or dphi > MAX_START_DEVIATION_DEG:
-            raise MeasurementFileError(
-                f"the measured pose is {dxy:.3g} mm and {dphi:.3g} deg from where the nominal robot puts the "
-                f"commands (more than {MAX_START_DEVIATION_MM:g} mm or {MAX_START_DEVIATION_DEG:g} deg): a "
-                "measurement frame far from the robot's (give --frame X Y PHI_DEG), a pose in radians or metres, "
-                "or commands of another point", source=data.source, key=where)
+        raise MeasurementFileError(
+            f"the measured pose is {dxy:.3g} mm and {dphi:.3g} deg from where the nominal robot puts the commands "
+            f"(more than {MAX_START_DEVIATION_MM:g} mm or {MAX_START_DEVIATION_DEG:g} deg, as are {far.sum()} of "
+            f"{len(data)} points): a measurement frame far from the robot's (give --frame X Y PHI_DEG), poses in "
+            "radians or metres, or commands of other points", source=data.source,
+            key=f"row {n + 1} (point {data.labels[n]})")
 
 
 @dataclass(frozen=True)

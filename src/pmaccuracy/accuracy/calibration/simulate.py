@@ -24,6 +24,9 @@ from .identify import Identification, identify
 from .parameters import ParameterVector, commands_for, frame_apply, frame_inverse
 from .plan import candidate_poses, plan_poses
 
+#: A true pose further than this (mm, deg) from the nominal one counts as not reached (a singularity between).
+MAX_JUMP_MM = 5.0
+MAX_JUMP_DEG = 5.0
 #: Default 1-sigma parameter errors of the true robot: mm, rad, gain.
 DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
 
@@ -43,8 +46,10 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
     """Measured poses ``(N, 3)`` (measurement frame; mm, mm, rad) of the true robot at ``commands (N, 3)``.
 
     ``reference (N, 3)``: robot-frame poses near which the assembly mode is taken (the nominal poses).
-    NaN rows where the true robot has no assembly mode for the commands (it cannot get there).
+    NaN rows where the true robot has no assembly mode for the commands or none within :data:`MAX_JUMP_MM`
+    / :data:`MAX_JUMP_DEG` of the reference (it would have to pass a singularity: a real robot jams there).
     """
+    reference = np.asarray(reference, dtype=float)
     robot, off, gain, frame = pv.split(true_values)
     fk = forward_kinematics(robot, off + gain * np.asarray(commands, dtype=float))
     reach = np.any(fk.valid, axis=-1)
@@ -52,6 +57,10 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
     if np.any(reach):
         poses[reach] = FKSolution(fk.poses[reach], fk.valid[reach], fk.joints[reach], fk.within_limits[reach]
                                   ).nearest(np.asarray(reference, dtype=float)[reach])
+    jump = np.hypot(*(poses[:, :2] - reference[:, :2]).T) > MAX_JUMP_MM
+    jump |= np.abs(np.angle(np.exp(1j * (poses[:, 2] - reference[:, 2])))) > np.radians(MAX_JUMP_DEG)
+    reach &= ~jump
+    poses[~reach] = np.nan
     rng = np.random.default_rng(seed)
     if clearances is not None and np.any(reach):
         n = int(reach.sum())   # one independent clearance state per pose: the diagonal of (state, pose)
