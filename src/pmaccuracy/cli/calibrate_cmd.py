@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--grid", type=_common.positive_int, default=22, metavar="N",
                    help="candidates per axis in x and y (default 22; 21 orientations)")
     s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
-    s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings")
+    s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_plan)
 
@@ -40,8 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
                    help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
     s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
-    s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate)")
-    s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file")
+    s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
+    s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_identify)
 
@@ -52,7 +52,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--poses-csv", metavar="FILE", help="target poses from a CSV with columns x,y,phi_deg")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: the clearance floor (worst case and RMS) beside the prediction")
-    s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV")
+    s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
 
@@ -66,7 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
     s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
     s.add_argument("--data-out", metavar="FILE.csv",
-                   help="write the simulated measurements as a calibration CSV (input of calibrate identify)")
+                   help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_simulate)
 
