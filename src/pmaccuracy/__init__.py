@@ -19,6 +19,8 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
 * the certified worst case over a region: ``pm.global_worst(robot, cl, pm.make_region(robot, (lo, hi), box))``
   (a box, a ``pm.Disc`` or a ``pm.Polygon``; ``pm.largest_disc`` where targets hold);
 * design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
+* calibration: ``pm.plan_poses``, ``pm.identify`` (from ``pm.read_calibration_csv``), ``pm.compensate``,
+  ``pm.simulate_calibration`` (a virtual experiment);
 * kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``.
 
 Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming the file, key or argument.
@@ -69,6 +71,15 @@ _EXPORTS = {
     "pose_statistics": "accuracy.distributions", "PoseStatistics": "accuracy.distributions",
     **{name: "accuracy.loads" for name in ("Load", "LoadedError", "Statics", "loaded_pose_error", "statics",
                                            "WrenchSetErrors", "wrench_set_errors", "Preload", "design_preload")},
+    # calibration and compensation (issue 23)
+    "error_parameters": "accuracy.calibration.parameters", "ParameterVector": "accuracy.calibration.parameters",
+    "CalibrationData": "accuracy.calibration.data", "read_calibration_csv": "accuracy.calibration.data",
+    "write_calibration_csv": "accuracy.calibration.data",
+    "identify": "accuracy.calibration.identify", "Identification": "accuracy.calibration.identify",
+    "Identifiability": "accuracy.calibration.identifiability",
+    "plan_poses": "accuracy.calibration.plan", "Plan": "accuracy.calibration.plan",
+    "compensate": "accuracy.calibration.compensate", "Compensation": "accuracy.calibration.compensate",
+    "simulate_calibration": "accuracy.calibration.simulate", "Experiment": "accuracy.calibration.simulate",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

@@ -44,6 +44,8 @@ COMMANDS = {
     "worst": ("worst_cmd", "certified global worst case of dx, dy, dphi, dp over a region of poses (branch and bound)"),
     "synthesize": ("synthesize_cmd",
                    "tolerance synthesis: largest clearances per joint meeting worst-case targets everywhere in a region"),
+    "calibrate": ("calibrate_cmd", "kinematic calibration: plan poses, identify parameters from measurements, "
+                                   "compensate, simulate"),
     "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
     "load": ("load_cmd", "pose error under a known platform load: statics, reactions, clearances taken up (any architecture)"),
 }

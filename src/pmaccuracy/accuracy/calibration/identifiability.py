@@ -1,0 +1,135 @@
+"""Identifiability of the error parameters from a set of measured poses.
+
+The identification residual of point ``n`` (:mod:`.identify`) is the whitened inverse-kinematic residual
+``e_n = W_n (q(theta; F * m_n) - offset - gain * c_n)`` (3 numbers, one per leg); its Jacobian
+``J = de/dtheta`` ``(3N, P)`` is taken by central differences of the exact model. With the columns scaled
+to unit length (``J_s = J D^-1``, ``D = diag(|J_j|)``: parameters of different units compared fairly) the
+singular values ``s_1 >= ... >= s_L`` give
+
+* the condition number ``s_1 / s_L``;
+* the observability indices of the literature: ``O1 = (s_1 ... s_L)^(1/L) / sqrt(m)`` (Borm and Menq 1991,
+  D-optimal), ``O2 = s_L / s_1`` (Driels and Pathre 1990), ``O3 = s_L`` (Nahvi and Hollerbach 1996:
+  minimum singular value), ``O4 = s_L^2 / s_1`` (Nahvi and Hollerbach 1996: noise amplification);
+* the parameters the data cannot separate: columns are taken greedily in the order geometry, actuator
+  gains, actuator offsets, measurement frame, and a column is *fixed at nominal* when it adds a singular
+  value below ``rtol * s_1`` to those already taken. For each fixed parameter ``f`` the combination
+  ``delta theta = e_f + sum_k c_k e_k`` (``J_id c = -J_f``) leaves every residual unchanged to first order:
+  it is reported in words ("frame.x + 1 leg1.base.x + ...").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .parameters import ParameterVector
+
+#: A scaled singular value below RTOL times the largest one is taken as zero.
+RTOL = 1e-6
+
+
+def _priority(pv: ParameterVector) -> list[int]:
+    """Order in which the parameters are kept: geometry, gains, offsets, frame (fixed first when coupled)."""
+    def rank(name):
+        if name.startswith("frame."):
+            return 3
+        if name.endswith("actuator.offset"):
+            return 2
+        if name.endswith("actuator.gain"):
+            return 1
+        return 0
+    return sorted(range(len(pv.names)), key=lambda j: (rank(pv.names[j]), j))
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """What a Jacobian ``(m, P)`` can identify.
+
+    ``identified`` / ``fixed``: parameter names; ``combinations``: one sentence per fixed parameter;
+    ``null_directions (F, P)``: per fixed parameter the change ``e_f + sum_k c_k e_k`` (physical units) that
+    leaves the residuals unchanged (zero rows for parameters fixed by request);
+    ``singular_values``: of the column-scaled Jacobian of the identified parameters (descending);
+    ``condition``, ``O1``-``O4``: module docstring.
+    """
+
+    identified: tuple[str, ...]
+    fixed: tuple[str, ...]
+    combinations: tuple[str, ...]
+    null_directions: np.ndarray
+    singular_values: np.ndarray
+    condition: float
+    O1: float
+    O2: float
+    O3: float
+    O4: float
+
+    def __repr__(self) -> str:
+        return (f"Identifiability({len(self.identified)} identified, fixed={list(self.fixed)}, "
+                f"condition={self.condition:.4g}, O1={self.O1:.4g})")
+
+
+def observability_indices(s: np.ndarray, m: int) -> tuple[float, float, float, float]:
+    """``(O1, O2, O3, O4)`` of singular values ``s (L,)`` of a scaled Jacobian with ``m`` rows.
+
+    >>> [round(v, 6) for v in observability_indices(np.array([4.0, 1.0]), 4)]
+    [1.0, 0.25, 1.0, 0.25]
+    """
+    s = np.sort(np.asarray(s, dtype=float))[::-1]
+    if s.size == 0 or s[-1] <= 0:
+        return 0.0, 0.0, 0.0, 0.0
+    o1 = float(np.exp(np.mean(np.log(s))) / np.sqrt(m))
+    return o1, float(s[-1] / s[0]), float(s[-1]), float(s[-1] ** 2 / s[0])
+
+
+def _words(names, f, coef) -> str:
+    terms = [(c, n) for c, n in zip(coef, names) if abs(c) > 1e-6]
+    terms.sort(key=lambda t: -abs(t[0]))
+    shown = " ".join(f"{'+' if c > 0 else '-'} {abs(c):.3g} {n}" for c, n in terms[:6])
+    more = f" (+{len(terms) - 6} smaller terms)" if len(terms) > 6 else ""
+    if not terms:
+        return f"{f} does not change any residual: fixed at nominal"
+    return (f"{f} cannot be separated from the others: the change {f} {shown}{more} leaves every residual "
+            f"unchanged; {f} fixed at nominal")
+
+
+def analyse(pv: ParameterVector, J: np.ndarray, rtol: float = RTOL, fixed: tuple[str, ...] = ()) -> Identifiability:
+    """Identifiability of the parameters of ``pv`` from the identification Jacobian ``J (m, P)``.
+
+    ``fixed`` names parameters the user fixes at nominal beforehand.
+    """
+    J = np.asarray(J, dtype=float)
+    m = J.shape[0]
+    if m > J.shape[1]:  # same singular values and column relations, P rows instead of m
+        J = np.linalg.qr(J, mode="r")
+    norms = np.linalg.norm(J, axis=0)
+    pre = set(pv.index(fixed))
+    keep: list[int] = []
+    smax = None
+    for j in _priority(pv):
+        if j in pre or norms[j] == 0:
+            continue
+        trial = keep + [j]
+        s = np.linalg.svd(J[:, trial] / norms[trial], compute_uv=False)
+        smax = s[0] if smax is None else max(smax, s[0])
+        if s[-1] > rtol * smax:
+            keep = trial
+    keep.sort()
+    fixed_idx = [j for j in range(len(pv.names)) if j not in keep]
+    Jk = J[:, keep]
+    sentences = []
+    null = np.zeros((len(fixed_idx), len(pv.names)))
+    for row, f in enumerate(fixed_idx):
+        if f in pre:
+            sentences.append(f"{pv.names[f]} fixed at nominal by request")
+            continue
+        c, *_ = np.linalg.lstsq(Jk, -J[:, f], rcond=None)
+        null[row, f] = 1.0
+        null[row, keep] = c
+        sentences.append(_words([pv.names[k] for k in keep], pv.names[f], c))
+    s = np.linalg.svd(Jk / norms[keep], compute_uv=False) if keep else np.zeros(0)
+    o = observability_indices(s, m)
+    return Identifiability(identified=tuple(pv.names[k] for k in keep), fixed=tuple(pv.names[f] for f in fixed_idx),
+                           combinations=tuple(sentences), null_directions=null, singular_values=s,
+                           condition=float(s[0] / s[-1]) if s.size and s[-1] > 0 else float("inf"),
+                           O1=o[0], O2=o[1], O3=o[2], O4=o[3])

@@ -1,0 +1,123 @@
+"""A virtual calibration experiment: a "true" robot, its measurements on the exact model, identification and
+compensation, and the accuracy measured again.
+
+The true robot is the nominal plus seeded parameter errors (``error_sigma``: 1-sigma per unit, mm / rad /
+gain, drawn normal). A command ``c`` puts it where its exact forward kinematics
+(:func:`pmaccuracy.kinematics.forward_kinematics`, the assembly mode nearest the nominal pose) says, for the
+joint values ``offset + gain * c``; the joint clearances displace that pose by a random state inside their
+sets (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`, first order); the camera reads it in
+the true measurement frame with normal noise ``noise`` (mm, mm, rad). Nothing of this goes through the
+inverse-kinematic residual of :mod:`.identify`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...kinematics import FKSolution, forward_kinematics
+from ..distributions import sample_pose_errors
+from .compensate import Compensation, compensate
+from .data import CalibrationData
+from .identify import Identification, identify
+from .parameters import ParameterVector, commands_for, frame_apply, frame_inverse
+from .plan import candidate_poses, plan_poses
+
+#: A true pose further than this (mm, deg) from the nominal one counts as not reached (a singularity between).
+MAX_JUMP_MM = 5.0
+MAX_JUMP_DEG = 5.0
+#: Default 1-sigma parameter errors of the true robot: mm, rad, gain.
+DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
+
+
+def true_parameters(pv: ParameterVector, seed: int = 0, error_sigma: dict | None = None,
+                    fixed: tuple[str, ...] = ()) -> np.ndarray:
+    """Nominal plus seeded normal errors ``(P,)`` (``error_sigma`` per unit); ``fixed`` names stay nominal."""
+    sig = {**DEFAULT_ERROR_SIGMA, **(error_sigma or {})}
+    rng = np.random.default_rng(seed)
+    v = pv.nominal + rng.standard_normal(len(pv.names)) * np.array([sig[u] for u in pv.units])
+    v[pv.index(fixed)] = pv.nominal[pv.index(fixed)]
+    return v
+
+
+def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, reference: np.ndarray, *,
+            noise=(0.01, 0.01, np.radians(0.01)), clearances=None, seed: int = 0) -> np.ndarray:
+    """Measured poses ``(N, 3)`` (measurement frame; mm, mm, rad) of the true robot at ``commands (N, 3)``.
+
+    ``reference (N, 3)``: robot-frame poses near which the assembly mode is taken (the nominal poses).
+    NaN rows where the true robot has no assembly mode for the commands or none within :data:`MAX_JUMP_MM`
+    / :data:`MAX_JUMP_DEG` of the reference (it would have to pass a singularity: a real robot jams there).
+    """
+    reference = np.asarray(reference, dtype=float)
+    robot, off, gain, frame = pv.split(true_values)
+    fk = forward_kinematics(robot, off + gain * np.asarray(commands, dtype=float))
+    reach = np.any(fk.valid, axis=-1)
+    poses = np.full((len(reach), 3), np.nan)
+    if np.any(reach):
+        poses[reach] = FKSolution(fk.poses[reach], fk.valid[reach], fk.joints[reach], fk.within_limits[reach]
+                                  ).nearest(np.asarray(reference, dtype=float)[reach])
+    jump = np.hypot(*(poses[:, :2] - reference[:, :2]).T) > MAX_JUMP_MM
+    jump |= np.abs(np.angle(np.exp(1j * (poses[:, 2] - reference[:, 2])))) > np.radians(MAX_JUMP_DEG)
+    reach &= ~jump
+    poses[~reach] = np.nan
+    rng = np.random.default_rng(seed)
+    if clearances is not None and np.any(reach):
+        n = int(reach.sum())   # one independent clearance state per pose: the diagonal of (state, pose)
+        e = sample_pose_errors(robot, clearances, poses[reach], n, seed=rng)
+        poses[reach] = poses[reach] + e[np.arange(n), np.arange(n)]
+    m = frame_inverse(frame, poses)
+    return m + rng.standard_normal(m.shape) * np.asarray(noise, dtype=float)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Result of :func:`simulate_calibration`: the ``true`` parameters, the measured ``data``, the ``identification``, the ``compensation`` at the
+    targets, and the pose errors measured on the true robot at the targets before (nominal commands) and after
+    (compensated commands): ``errors_before`` / ``errors_after`` ``(T, 3)`` (mm, mm, rad, measurement frame)."""
+
+    true: np.ndarray
+    data: CalibrationData
+    identification: Identification
+    compensation: Compensation
+    targets: np.ndarray
+    errors_before: np.ndarray
+    errors_after: np.ndarray
+
+    def __repr__(self) -> str:
+        b = np.hypot(*self.errors_before[:, :2].T).max()
+        a = np.hypot(*self.errors_after[:, :2].T).max()
+        return f"Experiment(max position error {b:.4g} mm -> {a:.4g} mm at {len(self.targets)} targets)"
+
+
+def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
+             noise=(0.01, 0.01, np.radians(0.01)), clearances=None, n_targets: int = 50,
+             true_fixed: tuple[str, ...] = ()) -> Experiment:
+    """Run the virtual calibration experiment (module docstring): plan ``n_poses``, measure, identify,
+    compensate at ``n_targets`` random candidate poses, measure again."""
+    true = true_parameters(pv, seed, error_sigma, true_fixed)
+    cand = candidate_poses(pv)
+    plan = plan_poses(pv, n_poses, cand, seed=seed)
+    sig = np.broadcast_to(np.asarray(noise, dtype=float), (n_poses, 3)).copy()
+    meas = measure(pv, true, plan.commands, plan.poses, noise=noise, clearances=clearances, seed=seed + 1)
+    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas,
+                           np.maximum(sig, 1e-12), "<simulation>")
+    data = data.subset(np.all(np.isfinite(meas), axis=1))   # poses the true robot cannot reach are not measured
+    ident = identify(data, pv)
+    rng = np.random.default_rng(seed + 2)
+    lim = np.array([c.actuated.range for c in pv.robot.chains])
+    ok = np.ones(len(cand), dtype=bool)
+    for values in (pv.nominal, ident.values):   # targets both robots reach within the actuator ranges
+        q = commands_for(pv, values, cand)
+        ok &= np.all(np.isfinite(q) & (q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
+    pool = cand[ok]
+    targets = pool[rng.choice(len(pool), min(n_targets, len(pool)), replace=False)]
+    comp = compensate(ident, targets, clearances=clearances)
+    before = measure(pv, true, comp.nominal_commands, targets, noise=(0, 0, 0), clearances=clearances,
+                     seed=seed + 3) - targets
+    after = measure(pv, true, comp.commands, frame_apply(ident.values[-3:], targets), noise=(0, 0, 0),
+                    clearances=clearances, seed=seed + 3) - targets
+    for e in (before, after):
+        e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
+    return Experiment(true=true, data=data, identification=ident, compensation=comp, targets=targets, errors_before=before,
+                      errors_after=after)

@@ -1,0 +1,253 @@
+"""``pmaccuracy calibrate plan | identify | compensate | simulate``: kinematic calibration and compensation."""
+
+from __future__ import annotations
+
+import argparse
+
+from . import _common
+
+HELP = "kinematic calibration: plan poses, identify parameters from measurements, compensate, simulate"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("calibrate", help=HELP,
+                       description="Kinematic calibration (mm and degrees in files and on the command line). "
+                                   "plan: D-optimal measurement poses written as a calibration CSV; identify: the "
+                                   "error parameters from a calibration CSV (or an experiment / vision batch "
+                                   "file); compensate: commands of the identified robot for target poses; "
+                                   "simulate: a virtual calibration experiment.")
+    steps = p.add_subparsers(dest="step", metavar="STEP", required=True, parser_class=type(p))
+
+    s = steps.add_parser("plan", help="choose N measurement poses (D-optimal) and write them as a calibration CSV")
+    _common.add_robot(s)
+    s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
+    s.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, default=(-20.0, 20.0), metavar=("LO", "HI"),
+                   help="orientation range of the candidates, deg (default -20 20)")
+    s.add_argument("--grid", type=_common.positive_int, default=22, metavar="N",
+                   help="candidates per axis in x and y (default 22; 21 orientations)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
+    s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
+    _common.add_format(s)
+    s.set_defaults(func=run_plan)
+
+    s = steps.add_parser("identify", help="identify the error parameters from a calibration CSV")
+    _common.add_robot(s)
+    s.add_argument("--data", required=True, metavar="FILE.csv",
+                   help="calibration CSV: x,y,phi_deg and q1|q1_deg,q2..,q3.. (optional point, sigma_x, sigma_y, "
+                        "sigma_phi_deg), or an experiment / vision batch measurement file")
+    s.add_argument("--fix", action="append", default=[], metavar="NAME",
+                   help="keep a parameter at nominal (repeatable), e.g. leg1.actuator.gain")
+    s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
+                   help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
+    s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
+    s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
+    s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
+    _common.add_format(s)
+    s.set_defaults(func=run_identify)
+
+    s = steps.add_parser("compensate", help="commands of the identified robot for target poses")
+    s.add_argument("--identification", required=True, metavar="FILE.json", help="written by calibrate identify")
+    s.add_argument("--pose", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "PHI_DEG"),
+                   help="a target pose in the measurement frame (repeatable)")
+    s.add_argument("--poses-csv", metavar="FILE", help="target poses from a CSV with columns x,y,phi_deg")
+    s.add_argument("--clearances", metavar="FILE",
+                   help="clearance preset or file: the clearance floor (worst case and RMS) beside the prediction")
+    s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
+    _common.add_format(s)
+    s.set_defaults(func=run_compensate)
+
+    s = steps.add_parser("simulate", help="virtual calibration: true robot, measurements, identify, compensate")
+    _common.add_robot(s)
+    s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the parameter errors, clearance states and noise")
+    s.add_argument("--error-mm", type=float, default=0.1, help="1-sigma of length and position errors, mm")
+    s.add_argument("--error-deg", type=float, default=0.1, help="1-sigma of angle errors, deg")
+    s.add_argument("--noise-mm", type=float, default=0.01, help="1-sigma of the camera in x and y, mm")
+    s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
+    s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
+    s.add_argument("--data-out", metavar="FILE.csv",
+                   help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
+    _common.add_format(s)
+    s.set_defaults(func=run_simulate)
+
+
+def _estimates(ident) -> list[dict]:
+    import numpy as np
+
+    rows = []
+    for e in ident.estimates():
+        deg = e["unit"] == "rad"
+        f = np.degrees if deg else float
+        rows.append({"parameter": e["name"], "unit": "deg" if deg else e["unit"], "nominal": f(e["nominal"]),
+                     "estimate": f(e["estimate"]), "change": f(e["estimate"] - e["nominal"]),
+                     "sigma": f(e["sigma"]) if e["identified"] else None,
+                     "status": "identified" if e["identified"] else "fixed"})
+    return rows
+
+
+def _summary(ident) -> dict:
+    from ..accuracy.calibration.identify import identification_to_dict
+
+    d = identification_to_dict(ident)
+    return {**d["fit"], "condition": d["identifiability"]["condition"],
+            **{k: d["identifiability"][k] for k in ("O1", "O2", "O3", "O4")},
+            "identified": len(ident.identifiability.identified), "fixed": list(ident.identifiability.fixed)}
+
+
+def _print_identification(ident, fmt: str) -> None:
+    rows = _estimates(ident)
+    if fmt == "json":
+        from ..accuracy.calibration.identify import identification_to_dict
+
+        _common.emit({"estimates": rows, **identification_to_dict(ident)}, "json")
+    elif fmt == "csv":
+        _common.emit(rows, "csv")
+    else:
+        _common.emit(rows, "table")
+        print()
+        _common.emit([_summary(ident)], "table")
+        for sentence in ident.identifiability.combinations:
+            print(f"note: {sentence}")
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.data import write_calibration_csv
+    from ..accuracy.calibration.parameters import error_parameters
+    from ..accuracy.calibration.plan import candidate_poses, plan_poses
+    from ..errors import ConfigError
+
+    lo, hi = args.phi_range_deg
+    if not lo <= hi:
+        raise ConfigError(f"empty range [{lo:g}, {hi:g}] deg", key="--phi-range-deg")
+    if args.out:
+        _common.prepare_output(args.out, "--out", (".csv",))
+    pv = error_parameters(_common.load_robot(args))
+    cand = candidate_poses(pv, n=args.grid, phi_range=(np.radians(lo), np.radians(hi)))
+    plan = plan_poses(pv, args.poses, cand, seed=args.seed)
+    if args.out:
+        write_calibration_csv(pv.robot, plan.commands, None, args.out)
+    rows = [{"choice": name, **idx} for name, idx in (("planned", plan.index), ("random (mean of 20)", plan.random_index),
+                                                       ("grid", plan.grid_index))]
+    if args.format == "json":
+        _common.emit({"robot": pv.robot.name, "candidates": plan.n_candidates, "indices": rows,
+                      "poses": [{"x": p[0], "y": p[1], "phi_deg": np.degrees(p[2])} for p in plan.poses]}, "json")
+    elif args.format == "csv":
+        _common.emit(rows, "csv")
+    else:
+        print(f"{len(plan.poses)} poses of {plan.n_candidates} candidates; observability indices:")
+        _common.emit(rows, "table")
+    return 0
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    import numpy as np
+    import tomli_w
+
+    from ..accuracy.calibration.data import read_calibration_csv
+    from ..accuracy.calibration.identify import identification_to_dict, identify
+    from ..accuracy.calibration.parameters import error_parameters, robot_file
+
+    for opt, path, kinds in (("--out", args.out, (".json",)), ("--robot-out", args.robot_out, (".toml",))):
+        if path:
+            _common.prepare_output(path, opt, kinds)
+    pv = error_parameters(_common.load_robot(args))
+    pv.index(args.fix)
+    data = read_calibration_csv(args.data, pv)
+    frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
+    ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust)
+    if args.out:
+        Path(args.out).write_text(json.dumps(identification_to_dict(ident), indent=2), encoding="utf-8")
+    if args.robot_out:
+        Path(args.robot_out).write_text(tomli_w.dumps(robot_file(pv, ident.values)), encoding="utf-8")
+    _print_identification(ident, args.format)
+    return 0
+
+
+def run_compensate(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from ..accuracy.calibration.compensate import compensate
+    from ..accuracy.calibration.data import write_calibration_csv
+    from ..accuracy.calibration.identify import identification_from_dict
+    from ..errors import ConfigError
+
+    targets = _common.poses_from_args(args.pose, args.poses_csv)
+    if args.out:
+        _common.prepare_output(args.out, "--out", (".csv",))
+    try:
+        with open(args.identification, encoding="utf-8") as fh:
+            record = json.load(fh)
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
+    ident = identification_from_dict(record, source=args.identification)
+    comp = compensate(ident, targets, clearances=args.clearances)
+    pv = ident.parameters
+    if args.out:
+        write_calibration_csv(pv.robot, comp.commands, None, args.out)
+    kinds = [c.actuated.kind for c in pv.robot.chains]
+    rows = []
+    for n, t in enumerate(comp.targets):
+        row = {"x": t[0], "y": t[1], "phi_deg": np.degrees(t[2])}
+        for k, kind in enumerate(kinds):
+            f = np.degrees if kind == "R" else float
+            name = f"q{k + 1}_deg" if kind == "R" else f"q{k + 1}"
+            row[name] = f(comp.commands[n, k])
+            row[f"{name}_nominal"] = f(comp.nominal_commands[n, k])
+        row["predicted_sigma_p"] = float(np.hypot(*comp.predicted_sigma[n, :2]))
+        row["predicted_sigma_phi_deg"] = float(np.degrees(comp.predicted_sigma[n, 2]))
+        if comp.floor_dp_max is not None:
+            row["floor_dp_max"] = float(comp.floor_dp_max[n])
+            row["floor_dp_rms"] = float(comp.floor_dp_rms[n])
+            row["floor_dphi_max_deg"] = float(np.degrees(comp.floor_dphi_max[n]))
+        rows.append(row)
+    _common.emit(rows, args.format)
+    return 0
+
+
+def run_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.parameters import error_parameters
+    from ..accuracy.calibration.data import write_calibration_csv
+    from ..accuracy.calibration.simulate import simulate_calibration
+    from ..errors import ConfigError
+
+    for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
+        v = getattr(args, opt)
+        if not (np.isfinite(v) and v >= 0):
+            raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
+    if args.data_out:
+        _common.prepare_output(args.data_out, "--data-out", (".csv",))
+    pv = error_parameters(_common.load_robot(args))
+    noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
+    ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
+                  error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)})
+    ident = ex.identification
+    if args.data_out:
+        d = ex.data
+        write_calibration_csv(pv.robot, d.commands, d.poses, args.data_out, sigmas=d.sigmas)
+    before = np.hypot(*ex.errors_before[:, :2].T)
+    after = np.hypot(*ex.errors_after[:, :2].T)
+    summary = {"points": ident.n_points, "identified": len(ident.identifiability.identified),
+               "fixed": len(ident.identifiability.fixed), "outliers": len(ident.outliers),
+               "max_error_before_mm": float(before.max()), "max_error_after_mm": float(after.max()),
+               "rms_error_before_mm": float(np.sqrt(np.mean(before ** 2))),
+               "rms_error_after_mm": float(np.sqrt(np.mean(after ** 2)))}
+    if ex.compensation.floor_dp_max is not None:
+        summary["floor_dp_max_mm"] = float(ex.compensation.floor_dp_max.max())
+    if args.format == "json":
+        _common.emit({"summary": summary, "estimates": _estimates(ident)}, "json")
+    elif args.format == "csv":
+        _common.emit([summary], "csv")
+    else:
+        _common.emit([summary], "table")
+    return 0

@@ -1,0 +1,227 @@
+"""Kinematic calibration (issue 23): parameters, identification, identifiability, planning, compensation,
+the virtual experiment and bad input. References: tests/reference/calibration_reference.py, the exact
+forward kinematics (pmaccuracy.kinematics.forward_kinematics, a polynomial solve: independent of the
+inverse-kinematic residual the identification uses) and rigid-motion invariances."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from calibration_reference import random_robot_dict, rrr_actuated_angle
+from pmaccuracy.accuracy.calibration.data import CalibrationData, read_calibration_csv, write_calibration_csv
+from pmaccuracy.accuracy.calibration.identify import identify
+from pmaccuracy.accuracy.calibration.parameters import error_parameters, joint_values, robot_file
+from pmaccuracy.accuracy.calibration.plan import candidate_poses, plan_poses
+from pmaccuracy.accuracy.calibration.simulate import measure, simulate_calibration, true_parameters
+from pmaccuracy.errors import ConfigError, MeasurementFileError
+from pmaccuracy.model.legs import ChainLeg
+from pmaccuracy.model.manipulator import Manipulator
+
+PRESETS = ["symmetric_3rrr", "symmetric_3rpr", "symmetric_3prr", "aalborg_3ppr"]
+
+
+def _robot(name, seed=0):
+    if name == "chain_3rrr":
+        base = Manipulator.preset("symmetric_3rrr")
+        return Manipulator(legs=tuple(ChainLeg(leg.chain) for leg in base.legs), name="chain")
+    table = Manipulator.preset(name).to_dict()
+    return Manipulator.from_dict(random_robot_dict(table, np.random.default_rng(seed)))
+
+
+def test_names_units_and_robot_file_round_trip():
+    pv = error_parameters(Manipulator.preset("symmetric_3rrr"))
+    assert len(pv.names) == 27 and len(set(pv.names)) == 27
+    assert "leg2.base.x" in pv.names and "leg1.actuator.offset" in pv.names and pv.names[-1] == "frame.phi"
+    assert dict(zip(pv.names, pv.units))["leg1.actuator.offset"] == "rad"
+    table = robot_file(pv, pv.nominal)
+    assert {k: v for k, v in table.items() if k not in ("name", "description")} == \
+        {k: v for k, v in pv.robot.to_dict().items() if k not in ("name", "description")}
+    v = pv.nominal.copy()
+    v[pv.index(["leg2.distal"])[0]] += 0.25
+    again = Manipulator.from_dict(robot_file(pv, v))
+    assert again.legs[1].distal == pytest.approx(pv.robot.legs[1].distal + 0.25, abs=1e-12)
+    with pytest.raises(ConfigError, match="leg9.base.x"):
+        pv.index(["leg9.base.x"])
+
+
+def test_joint_values_match_closed_form_rrr():
+    robot = _robot("symmetric_3rrr", 3)
+    pv = error_parameters(robot)
+    poses = candidate_poses(pv)[::37]
+    q = joint_values(pv, pv.nominal, poses)
+    for n, pose in enumerate(poses):
+        for i, leg in enumerate(robot.legs):
+            ref = rrr_actuated_angle(leg.base, leg.platform, leg.proximal, leg.distal, leg.working_mode, pose)
+            assert np.angle(np.exp(1j * (q[n, i] - ref))) == pytest.approx(0, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_noise_free_data_recovered_exactly(name):
+    """Errors on the identifiable parameters, measured by the exact forward kinematics: recovered to 1e-8."""
+    pv = error_parameters(_robot(name, 1))
+    cand = candidate_poses(pv)
+    plan = plan_poses(pv, 30, cand)
+    from pmaccuracy.accuracy.calibration.identify import jacobian, whitening  # probing the nominal Jacobian
+    probe = CalibrationData(tuple("x" * 30), plan.commands, plan.poses, np.full((30, 3), 0.01), "<p>")
+    from pmaccuracy.accuracy.calibration.identifiability import analyse
+    fixed = analyse(pv, jacobian(pv, pv.nominal.copy(), probe, whitening(pv, pv.nominal, probe))).fixed
+    true = true_parameters(pv, seed=4, fixed=fixed)
+    meas = measure(pv, true, plan.commands, plan.poses, noise=(0, 0, 0))
+    data = CalibrationData(tuple(map(str, range(30))), plan.commands, meas, np.full((30, 3), 0.01), "<sim>")
+    data = data.subset(np.all(np.isfinite(meas), axis=1))
+    assert len(data) >= 25
+    ident = identify(data, pv)
+    assert set(ident.identifiability.fixed) == set(fixed)
+    scale = np.where(np.array(pv.units) == "mm", 1.0, 1.0)
+    assert np.max(np.abs(ident.values - true) / scale) < 1e-8, np.abs(ident.values - true).max()
+    assert ident.rms_after < 1e-6 < ident.rms_before
+
+
+@pytest.mark.parametrize("name", ["symmetric_3rrr", "symmetric_3rpr"])
+def test_frame_and_base_coupling_detected_exactly(name):
+    """Moving every base point by t and the measurement frame by t leaves every measurement unchanged (the
+    forward kinematics says so); the analysis must report exactly that combination."""
+    pv = error_parameters(Manipulator.preset(name))
+    plan = plan_poses(pv, 20, candidate_poses(pv))
+    true = true_parameters(pv, seed=2)
+    shifted = true.copy()
+    for i in (1, 2, 3):
+        shifted[pv.index([f"leg{i}.base.x"])[0]] += 0.7
+    shifted[pv.index(["frame.x"])[0]] += 0.7
+    m1 = measure(pv, true, plan.commands, plan.poses, noise=(0, 0, 0))
+    m2 = measure(pv, shifted, plan.commands, plan.poses, noise=(0, 0, 0))
+    assert np.max(np.abs(m1 - m2)) < 1e-9
+    data = CalibrationData(tuple(map(str, range(20))), plan.commands, m1, np.full((20, 3), 0.01), "<sim>")
+    ident = identify(data, pv).identifiability
+    assert set(ident.fixed) == {"frame.x", "frame.y", "frame.phi"}
+    row = ident.null_directions[list(ident.fixed).index("frame.x")]
+    expected = np.zeros(len(pv.names))
+    expected[pv.index(["frame.x", "leg1.base.x", "leg2.base.x", "leg3.base.x"])] = 1.0
+    assert np.max(np.abs(row - expected)) < 1e-6
+    assert "frame.x" in ident.combinations[0] and "leg1.base.x" in ident.combinations[0]
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_planned_poses_beat_random_and_grid(name):
+    pv = error_parameters(Manipulator.preset(name))
+    plan = plan_poses(pv, 30)
+    assert plan.index["O1"] > plan.random_index["O1"]
+    assert plan.index["O1"] > plan.grid_index["O1"]
+    assert np.all(np.isfinite(plan.commands))
+
+
+def test_noisy_fit_within_three_sigma_and_compensation_within_floor():
+    pv = error_parameters(_robot("symmetric_3rrr", 5))
+    ex = simulate_calibration(pv, 40, seed=3, clearances="rrr_typical", true_fixed=("frame.x", "frame.y", "frame.phi"))
+    ident = ex.identification
+    free = pv.index(ident.identifiability.identified)
+    z = (ident.values - ex.true)[free] / ident.sigma[free]
+    assert np.max(np.abs(z)) < 3.5
+    comp = ex.compensation
+    err_after = np.hypot(*ex.errors_after[:, :2].T)
+    err_before = np.hypot(*ex.errors_before[:, :2].T)
+    # floor: worst case of the clearances + 4 sigma of the identified parameters carried to the pose
+    allowed = comp.floor_dp_max + 4 * np.hypot(*comp.predicted_sigma[:, :2].T)
+    assert np.all(err_after <= allowed)
+    assert err_after.max() < 0.2 * err_before.max()
+
+
+def test_outlier_reported_by_point():
+    pv = error_parameters(Manipulator.preset("symmetric_3rpr"))
+    plan = plan_poses(pv, 30, candidate_poses(pv))
+    true = true_parameters(pv, seed=1, fixed=("frame.x", "frame.y", "frame.phi"))
+    meas = measure(pv, true, plan.commands, plan.poses, seed=3)
+    meas[7, 0] += 0.5   # 50 sigma
+    data = CalibrationData(tuple(f"p{i}" for i in range(30)), plan.commands, meas, np.full((30, 3), 0.01), "<s>")
+    data = CalibrationData(data.labels, data.commands, data.poses,
+                           np.tile([0.01, 0.01, math.radians(0.01)], (30, 1)), "<s>")
+    ident = identify(data, pv)
+    assert ident.outliers == ("p7",)
+
+
+# ------------------------------------------------------------------ the CSV and bad input
+def _csv(tmp_path, pv, n=20, seed=0):
+    plan = plan_poses(pv, n, candidate_poses(pv))
+    meas = measure(pv, pv.nominal, plan.commands, plan.poses, seed=seed)
+    path = tmp_path / "cal.csv"
+    write_calibration_csv(pv.robot, plan.commands, meas, path)
+    return path, plan, meas
+
+
+def test_csv_round_trip_and_experiment_format(tmp_path):
+    pv = error_parameters(Manipulator.preset("symmetric_3rrr"))
+    path, plan, meas = _csv(tmp_path, pv)
+    assert path.read_text().splitlines()[0] == "point,q1_deg,q2_deg,q3_deg,x,y,phi_deg"
+    data = read_calibration_csv(path, pv)
+    assert np.allclose(data.commands, plan.commands, atol=1e-12) and np.allclose(data.poses, meas, atol=1e-12)
+    # an experiment / vision batch file: commands from the nominal poses
+    lines = ["point,x_nom,y_nom,phi_nom_deg,push,x,y,phi_deg"]
+    for n, (p, m) in enumerate(zip(plan.poses, meas)):
+        lines.append(",".join([str(n)] + [repr(float(v)) for v in (p[0], p[1], math.degrees(p[2]))] + ["+x"] + [repr(float(v)) for v in (m[0], m[1], math.degrees(m[2]))]))
+    exp = tmp_path / "exp.csv"
+    exp.write_text("\n".join(lines) + "\n")
+    assert np.allclose(read_calibration_csv(exp, pv).commands, plan.commands, atol=1e-9)
+
+
+def _rewrite(path, fn):
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(fn(lines)) + "\n")
+
+
+def test_bad_input_names_file_and_row(tmp_path):
+    pv = error_parameters(Manipulator.preset("symmetric_3rrr"))
+    path, plan, meas = _csv(tmp_path, pv)
+    # phi in radians where degrees are expected
+    _rewrite(path, lambda L: [L[0]] + [",".join(r.split(",")[:6] + [str(math.radians(float(r.split(",")[6])) + 1)])
+                                       for r in L[1:]])
+    with pytest.raises(MeasurementFileError, match=r"cal\.csv: row [0-9]+ .*deg.*radians"):
+        identify(read_calibration_csv(path, pv), pv)
+    path, *_ = _csv(tmp_path, pv)
+    _rewrite(path, lambda L: [L[0].replace("q2_deg", "q2")] + L[1:])
+    with pytest.raises(MeasurementFileError, match="q2.*revolute"):
+        read_calibration_csv(path, pv)
+    path, *_ = _csv(tmp_path, pv)
+    beyond = str(math.degrees(pv.robot.chains[0].actuated.range[1]) + 10.0)
+    _rewrite(path, lambda L: L[:3] + [",".join(["3", beyond] + L[3].split(",")[2:])] + L[4:])
+    with pytest.raises(MeasurementFileError, match=r"row 3 .*outside leg 1's actuator range"):
+        read_calibration_csv(path, pv)
+    path, *_ = _csv(tmp_path, pv, n=10)
+    _rewrite(path, lambda L: L[:5])
+    with pytest.raises(MeasurementFileError, match="4 points give 12 residuals"):
+        identify(read_calibration_csv(path, pv), pv)
+    path, *_ = _csv(tmp_path, pv)
+    _rewrite(path, lambda L: [L[0]] + [",".join(r.split(",")[:4] + [str(float(r.split(",")[4]) + 60)] +
+                                                r.split(",")[5:]) for r in L[1:]])
+    with pytest.raises(MeasurementFileError, match="measurement frame far"):
+        identify(read_calibration_csv(path, pv), pv)
+    with pytest.raises(ConfigError, match="no parameter 'leg1.nothing'"):
+        identify(read_calibration_csv(_csv(tmp_path, pv)[0], pv), pv, fixed=("leg1.nothing",))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", PRESETS)
+def test_sigmas_honest_over_seeds(name):
+    """Over 20 seeds (random robot, parameter errors, camera noise), measured by the exact forward kinematics:
+    the normalized errors (estimate - truth) / sigma of the identifiable parameters have unit spread within
+    20 %, and 99 % of them lie within 3."""
+    pv = error_parameters(_robot(name, 11))
+    plan = plan_poses(pv, 30, candidate_poses(pv))
+    sig = np.tile([0.01, 0.01, math.radians(0.01)], (30, 1))
+    probe = CalibrationData(tuple(map(str, range(30))), plan.commands,
+                            measure(pv, pv.nominal, plan.commands, plan.poses, seed=0), sig, "<p>")
+    fixed = identify(probe, pv).identifiability.fixed
+    zs = []
+    for seed in range(20):
+        true = true_parameters(pv, seed=100 + seed, fixed=fixed)
+        m = measure(pv, true, plan.commands, plan.poses, noise=sig[0], seed=seed)
+        ok = np.all(np.isfinite(m), axis=1)
+        data = CalibrationData(tuple(map(str, range(int(ok.sum())))), plan.commands[ok], m[ok], sig[ok], "<s>")
+        ident = identify(data, pv, robust=False)
+        free = pv.index(ident.identifiability.identified)
+        zs.append((ident.values - true)[free] / ident.sigma[free])
+    z = np.concatenate(zs)
+    assert abs(z.std() - 1.0) < 0.2, z.std()
+    assert np.mean(np.abs(z) <= 3.0) >= 0.99 and np.max(np.abs(z)) < 4.5

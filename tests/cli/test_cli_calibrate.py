@@ -1,0 +1,71 @@
+"""``pmaccuracy calibrate``: the steps chained through files, the formats, and bad input (exit 2, one line)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from pmaccuracy.cli import main
+from pmaccuracy.model.manipulator import Manipulator
+
+
+def run(argv, capsys):
+    try:
+        status = main([str(a) for a in argv])
+    except SystemExit as exc:
+        status = exc.code
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
+def test_plan_simulate_identify_compensate(tmp_path, capsys):
+    status, out, _ = run(["calibrate", "plan", "--robot", "symmetric_3rpr", "--poses", "24", "--out",
+                          tmp_path / "plan.csv", "--format", "json"], capsys)
+    assert status == 0
+    rec = json.loads(out)
+    planned, rand, grid = (r["O1"] for r in rec["indices"])
+    assert planned > rand and planned > grid and len(rec["poses"]) == 24
+    header = (tmp_path / "plan.csv").read_text().splitlines()[0]
+    assert header == "point,q1,q2,q3,x,y,phi_deg"
+    status, out, _ = run(["calibrate", "simulate", "--robot", "symmetric_3rpr", "--poses", "30", "--seed", "1",
+                          "--data-out", tmp_path / "m.csv", "--format", "json"], capsys)
+    assert status == 0
+    summary = json.loads(out)["summary"]
+    assert summary["max_error_after_mm"] < 0.1 * summary["max_error_before_mm"]
+    status, out, _ = run(["calibrate", "identify", "--robot", "symmetric_3rpr", "--data", tmp_path / "m.csv",
+                          "--out", tmp_path / "id.json", "--robot-out", tmp_path / "id.toml", "--format", "csv"],
+                         capsys)
+    assert status == 0
+    rows = list(csv.DictReader(out.splitlines()))
+    assert {r["status"] for r in rows if r["parameter"].startswith("frame.")} == {"fixed"}
+    identified = Manipulator.load(str(tmp_path / "id.toml"))
+    assert identified.architecture == "3-RPR"
+    status, out, _ = run(["calibrate", "compensate", "--identification", tmp_path / "id.json", "--pose", "0", "0",
+                          "0", "--clearances", "rpr_typical", "--format", "json"], capsys)
+    assert status == 0
+    row = json.loads(out)[0]
+    assert row["floor_dp_max"] > 0 and np.isfinite(row["q1"]) and row["predicted_sigma_p"] > 0
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", "missing.csv"], "missing.csv"),
+    (["calibrate", "plan", "--robot", "symmetric_3rrr", "--poses", "3"], "--poses"),
+    (["calibrate", "plan", "--robot", "symmetric_3rrr", "--out", "plan.txt"], "--out"),
+    (["calibrate", "compensate", "--identification", "nothing.json", "--pose", "0", "0", "0"], "nothing.json"),
+    (["calibrate", "simulate", "--robot", "symmetric_3rrr", "--noise-mm", "-1"], "--noise-mm"),
+])
+def test_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, _, err = run(argv, capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and needle in err and "Traceback" not in err
+
+
+def test_unknown_parameter_named(capsys, tmp_path):
+    run(["calibrate", "simulate", "--robot", "symmetric_3rrr", "--poses", "20", "--data-out", tmp_path / "m.csv"],
+        capsys)
+    status, _, err = run(["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", tmp_path / "m.csv",
+                          "--fix", "leg4.base.x"], capsys)
+    assert status == 2 and "leg4.base.x" in err and len(err.splitlines()) == 1
