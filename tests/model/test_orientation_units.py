@@ -89,6 +89,9 @@ def _calls():
         "simulate_repeats": lambda phi: simulate_repeats(PPR, "case1", _pose(phi), 3, model="first_order"),
         "compare_repeatability": lambda phi: compare_repeatability(PPR, "case1", _repeats(phi), tests=3),
         "statics": lambda phi: pm.statics(PPR, _pose(phi), pm.Load(fx=1.0)),
+        "plan_poses": lambda phi: pm.plan_poses(pm.error_parameters(pm.load_robot(RRR)), 12,
+                                                np.array([[x, y, phi] for x in (-5.0, 0.0, 5.0)
+                                                          for y in (-5.0, 0.0, 5.0)] * 2)),
         "largest_disc": lambda phi: pm.largest_disc(PPR, "case1", (0.0, 0.0), (phi, phi), {"dp": 0.5}, tol=10.0),
         "loaded_pose_error": lambda phi: pm.loaded_pose_error(PPR, "case1", _pose(phi), pm.Load(fx=1.0),
                                                               exact=False),
@@ -110,6 +113,10 @@ NO_ORIENTATION = {
     "load_map": "a path (the map's phi coordinate is in degrees)",
     "synthesize": "a Region, checked where it is made (make_region)",
     "load_polygon": "a polygon file (mm)",
+    "error_parameters": "a robot", "read_calibration_csv": "a file (phi_deg, checked by the reader)",
+    "write_calibration_csv": "a CalibrationData and a path", "identify": "a CalibrationData (read from a file)",
+    "simulate_calibration": "a parameter vector and counts (poses are planned inside)",
+    "compensate": "an Identification and targets: checked like plan_poses' candidates (tested there)",
 }
 
 

@@ -22,6 +22,7 @@ from ..bounds import max_pose_errors
 from ..distributions import sample_pose_errors
 from .identify import Identification, pose_sensitivity, raw_residuals
 from .parameters import commands_for, frame_apply
+from ...model.plausibility import check_orientations
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,7 @@ def compensate(ident: Identification, targets: np.ndarray, *, clearances=None, s
     Raises :class:`~pmaccuracy.errors.OutsideJointLimitsError` naming the first target the identified robot
     cannot reach within its actuator ranges.
     """
+    check_orientations(targets, "targets", poses=True)
     pv = ident.parameters
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     cmd = commands_for(pv, ident.values, targets)

@@ -28,6 +28,7 @@ from .data import DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, CalibrationData
 from .identifiability import analyse, observability_indices
 from .identify import jacobian, whitening
 from .parameters import ParameterVector, commands_for
+from ...model.plausibility import check_orientations
 
 
 def candidate_poses(pv: ParameterVector, n: int = 22, phi_range: tuple[float, float] = (-0.35, 0.35),
@@ -106,6 +107,8 @@ def plan_poses(pv: ParameterVector, n_poses: int, candidates: np.ndarray | None 
     Raises :class:`~pmaccuracy.errors.ConfigError` when fewer poses than needed for the identifiable
     parameters are asked or more than the candidates.
     """
+    if candidates is not None:
+        check_orientations(candidates, "candidates", poses=True)
     cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
     B, free = _blocks(pv, cand)
     C, _, L = B.shape
