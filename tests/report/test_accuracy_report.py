@@ -89,3 +89,24 @@ def test_reproduce_design_options_are_checked_first(args, key, tmp_path, capsys)
     err = capsys.readouterr().err
     assert code == 2 and key in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_design_section_over_a_disc_certifies_that_disc(tmp_path, capsys):
+    """``reproduce ... --disc X Y R``: the design section's worst case is over that disc: its attaining pose lies
+    in the disc and the certified bound is at least a brute-force sample of the disc (independent)."""
+    from pmaccuracy.accuracy.bounds import max_pose_errors
+
+    out = tmp_path / "rep"
+    code = main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--grid", "11",
+                 "--no-experiment", "--phi-range-deg", "-1", "1", "--disc", "2", "-1", "6", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    d = json.loads((out / "results.json").read_text())["design_decisions"]
+    assert "disc of centre (2, -1) mm and radius 6 mm" in d["settings"]["region"]
+    w = d["global_worst"]["rpr_typical"]["quantities"]["dp"]
+    assert np.hypot(w["x"] - 2.0, w["y"] + 1.0) <= 6.0 + 1e-9
+    r, t = np.meshgrid(np.linspace(0, 6, 13), np.linspace(0, 2 * np.pi, 37))
+    pts = np.column_stack([2 + (r * np.cos(t)).ravel(), -1 + (r * np.sin(t)).ravel()])
+    best = max(float(np.max(max_pose_errors("symmetric_3rpr", "rpr_typical",
+                                            np.column_stack([pts, np.full(len(pts), np.radians(p))])).dp_max))
+               for p in (-1.0, 0.0, 1.0))
+    assert best <= w["upper"] * (1 + 1e-9)

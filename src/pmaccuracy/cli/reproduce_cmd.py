@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from . import _common
+from .worst_cmd import add_shape, parse_shape
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="orientation interval (deg) of the design section's global worst case and synthesis "
                         "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
     p.add_argument("--no-design", action="store_true", help="skip the design section of the accuracy report")
+    add_shape(p)   # the design section's region: --workspace (default), --box, --disc, --polygon
     p.set_defaults(func=run)
 
 
@@ -49,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
     _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
     targets = _targets(args.target)
+    shape = parse_shape(args)
     phi_range = tuple(args.phi_range_deg) if args.phi_range_deg else None
     if phi_range is not None and not phi_range[0] < phi_range[1]:
         raise ConfigError(f"needs LO < HI, got {phi_range[0]:g} {phi_range[1]:g}", key="--phi-range-deg")
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,
                                   experiment=not args.no_experiment, design=not args.no_design, targets=targets,
-                                  phi_range_deg=phi_range, command=_common.command_line(args))
+                                  phi_range_deg=phi_range, command=_common.command_line(args), region=shape)
         print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s): {robot.name} with "
               f"{results['clearances']}")
         return 0
@@ -78,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--no-design applies to the accuracy report (with --clearances)", key="--no-design")
     results = reproduce(Path(args.out), robot, args.grid, seed=args.seed,
                         experiment=not args.no_experiment, command=_common.command_line(args), targets=targets,
-                        phi_range_deg=phi_range)
+                        phi_range_deg=phi_range, region=shape)
     ok = sum(c["pass"] for c in results["paper_check"])
     print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s); paper check: {ok} of "
           f"{len(results['paper_check'])} values within 1 %")

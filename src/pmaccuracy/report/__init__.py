@@ -75,7 +75,7 @@ _FIGURES, _EXPERIMENT_FIGURES = 7, 10
 def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", grid: int = 101, *,
               seed: int = 0, experiment: bool = True, workers: int = 2, progress: bool | None = None,
               command: str | None = None, targets: dict | None = None,
-              phi_range_deg: tuple[float, float] | None = None) -> dict:
+              phi_range_deg: tuple[float, float] | None = None, region=None) -> dict:
     """Build the whole reproduction report in ``out_dir`` and return ``results.json``'s content.
 
     Figures are built and saved by ``workers`` processes (:class:`pmaccuracy.report.figures.Renderer`;
@@ -83,7 +83,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
     bar for the whole report on stderr (default: when stderr is a terminal); ``command``, the command line
     that asked for it, is printed in the footer with the version. ``targets`` (``{"dp": mm, "dphi_deg": deg}``)
     and ``phi_range_deg`` set the design section's synthesis and orientation interval (default
-    :data:`pmaccuracy.report.design_report.TARGETS` and ``PHI_RANGE_DEG``).
+    :data:`pmaccuracy.report.design_report.TARGETS` and ``PHI_RANGE_DEG``) and ``region`` its positions (a
+    shape of :mod:`pmaccuracy.accuracy.regions` or a box; default the whole workspace).
     """
     import sys
 
@@ -127,7 +128,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
                         lambda: _design_section(doc, robot, design_jobs, out, results, renderer),
                         lambda: design_section(doc, robot, out, results, renderer, seed=seed,
                                                targets=targets or DESIGN_TARGETS,
-                                               phi_range_deg=phi_range_deg or DESIGN_PHI_RANGE)):
+                                               phi_range_deg=phi_range_deg or DESIGN_PHI_RANGE,
+                                               region=region)):
             section()
             bar.update()
         if experiment:

@@ -57,7 +57,8 @@ def only(sources: ErrorSources, keys: tuple[str, ...]) -> ErrorSources:
 def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, grid: int = 101, *,
                     phis_deg: tuple[float, ...] = REPORT_PHIS_DEG, seed: int = 0, experiment: bool = True,
                     workers: int = 2, design: bool = True, targets: dict | None = None,
-                    phi_range_deg: tuple[float, float] | None = None, command: str | None = None) -> dict:
+                    phi_range_deg: tuple[float, float] | None = None, command: str | None = None,
+                    region=None) -> dict:
     """Write the accuracy report of ``robot`` with ``clearances`` in ``out_dir``; returns ``results.json``'s content.
 
     ``clearances`` is a per-joint clearance file or preset, or the 3-PPR format
@@ -65,7 +66,9 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
     (:func:`pmaccuracy.report.design_report.design_section` on these clearances): certified worst cases at
     named poses, the certified worst case over the workspace for phi in ``phi_range_deg`` (deg; default the
     range of ``phis_deg``), tolerance synthesis for ``targets`` (``{"dp": mm, "dphi_deg": deg, ...}``; none:
-    skipped, and the verdict says so) and statistics. ``command`` (the command line) goes to the footer.
+    skipped, and the verdict says so) and statistics, over ``region`` (a shape of
+    :mod:`pmaccuracy.accuracy.regions` or a box; default the workspace). ``command`` (the command line) goes to
+    the footer.
     """
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -94,7 +97,7 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
             _experiment_section(doc, robot, sources, float(phis[0]), seed, out, results, renderer)
         if design:
             design_section(doc, robot, out, results, renderer, seed=seed, cases={sources.name: sources},
-                           targets=targets, phi_range_deg=phi_range)
+                           targets=targets, phi_range_deg=phi_range, region=region)
     results["elapsed_s"] = round(time.perf_counter() - t0, 2)
     _method_section(doc)
     (out / "results.json").write_text(json.dumps(results, indent=2, default=float))

@@ -159,12 +159,12 @@ def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: lis
     return rows
 
 
-def global_job(robot: Manipulator, case, phi_deg=PHI_RANGE_DEG, gap: float = GLOBAL_GAP) -> dict:
+def global_job(robot: Manipulator, case, phi_deg=PHI_RANGE_DEG, gap: float = GLOBAL_GAP, shape=None) -> dict:
     """(b): :func:`pmaccuracy.accuracy.global_worst.global_worst` of ``case`` over the workspace at ``phi`` in
     ``phi_deg``: per quantity ``lower`` (attained at ``x, y, phi_deg``), ``upper`` (certified), ``gap``,
     ``converged``; mm, deg for ``dphi_deg``."""
 
-    region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
+    region = make_region(robot, tuple(math.radians(p) for p in phi_deg), shape)
     res = global_worst(robot, _spec(case), region, gap=gap)
     qs = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "gap": float(w.gap),
                     "x": float(w.pose[0]), "y": float(w.pose[1]), "phi_deg": math.degrees(w.pose[2]),
@@ -174,13 +174,13 @@ def global_job(robot: Manipulator, case, phi_deg=PHI_RANGE_DEG, gap: float = GLO
 
 
 def synthesis_job(robot: Manipulator, mode: str, targets: dict = TARGETS, phi_deg=PHI_RANGE_DEG,
-                  gap: float = GLOBAL_GAP, template=None) -> dict:
+                  gap: float = GLOBAL_GAP, template=None, shape=None) -> dict:
     """(c): :func:`pmaccuracy.accuracy.synthesis.synthesize` (default template) for ``targets`` (``dp`` mm,
     ``dphi_deg`` deg) over the workspace at ``phi`` in ``phi_deg``: sources (template and synthesized values,
     mm / rad), ``scale`` (uniform) or ``cost`` (min-cost), and the re-verified certificate per quantity."""
 
     t0 = time.perf_counter()
-    region = make_region(robot, tuple(math.radians(p) for p in phi_deg), None)
+    region = make_region(robot, tuple(math.radians(p) for p in phi_deg), shape)
     res = synthesize(robot, region, parse_targets(dict(targets)), mode=mode, gap=gap,
                      template=None if template is None else _spec(template))
     worst = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "x": float(w.pose[0]),
@@ -235,13 +235,15 @@ def iso_job(robot: Manipulator, seed: int) -> dict:
 def design_section(doc: Document, robot: Manipulator, out: str | Path, results: dict, renderer, *,
                    seed: int = 0, cases: dict | None = None, targets: dict | None = TARGETS,
                    phi_range_deg: tuple[float, float] = PHI_RANGE_DEG, template=None, scales=SCALES,
-                   iso: bool | None = None) -> dict:
+                   iso: bool | None = None, region=None) -> dict:
     """Add the section to ``doc`` and its numbers to ``results["design_decisions"]`` (returned too).
 
     ``cases``: ``{label: clearances}`` (a set, a preset name or a path), default the paper's ``case1`` and
     ``case2``; ``targets`` of the synthesis (``{"dp": mm, "dphi_deg": deg, ...}``; ``None``: no synthesis)
     over the workspace for phi in ``phi_range_deg`` (deg), scaling ``template`` (default: the last case, or
-    the paper's Case 1 template for the paper's cases); ``iso``: the ISO 9283 test (default: only with the
+    the paper's Case 1 template for the paper's cases); ``region``: the positions of (b) and (c), a shape of
+    :mod:`pmaccuracy.accuracy.regions` or a box ``(x0, x1, y0, y1)`` mm (default: the whole workspace);
+    ``iso``: the ISO 9283 test (default: only with the
     paper's cases). ``results["cases"]`` (the report's grid maps: ``{label: {phi_deg: {"dx_max": [lo, hi],
     ...}}}``, mm and deg) gives the grid maxima that (b) compares with; ``results["grid"]`` the map grid (the
     percentile map uses ``min(grid, MAP_GRID)``). ``renderer`` is a :class:`pmaccuracy.report.figures.Renderer`
@@ -267,13 +269,14 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     jobs = {}
     if targets:
         jobs[("synthesis", "min-cost")] = renderer.compute(synthesis_job, robot, "min-cost", targets, phi_range,
-                                                           GLOBAL_GAP, template)
+                                                           GLOBAL_GAP, template, region)
     jobs[("statistics", labels[-1])] = renderer.compute(statistics_job, robot, cases[labels[-1]], home, grid, seed,
                                                          figure, threshold)
-    jobs.update({("global", c): renderer.compute(global_job, robot, cases[c], phi_range) for c in labels})
+    jobs.update({("global", c): renderer.compute(global_job, robot, cases[c], phi_range, GLOBAL_GAP, region)
+                 for c in labels})
     if targets:
         jobs[("synthesis", "uniform")] = renderer.compute(synthesis_job, robot, "uniform", targets, phi_range,
-                                                          GLOBAL_GAP, template)
+                                                          GLOBAL_GAP, template, region)
     if iso:
         jobs[("iso", ISO_CASE)] = renderer.compute(iso_job, robot, seed)
     jobs.update({("statistics", c): renderer.compute(statistics_job, robot, cases[c], home, None, seed, None,
@@ -294,6 +297,9 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
                          "gap": GLOBAL_GAP, "targets": dict(targets or {}), "threshold_dp": threshold,
                          "pose_samples": POSE_SAMPLES, "map_samples": MAP_SAMPLES, "map_grid": grid, "seed": seed,
                          "paper_cases": paper,
+                         "region": "the workspace" if region is None else
+                         (region.describe() if hasattr(region, "describe") else
+                          "the box x in [{:g}, {:g}] mm, y in [{:g}, {:g}] mm".format(*region)) + " (within reach)",
                          "iso": {"clearances": ISO_CASE, "cycles": ISO_CYCLES, "noise_mm": ISO_NOISE_MM,
                                  "noise_deg": ISO_NOISE_DEG} if iso else None},
             "certified": rows,
@@ -339,12 +345,12 @@ def _verdict(d: dict) -> str:
     last = s["cases"][-1]
     if "error" in d["global_worst"][last]:
         gw = None
-        line1 = (f"**Verdict.** (1) With the clearances `{last}` the worst case over the workspace at phi in "
+        line1 = (f"**Verdict.** (1) With the clearances `{last}` the worst case over {s['region']} at phi in "
                  f"[{lo:g}, {hi:g}] deg has no finite bound: {d['global_worst'][last]['error']}")
     else:
         gw = d["global_worst"][last]["quantities"]
         dp, dphi = gw["dp"], gw["dphi_deg"]
-        line1 = (f"**Verdict.** (1) With the clearances `{last}`, no pose of the workspace at phi in [{lo:g}, "
+        line1 = (f"**Verdict.** (1) With the clearances `{last}`, no pose of {s['region']} at phi in [{lo:g}, "
                  f"{hi:g}] deg errs by more than dp = {_fmt(dp['upper'])} mm or dphi = {_fmt(dphi['upper'])} deg "
                  f"(certified; attained {_fmt(dp['lower'])} mm at {_pose(dp['x'], dp['y'], dp['phi_deg'])}).")
     syn_error = next((v["error"] for v in (d["synthesis"] or {}).values() if "error" in v), None)
@@ -421,7 +427,7 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
     ok = {c: gw for c, gw in d["global_worst"].items() if "error" not in gw}
     for c, gw in d["global_worst"].items():
         if "error" in gw:
-            doc.paragraph(f"**(b) Global maximum over the workspace for phi in [{lo:g}, {hi:g}] deg**, "
+            doc.paragraph(f"**(b) Global maximum over {s['region']} for phi in [{lo:g}, {hi:g}] deg**, "
                           f"clearances `{c}`: not bounded. {gw['error']}")
     if ok:
         gw_rows = []
@@ -434,7 +440,7 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
                                 "yes" if w["converged"] else "no"])
         orient = ", ".join(f"{p:g}" for p in next(iter(ok.values()))["grid_orientations_deg"])
         doc.paragraph(
-            f"**(b) Global maximum over the workspace for phi in [{lo:g}, {hi:g}] deg** (`pmaccuracy worst`, "
+            f"**(b) Global maximum over {s['region']} for phi in [{lo:g}, {hi:g}] deg** (`pmaccuracy worst`, "
             "first-order model): `attained` is the value at the pose shown, `certified max` a rigorous bound over "
             "every reachable pose of the region (branch and bound with interval arithmetic), `gap` their relative "
             f"difference. The report's maps sample the region on a grid at phi = {orient} deg only; `grid max` is "
@@ -468,7 +474,7 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
         tgt = ", ".join(f"{k} = {v:g} {'deg' if k.endswith('_deg') else 'mm'}" for k, v in s["targets"].items())
         doc.paragraph(
             f"**(c) Tolerance synthesis** (`pmaccuracy synthesize`): the largest clearances of the template "
-            f"`{uni['template']}` (its non-zero sources) that keep the certified worst case within {tgt} everywhere in the workspace for phi in "
+            f"`{uni['template']}` (its non-zero sources) that keep the certified worst case within {tgt} everywhere in {s['region']} for phi in "
             f"[{lo:g}, {hi:g}] deg. Uniform: the template times one factor; min-cost: per joint, minimizing "
             "sum eps0 / eps (halving a clearance doubles its cost), equal weights. Values in mm or rad by the source.")
         doc.table(["source", "template", "uniform", "min-cost"],
