@@ -512,16 +512,20 @@ def _virtual_experiment(robot: Manipulator, case: str, out_dir: Path, seed: int,
         name = f"map_phi{phi_deg:g}_x2"
         files[name] = str(renderer.submit(
             out_dir / f"{prefix}{name}.png", figures.plot_error_map, ds, phi_deg, measured=measured, scale=2.0,
+            data="simulated",
             title=f"{robot.name}, clearances {cs.name}, $\\phi$ = {phi_deg:g} deg: simulated ranges vs 2 x maxima"))
     sim = f"{robot.name}, {cs.name}, SIMULATED"
     files["boxplot"] = str(renderer.submit(out_dir / f"{prefix}boxplot.png", experiment_plots.plot_boxplots,
                                            {f"phi = {p:g} deg": c.measured for p, c in by_phi.items()},
-                                           title=f"Simulated pose errors (Eq. 23), {sim}, cf. paper Fig. 13"))
+                                           title=f"Simulated pose errors (Eq. 23), {sim}, cf. paper Fig. 13",
+                                           data="simulated"))
     # Figs. 14 and 15 over every orientation (each one coloured and named in the figure)
     files["accuracy"] = str(renderer.submit(out_dir / f"{prefix}accuracy.png", experiment_plots.plot_accuracy,
-                                            comparison, title=f"Simulated pose error per point (Eq. 24), {sim}"))
+                                            comparison, title=f"Simulated pose error per point (Eq. 24), {sim}",
+                                            data="simulated"))
     files["regression_x2"] = str(renderer.submit(out_dir / f"{prefix}regression_x2.png", experiment_plots.plot_regression,
-                                                 comparison, 2.0, title=f"Prediction (2 x max) vs simulated range, {sim}"))
+                                                 comparison, 2.0, title=f"Prediction (2 x max) vs simulated range, {sim}",
+                                                 data="simulated"))
     summary = comparison.summary()
     noise_mm, noise_deg = ex.DEFAULT_ACCURACY_MM, ex.DEFAULT_ACCURACY_DEG
     result = {"robot": robot.name, "clearances": cs.name, "model": "exact", "take_up": 1.0, "noise_mm": noise_mm,

@@ -24,7 +24,8 @@ from ..io.resolve import load_clearances
 from ..io.resolve import robot_arg
 
 
-def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, title: str | None = None) -> Figure:
+def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, title: str | None = None,
+                  data: str = "measured") -> Figure:
     """Box plots of the measured errors as in Fig. 13: one panel per quantity, one box per dataset.
 
     ``datasets`` maps a label (e.g. ``"case 1, phi = 0"``) to measured errors or measurements.
@@ -37,7 +38,7 @@ def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, titl
         ax.boxplot([v[q] for v in values])
         ax.set_xticks(range(1, len(names) + 1))
         ax.set_xticklabels(names, rotation=15 if len(names) > 2 else 0, fontsize=8)
-        ax.set_ylabel(f"measured {LABELS[q]} [{UNITS[q]}]")
+        ax.set_ylabel(f"{data} {LABELS[q]} [{UNITS[q]}]")
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle(title or "Measured pose errors (Eq. 23), cf. paper Fig. 13")
     return fig
@@ -57,7 +58,8 @@ def _phi_list(groups: list[tuple[float, np.ndarray]]) -> str:
     return ", ".join(f"{phi:g}" for phi, _ in groups) + " deg"
 
 
-def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None = None) -> Figure:
+def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None = None,
+                  data: str = "measured") -> Figure:
     """Position and orientation error per point as bars (the paper's Eq. 24 and Fig. 14; not the ISO 9283 AP).
 
     ``dp`` in mm and ``dphi`` in deg, one bar per measured point, the points of each
@@ -88,7 +90,7 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     ticks = order[::step]
     ax_r.set_xticks(pos[ticks])
     ax_r.set_xticklabels(m.points[ticks], fontsize=8, rotation=90 if step == 1 and n > 20 else 0)
-    ax_r.set_xlabel("measured point" + (f" (one in {step} labelled)" if step > 1 else ""), fontsize=10)
+    ax_r.set_xlabel(f"{data} point" + (f" (one in {step} labelled)" if step > 1 else ""), fontsize=10)
     for ax in (ax_p, ax_r):
         ax.grid(axis="y", alpha=0.3)
         ax.tick_params(labelsize=9)
@@ -100,7 +102,8 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     return fig
 
 
-def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str | None = None) -> Figure:
+def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str | None = None,
+                    data: str = "measured") -> Figure:
     """Predicted vs measured errors with the band ``d_meas +- 2 A_meas`` (paper Fig. 15).
 
     One panel per quantity: points ``(d_meas, factor d_max)`` coloured by nominal orientation, the line
@@ -130,7 +133,7 @@ def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str |
         ax.set_xlim(lo, hi)
         ax.set_ylim(lo, hi)
         ax.set_aspect("equal")
-        ax.set_xlabel(f"measured {LABELS[q]} [{UNITS[q]}]", fontsize=10)
+        ax.set_xlabel(f"{data} {LABELS[q]} [{UNITS[q]}]", fontsize=10)
         ax.set_ylabel(f"{pre}predicted {LABELS[q]}" + r"$_{max}$" + f" [{UNITS[q]}]", fontsize=10)
         r = reg[q]["r"]
         ax.set_title(f"{100 * band[q]['share']:.0f} % inside $\\pm${half[q]:g} {UNITS[q]}"

@@ -281,8 +281,10 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
 
 def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.ndarray] | None = None,
                    title: str | None = None, scale: float = 1.0, vmin: float | None = None,
-                   vmax: float | None = None, log: bool = False) -> Figure:
+                   vmax: float | None = None, log: bool = False, data: str = "measured") -> Figure:
     """Four panels (dx_max, dy_max, dp_max in mm; dphi_max in deg) over the workspace at ``phi_deg``.
+
+    ``measured`` points are named ``data`` in the legend ("simulated" for a virtual experiment's).
 
     Each panel fills a box of the workspace's aspect ratio with a colour bar of exactly its height
     (:func:`panel_grid`), labelled with what is drawn, factor included (``2 x dx_max [mm]``). Contour
@@ -319,7 +321,7 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
         if measured is not None:
             ax.scatter(measured["x"], measured["y"], c=extra, cmap="viridis", vmin=rng.lo, vmax=rng.hi, s=30,
-                       edgecolors="black", linewidths=0.9, label="measured", zorder=3)
+                       edgecolors="black", linewidths=0.9, label=data, zorder=3)
         ax.set_title(panel_title, fontsize=10)
         ax.set_xlabel("x [mm]", fontsize=9)
         ax.set_ylabel("y [mm]", fontsize=9)
@@ -329,7 +331,7 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
 
         handles = [Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
                           markeredgecolor="black")]
-        fig.legend(handles, ["measured points, filled with the measured value on the map's colour scale"],
+        fig.legend(handles, [f"{data} points, filled with the {data} value on the map's colour scale"],
                    loc="upper center", bbox_to_anchor=(0.5, 1 - 0.5 / fig.get_figheight()), frameon=False,
                    fontsize=9)
     fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}, "
