@@ -269,3 +269,24 @@ def test_designed_preload_holds_every_contact_and_two_percent_less_flips_one(nam
     assert np.any(signs(0.98 * pre.wrench) != pre.pattern)
     b = max_pose_errors(robot, clear, pose[None])
     assert np.all(np.abs(pre.offset) <= np.array([b.dx_max[0], b.dy_max[0], b.dphi_max[0]]) * (1 + 1e-9))
+
+
+def test_cli_preload_matches_the_library_and_checks_its_box(capsys):
+    import json
+
+    from pmaccuracy.accuracy.loads import design_preload, wrench_set_errors
+    from pmaccuracy.cli import main
+
+    assert main(["preload", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--pose", "1", "2", "3",
+                 "--fx", "-4", "6", "--m", "-50", "50", "--format", "json"]) == 0
+    rec = json.loads(capsys.readouterr().out)[0]
+    pose = np.array([1.0, 2.0, np.radians(3.0)])
+    center, half = np.array([1.0, 0.0, 0.0]), np.array([5.0, 0.0, 50.0])
+    pre = design_preload("symmetric_3rpr", "rpr_typical", pose, center, half)
+    rng = wrench_set_errors("symmetric_3rpr", "rpr_typical", pose[None], center, half)
+    assert rec["preload_size_N"] == pytest.approx(pre.size, rel=1e-9)
+    assert rec["dx_range"] == pytest.approx(float(rng.upper[0, 0] - rng.lower[0, 0]), rel=1e-9)
+    for argv, key in ((["--fx", "5", "-5"], "--fx"), ([], "--fx")):
+        assert main(["preload", "--pose", "0", "0", "0", *argv]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and key in err

@@ -1,0 +1,64 @@
+"""``pmaccuracy preload``: the smallest constant platform wrench that keeps every joint's contact fixed over a box of
+process wrenches, and the range of the loaded error without it."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from . import _common
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "preload", help="smallest preload keeping every contact fixed over a box of process wrenches (any architecture)",
+        description="For process wrenches anywhere in the box --fx/--fy/--m LO HI (N, N, N mm about the platform "
+                    "centre, base frame), at each pose: the range of the loaded pose error and the legs whose "
+                    "contact flips inside the box, then the smallest constant wrench (size max(|fx|, |fy|, |m| / L), "
+                    "L the robot's size) that keeps every leg's contact on one side for every wrench of the box, so "
+                    "the clearance error becomes a constant offset that calibration removes (linear programs).")
+    _common.add_robot(p)
+    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
+    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
+                   help="a commanded pose (repeatable)")
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm")):
+        p.add_argument(f"--{key}", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("LO", "HI"),
+                       help=f"range of the process {key} ({unit}; default 0 0)")
+    _common.add_format(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..accuracy.loads import design_preload, wrench_set_errors
+    from ..errors import ConfigError
+    from ..io.resolve import load_clearances
+
+    robot = _common.load_robot(args)
+    clearances = load_clearances(args.clearances, robot)
+    poses = _common.poses_from_args(args.pose, args.poses_csv)
+    lo = np.array([args.fx[0], args.fy[0], args.m[0]])
+    hi = np.array([args.fx[1], args.fy[1], args.m[1]])
+    for k, key in enumerate(("--fx", "--fy", "--m")):
+        if lo[k] > hi[k]:
+            raise ConfigError(f"needs LO <= HI, got {lo[k]:g} {hi[k]:g}", key=key)
+    if not np.any(hi - lo):
+        raise ConfigError("the box of process wrenches is a single wrench: give a range LO HI", key="--fx")
+    center, half = (lo + hi) / 2, (hi - lo) / 2
+    ranges = wrench_set_errors(robot, clearances, poses, center, half)
+    rows = []
+    for k, pose in enumerate(poses):
+        pre = design_preload(robot, clearances, pose, center, half)
+        rows.append({"x": float(pose[0]), "y": float(pose[1]), "phi_deg": math.degrees(pose[2]),
+                     "flipping_legs": ",".join(str(i + 1) for i in range(3) if ranges.flips[k, i]) or "-",
+                     "dx_range": float(ranges.upper[k, 0] - ranges.lower[k, 0]),
+                     "dy_range": float(ranges.upper[k, 1] - ranges.lower[k, 1]),
+                     "dphi_deg_range": math.degrees(ranges.upper[k, 2] - ranges.lower[k, 2]),
+                     "preload_fx_N": float(pre.wrench[0]) + 0.0, "preload_fy_N": float(pre.wrench[1]) + 0.0,
+                     "preload_m_Nmm": float(pre.wrench[2]) + 0.0, "preload_size_N": pre.size,
+                     "offset_dx": float(pre.offset[0]), "offset_dy": float(pre.offset[1]),
+                     "offset_dphi_deg": math.degrees(pre.offset[2])})
+    _common.emit(rows, args.format)
+    return 0
