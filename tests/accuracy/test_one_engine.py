@@ -206,3 +206,20 @@ def test_cli_takes_polar_keys_in_bounds_and_refuses_them_in_certified(tmp_path, 
                  "--certified"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "base_turn" in err and "certified" in err
+
+
+def test_worst_configuration_keeps_every_source_when_several_act_at_one_joint():
+    """A link turn adds a turn and a shift at the next joint, where that joint's own direction and position
+    tolerances also act: the configuration must hold their sum (first order gives +-max exactly)."""
+    robot = Manipulator.preset("aalborg_3ppr")
+    sources = ErrorSources.from_clearance_set(ClearanceSet(), {"gamma": np.full(3, 1e-3), "theta": np.full(3, 2e-3),
+                                                               "rho": np.full(3, 0.02)})
+    legs = [list(leg) for leg in sources.legs]
+    legs[0][1] = JointErrors(direction=2e-3, link_turn=1e-3)      # the bearing's link turn adds at joint 3
+    sources = ErrorSources(legs=tuple(tuple(leg) for leg in legs)).check(robot)
+    b = max_pose_errors(robot, sources, POSES, details=True)
+    joints = inverse_kinematics(robot, POSES).joints
+    for row, q in enumerate(("dx", "dy", "dphi")):
+        e = first_order_error(robot, joints, POSES, worst_configuration(robot, sources, joints, POSES,
+                                                                         b.worst_signs[q]))
+        np.testing.assert_allclose(e[:, row], getattr(b, f"{q}_max"), rtol=1e-10)

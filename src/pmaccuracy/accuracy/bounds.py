@@ -69,9 +69,9 @@ from ..kinematics import _raise_serial, _raise_singular, ik_from_states
 from ..kinematics import leg_states
 from ..kinematics import raw_transmission
 from ..model import plausibility
-from ..model.sources import (PPR_TOLERANCE_KEYS, ErrorSources, first_order_error, polar_coefficient,
+from ..model.sources import (PPR_TOLERANCE_KEYS, ErrorSources, first_order_error, source_coefficient,
                               states_half_widths, worst_configuration)
-from ..numerics.screws import cross, dot
+from ..numerics.screws import dot
 from .error_model import VARIATION_UNITS
 
 #: The four quantities of Eq. 21-22, in output order.
@@ -330,20 +330,10 @@ def _coefficient(robot: Manipulator, i: int, k: int, key: str, st, poses: np.nda
                  unit_f: np.ndarray) -> np.ndarray:
     """Signed share of ``e_i`` per unit variation of a link parameter (the paper's ``H_q``, Appendix A, in the
     per-joint sources' sign convention): ``rho`` along ``n_i = E w_i`` (the leg's unit force ``unit_f`` is
-    +-n_i), the actuator's
-    ``B_ii``, a turn's moment, a length's force component, the polar keys'
-    :func:`~pmaccuracy.model.sources.polar_coefficient`."""
-    chain = robot.chains[i]
-    pz = poses[:, 0] + 1j * poses[:, 1]
+    +-n_i), the others :func:`~pmaccuracy.model.sources.source_coefficient`."""
     if key == "position":                    # rho with n_i = E w_i (H_rho = +-1): its sign along the offset
         return dot(unit_f, 1j * complex(robot.w[i, 0], robot.w[i, 1]))
-    if key == "actuator":
-        return st.B
-    if key == "direction":
-        return st.m_P + cross(pz - st.centres[k], st.f)
-    if key == "length":
-        return dot(st.f, st.dirs[k] * chain.joints[k].link_z / abs(chain.joints[k].link_z))
-    return polar_coefficient(chain, k, key, st, poses)
+    return source_coefficient(robot.chains[i], k, key, st, poses)
 
 
 @dataclass(frozen=True)

@@ -176,9 +176,14 @@ def statics(robot: Manipulator | str, poses, load: Load) -> Statics:
     if not isinstance(load, Load):
         raise ConfigError(f"expected a Load, got {type(load).__name__}", key="load")
     _check_poses(robot, poses)
+    return _statics(robot, poses, load)
+
+
+def _statics(robot: Manipulator, poses: np.ndarray, load: Load) -> Statics:
+    """:func:`statics` of poses already checked."""
     W = load.wrench(poses)
     states = leg_states(robot, poses)
-    A = np.stack([np.broadcast_to(st.A_row, poses.shape[:-1] + (3,)) for st in states], axis=-2)
+    A = _rows(states, poses.shape[:-1])
     lam = -np.linalg.solve(np.swapaxes(A, -1, -2), W[..., None])[..., 0]
     shape = poses.shape[:-1]
     actuator = np.stack([lam[..., i] * np.broadcast_to(st.B, shape) for i, st in enumerate(states)], axis=-1)
@@ -202,8 +207,12 @@ def wrench_rows(robot: Manipulator | str, poses) -> np.ndarray:
     form; :attr:`pmaccuracy.model.chain.LegState.A_row`)."""
     robot = robot_arg(robot)
     poses = as_poses(poses)
-    states = leg_states(robot, poses)
-    return np.stack([np.broadcast_to(st.A_row, poses.shape[:-1] + (3,)) for st in states], axis=-2)
+    return _rows(leg_states(robot, poses), poses.shape[:-1])
+
+
+def _rows(states: tuple, shape: tuple) -> np.ndarray:
+    """``A`` ``(*shape, 3, 3)`` from the legs' states."""
+    return np.stack([np.broadcast_to(st.A_row, shape + (3,)) for st in states], axis=-2)
 
 
 def _check_poses(robot: Manipulator, poses: np.ndarray) -> None:
@@ -291,8 +300,10 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     if not (math.isfinite(threshold) and threshold >= 0):
         raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
     poses = as_poses(poses)
-    st = statics(robot, poses, load)
-    b = max_pose_errors(robot, sources, poses, details=True)
+    if not isinstance(load, Load):
+        raise ConfigError(f"expected a Load, got {type(load).__name__}", key="load")
+    b = max_pose_errors(robot, sources, poses, details=True)     # refuses poses outside the ranges or singular
+    st = _statics(robot, poses, load)
     unloaded = np.abs(st.intensity) <= threshold
     signs = np.where(unloaded, 0.0, -np.sign(st.intensity))
     joints = inverse_kinematics(robot, poses).joints
@@ -363,8 +374,7 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     robot = robot_arg(robot)
     c, h = _box(center, half)
     poses = as_poses(poses).reshape(-1, 3)
-    _check_poses(robot, poses)
-    b = max_pose_errors(robot, clearances, poses, details=True)
+    b = max_pose_errors(robot, clearances, poses, details=True)     # refuses poses outside the ranges or singular
     L = _intensity_map(robot, poses)
     reached = np.zeros((poses.shape[0], 8), dtype=bool)
     bounds = [(ci - hi, ci + hi) for ci, hi in zip(c, h)]
@@ -423,7 +433,7 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
     robot = robot_arg(robot)
     c, h = _box(center, half)
     pose = as_poses(pose).reshape(1, 3)
-    _check_poses(robot, pose)
+    b = max_pose_errors(robot, clearances, pose, details=True)      # refuses a pose outside the ranges or singular
     L = _intensity_map(robot, pose)[0]
     scale = np.array([1.0, 1.0, robot.characteristic_length])
     best = None
@@ -440,7 +450,6 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
             best = (res.fun, res.x[:3], s)
     if best is None:    # cannot happen for a regular pose (A invertible): any pattern is reachable
         raise ConfigError("no preload keeps the contacts fixed", key="preload")
-    b = max_pose_errors(robot, clearances, pose, details=True)
     offset = b.generators[0] @ (-best[2])
     worst = np.array([float(b.dx_max[0]), float(b.dy_max[0]), float(b.dphi_max[0])])
     return Preload(wrench=best[1], size=float(best[0]), pattern=best[2], offset=offset, worst=worst)

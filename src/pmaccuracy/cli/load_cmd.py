@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
@@ -17,11 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "intensity, the actuator efforts and every joint's reaction; each clearance taken up along its "
                     "joint's reaction; the resulting pose error, first order and on the exact loop closure. Forces "
                     "in N, moments in N mm about the platform centre, base frame; poses x mm, y mm, phi deg.")
-    _common.add_robot(p)
-    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
-                   help="a commanded pose (repeatable)")
-    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    add_robot_clearances_poses(p)
     p.add_argument("--fx", type=_common.finite_float, default=0.0, help="force on the platform along x (N)")
     p.add_argument("--fy", type=_common.finite_float, default=0.0, help="force on the platform along y (N)")
     p.add_argument("--m", type=_common.finite_float, default=0.0, metavar="M",
@@ -38,6 +33,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--allow-outside", action="store_true", help=argparse.SUPPRESS)
     _common.add_format(p)
     p.set_defaults(func=run)
+
+
+def add_robot_clearances_poses(p: argparse.ArgumentParser) -> None:
+    """``--robot``, ``--clearances`` (default case2) and the poses (``--pose``, ``--poses-csv``) of ``load`` and
+    ``preload``."""
+    _common.add_robot(p)
+    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
+    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
+                   help="a commanded pose (repeatable)")
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
 
 
 def run(args: argparse.Namespace) -> int:

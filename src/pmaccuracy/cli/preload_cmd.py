@@ -7,6 +7,7 @@ import argparse
 import math
 
 from . import _common
+from .load_cmd import add_robot_clearances_poses
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,11 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "contact flips inside the box, then the smallest constant wrench (size max(|fx|, |fy|, |m| / L), "
                     "L the robot's size) that keeps every leg's contact on one side for every wrench of the box, so "
                     "the clearance error becomes a constant offset that calibration removes (linear programs).")
-    _common.add_robot(p)
-    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
-                   help="a commanded pose (repeatable)")
-    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    add_robot_clearances_poses(p)
     for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm")):
         p.add_argument(f"--{key}", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("LO", "HI"),
                        help=f"range of the process {key} ({unit}; default 0 0)")

@@ -347,8 +347,6 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if (e.radial or e.position) and not couple:   # |f| = 1 (a pure couple has f = 0)
                 const += e.radial + e.position
-            if e.direction:
-                terms.append(e.direction * np.abs(m_P + cross(pz - st.centres[k], f)))
             if e.angular or e.lateral:
                 m_block = np.abs(m_P + cross(pz - block_centre(joint, st, k), f))
                 if e.angular:
@@ -356,20 +354,42 @@ def states_half_widths(robot, sources: ErrorSources, states: tuple, poses: np.nd
                 if e.lateral:
                     shift = e.lateral * np.abs(cross(st.dirs[k], f))      # f . (E e_k) = e_k x f
                     terms.append(np.maximum(shift, (2 * e.lateral / e.block_length) * m_block))
-            if e.actuator:
-                terms.append(e.actuator * np.abs(st.B))
-            if e.length and joint.link != (0.0, 0.0):
-                link_dir = st.dirs[k] * (joint.link_z / abs(joint.link_z))
-                terms.append(e.length * np.abs(dot(f, link_dir)))
-            for key in FIRST_ORDER_ONLY:
+            for key in SCALAR_KEYS:
                 t = getattr(e, key)
-                if t:
-                    terms.append(t * np.abs(polar_coefficient(chain, k, key, st, poses)))
+                if t and not (key == "length" and joint.link == (0.0, 0.0)):
+                    terms.append(t * np.abs(source_coefficient(chain, k, key, st, poses)))
         c = const
         for term in terms:
             c = c + term
         out[..., i] = c
     return out
+
+
+#: Keys whose source is one signed scalar with a pose-dependent share (:func:`source_coefficient`).
+SCALAR_KEYS = ("actuator", "direction", "length") + FIRST_ORDER_ONLY
+
+
+def source_coefficient(chain, k: int, key: str, st, poses: np.ndarray) -> np.ndarray:
+    """Share of ``e_i`` per unit value of the scalar source ``key`` (:data:`SCALAR_KEYS`) of joint ``k``
+    (0-based) of a leg in state ``st`` at poses ``(..., 3)`` (signed; the module docstring's table without the
+    absolute value): ``actuator`` ``B_ii``, ``direction`` ``M(c_k)``, ``length`` ``f . unit(link_k)`` (0 without
+    a link), the polar keys :func:`polar_coefficient`.
+
+    >>> from pmaccuracy.model.legs import Chain, Joint
+    >>> chain = Chain(joints=(Joint("R"), Joint("P", actuated=True), Joint("R")))
+    >>> st = chain.state(np.array([3.0, 4.0, 0.0]))
+    >>> round(float(source_coefficient(chain, 1, "actuator", st, np.array([3.0, 4.0, 0.0]))), 12)
+    1.0
+    """
+    if key == "actuator":
+        return st.B
+    if key == "direction":
+        poses = np.asarray(poses, dtype=float)
+        return st.m_P + cross(poses[..., 0] + 1j * poses[..., 1] - st.centres[k], st.f)
+    if key == "length":
+        link = chain.joints[k].link_z
+        return dot(st.f, st.dirs[k] * (link / abs(link))) if link != 0 else np.zeros(np.shape(st.f))
+    return polar_coefficient(chain, k, key, st, poses)
 
 
 def polar_coefficient(chain, k: int, key: str, st, poses: np.ndarray) -> np.ndarray:
@@ -493,14 +513,12 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
     out = {k: np.zeros(shape + (3, 3), dtype=complex if k == "shift" else float) for k in JointDisplacements.FIELDS}
     sgn = lambda x: np.where(np.asarray(x) < 0, -1.0, 1.0)  # noqa: E731
     for i, (chain, leg, st) in enumerate(zip(robot.chains, sources.legs, _leg_states(robot, joints, poses))):
-        centres, dirs, f, m_P, B = st.centres, st.dirs, st.f, st.m_P, st.B
+        dirs, f, m_P = st.dirs, st.f, st.m_P
         t = signs[..., i]
         unit_f = np.where(np.abs(f) > 0, f / np.where(np.abs(f) > 0, np.abs(f), 1.0), 0.0)
         for k, (joint, e) in enumerate(zip(chain.joints, leg)):
             if e.radial or e.position:
-                out["shift"][..., i, k] = t * (e.radial + e.position) * unit_f
-            if e.direction:
-                out["turn"][..., i, k] = t * e.direction * sgn(m_P + cross(pz - centres[k], f))
+                out["shift"][..., i, k] += t * (e.radial + e.position) * unit_f   # += : a link turn adds here
             if e.angular or e.lateral:
                 b = m_P + cross(pz - block_centre(joint, st, k), f)
                 out["tilt"][..., i, k] = t * e.angular * sgn(b)
@@ -509,16 +527,18 @@ def worst_configuration(robot, sources: ErrorSources, joints: np.ndarray, poses:
                 shift_wins = e.lateral * np.abs(a) >= 2 * e.lateral * np.abs(b) / e.block_length
                 out["sigma"][..., i, k] = np.where(shift_wins, t * e.lateral * sgn(a), 0.0)
                 out["tau"][..., i, k] = np.where(shift_wins, 0.0, t * 2 * e.lateral / e.block_length * sgn(b))
-            if e.actuator:
-                out["dq"][..., i, k] = t * e.actuator * sgn(B)
-            if e.length and joint.link != (0.0, 0.0):
-                link_dir = dirs[k] * joint.link_z / abs(joint.link_z)
-                out["dl"][..., i, k] = t * e.length * sgn(dot(f, link_dir))
-            for key in FIRST_ORDER_ONLY:
-                if getattr(e, key):
-                    value = t * getattr(e, key) * sgn(polar_coefficient(chain, k, key, st, poses))
-                    _add_polar(out, chain, i, k, key, value, st, poses)
+            for key in SCALAR_KEYS:
+                if getattr(e, key) and not (key == "length" and joint.link == (0.0, 0.0)):
+                    value = t * getattr(e, key) * sgn(source_coefficient(chain, k, key, st, poses))
+                    if key in _FIELD_OF:
+                        out[_FIELD_OF[key]][..., i, k] += value
+                    else:
+                        _add_polar(out, chain, i, k, key, value, st, poses)
     return JointDisplacements(**out)
+
+
+#: The configuration field of each non-polar scalar key.
+_FIELD_OF = {"actuator": "dq", "direction": "turn", "length": "dl"}
 
 
 def _add_polar(out: dict, chain, i: int, k: int, key: str, value: np.ndarray, st, poses: np.ndarray) -> None:

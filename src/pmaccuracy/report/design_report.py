@@ -109,11 +109,6 @@ def home_pose(robot: Manipulator) -> np.ndarray:
     return np.array([*ws.vertices.mean(axis=0), 0.0])
 
 
-def _spec(clearances):
-    """A clearance preset name of the paper (``case1``, ``case2``) as its set; objects and paths as they are."""
-    return ClearanceSet.load(clearances) if isinstance(clearances, str) and clearances in CASES else clearances
-
-
 def check_poses(robot: Manipulator, case, phi_range_deg=PHI_RANGE_DEG) -> tuple[np.ndarray, list[str]]:
     """Poses ``(n <= 3, 3)`` [mm, mm, rad] of table (a) and their labels: the home pose, the corner of the phi = 0
     workspace with the largest first-order ``dp`` and the corner of the workspaces at the ends of
@@ -121,7 +116,7 @@ def check_poses(robot: Manipulator, case, phi_range_deg=PHI_RANGE_DEG) -> tuple[
     position, so these are the worst poses of those orientations). Corners farther from a singularity than
     :data:`WELL_CONDITIONED` allows are left out (a 3-RRR's workspace ends where a leg is stretched)."""
 
-    cs = _spec(case)
+    cs = load_clearances(case, robot)
     poses, labels = [home_pose(robot)], ["home"]
     lo, hi = phi_range_deg
     for phis, label in (((0.0,), "worst corner, phi = 0"), ((lo, hi), f"worst corner, phi = {lo:g} or {hi:g}")):
@@ -144,7 +139,7 @@ def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: lis
     (``allow_outside``: the corners lie on the workspace's boundary; NaN / None and ``reason`` where no
     certificate)."""
 
-    cs = load_clearances(_spec(case) if clearances is None else clearances, robot)
+    cs = load_clearances(case if clearances is None else clearances, robot)
     rows = []
     for scale in scales:
         r = certified_pose_errors(robot, cs.scaled(scale), poses, allow_outside=True, on_failure="nan")
@@ -165,7 +160,7 @@ def global_job(robot: Manipulator, case, phi_deg=PHI_RANGE_DEG, gap: float = GLO
     ``converged``; mm, deg for ``dphi_deg``."""
 
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), shape)
-    res = global_worst(robot, _spec(case), region, gap=gap)
+    res = global_worst(robot, case, region, gap=gap)
     qs = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "gap": float(w.gap),
                     "x": float(w.pose[0]), "y": float(w.pose[1]), "phi_deg": math.degrees(w.pose[2]),
                     "converged": bool(w.converged)} for q, w in res.quantities.items()}
@@ -182,11 +177,11 @@ def synthesis_job(robot: Manipulator, mode: str, targets: dict = TARGETS, phi_de
     t0 = time.perf_counter()
     region = make_region(robot, tuple(math.radians(p) for p in phi_deg), shape)
     res = synthesize(robot, region, parse_targets(dict(targets)), mode=mode, gap=gap,
-                     template=None if template is None else _spec(template))
+                     template=template)
     worst = {KEYS[q]: {"lower": _deg(q, w.lower), "upper": _deg(q, w.upper), "x": float(w.pose[0]),
                        "y": float(w.pose[1]), "phi_deg": math.degrees(w.pose[2]), "converged": bool(w.converged)}
              for q, w in res.worst.quantities.items()}
-    name = default_template(robot) if template is None else getattr(_spec(template), "name", str(template))
+    name = default_template(robot) if template is None else getattr(template, "name", str(template))
     return {"mode": mode, "template": name, "scale": res.scale, "cost": res.cost,
             "cuts": res.cuts, "sources": [{"source": s.label, "template": float(s.value), "value": float(v)}
                                           for s, v in zip(res.sources, res.values)],
@@ -200,7 +195,6 @@ def statistics_job(robot: Manipulator, case, pose: np.ndarray, grid: int | None,
     ``grid=None`` only the pose statistics (:func:`~pmaccuracy.accuracy.distributions.pose_statistics`, same
     settings): ``{"pose": ..., "threshold_dp": ...}``."""
 
-    case = _spec(case)
     if grid is None:
         return {"pose": pose_statistics(robot, case, pose, samples=POSE_SAMPLES, seed=seed,
                                         thresholds={"dp": threshold_dp}).to_dict(), "threshold_dp": threshold_dp}
@@ -262,7 +256,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     home = home_pose(robot)
     # the exceedance threshold: the paper's 0.2 mm, or half the worst case of the last clearances at home
     threshold = THRESHOLD_DP if paper else round(0.5 * float(max_pose_errors(
-        robot, _spec(cases[labels[-1]]), home, allow_outside=True).dp_max), 4)
+        robot, cases[labels[-1]], home, allow_outside=True).dp_max), 4)
     grid = int(min(results.get("grid", MAP_GRID), MAP_GRID))
     figure = out / "design_percentiles.png"
     # longest first: the workers may still be drawing the figures of the earlier sections
@@ -284,7 +278,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     rows = []
     for label in labels:
         poses, pose_labels = check_poses(robot, cases[label], phi_range)
-        rows += certified_rows(robot, label, poses, pose_labels, scales, clearances=_spec(cases[label]))
+        rows += certified_rows(robot, label, poses, pose_labels, scales, clearances=cases[label])
     got = {}
     for key, job in jobs.items():
         try:
