@@ -20,7 +20,7 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
   (a box, a ``pm.Disc`` or a ``pm.Polygon``; ``pm.largest_disc`` where targets hold);
 * design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
 * calibration: ``pm.plan_poses``, ``pm.identify`` (from ``pm.read_calibration_csv``), ``pm.compensate``,
-  ``pm.simulate_calibration`` (a virtual experiment);
+  ``pm.simulate_calibration`` (a virtual experiment), ``pm.calibration_report`` (its HTML report);
 * kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``.
 
 Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming the file, key or argument.
@@ -80,6 +80,7 @@ _EXPORTS = {
     "plan_poses": "accuracy.calibration.plan", "Plan": "accuracy.calibration.plan",
     "compensate": "accuracy.calibration.compensate", "Compensation": "accuracy.calibration.compensate",
     "simulate_calibration": "accuracy.calibration.simulate", "Experiment": "accuracy.calibration.simulate",
+    "calibration_report": "report.calibration_report",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

@@ -64,3 +64,22 @@ def test_report_fits_the_screen_with_readable_text(report_html, width, tmp_path)
     assert got["width"] == width
     assert got["scroll"] <= width, got          # no horizontal scroll of the page (wide tables scroll in place)
     assert got["font"] >= 12.0, got
+
+
+@pytest.fixture(scope="module")
+def calibration_html(tmp_path_factory):
+    import pmaccuracy as pm
+
+    out = tmp_path_factory.mktemp("layout_calibration")
+    pv = pm.error_parameters(pm.Manipulator.preset("symmetric_3rrr"))
+    ex = pm.simulate_calibration(pv, 30, seed=1, clearances="rrr_typical", n_targets=20)
+    pm.calibration_report(out / "calibration.html", ex.identification, ex.data, experiment=ex)
+    return (out / "calibration.html").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("width", [1280, 400])
+def test_calibration_report_fits_the_screen_with_readable_text(calibration_html, width, tmp_path):
+    got = measure(calibration_html, width, tmp_path)
+    assert got["width"] == width
+    assert got["scroll"] <= width, got
+    assert got["font"] >= 12.0, got

@@ -1,4 +1,5 @@
-"""``pmaccuracy calibrate plan | identify | compensate | simulate``: kinematic calibration and compensation."""
+"""``pmaccuracy calibrate plan | identify | compensate | simulate | report``: kinematic calibration and
+compensation."""
 
 from __future__ import annotations
 
@@ -67,8 +68,103 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
+    s.add_argument("--report", metavar="FILE.html",
+                   help="also write the calibration report (self-contained HTML) of the run; missing parent folders "
+                        "are created")
     _common.add_format(s)
     s.set_defaults(func=run_simulate)
+    _register_report(steps)
+
+
+#: Options of ``calibrate report`` that describe a simulation (not allowed with --data), with their defaults.
+_SIMULATION_DEFAULTS = {"poses": 30, "seed": 0, "error_mm": 0.1, "error_deg": 0.1, "noise_mm": 0.01,
+                        "noise_deg": 0.01}
+
+
+def _register_report(steps) -> None:
+    s = steps.add_parser("report", help="write the calibration report (self-contained HTML): of a virtual "
+                                        "experiment, or of measured data and their identification",
+                         description="The calibration report: residual maps before and after, parameter estimates "
+                                     "with 1-sigma error bars, the singular value spectrum and what cannot be "
+                                     "identified, observability against random and grid choices, and the accuracy "
+                                     "before and after beside the clearance floor. From a virtual experiment "
+                                     "(--robot, --poses, --seed, --error-*, --noise-*, --clearances, as calibrate "
+                                     "simulate) or from measurements: --data FILE.csv with --identification "
+                                     "FILE.json (written by calibrate identify from the same data).")
+    s.add_argument("--out", required=True, metavar="FILE.html",
+                   help="the report (self-contained HTML); missing parent folders are created")
+    _common.add_robot(s)
+    s.add_argument("--data", metavar="FILE.csv", help="measured calibration CSV (with --identification)")
+    s.add_argument("--identification", metavar="FILE.json",
+                   help="identification of --data, written by calibrate identify --out")
+    s.add_argument("--clearances", metavar="FILE",
+                   help="clearance preset or file: the clearance floor (and, simulating, random clearance states "
+                            "in the measurements)")
+    s.add_argument("--poses", type=_common.positive_int, metavar="N", help="simulation: poses to plan (default 30)")
+    s.add_argument("--seed", type=int, help="seed of the simulation, the random pose choices and the floor's "
+                                            "samples (default 0)")
+    for name, what in (("--error-mm", "simulation: 1-sigma of length and position errors, mm (default 0.1)"),
+                       ("--error-deg", "simulation: 1-sigma of angle errors, deg (default 0.1)"),
+                       ("--noise-mm", "simulation: 1-sigma of the camera in x and y, mm (default 0.01)"),
+                       ("--noise-deg", "simulation: 1-sigma of the camera in phi, deg (default 0.01)")):
+        s.add_argument(name, type=float, help=what)
+    s.set_defaults(func=run_report)
+
+
+def _write_report(path, ident, data, *, experiment=None, clearances=None, seed=0, args=None) -> None:
+    from ..report.calibration_report import calibration_report
+
+    calibration_report(path, ident, data, experiment=experiment, clearances=clearances, seed=seed,
+                       command=_common.command_line(args) if args is not None else None)
+
+
+def run_report(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from ..accuracy.calibration.data import read_calibration_csv
+    from ..accuracy.calibration.identify import identification_from_dict
+    from ..accuracy.calibration.parameters import error_parameters
+    from ..accuracy.calibration.simulate import simulate_calibration
+    from ..errors import ConfigError
+
+    _common.prepare_output(args.out, "--out", (".html",))
+    measured = args.data is not None or args.identification is not None
+    if measured:
+        if args.data is None or args.identification is None:
+            missing = "--data" if args.data is None else "--identification"
+            raise ConfigError("a report of measurements needs both --data FILE.csv and --identification FILE.json",
+                              key=missing)
+        given = [k for k in _SIMULATION_DEFAULTS if k != "seed" and getattr(args, k) is not None]
+        if given:
+            raise ConfigError("describes a simulation: not with --data (the robot and its identification come "
+                              "from --identification)", key="--" + given[0].replace("_", "-"))
+    values = {k: (v if getattr(args, k) is None else getattr(args, k)) for k, v in _SIMULATION_DEFAULTS.items()}
+    for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
+        v = values[opt]
+        if not (np.isfinite(v) and v >= 0):
+            raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
+    if measured:
+        try:
+            with open(args.identification, encoding="utf-8") as fh:
+                record = json.load(fh)
+        except OSError as exc:
+            raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
+        ident = identification_from_dict(record, source=args.identification)
+        data = read_calibration_csv(args.data, ident.parameters)
+        _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
+        print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
+        return 0
+    pv = error_parameters(_common.load_robot(args))
+    noise = (max(values["noise_mm"], 1e-9), max(values["noise_mm"], 1e-9), max(np.radians(values["noise_deg"]), 1e-11))
+    ex = simulate_calibration(pv, values["poses"], seed=values["seed"], noise=noise, clearances=args.clearances,
+                              error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])})
+    _write_report(args.out, ex.identification, ex.data, experiment=ex, seed=values["seed"], args=args)
+    print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} points)")
+    return 0
 
 
 def _estimates(ident) -> list[dict]:
@@ -227,6 +323,8 @@ def run_simulate(args: argparse.Namespace) -> int:
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if args.data_out:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
+    if args.report:
+        _common.prepare_output(args.report, "--report", (".html",))
     pv = error_parameters(_common.load_robot(args))
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
@@ -235,6 +333,8 @@ def run_simulate(args: argparse.Namespace) -> int:
     if args.data_out:
         d = ex.data
         write_calibration_csv(pv.robot, d.commands, d.poses, args.data_out, sigmas=d.sigmas)
+    if args.report:
+        _write_report(args.report, ident, ex.data, experiment=ex, seed=args.seed, args=args)
     before = np.hypot(*ex.errors_before[:, :2].T)
     after = np.hypot(*ex.errors_after[:, :2].T)
     summary = {"points": ident.n_points, "identified": len(ident.identifiability.identified),

@@ -157,3 +157,34 @@ def plan_poses(pv: ParameterVector, n_poses: int, candidates: np.ndarray | None 
     poses = cand[sel]
     return Plan(poses=poses, commands=commands_for(pv, pv.nominal, poses), indices=sel, index=_indices(B, sel),
                 random_index=random_index, grid_index=_indices(B, grid), n_candidates=C)
+
+
+def pose_set_indices(pv: ParameterVector, poses: np.ndarray, candidates: np.ndarray | None = None, *,
+                     seed: int = 0) -> dict:
+    """Observability indices of the measured ``poses (N, 3)`` (robot frame; mm, mm, rad) beside those of the
+    choices :func:`plan_poses` compares, for the same N out of ``candidates`` (default
+    :func:`candidate_poses`).
+
+    Every set is judged on the plan's scale: the whitened identification Jacobian at the nominal robot with
+    the default camera sigmas, restricted to the parameters identifiable from all candidates, columns scaled by
+    their RMS over the candidates (module docstring), so the indices of the measured poses compare with
+    :attr:`Plan.index` as they are. Returns ``{"poses": {...}, "planned": {...}, "random": {...}, "grid": {...}}``,
+    each ``{"O1", "O2", "O3", "O4", "condition"}`` (``random``: the mean of 20 draws); ``planned`` etc. are
+    those of ``plan_poses(pv, N, candidates, seed=seed)``.
+    """
+    check_orientations(poses, "poses", poses=True)
+    poses = np.atleast_2d(np.asarray(poses, dtype=float))
+    cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
+    plan = plan_poses(pv, len(poses), cand, seed=seed)
+    allp = np.vstack([cand, poses])
+    cmd = commands_for(pv, pv.nominal, allp)
+    sig = np.tile([DEFAULT_ACCURACY_MM, DEFAULT_ACCURACY_MM, np.radians(DEFAULT_ACCURACY_DEG)], (len(cmd), 1))
+    data = CalibrationData(tuple(map(str, range(len(cmd)))), cmd, allp, sig, "<poses>")
+    W = whitening(pv, pv.nominal, data)
+    J = jacobian(pv, pv.nominal.copy(), data, W)        # rows of a point depend on that point only
+    rows = 3 * len(cand)
+    free = pv.index(analyse(pv, J[:rows]).identified)
+    scale = np.sqrt(np.mean(J[:rows, free] ** 2, axis=0) * 3)
+    B = (J[rows:, free] / scale).reshape(len(poses), 3, -1)
+    return {"poses": _indices(B, np.arange(len(poses))), "planned": dict(plan.index),
+            "random": dict(plan.random_index), "grid": dict(plan.grid_index)}

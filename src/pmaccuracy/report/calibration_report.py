@@ -1,0 +1,563 @@
+"""The calibration report: one self-contained HTML page of a kinematic calibration (issue 23).
+
+``calibration_report(path, identification, data, experiment=..., clearances=...)`` (and ``pmaccuracy calibrate
+report`` / ``calibrate simulate --report``) writes what a designer reads after a calibration:
+
+* a three-line verdict: what calibration removed, what is left, whether what is left is the clearance floor;
+* the residuals of the measured poses over the workspace before (nominal robot) and after (identified robot)
+  calibration as arrows (position) coloured by the orientation residual, over the workspace outline;
+* the parameter estimates, as changes from nominal with 1-sigma error bars per unit group (mm, deg, gain);
+* the singular value spectrum of the column-scaled identification Jacobian and the parameters it cannot
+  separate, in words (:mod:`pmaccuracy.accuracy.calibration.identifiability`);
+* the observability indices O1-O4 of the measured poses against a D-optimal plan, random and grid choices of
+  the same number (:func:`pmaccuracy.accuracy.calibration.plan.pose_set_indices`);
+* the accuracy before and after calibration beside the clearance floor at the same poses: the clearances'
+  worst case (:func:`pmaccuracy.accuracy.bounds.max_pose_errors`) and RMS
+  (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`).
+
+Residuals are exact: the measured pose ``m_n`` minus the pose ``FK(theta; c_n)`` where the model robot
+``theta`` (nominal, then identified) puts the commands ``c_n``, read in its measurement frame (the forward
+kinematics of :func:`pmaccuracy.accuracy.calibration.simulate.measure`, noise-free, assembly mode nearest the
+measured pose). With a virtual experiment (``experiment``) the before/after accuracy is the one measured on the
+true robot at targets the fit never saw; with measured data alone it is the fit's residual at the measured
+poses (not an independent check, and the report says so). Lengths in mm, angles in degrees in the page.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .. import __version__
+from .._savefig import SYMBOLS, save_figure
+from ..accuracy.bounds import max_pose_errors
+from ..accuracy.calibration.data import CalibrationData
+from ..accuracy.calibration.identifiability import RTOL
+from ..accuracy.calibration.identify import Identification, jacobian, whitening
+from ..accuracy.calibration.parameters import frame_apply
+from ..accuracy.calibration.plan import pose_set_indices
+from ..accuracy.calibration.simulate import Experiment, measure
+from ..accuracy.distributions import sample_pose_errors
+from ..errors import ConfigError
+from ..io.resolve import load_clearances
+from ..kinematics.workspace import constant_orientation_workspace
+from .document import Document, provenance
+from .figures import REPORT_WIDTH_IN
+
+#: Monte Carlo samples of the clearance floor's RMS at each pose.
+FLOOR_SAMPLES = 2000
+#: The longest "before" arrow of the residual map is drawn this fraction of the workspace's span long.
+ARROW_FRACTION = 0.12
+#: What is left counts as the clearance floor at a pose when it is within the floor plus this many sigmas.
+FLOOR_SIGMAS = 3.0
+
+
+def model_residuals(ident: Identification, data: CalibrationData, values: np.ndarray | None = None) -> np.ndarray:
+    """Exact residuals ``(N, 3)`` (mm, mm, rad; measurement frame) of the measured poses against the robot
+    ``values`` (default: the identified one): ``m_n - FK(values; c_n)``, the orientation wrapped to (-pi, pi];
+    NaN rows where the model cannot reach the command near the measured pose (module docstring).
+
+    >>> import pmaccuracy as pm
+    >>> pv = pm.error_parameters(pm.Manipulator.preset("symmetric_3rpr"))
+    >>> ex = pm.simulate_calibration(pv, 20, seed=1, n_targets=5)
+    >>> r = model_residuals(ex.identification, ex.data)
+    >>> r.shape, bool(np.nanmax(np.hypot(r[:, 0], r[:, 1])) < 0.05)
+    ((20, 3), True)
+    """
+    pv = ident.parameters
+    values = ident.values if values is None else np.asarray(values, dtype=float)
+    reference = frame_apply(values[-3:], data.poses)
+    model = measure(pv, values, data.commands, reference, noise=(0.0, 0.0, 0.0))
+    r = data.poses - model
+    r[:, 2] = np.angle(np.exp(1j * r[:, 2]))
+    return r
+
+
+def _stats(r: np.ndarray) -> dict:
+    """Max and RMS of the position (mm) and orientation (deg) size of residuals ``(N, 3)`` (NaN rows left out)."""
+    ok = np.all(np.isfinite(r), axis=1)
+    p, a = np.hypot(r[ok, 0], r[ok, 1]), np.degrees(np.abs(r[ok, 2]))
+    if not ok.any():
+        return {"points": 0, "max_mm": None, "rms_mm": None, "max_deg": None, "rms_deg": None}
+    return {"points": int(ok.sum()), "max_mm": float(p.max()), "rms_mm": float(np.sqrt(np.mean(p ** 2))),
+            "max_deg": float(a.max()), "rms_deg": float(np.sqrt(np.mean(a ** 2)))}
+
+
+def _floor(robot, clearances, poses: np.ndarray, seed: int) -> dict:
+    """The clearance floor at robot-frame ``poses (T, 3)``: worst case and RMS of ``|dp|`` (mm), ``|dphi|`` (rad)."""
+    b = max_pose_errors(robot, clearances, poses)
+    e = sample_pose_errors(robot, clearances, poses, FLOOR_SAMPLES, seed=seed)
+    return {"dp_max": np.asarray(b.dp_max, dtype=float), "dphi_max": np.asarray(b.dphi_max, dtype=float),
+            "dp_rms": np.sqrt(np.mean(np.sum(e[..., :2] ** 2, axis=-1), axis=0)),
+            "dphi_rms": np.sqrt(np.mean(e[..., 2] ** 2, axis=0))}
+
+
+def _fmt(v: float | None, digits: int = 3) -> str:
+    return "-" if v is None or not np.isfinite(v) else f"{v:.{digits}g}"
+
+
+def calibration_report(path: str | Path, identification: Identification, data: CalibrationData, *,
+                       experiment: Experiment | None = None, clearances=None, seed: int = 0,
+                       command: str | None = None) -> dict:
+    """Write the calibration report of ``identification`` from ``data`` as one self-contained HTML file.
+
+    ``experiment``: the :func:`~pmaccuracy.accuracy.calibration.simulate.simulate_calibration` run the data
+    come from (its true parameters are drawn beside the estimates and its before/after errors at the targets
+    are the accuracy section); ``clearances`` (a preset, file or object; default the experiment's when its
+    compensation has a floor, else none): the floor, the worst case and the RMS of the clearances at the same
+    poses on the identified robot; ``seed``: of the random pose choices and the floor's Monte Carlo samples;
+    ``command``: the command line, for the footer. The figures are PNG embedded in the page.
+
+    Returns the report's numbers, JSON-ready: ``residuals`` (``before``/``after``: max and RMS, mm and deg),
+    ``estimates`` (per parameter: name, unit, nominal, estimate, change, sigma in mm / deg / 1; ``true`` with an
+    experiment), ``singular_values``, ``condition``, ``fixed`` and ``combinations``, ``indices`` (O1-O4 and
+    condition of the measured poses, a plan, random and grid choices), ``accuracy`` (``where``: "targets" or
+    "measured poses", before/after and the floor per pose, mm / deg), ``verdict`` (three sentences).
+    Raises :class:`~pmaccuracy.errors.ConfigError` for a path that is not ``.html``.
+    """
+    path = Path(path)
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise ConfigError(f"unsupported file type {path.suffix!r}: use .html", source=str(path), key="path")
+    ident = identification
+    pv = ident.parameters
+    nominal_robot = pv.robot
+    robot_id = pv.split(ident.values)[0]
+    before = model_residuals(ident, data, pv.nominal)
+    after = model_residuals(ident, data)
+    positions = frame_apply(ident.values[-3:], data.poses)
+    outliers = np.isin(np.asarray(data.labels, dtype=object), np.asarray(ident.outliers, dtype=object))
+    res = {"before": _stats(before), "after": _stats(after[~outliers]),
+           "outliers": list(ident.outliers)}
+    indices = pose_set_indices(pv, positions, seed=seed)
+    sources = None if clearances is None else load_clearances(clearances, robot_id)
+    acc = _accuracy(ident, data, experiment, sources, before, after, outliers, seed)
+    results = {"robot": nominal_robot.name, "architecture": nominal_robot.architecture, "points": len(data),
+               "source": data.source, "clearances": _clearance_name(sources, experiment),
+               "residuals": res, "estimates": _estimates(ident, experiment),
+               "singular_values": ident.identifiability.singular_values.tolist(),
+               "condition": ident.identifiability.condition,
+               "observability": {k: getattr(ident.identifiability, k) for k in ("O1", "O2", "O3", "O4")},
+               "fixed": list(ident.identifiability.fixed), "combinations": list(ident.identifiability.combinations),
+               "indices": indices, "accuracy": acc}
+    results["verdict"] = _verdict(results, experiment is not None)
+    doc = Document(f"pmaccuracy: kinematic calibration of {nominal_robot.name} ({nominal_robot.architecture})",
+                   footer=provenance(command, __version__))
+    with tempfile.TemporaryDirectory(prefix="pmaccuracy-calibration-") as tmp:
+        tmp = Path(tmp)
+        _intro(doc, results, ident, experiment)
+        _residual_section(doc, tmp, nominal_robot, float(ident.values[-1]), positions, before, after, outliers, res)
+        _parameter_section(doc, tmp, results, experiment is not None)
+        _identifiability_section(doc, tmp, ident, data, results)
+        _observability_section(doc, tmp, results)
+        _accuracy_section(doc, tmp, results, experiment is not None)
+        _method_section(doc)
+        html = doc.to_html()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(html, encoding="utf-8")
+    return results
+
+
+def true_in_gauge(ident: Identification, true: np.ndarray) -> np.ndarray:
+    """The true parameters ``(P,)`` of a simulation as the fit can see them: moved along each unidentifiable
+    direction (:attr:`Identifiability.null_directions`, first order) until the fixed parameters are at nominal,
+    ``true - sum_f (true_f - nominal_f) n_f``. The estimates are compared with these (a camera cannot tell its
+    frame's error from a rigid motion of the base, so the base points absorb it)."""
+    pv = ident.parameters
+    idf = ident.identifiability
+    true = np.asarray(true, dtype=float)
+    fixed = pv.index(idf.fixed)
+    null = np.asarray(idf.null_directions, dtype=float)
+    if not fixed or null.shape != (len(fixed), len(pv.names)):
+        return true.copy()
+    return true - (true[fixed] - pv.nominal[fixed]) @ null
+
+
+def _clearance_name(sources, experiment) -> str | None:
+    if sources is not None:
+        return getattr(sources, "name", "given")
+    if experiment is not None and experiment.compensation.floor_dp_max is not None:
+        return "those of the experiment"
+    return None
+
+
+def _estimates(ident: Identification, experiment: Experiment | None) -> list[dict]:
+    rows = []
+    true = None if experiment is None else true_in_gauge(ident, experiment.true)
+    for k, e in enumerate(ident.estimates()):
+        f = np.degrees if e["unit"] == "rad" else float
+        row = {"parameter": e["name"], "unit": "deg" if e["unit"] == "rad" else e["unit"],
+               "nominal": float(f(e["nominal"])), "estimate": float(f(e["estimate"])),
+               "change": float(f(e["estimate"] - e["nominal"])),
+               "sigma": float(f(e["sigma"])) if e["identified"] else None, "identified": bool(e["identified"])}
+        if true is not None:
+            row["true_change"] = float(f(true[k] - e["nominal"]))
+        rows.append(row)
+    return rows
+
+
+def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -> dict:
+    """Per pose: before/after position (mm) and orientation (deg) error sizes and the floor (module docstring)."""
+    pv = ident.parameters
+    robot_id = pv.split(ident.values)[0]
+    if experiment is not None:
+        where = "targets"
+        b, a = experiment.errors_before, experiment.errors_after
+        poses = frame_apply(ident.values[-3:], experiment.targets)
+        sigma = np.hypot(*experiment.compensation.predicted_sigma[:, :2].T)
+        sigma_deg = np.degrees(experiment.compensation.predicted_sigma[:, 2])
+    else:
+        where = "measured poses"
+        keep = ~outliers & np.all(np.isfinite(after), axis=1) & np.all(np.isfinite(before), axis=1)
+        b, a = before[keep], after[keep]
+        poses = frame_apply(ident.values[-3:], data.poses[keep])
+        sigma = np.hypot(data.sigmas[keep, 0], data.sigmas[keep, 1])
+        sigma_deg = np.degrees(data.sigmas[keep, 2])
+    out = {"where": where, "poses": len(b),
+           "before_mm": np.hypot(b[:, 0], b[:, 1]).tolist(), "after_mm": np.hypot(a[:, 0], a[:, 1]).tolist(),
+           "before_deg": np.degrees(np.abs(b[:, 2])).tolist(), "after_deg": np.degrees(np.abs(a[:, 2])).tolist(),
+           "sigma_mm": sigma.tolist(), "sigma_deg": sigma_deg.tolist(), "floor": None}
+    fl = None
+    comp = None if experiment is None else experiment.compensation
+    if comp is not None and comp.floor_dp_max is not None:   # the compensation's own floor at the targets
+        fl = {"dp_max": comp.floor_dp_max, "dphi_max": comp.floor_dphi_max, "dp_rms": comp.floor_dp_rms,
+              "dphi_rms": comp.floor_dphi_rms}
+    elif sources is not None:
+        fl = _floor(robot_id, sources, poses, seed)
+    if fl is not None:
+        out["floor"] = {"dp_max_mm": np.asarray(fl["dp_max"]).tolist(), "dp_rms_mm": np.asarray(fl["dp_rms"]).tolist(),
+                        "dphi_max_deg": np.degrees(fl["dphi_max"]).tolist(),
+                        "dphi_rms_deg": np.degrees(fl["dphi_rms"]).tolist()}
+        within = np.asarray(out["after_mm"]) <= np.asarray(fl["dp_max"]) + FLOOR_SIGMAS * sigma
+        within_deg = np.asarray(out["after_deg"]) <= np.degrees(fl["dphi_max"]) + FLOOR_SIGMAS * sigma_deg
+        out["within_floor"] = int(np.sum(within & within_deg))
+    return out
+
+
+def _verdict(r: dict, simulated: bool) -> list[str]:
+    acc = r["accuracy"]
+    b, a = np.asarray(acc["before_mm"]), np.asarray(acc["after_mm"])
+    bd, ad = np.asarray(acc["before_deg"]), np.asarray(acc["after_deg"])
+    where = (f"at {acc['poses']} targets the fit never saw (measured on the true robot)" if simulated
+             else f"at the {acc['poses']} measured poses (the fit's own residuals)")
+    rms = lambda v: float(np.sqrt(np.mean(v ** 2)))  # noqa: E731
+    line1 = (f"Removed: calibration took the largest position error {where} from {_fmt(b.max())} mm to "
+             f"{_fmt(a.max())} mm (RMS {_fmt(rms(b))} -> {_fmt(rms(a))} mm) and the largest orientation error "
+             f"from {_fmt(bd.max())} deg to {_fmt(ad.max())} deg, with {len(r['fixed'])} of "
+             f"{len(r['estimates'])} parameters fixed at nominal (Section 3).")
+    sig = float(np.max(acc["sigma_mm"]))
+    line2 = (f"Left: up to {_fmt(a.max())} mm and {_fmt(ad.max())} deg; the identified parameters' own "
+             f"uncertainty accounts for up to {_fmt(sig)} mm (1 sigma)" if simulated else
+             f"Left: up to {_fmt(a.max())} mm and {_fmt(ad.max())} deg (RMS {_fmt(rms(a))} mm); the camera's "
+             f"1 sigma is {_fmt(sig)} mm")
+    line2 += "."
+    if acc["floor"] is None:
+        line3 = ("Floor: no clearances were given (`--clearances`), so whether what is left is the clearance floor "
+                 "was not checked.")
+    else:
+        fl = np.asarray(acc["floor"]["dp_max_mm"])
+        n, k = acc["poses"], acc["within_floor"]
+        verdict = ("what is left is the clearance floor: only tighter joints remove it" if k == n else
+                   "what is left is mostly the clearance floor" if k >= 0.9 * n else
+                   "what is left is more than the clearances explain (unmodelled errors, or a poor fit)")
+        line3 = (f"Floor: the clearances' worst case at the same poses is {_fmt(fl.min())}-{_fmt(fl.max())} mm; "
+                 f"{k} of {n} poses are within it plus {FLOOR_SIGMAS:g} sigma in position and orientation: "
+                 f"{verdict}.")
+    return [line1, line2, line3]
+
+
+def _intro(doc: Document, r: dict, ident: Identification, experiment) -> None:
+    doc.paragraph("**Verdict.**")
+    doc.bullets(r["verdict"])
+    src = ("a virtual calibration experiment (a true robot: the nominal plus seeded parameter errors, measured on "
+           "its exact forward kinematics with camera noise" + (" and clearance states" if r["clearances"] else "")
+           + ")" if experiment is not None else f"the measurements `{r['source']}`")
+    doc.paragraph(f"Calibration of `{r['robot']}` ({r['architecture']}) from {r['points']} measured poses of {src}: "
+                  f"{len(ident.identifiability.identified)} parameters identified, {len(r['fixed'])} fixed at "
+                  f"nominal, {len(r['residuals']['outliers'])} outliers dropped"
+                  + (f" ({', '.join(map(str, r['residuals']['outliers']))})" if r["residuals"]["outliers"] else "")
+                  + f"; clearances: {r['clearances'] or 'none given'}. Lengths in mm, angles in degrees, gains as "
+                  "gain - 1 in units of 10^-3.")
+
+
+def _outline(ax, robot, phis_rad) -> None:
+    styles = ("-", "--", ":")
+    for phi, ls in zip(phis_rad, styles):
+        ws = constant_orientation_workspace(robot, float(phi))
+        for k, loop in enumerate(ws.loops):
+            ax.plot(loop[:, 0], loop[:, 1], ls, color="0.45", lw=1.0,
+                    label=f"workspace, phi = {np.degrees(phi):.3g} deg" if k == 0 else None)
+
+
+def _nice(v: float) -> float:
+    """A round number (1, 2 or 5 times a power of ten) at most ``v``."""
+    if not np.isfinite(v) or v <= 0:
+        return 1.0
+    e = 10 ** np.floor(np.log10(v))
+    return float(max(m for m in (1, 2, 5) if m * e <= v) * e)
+
+
+def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outliers, res) -> None:
+    from matplotlib.colors import Normalize
+
+    doc.heading("Residuals of the measured poses, before and after calibration")
+    phi_lo, phi_hi = float(np.nanmin(positions[:, 2])), float(np.nanmax(positions[:, 2]))
+    phis = list(dict.fromkeys(round(p, 9) for p in (0.0, phi_lo, phi_hi)))
+    span = float(np.nanmax(np.ptp(positions[:, :2], axis=0))) if len(positions) > 1 else 1.0
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 6.0))
+    axes = fig.subplots(1, 2, sharex=True, sharey=True)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.33, top=0.86, wspace=0.1)
+    c, s_ = np.cos(frame_phi), np.sin(frame_phi)   # residuals are in the measurement frame: turn to the robot's
+    scales = []
+    for ax, r, title in ((axes[0], before, "before: nominal robot"), (axes[1], after, "after: identified robot")):
+        ok = np.all(np.isfinite(r), axis=1)
+        size = np.hypot(r[ok & ~outliers, 0], r[ok & ~outliers, 1])   # outliers drawn, not scaled for
+        longest = float(size.max()) if size.size else 1.0
+        magnify = ARROW_FRACTION * max(span, 1.0) / max(longest, 1e-12)
+        key = _nice(longest / 2)
+        vmax = float(np.max(np.degrees(np.abs(r[ok & ~outliers, 2])))) if (ok & ~outliers).any() else 1.0
+        scales.append((magnify, key, vmax))
+        _outline(ax, robot, np.array(phis))
+        quiv = ax.quiver(positions[ok, 0], positions[ok, 1], c * r[ok, 0] - s_ * r[ok, 1],
+                         s_ * r[ok, 0] + c * r[ok, 1], np.degrees(r[ok, 2]), cmap="coolwarm",
+                         norm=Normalize(-max(vmax, 1e-9), max(vmax, 1e-9)), angles="xy", scale_units="xy",
+                         scale=1.0 / magnify, width=0.006, edgecolor="0.2", linewidth=0.3)
+        ax.plot(positions[ok, 0], positions[ok, 1], ".", color="0.2", ms=2)
+        if outliers.any():
+            ax.plot(positions[outliers, 0], positions[outliers, 1], "x", color="k", ms=7, label="outlier (dropped)")
+        ax.set_title(f"{title}\narrows magnified {magnify:.3g} times", fontsize=10)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("x [mm]", fontsize=9)
+        ax.tick_params(labelsize=8)
+        ax.quiverkey(quiv, 0.55, -0.2, key, f"{key:g} mm residual", labelpos="E", coordinates="axes",
+                     fontproperties={"size": 9})
+        box = ax.get_position()
+        cax = fig.add_axes([box.x0 + 0.1 * box.width, 0.135, 0.8 * box.width, 0.025])
+        bar = fig.colorbar(quiv, cax=cax, orientation="horizontal")
+        bar.set_label(r"orientation residual $\delta\phi$ [deg]", fontsize=9)
+        cax.tick_params(labelsize=8)
+    axes[0].set_ylabel("y [mm]", fontsize=9)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize=8, frameon=False)
+    fig.suptitle("Measured minus model pose: arrows the position residual, colour the orientation residual",
+                 fontsize=10, y=0.985)
+    (mb, kb, vb), (ma, ka, va) = scales
+    res["arrows"] = {"before": {"magnify": mb, "key_mm": kb}, "after": {"magnify": ma, "key_mm": ka}}
+    n = doc.figure(save_figure(fig, tmp / "residuals.png"),
+                   f"Residuals (measured minus model pose) of the measured poses before (left) and after (right) "
+                   f"calibration, drawn at the poses in the robot frame. Arrows are the position residuals, "
+                   f"magnified {mb:.3g} times before (key arrow {kb:g} mm) and {ma:.3g} times after (key arrow "
+                   f"{ka:g} mm); colours the orientation residual (deg; scales +-{vb:.3g} and +-{va:.3g} deg); grey "
+                   "lines the nominal robot's workspace at the orientations stated. Outliers (crosses) are drawn "
+                   "but set neither scale.")
+    b, a = res["before"], res["after"]
+    doc.paragraph(f"Figure {n}: the residual is the measured pose minus the pose where the model robot (nominal, "
+                  "then identified) puts the same commands, by its exact forward kinematics, in its measurement "
+                  "frame. Before calibration it is the geometric error the calibration sees; after, what the "
+                  "identified model cannot explain: camera noise, the clearances' random states, and any error "
+                  "the model does not have.")
+    doc.table(["residual", "points", "max position [mm]", "RMS position [mm]", "max orientation [deg]",
+               "RMS orientation [deg]"],
+              [["before (nominal robot)", b["points"], b["max_mm"], b["rms_mm"], b["max_deg"], b["rms_deg"]],
+               ["after (identified robot, outliers dropped)", a["points"], a["max_mm"], a["rms_mm"], a["max_deg"],
+                a["rms_deg"]]])
+
+
+_GROUPS = (("mm", "change [mm]", 1.0), ("deg", "change [deg]", 1.0), ("1", "gain - 1 [10^-3]", 1e3))
+
+
+def _parameter_section(doc, tmp, r, simulated: bool) -> None:
+    doc.heading("Parameter estimates")
+    groups = [(u, label, f, [e for e in r["estimates"] if e["unit"] == u]) for u, label, f in _GROUPS]
+    groups = [g for g in groups if g[3]]
+    heights = [len(g[3]) for g in groups]
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 1.0 + 0.24 * sum(heights) + 0.7 * len(groups)))
+    axes = fig.subplots(len(groups), 1, gridspec_kw={"height_ratios": heights}, squeeze=False)[:, 0]
+    fig.subplots_adjust(left=0.25, right=0.97, top=1 - 0.5 / fig.get_figheight(),
+                        bottom=0.5 / fig.get_figheight(), hspace=0.9 / max(1.0, np.mean(heights)) + 0.25)
+    for ax, (unit, label, f, rows) in zip(axes, groups):
+        y = np.arange(len(rows))
+        for k, e in enumerate(rows):
+            if e["identified"]:
+                ax.errorbar(e["change"] * f, k, xerr=e["sigma"] * f, fmt="o", color="C0", ms=4, capsize=2,
+                            label="estimate +- 1 sigma" if k == 0 else None)
+            else:
+                ax.plot(0.0, k, "o", mfc="white", mec="0.5", ms=5)
+            if simulated:
+                ax.plot(e["true_change"] * f, k, "x", color="C3", ms=6)
+        ax.axvline(0.0, color="0.6", lw=0.8)
+        ax.set_yticks(y, [e["parameter"] + ("" if e["identified"] else " (fixed)") for e in rows], fontsize=8)
+        ax.invert_yaxis()
+        ax.set_xlabel(label, fontsize=9)
+        ax.tick_params(axis="x", labelsize=8)
+        ax.grid(axis="x", color="0.9")
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], marker="o", color="C0", ls="-", ms=4, label="estimate - nominal, +- 1 sigma"),
+               Line2D([], [], marker="o", mfc="white", mec="0.5", ls="", label="fixed at nominal")]
+    if simulated:
+        handles.append(Line2D([], [], marker="x", color="C3", ls="", label="true - nominal, in the fit's gauge (simulation)"))
+    fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=8, frameon=False)
+    n = doc.figure(save_figure(fig, tmp / "parameters.png"),
+                   "Change of each parameter from nominal with its 1-sigma error bar, per unit (mm; deg; gain - 1 "
+                   "in 10^-3)" + (", and the true change of the simulation, moved along the unidentifiable directions "
+                   "until the fixed parameters are nominal (what the fit can see: Section 3)" if simulated else "")
+                   + "; hollow: fixed at nominal.")
+    head = ["parameter", "unit", "nominal", "estimate", "change", "1 sigma"]
+    rows = []
+    for e in r["estimates"]:
+        row = [e["parameter"], e["unit"], e["nominal"], e["estimate"], e["change"],
+               e["sigma"] if e["identified"] else "fixed"]
+        if simulated:
+            t = e["true_change"]
+            row += [t, (e["change"] - t) / e["sigma"] if e["identified"] and e["sigma"] else None]
+        rows.append(row)
+    if simulated:
+        head += ["true change", "(change - true) / sigma"]
+        z = [row[-1] for row in rows if row[-1] is not None]
+        doc.paragraph(f"Figure {n} and the table: the simulation knows the true parameters, so the normalized "
+                      f"errors (change - true) / sigma of the identified ones can be read: {len(z)} of them, "
+                      f"largest |z| = {max(abs(v) for v in z):.3g}, RMS {np.sqrt(np.mean(np.square(z))):.3g} (near 1 "
+                      "when the sigmas are honest).")
+    else:
+        doc.paragraph(f"Figure {n} and the table: each identified parameter's estimate and its 1-sigma uncertainty "
+                      "(covariance s^2 (J^T J)^-1 of the weighted fit); gains as numbers (1 = nominal).")
+    doc.table(head, rows)
+
+
+def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationData, r: dict) -> None:
+    doc.heading("Identifiability: the singular value spectrum")
+    idf = ident.identifiability
+    s = np.asarray(idf.singular_values, dtype=float)
+    pv = ident.parameters
+    W = whitening(pv, ident.values, data)
+    J = jacobian(pv, ident.values, data, W)
+    norms = np.linalg.norm(J, axis=0)
+    Js = J[:, norms > 0] / norms[norms > 0]
+    full = np.linalg.svd(Js, compute_uv=False)
+    full = np.concatenate([full, np.zeros(int(np.sum(norms == 0)))])
+    r["full_spectrum"] = full.tolist()
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 4.4))
+    ax = fig.subplots()
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.3, top=0.9)
+    floor = s[0] * 1e-12 if s.size else 1e-12
+    ax.bar(np.arange(1, s.size + 1), s, color="C0", label=f"identified parameters ({s.size}), at the start")
+    ax.plot(np.arange(1, full.size + 1), np.maximum(full, floor), "o", color="0.3", ms=4, mfc="none",
+            label=f"all {full.size} parameters, at the estimate (zeros drawn at the axis floor)")
+    if s.size:
+        ax.axhline(RTOL * s[0], color="C3", ls="--", lw=1, label=f"threshold {RTOL:g} s_1: below it, not separable")
+    ax.set_yscale("log")
+    ax.set_ylim(floor / 3, None)
+    ax.set_xlabel("index of the singular value", fontsize=9)
+    ax.set_ylabel("singular value of the scaled Jacobian", fontsize=9)
+    ax.tick_params(labelsize=8)
+    if idf.fixed:
+        ax.annotate(f"{len(idf.fixed)} not separable: " + ", ".join(idf.fixed[:4]) + (" ..." if len(idf.fixed) > 4
+                                                                                      else ""),
+                    (s.size + 1, floor), xytext=(-6, 28), textcoords="offset points", ha="right", fontsize=8,
+                    arrowprops={"arrowstyle": "->", "color": "0.4"})
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, frameon=False)
+    ax.set_title(f"condition number {idf.condition:.4g}, O1 = {idf.O1:.3g}", fontsize=10)
+    n = doc.figure(save_figure(fig, tmp / "spectrum.png"),
+                   "Singular values of the whitened identification Jacobian with unit-length columns: bars, the "
+                   "identified parameters (the fit's own spectrum); circles, every parameter at the estimate. A "
+                   "direction whose singular value is below the dashed line changes no residual: it cannot be "
+                   "identified.")
+    doc.paragraph(f"Figure {n}: condition number {idf.condition:.4g}; observability indices O1 = {idf.O1:.4g} "
+                  f"(Borm-Menq), O2 = {idf.O2:.4g} (Driels-Pathre), O3 = {idf.O3:.4g}, O4 = {idf.O4:.4g} "
+                  "(Nahvi-Hollerbach). What the measurements cannot separate, fixed at nominal before the fit "
+                  "(never absorbed silently):")
+    doc.bullets(list(idf.combinations) or ["every parameter is identifiable from these poses"])
+
+
+def _observability_section(doc, tmp, r: dict) -> None:
+    doc.heading("Observability of the measured poses")
+    ind = r["indices"]
+    names = [("poses", "measured poses"), ("planned", "D-optimal plan"), ("random", "random (mean of 20)"),
+             ("grid", "grid")]
+    keys = ("O1", "O2", "O3", "O4", "condition")
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 3.0))
+    axes = fig.subplots(1, len(keys))
+    fig.subplots_adjust(left=0.06, right=0.97, bottom=0.32, top=0.85, wspace=0.5)
+    for ax, k in zip(axes, keys):
+        vals = [ind[n][k] for n, _ in names]
+        ax.bar(range(len(names)), vals, color=["C0", "C2", "0.6", "0.8"])
+        ax.set_xticks(range(len(names)), [lbl for _, lbl in names], rotation=45, ha="right", fontsize=7)
+        ax.set_title(k + (" (lower: better)" if k == "condition" else ""), fontsize=8.5)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-2, 3))
+    n = doc.figure(save_figure(fig, tmp / "observability.png"),
+                   f"Observability indices of the {r['points']} measured poses beside a D-optimal plan, random "
+                   "choices (mean of 20) and evenly spaced candidates of the same number; larger is better, "
+                   "except the condition number.")
+    doc.paragraph(f"Figure {n} and the table: the indices on the plan's scale (the nominal robot's whitened "
+                  "identification Jacobian with the default camera sigmas, columns scaled by their RMS over the "
+                  "candidate grid of `calibrate plan`), so the rows compare as they are.")
+    doc.table(["poses", "O1", "O2", "O3", "O4", "condition"],
+              [[lbl] + [ind[n][k] for k in keys] for n, lbl in names])
+
+
+def _accuracy_section(doc, tmp, r: dict, simulated: bool) -> None:
+    doc.heading("Accuracy before and after calibration, beside the clearance floor")
+    acc = r["accuracy"]
+    order = np.argsort(acc["before_mm"])
+    x = np.arange(1, acc["poses"] + 1)
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 3.8))
+    axes = fig.subplots(1, 2)
+    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.3, top=0.9, wspace=0.22)
+    fl = acc["floor"]
+    for ax, q, unit, sym in ((axes[0], "mm", "mm", SYMBOLS["dp_max"][0]),
+                             (axes[1], "deg", "deg", SYMBOLS["dphi_max"][0])):
+        b, a = np.asarray(acc[f"before_{q}"])[order], np.asarray(acc[f"after_{q}"])[order]
+        ax.plot(x, b, "o", color="0.55", ms=4, label="before calibration")
+        ax.plot(x, a, "o", color="C0", ms=4, label="after calibration")
+        if fl is not None:
+            key = "dp" if q == "mm" else "dphi"
+            ax.plot(x, np.asarray(fl[f"{key}_max_{unit}"])[order], "-", color="C3", lw=1.2,
+                    label=f"clearance floor: worst case {sym}")
+            ax.plot(x, np.asarray(fl[f"{key}_rms_{unit}"])[order], "--", color="C3", lw=1.0,
+                    label="clearance floor: RMS")
+        ax.set_xlabel(f"{acc['where']}, sorted by the position error before", fontsize=9)
+        ax.set_ylabel(("position error |dp|" if q == "mm" else "orientation error |dphi|") + f" [{unit}]",
+                      fontsize=9)
+        ax.tick_params(labelsize=8)
+        ax.set_ylim(0, None)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    what = ("measured on the true robot at targets the fit never saw, with the nominal commands (before) and "
+            "the compensated commands of the identified robot (after)" if simulated else
+            "the residuals at the measured poses, of the nominal (before) and the identified (after) robot: the "
+            "fit's own residuals, not an independent check")
+    n = doc.figure(save_figure(fig, tmp / "accuracy.png"),
+                   f"Pose errors {what}, beside the clearance floor at the same poses on the identified robot."
+                   if fl is not None else f"Pose errors {what} (no clearances given: no floor).")
+    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
+    rows = [["before calibration", max(acc["before_mm"]), rms(acc["before_mm"]), max(acc["before_deg"]),
+             rms(acc["before_deg"])],
+            ["after calibration", max(acc["after_mm"]), rms(acc["after_mm"]), max(acc["after_deg"]),
+             rms(acc["after_deg"])]]
+    if fl is not None:
+        rows += [["clearance floor, worst case (as `bounds`)", max(fl["dp_max_mm"]), rms(fl["dp_max_mm"]),
+                  max(fl["dphi_max_deg"]), rms(fl["dphi_max_deg"])],
+                 ["clearance floor, RMS (as `statistics`)", max(fl["dp_rms_mm"]), rms(fl["dp_rms_mm"]),
+                  max(fl["dphi_rms_deg"]), rms(fl["dphi_rms_deg"])]]
+    doc.paragraph(f"Figure {n} and the table, over the {acc['poses']} {acc['where']}: " + (
+        f"{acc['within_floor']} of them are within the clearances' worst case plus {FLOOR_SIGMAS:g} sigma "
+        + ("of the identified parameters' uncertainty carried to the pose" if simulated else "of the camera")
+        + " in both position and orientation." if fl is not None else
+        "give `--clearances` to see the floor that only tighter joints remove."))
+    doc.table(["", "max |dp| [mm]", "RMS |dp| [mm]", "max |dphi| [deg]", "RMS |dphi| [deg]"], rows)
+
+
+def _method_section(doc: Document) -> None:
+    doc.heading("Method", numbered=False)
+    doc.paragraph("Identification (`calibrate identify`): nonlinear least squares on the exact model, each leg's "
+                  "inverse-kinematic residual whitened by the inverse-kinematic Jacobian and the readings' sigmas "
+                  "(first-order equal to the forward pose residual), a robust soft_l1 pass that drops outliers, "
+                  "then a plain pass whose covariance s^2 (J^T J)^-1 gives the 1-sigma uncertainties. Parameters "
+                  "whose scaled Jacobian columns add a singular value below 1e-6 s_1 are fixed at nominal and "
+                  "named in words. The clearance floor: the worst case of the clearances (exact first-order "
+                  "bound, as `pmaccuracy bounds`) and their RMS (Monte Carlo over states inside the sets, as "
+                  "`pmaccuracy statistics`) at the same poses on the identified robot.")
