@@ -217,6 +217,8 @@ def test_cli_simulate_report_and_data_report(tmp_path, capsys):
     (["--out", "{tmp}/r.html", "--identification", "{tmp}/id.json"], "--data"),
     (["--out", "{tmp}/r.html", "--data", "{tmp}/m.csv", "--identification", "{tmp}/id.json", "--poses", "30"],
      "--poses"),
+    (["--out", "{tmp}/r.html", "--data", "{tmp}/m.csv", "--identification", "{tmp}/id.json", "--robot",
+      "symmetric_3rrr"], "--robot"),
     (["--out", "{tmp}/r.html", "--noise-mm", "-1"], "--noise-mm"),
     (["--out", "{tmp}/r.html", "--data", "{tmp}/m.csv", "--identification", "{tmp}/missing.json"], "missing.json"),
 ])

@@ -136,6 +136,8 @@ def run_report(args: argparse.Namespace) -> int:
             missing = "--data" if args.data is None else "--identification"
             raise ConfigError("a report of measurements needs both --data FILE.csv and --identification FILE.json",
                               key=missing)
+        if args.robot != "aalborg_3ppr":
+            raise ConfigError("not with --data: the robot is the one of --identification", key="--robot")
         given = [k for k in _SIMULATION_DEFAULTS if k != "seed" and getattr(args, k) is not None]
         if given:
             raise ConfigError("describes a simulation: not with --data (the robot and its identification come "

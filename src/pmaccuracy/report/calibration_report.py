@@ -76,6 +76,17 @@ def model_residuals(ident: Identification, data: CalibrationData, values: np.nda
     return r
 
 
+def start_values(ident: Identification) -> np.ndarray:
+    """The robot "before calibration" ``(P,)``: the nominal, with the parameters the fit kept fixed at their
+    values in the identification (the measurement frame given to ``calibrate identify --frame``; otherwise
+    nominal too)."""
+    pv = ident.parameters
+    values = pv.nominal.copy()
+    fixed = pv.index(ident.identifiability.fixed)
+    values[fixed] = np.asarray(ident.values, dtype=float)[fixed]
+    return values
+
+
 def _stats(r: np.ndarray) -> dict:
     """Max and RMS of the position (mm) and orientation (deg) size of residuals ``(N, 3)`` (NaN rows left out)."""
     ok = np.all(np.isfinite(r), axis=1)
@@ -125,7 +136,7 @@ def calibration_report(path: str | Path, identification: Identification, data: C
     pv = ident.parameters
     nominal_robot = pv.robot
     robot_id = pv.split(ident.values)[0]
-    before = model_residuals(ident, data, pv.nominal)
+    before = model_residuals(ident, data, start_values(ident))
     after = model_residuals(ident, data)
     positions = frame_apply(ident.values[-3:], data.poses)
     outliers = np.isin(np.asarray(data.labels, dtype=object), np.asarray(ident.outliers, dtype=object))
@@ -310,7 +321,7 @@ def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outl
     axes = fig.subplots(1, 2, sharex=True, sharey=True)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.33, top=0.86, wspace=0.1)
     c, s_ = np.cos(frame_phi), np.sin(frame_phi)   # residuals are in the measurement frame: turn to the robot's
-    scales = []
+    scales, extent = [], []
     for ax, r, title in ((axes[0], before, "before: nominal robot"), (axes[1], after, "after: identified robot")):
         ok = np.all(np.isfinite(r), axis=1)
         size = np.hypot(r[ok & ~outliers, 0], r[ok & ~outliers, 1])   # outliers drawn, not scaled for
@@ -320,8 +331,9 @@ def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outl
         vmax = float(np.max(np.degrees(np.abs(r[ok & ~outliers, 2])))) if (ok & ~outliers).any() else 1.0
         scales.append((magnify, key, vmax))
         _outline(ax, robot, np.array(phis))
-        quiv = ax.quiver(positions[ok, 0], positions[ok, 1], c * r[ok, 0] - s_ * r[ok, 1],
-                         s_ * r[ok, 0] + c * r[ok, 1], np.degrees(r[ok, 2]), cmap="coolwarm",
+        u, v = c * r[ok, 0] - s_ * r[ok, 1], s_ * r[ok, 0] + c * r[ok, 1]
+        extent.append(np.column_stack([positions[ok, 0] + magnify * u, positions[ok, 1] + magnify * v]))
+        quiv = ax.quiver(positions[ok, 0], positions[ok, 1], u, v, np.degrees(r[ok, 2]), cmap="coolwarm",
                          norm=Normalize(-max(vmax, 1e-9), max(vmax, 1e-9)), angles="xy", scale_units="xy",
                          scale=1.0 / magnify, width=0.006, edgecolor="0.2", linewidth=0.3)
         ax.plot(positions[ok, 0], positions[ok, 1], ".", color="0.2", ms=2)
@@ -338,6 +350,12 @@ def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outl
         bar = fig.colorbar(quiv, cax=cax, orientation="horizontal")
         bar.set_label(r"orientation residual $\delta\phi$ [deg]", fontsize=9)
         cax.tick_params(labelsize=8)
+    pts = np.vstack(extent + [np.vstack(line.get_xydata()) for ax in axes for line in ax.get_lines()])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.04 * max(x1 - x0, y1 - y0, 1.0)
+    axes[0].set_xlim(x0 - pad, x1 + pad)            # every arrow tip inside (quiver does not autoscale)
+    axes[0].set_ylim(y0 - pad, y1 + pad)
     axes[0].set_ylabel("y [mm]", fontsize=9)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize=8, frameon=False)
