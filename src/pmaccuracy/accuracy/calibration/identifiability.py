@@ -10,6 +10,8 @@ singular values ``s_1 >= ... >= s_L`` give
 * the observability indices of the literature: ``O1 = (s_1 ... s_L)^(1/L) / sqrt(m)`` (Borm and Menq 1991,
   D-optimal), ``O2 = s_L / s_1`` (Driels and Pathre 1990), ``O3 = s_L`` (Nahvi and Hollerbach 1996:
   minimum singular value), ``O4 = s_L^2 / s_1`` (Nahvi and Hollerbach 1996: noise amplification);
+* columns that are numerical noise (:data:`ZERO_RTOL`) are taken as zero: such a parameter "does not change
+  any residual";
 * the parameters the data cannot separate: columns are taken greedily in the order geometry, actuator
   gains, actuator offsets, measurement frame, and a column is *fixed at nominal* when it adds a singular
   value below ``rtol * s_1`` to those already taken. For each fixed parameter ``f`` the combination
@@ -27,6 +29,13 @@ from .parameters import ParameterVector
 
 #: A scaled singular value below RTOL times the largest one is taken as zero.
 RTOL = 1e-6
+#: A column whose effect of a typical change (:data:`TYPICAL_CHANGE`) is below ZERO_RTOL times the largest
+#: such effect is numerical noise of the finite differences (e.g. the direction of a link between two
+#: passive revolute joints of a chain leg, which only its length sets): taken as exactly zero. Without this,
+#: scaling the columns to unit length turns that noise into a full-sized, independent column.
+ZERO_RTOL = 1e-8
+#: Typical change of a parameter by unit, to compare columns of different units for :data:`ZERO_RTOL`.
+TYPICAL_CHANGE = {"mm": 1.0, "rad": 1e-2, "1": 1e-2}
 
 
 def _priority(pv: ParameterVector) -> list[int]:
@@ -103,6 +112,8 @@ def analyse(pv: ParameterVector, J: np.ndarray, rtol: float = RTOL, fixed: tuple
     if m > J.shape[1]:  # same singular values and column relations, P rows instead of m
         J = np.linalg.qr(J, mode="r")
     norms = np.linalg.norm(J, axis=0)
+    effect = norms * np.array([TYPICAL_CHANGE.get(u, 1.0) for u in pv.units])
+    norms = np.where(effect > ZERO_RTOL * max(float(effect.max(initial=0.0)), 1e-300), norms, 0.0)
     pre = set(pv.index(fixed))
     keep: list[int] = []
     smax = None

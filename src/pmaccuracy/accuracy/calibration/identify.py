@@ -269,7 +269,7 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     s2 = float(np.sum(sol.fun ** 2) / (m - L))
     cov = s2 * np.linalg.pinv(Jf.T @ Jf)
     sigma = np.zeros(len(pv.names))
-    sigma[free] = np.sqrt(np.diag(cov))
+    sigma[free] = np.sqrt(np.clip(np.diag(cov), 0.0, None))   # exact data: s = 0 up to rounding
     after = _pose_residuals(pv, v, data)
     return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
                           residuals_before=before, residuals_after=after, rms_before=rms_before,
