@@ -47,6 +47,7 @@ leg's generator ``c_i A^{-1}[:, i]``.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -61,8 +62,13 @@ from ..model import plausibility
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
 from ..numerics.screws import cross, dot
-from .bounds import max_pose_errors
+from .._optional import require
+from ..errors import EmptyWorkspaceError
+from ..kinematics import DEFAULT_MAX_CONDITION
+from . import maps as _maps
+from .bounds import bounds_or_nan, max_pose_errors
 from .nonlinear import joint_displaced_pose
+from .regions import Disc, Polygon, Rect
 
 #: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
 G0 = 9.80665
@@ -455,5 +461,223 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
     return Preload(wrench=best[1], size=float(best[0]), pattern=best[2], offset=offset, worst=worst)
 
 
-__all__ = ["DEFAULT_THRESHOLD_N", "G0", "Load", "LoadedError", "Preload", "Statics", "WrenchSetErrors",
-           "design_preload", "loaded_pose_error", "statics", "wrench_rows", "wrench_set_errors"]
+# ----------------------------------------------------------------------------- maps over the workspace
+#: Variables of a loaded error map (:func:`loaded_error_map`): name -> (units, long name).
+LOADED_MAP_VARIABLES = {
+    "dx": ("mm", "first-order loaded position error along x"),
+    "dy": ("mm", "first-order loaded position error along y"),
+    "dphi": ("deg", "first-order loaded orientation error"),
+    "dp": ("mm", "magnitude of the first-order loaded position error"),
+    "dx_spread": ("mm", "half-width of the x range the unloaded legs leave"),
+    "dy_spread": ("mm", "half-width of the y range the unloaded legs leave"),
+    "dphi_spread": ("deg", "half-width of the orientation range the unloaded legs leave"),
+    "lambda1": ("N", "wrench intensity of leg 1"),
+    "lambda2": ("N", "wrench intensity of leg 2"),
+    "lambda3": ("N", "wrench intensity of leg 3"),
+    "unloaded_legs": ("1", "number of legs with |lambda_i| <= threshold (state undetermined)"),
+}
+#: Variables of a wrench-set map (:func:`wrench_set_map`): name -> (units, long name).
+WRENCH_SET_MAP_VARIABLES = {
+    "dx_lo": ("mm", "lowest first-order loaded x error over the wrench box"),
+    "dx_hi": ("mm", "highest first-order loaded x error over the wrench box"),
+    "dy_lo": ("mm", "lowest first-order loaded y error over the wrench box"),
+    "dy_hi": ("mm", "highest first-order loaded y error over the wrench box"),
+    "dphi_lo": ("deg", "lowest first-order loaded orientation error over the wrench box"),
+    "dphi_hi": ("deg", "highest first-order loaded orientation error over the wrench box"),
+    "flip1": ("1", "1 where leg 1's contact flips (or is unloaded) for some wrench of the box"),
+    "flip2": ("1", "1 where leg 2's contact flips (or is unloaded) for some wrench of the box"),
+    "flip3": ("1", "1 where leg 3's contact flips (or is unloaded) for some wrench of the box"),
+    "flipping_legs": ("1", "number of legs whose contact flips inside the wrench box (the error jumps there)"),
+}
+
+
+def _map_poses(robot, clearances, phis, n: int, region, max_condition: float):
+    """Grid poses ``(k, ny, nx, 3)`` of a map (the grid of :func:`pmaccuracy.accuracy.maps.error_map`) and the
+    mask of those inside the workspace (joint ranges), away from singularities and inside ``region``."""
+    robot, clearances, phis, x, y = _maps._prepare(robot, clearances, phis, n, max_condition)
+    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
+        ErrorSources.from_clearance_set(clearances)
+    if region is not None:
+        if not isinstance(region, (Disc, Polygon, Rect)):
+            raise ConfigError(f"expected a Disc, Polygon or Rect of pmaccuracy.accuracy.regions, got {region!r}",
+                              key="region")
+        x, y = _maps._cut(region, x, y, n)
+    X, Y = np.meshgrid(x, y)
+    poses = np.stack(np.broadcast_arrays(X[None], Y[None], phis[:, None, None]), axis=-1)
+    ok = np.isfinite(bounds_or_nan(robot, sources, poses.reshape(-1, 3), max_condition)[:, 0]).reshape(
+        poses.shape[:-1])
+    if region is not None:
+        ok &= region.contains(X, Y)[None]
+    for k, phi in enumerate(phis):
+        if not ok[k].any():
+            raise EmptyWorkspaceError(f"no point of the {n} x {n} grid lies inside the workspace"
+                                      + (f" and {region.describe()}" if region is not None else "")
+                                      + f" at phi = {np.degrees(phi):g} deg: use a finer grid")
+    return robot, clearances, sources, phis, x, y, poses, ok
+
+
+def _dataset(values: dict, variables: dict, phis, x, y, attrs: dict):
+    xr = require("xarray")
+    data_vars = {name: (("phi", "y", "x"), values[name], {"units": u, "long_name": ln})
+                 for name, (u, ln) in variables.items() if name in values}
+    return xr.Dataset(data_vars, coords=_maps._coords(phis, x, y), attrs=attrs)
+
+
+def _describe_load(load: Load) -> str:
+    text = f"fx = {load.fx:g} N, fy = {load.fy:g} N, m = {load.m:g} N mm about the platform centre (base frame)"
+    if load.mass:
+        text += (f", weight of {load.mass:g} kg at ({load.com[0]:g}, {load.com[1]:g}) mm (platform frame), gravity "
+                 f"along {load.gravity_deg:g} deg")
+    return text
+
+
+def loaded_error_map(robot: Manipulator | str, clearances, load: Load, phis, n: int = 41, *,
+                     threshold: float = DEFAULT_THRESHOLD_N, exact: bool = False, region=None,
+                     max_condition: float = DEFAULT_MAX_CONDITION):
+    """The loaded pose error (:func:`loaded_pose_error`) under one ``load`` over the workspace, as a map.
+
+    Same grid, dims ``(phi, y, x)`` and coordinates as :func:`pmaccuracy.accuracy.maps.error_map` (``x, y`` mm,
+    ``phi`` deg; ``region``: a Disc, Polygon or Rect cuts the grid to its bounding box), NaN outside the
+    workspace, near singularities and outside the region. Variables (:data:`LOADED_MAP_VARIABLES`): the
+    first-order loaded error ``dx, dy`` (mm), ``dphi`` (deg), ``dp = |(dx, dy)|`` (mm); with ``exact`` also
+    ``dx_exact, dy_exact, dphi_exact`` on the exact loop closure; ``*_spread`` the half-width of the range the
+    unloaded legs leave; ``lambda1..3`` (N) the legs' intensities and ``unloaded_legs`` their count.
+    Vectorized over the grid's poses.
+
+    >>> ds = loaded_error_map("aalborg_3ppr", "case1", Load(fx=5.0), 0.0, n=5)
+    >>> b = max_pose_errors("aalborg_3ppr", "case1", [0.0, 0.0, 0.0])
+    >>> bool(np.isclose(float(ds.dx.sel(x=0.0, y=0.0, method="nearest").max()), b.dx_max))
+    True
+    """
+    if not isinstance(load, Load):
+        raise ConfigError(f"expected a Load, got {type(load).__name__}", key="load")
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
+    plausibility.check_orientations(phis, "phis")
+    robot, clearances, sources, phis, x, y, poses, ok = _map_poses(robot, clearances, phis, n, region, max_condition)
+    res = loaded_pose_error(robot, sources, poses[ok], load, threshold=threshold, exact=exact)
+    cols = {"dx": res.first_order[:, 0], "dy": res.first_order[:, 1], "dphi": np.degrees(res.first_order[:, 2]),
+            "dp": np.hypot(res.first_order[:, 0], res.first_order[:, 1]),
+            "dx_spread": res.spread[:, 0], "dy_spread": res.spread[:, 1], "dphi_spread": np.degrees(res.spread[:, 2]),
+            **{f"lambda{i + 1}": res.statics.intensity[:, i] for i in range(3)},
+            "unloaded_legs": np.sum(res.unloaded, axis=1).astype(float)}
+    variables = dict(LOADED_MAP_VARIABLES)
+    if exact:
+        cols.update({"dx_exact": res.exact[:, 0], "dy_exact": res.exact[:, 1],
+                     "dphi_exact": np.degrees(res.exact[:, 2])})
+        variables.update({"dx_exact": ("mm", "loaded x error on the exact loop closure"),
+                          "dy_exact": ("mm", "loaded y error on the exact loop closure"),
+                          "dphi_exact": ("deg", "loaded orientation error on the exact loop closure")})
+    values = {}
+    for name, col in cols.items():
+        values[name] = np.full(ok.shape, np.nan)
+        values[name][ok] = col
+    attrs = _maps._attrs(robot, clearances)
+    attrs.update({"title": f"Loaded pose error of {robot.name} with clearances {clearances.name}",
+                  "load": _describe_load(load), "threshold_N": f"{threshold:g}",
+                  "method": "clearances taken up along the joints' reactions: the vertex of the error set maximizing "
+                            "the load's virtual work (first order)" + ("; exact loop closure" if exact else "")})
+    if region is not None:
+        attrs["region"] = f"{region.describe()}: grid cut to its bounding box, NaN outside it"
+    return _dataset(values, variables, phis, x, y, attrs)
+
+
+#: The 84 triples of the nine constraint planes of :func:`_reached_patterns`.
+_TRIPLES = np.array(list(itertools.combinations(range(9), 3)))
+#: Poses per block of :func:`_reached_patterns` (its temporaries are about 150 kB per pose).
+_PATTERN_BLOCK = 256
+
+
+def _reached_patterns(L: np.ndarray, center: np.ndarray, half: np.ndarray, threshold: float) -> np.ndarray:
+    """``(n, 8)`` bool: the contact patterns ``s`` (:data:`_PATTERNS`) compatible with some wrench of the box.
+
+    Pattern ``s`` is compatible with ``W`` when every leg is loaded on its side or unloaded:
+    ``s_i L_i W >= -threshold``. The set of such ``W`` in the box is a polytope (nine half-spaces in 3-D); it
+    is non-empty iff it has a vertex, the intersection of three independent planes satisfying all nine: every
+    triple is solved at once (vectorized over poses, patterns and triples).
+    """
+    n = L.shape[0]
+    out = np.zeros((n, 8), dtype=bool)
+    eye = np.eye(3)
+    box_a = np.concatenate([eye, -eye])                               # (6, 3): a . W >= b
+    box_b = np.concatenate([center - half, -(center + half)])
+    for start in range(0, n, _PATTERN_BLOCK):
+        Lb = L[start:start + _PATTERN_BLOCK]
+        m = Lb.shape[0]
+        a = np.empty((m, 8, 9, 3))
+        a[:, :, :3] = _PATTERNS[None, :, :, None] * Lb[:, None]
+        a[:, :, 3:] = box_a
+        b = np.empty((m, 8, 9))
+        b[:, :, :3] = -threshold
+        b[:, :, 3:] = box_b
+        M = a[:, :, _TRIPLES]                                          # (m, 8, 84, 3, 3)
+        r = b[:, :, _TRIPLES]                                          # (m, 8, 84, 3)
+        norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+        det = np.linalg.det(M)
+        good = np.abs(det) > 1e-12 * norms
+        M = np.where(good[..., None, None], M, eye)
+        W = np.linalg.solve(M, r[..., None])[..., 0]                  # (m, 8, 84, 3)
+        slack = np.einsum("mpkj,mptj->mptk", a, W) - b[:, :, None]     # (m, 8, 84, 9)
+        scale = np.einsum("mpkj,mptj->mptk", np.abs(a), np.abs(W)) + np.abs(b[:, :, None])
+        feasible = np.all(slack >= -1e-9 * scale - 1e-300, axis=-1) & good
+        out[start:start + m] = np.any(feasible, axis=-1)
+    return out
+
+
+def wrench_set_map(robot: Manipulator | str, clearances, center, half, phis, n: int = 41, *,
+                   threshold: float = DEFAULT_THRESHOLD_N, region=None, max_condition: float = DEFAULT_MAX_CONDITION):
+    """For process wrenches anywhere in the box ``center +- half`` ([fx N, fy N, m N mm]): the range of the
+    first-order loaded error at each grid pose and where contacts flip, as a map (grid, dims and coordinates of
+    :func:`pmaccuracy.accuracy.maps.error_map`; NaN outside the workspace, near singularities and outside
+    ``region``).
+
+    At a pose the legs' intensities are ``lambda = L W`` (``L = -A^{-T}``, module docstring). A contact pattern
+    ``s`` (each leg's side) is possible when some wrench of the box loads every leg on its side or leaves it
+    unloaded (``s_i lambda_i >= -threshold``: an unloaded leg's state is undetermined, so both of its sides
+    count); its error is ``A^{-1} diag(c) (-s)``. The range ``*_lo, *_hi`` is taken over the possible
+    patterns: it is the exact range of the loaded error over the box (the error set at one wrench is the
+    convex hull of its possible patterns). ``flip1..3`` mark the legs with both sides possible (their
+    intensity's range over the box, ``L_i c +- |L_i| h``, reaches zero) and ``flipping_legs`` counts them:
+    where it is positive, the loaded error jumps inside the box. Variables: :data:`WRENCH_SET_MAP_VARIABLES`.
+    Vectorized over the grid's poses (every pattern's polytope by its vertices).
+
+    >>> ds = wrench_set_map("aalborg_3ppr", "case1", [0.0, 0.0, 0.0], [5.0, 5.0, 0.0], 0.0, n=5)
+    >>> int(ds.flipping_legs.max())            # every force direction: every leg flips somewhere
+    3
+    """
+    c, h = _box(center, half)
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
+    plausibility.check_orientations(phis, "phis")
+    robot, clearances, sources, phis, x, y, poses, ok = _map_poses(robot, clearances, phis, n, region, max_condition)
+    pts = poses[ok]
+    reached = _reached_patterns(_intensity_map(robot, pts), c, h, threshold)
+    G = max_pose_errors(robot, sources, pts, details=True, max_condition=max_condition).generators
+    errors = np.einsum("nij,kj->nki", G, -_PATTERNS)                  # (n, 8, 3)
+    masked = np.where(reached[..., None], errors, np.nan)
+    lo, hi = np.nanmin(masked, axis=1), np.nanmax(masked, axis=1)
+    signs = np.where(reached[..., None], _PATTERNS[None], np.nan)
+    flips = np.nanmin(signs, axis=1) != np.nanmax(signs, axis=1)
+    cols = {"dx_lo": lo[:, 0], "dx_hi": hi[:, 0], "dy_lo": lo[:, 1], "dy_hi": hi[:, 1],
+            "dphi_lo": np.degrees(lo[:, 2]), "dphi_hi": np.degrees(hi[:, 2]),
+            **{f"flip{i + 1}": flips[:, i].astype(float) for i in range(3)},
+            "flipping_legs": np.sum(flips, axis=1).astype(float)}
+    values = {}
+    for name, col in cols.items():
+        values[name] = np.full(ok.shape, np.nan)
+        values[name][ok] = col
+    attrs = _maps._attrs(robot, clearances)
+    attrs.update({"title": f"Loaded pose error over a wrench box of {robot.name} with clearances {clearances.name}",
+                  "wrench_box": f"fx {c[0] - h[0]:g} .. {c[0] + h[0]:g} N, fy {c[1] - h[1]:g} .. {c[1] + h[1]:g} N, "
+                                f"m {c[2] - h[2]:g} .. {c[2] + h[2]:g} N mm (about the platform centre, base frame)",
+                  "threshold_N": f"{threshold:g}",
+                  "method": "range of the first-order loaded error over the contact patterns some wrench of the box "
+                            "allows (vertex enumeration of each pattern's polytope of wrenches)"})
+    if region is not None:
+        attrs["region"] = f"{region.describe()}: grid cut to its bounding box, NaN outside it"
+    return _dataset(values, WRENCH_SET_MAP_VARIABLES, phis, x, y, attrs)
+
+
+__all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "Statics",
+           "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "design_preload", "loaded_error_map", "loaded_pose_error",
+           "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]

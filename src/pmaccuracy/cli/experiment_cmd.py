@@ -11,7 +11,8 @@ Sub-commands:
   check of Fig. 15; with ``--out DIR`` also figures, ``comparison.json`` and a
   self-contained ``report.html``; with ``--repeats R.csv`` (repeated attained poses, ``simulate --repeats N``)
   also ISO 9283 pose accuracy and repeatability beside the repeatability the clearance model predicts
-  (:mod:`pmaccuracy.experiment.iso9283`).
+  (:mod:`pmaccuracy.experiment.iso9283`); with ``--push-n N`` (the rig's push force) also each push's
+  measured displacement beside the loaded model's prediction (:class:`pmaccuracy.experiment.PushComparison`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,11 @@ _QUANTITIES = experiment.QUANTITIES
 #: Columns of the ISO 9283 table of ``compare --repeats``.
 _ISO_TABLE = ("point", "n", "ap_p", "ap_phi_deg", "rp_l", "rp_l_model", "rp_l_model_lo", "rp_l_model_hi",
               "rp_phi_deg", "rp_phi_model_deg", "rp_phi_model_lo_deg", "rp_phi_model_hi_deg")
+
+
+#: Columns of the push table of ``compare --push-n``.
+_PUSH_TABLE = ("point", "push", "dx_meas", "dx_pred", "dx_diff", "dx_range", "dy_meas", "dy_pred", "dy_diff",
+               "dy_range", "dphi_deg_meas", "dphi_deg_pred", "dphi_deg_diff", "dphi_deg_range", "inside")
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -105,6 +111,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                     default=experiment.NOMINAL_LIMIT_TOLERANCE_MM, metavar="T",
                     help="accept nominal poses up to T mm outside the joint ranges (default: 0.005, the encoder "
                          "accuracy)")
+    cp.add_argument("--push-n", type=_common.finite_float, default=None, metavar="N",
+                    help="the rig's push force in newtons (a moment of N times the robot's size for +-r), if known: "
+                         "each push's measured displacement (reading - nominal) beside the loaded model's "
+                         "prediction, their difference and whether it lies inside the predicted range (unloaded "
+                         "legs' spread + 2 x the accuracy); JSON key 'pushes', a second table, and with --format csv "
+                         "one row per point and push instead of one per point")
     cp.add_argument("--map-grid", type=int, default=41, metavar="N",
                     help="grid of the background error maps with --out (default: 41)")
     cp.add_argument("--repeats", metavar="R.csv",
@@ -171,6 +183,8 @@ def run_compare(args: argparse.Namespace) -> int:
     clearances = load_clearances(args.clearances, robot)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
+    if args.push_n is not None and not args.push_n > 0:
+        raise ConfigError(f"must be a force > 0 (N), got {args.push_n:g}", key="--push-n")
     repeats = None
     if args.distribution and not args.repeats:
         raise ConfigError("goes with --repeats R.csv (the model's predicted repeatability)", key="--distribution")
@@ -184,7 +198,8 @@ def run_compare(args: argparse.Namespace) -> int:
         _common.check_grid_memory(1, args.map_grid, "--map-grid")
         _common.prepare_output(args.out, "--out", folder=True)
     comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
-                                    accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm)
+                                    accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm,
+                                    push_n=args.push_n)
     summary = comparison.summary()
     if repeats is not None:
         summary["iso9283"] = iso9283.compare_repeatability(robot, clearances, repeats, distribution=distribution,
@@ -201,7 +216,7 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.format == "json":
         _common.emit(summary, "json")
     elif args.format == "csv":
-        _common.emit(summary["points"], "csv")
+        _common.emit(summary["pushes"]["pushes"] if args.push_n is not None else summary["points"], "csv")
     else:
         _common.emit(summary["points"], "table")
         sys.stdout.write("\n")
@@ -210,6 +225,12 @@ def run_compare(args: argparse.Namespace) -> int:
                                   ("rmsd (measured - 2 max)", "rmsd_width_consistent"),
                                   ("ssd of measured", "ssd"))]
         _common.emit(rows, "table")
+        if args.push_n is not None:
+            pushes = summary["pushes"]
+            sys.stdout.write(f"\npushes of {args.push_n:g} N: measured (reading - nominal) and predicted displacement "
+                             f"(mm, deg), range = +-(unloaded legs' spread + 2 accuracy); "
+                             f"{100 * pushes['share_inside']:.0f} % inside\n")
+            _common.emit([{k: r[k] for k in _PUSH_TABLE} for r in pushes["pushes"]], "table")
         if repeats is not None:
             sys.stdout.write("\nISO 9283 (mm, deg; model: mean [5-95 % of one test])\n")
             _common.emit([{k: r[k] for k in _ISO_TABLE} for r in summary["iso9283"]["points"]], "table")

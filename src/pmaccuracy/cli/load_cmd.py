@@ -31,8 +31,74 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--details", action="store_true",
                    help="also every joint's reaction: force (R), normal force and moment about the block (P)")
     p.add_argument("--allow-outside", action="store_true", help=argparse.SUPPRESS)
+    add_map_options(p, "instead of poses: the loaded error over the workspace grid at --phi-deg (NetCDF .nc or CSV "
+                       ".csv): dx, dy, dp (mm), dphi (deg), the spread the unloaded legs leave, the legs' "
+                       "intensities and the number of unloaded legs, NaN outside the workspace")
+    p.add_argument("--exact", action="store_true", help="with --map: also the exact loop closure (dx_exact, ...)")
     _common.add_format(p)
     p.set_defaults(func=run)
+
+
+def add_map_options(p: argparse.ArgumentParser, what: str) -> None:
+    """``--map``, ``--grid``, ``--phi-deg``, ``--out`` and the region (``--workspace``, ``--box``, ``--disc``,
+    ``--polygon``) of ``load --map`` and ``preload``."""
+    from .worst_cmd import add_shape
+
+    p.add_argument("--map", action="store_true", help=what)
+    p.add_argument("--grid", type=_common.positive_int, default=41, metavar="N",
+                   help="with --map: N x N grid over the workspace's bounding box (default: 41)")
+    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", default=None, metavar="PHI",
+                   help="platform orientation(s) in degrees of the map (default: 0)")
+    p.add_argument("--out", metavar="FILE", help="with --map: the map file, .nc or .csv (missing folders are created)")
+    add_shape(p)
+
+
+def check_map_options(args: argparse.Namespace, *, region_design: bool = False) -> None:
+    """Refuse map options without ``--map`` (and poses with it) before anything is computed."""
+    from ..errors import ConfigError
+    from .worst_cmd import shape_key
+
+    poses = bool(args.pose) or bool(args.poses_csv)
+    if args.map:
+        if poses:
+            raise ConfigError("a map covers the workspace grid: give --map or poses (--pose, --poses-csv), not both",
+                              key="--map")
+        if not args.out:
+            raise ConfigError("--map needs --out FILE.nc or FILE.csv", key="--out")
+        if args.grid < 2:
+            raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
+        _common.check_grid_memory(len(args.phi_deg or [0.0]), args.grid, "--grid")
+        _common.prepare_output(args.out, "--out", (".nc", ".csv"))
+        return
+    if region_design and not poses:
+        return
+    for key, given in (("--out", args.out), ("--phi-deg", args.phi_deg),
+                       (shape_key(args), shape_key(args) != "--workspace" or args.workspace)):
+        if given:
+            raise ConfigError("goes with --map" + (" (or, without poses, the preload over a region)"
+                                                   if region_design else ""), key=key)
+
+
+def write_map(ds, out: str) -> list[dict]:
+    """Write a load map (.nc: NetCDF through scipy; .csv: one row per grid point inside, phi in degrees) and
+    return the ranges of its variables (one record per variable, min and max over the grid)."""
+    import math
+    from pathlib import Path
+
+    path = Path(out)
+    if path.suffix.lower() == ".nc":
+        ds.to_netcdf(path, engine="scipy")
+    else:
+        df = ds.to_dataframe().reset_index().rename(columns={"phi": "phi_deg"})
+        first = next(iter(ds.data_vars))
+        df = df[np.isfinite(df[first])]
+        df[["x", "y", "phi_deg", *ds.data_vars]].to_csv(path, index=False, float_format="%.17g")
+    rows = []
+    for name, var in ds.data_vars.items():
+        lo, hi = float(var.min(skipna=True)), float(var.max(skipna=True))
+        rows.append({"variable": name, "units": var.attrs.get("units", ""), "min": lo if math.isfinite(lo) else None,
+                     "max": hi if math.isfinite(hi) else None})
+    return rows
 
 
 def add_robot_clearances_poses(p: argparse.ArgumentParser) -> None:
@@ -50,8 +116,13 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
 
+    check_map_options(args)
+    if args.exact and not args.map:
+        raise ConfigError("goes with --map (the poses' output always has the exact columns)", key="--exact")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
+    if args.map:
+        return run_map(args, robot, clearances)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     if args.mass < 0:
         raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
@@ -79,4 +150,36 @@ def run(args: argparse.Namespace) -> int:
                         rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
                         rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
     _common.emit(records, args.format)
+    return 0
+
+
+def _load(args: argparse.Namespace):
+    from ..accuracy.loads import Load
+    from ..errors import ConfigError
+
+    if args.mass < 0:
+        raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
+    if args.unloaded_below < 0:
+        raise ConfigError(f"must be >= 0 (N), got {args.unloaded_below:g}", key="--unloaded-below")
+    return Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com),
+                gravity_deg=args.gravity_deg).check("--fx/--fy/--mass")
+
+
+def run_map(args: argparse.Namespace, robot, clearances) -> int:
+    """``load --map``: the loaded error over the workspace grid, written to ``--out``; prints the ranges."""
+    from ..accuracy.loads import loaded_error_map
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from .worst_cmd import parse_shape, shape_key
+
+    load = _load(args)
+    if not (load.fx or load.fy or load.m or load.mass):
+        raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "
+                          "possible: see `pmaccuracy map`)", key="--fx")
+    shape = parse_shape(args)
+    try:
+        ds = loaded_error_map(robot, clearances, load, np.radians(args.phi_deg or [0.0]), args.grid,
+                              threshold=args.unloaded_below, exact=args.exact, region=shape)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    _common.emit(write_map(ds, args.out), args.format)
     return 0

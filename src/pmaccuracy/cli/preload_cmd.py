@@ -7,7 +7,7 @@ import argparse
 import math
 
 from . import _common
-from .load_cmd import add_robot_clearances_poses
+from .load_cmd import add_map_options, add_robot_clearances_poses, check_map_options, write_map
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,6 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm")):
         p.add_argument(f"--{key}", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("LO", "HI"),
                        help=f"range of the process {key} ({unit}; default 0 0)")
+    add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
+                       "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
+                       "(flipping_legs), written to --out (.nc or .csv)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -33,9 +36,9 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
 
+    check_map_options(args)
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
-    poses = _common.poses_from_args(args.pose, args.poses_csv)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
     hi = np.array([args.fx[1], args.fy[1], args.m[1]])
     for k, key in enumerate(("--fx", "--fy", "--m")):
@@ -44,6 +47,9 @@ def run(args: argparse.Namespace) -> int:
     if not np.any(hi - lo):
         raise ConfigError("the box of process wrenches is a single wrench: give a range LO HI", key="--fx")
     center, half = (lo + hi) / 2, (hi - lo) / 2
+    if args.map:
+        return run_map(args, robot, clearances, center, half)
+    poses = _common.poses_from_args(args.pose, args.poses_csv)
     ranges = wrench_set_errors(robot, clearances, poses, center, half)
     rows = []
     for k, pose in enumerate(poses):
@@ -58,4 +64,22 @@ def run(args: argparse.Namespace) -> int:
                      "offset_dx": float(pre.offset[0]), "offset_dy": float(pre.offset[1]),
                      "offset_dphi_deg": math.degrees(pre.offset[2])})
     _common.emit(rows, args.format)
+    return 0
+
+
+def run_map(args: argparse.Namespace, robot, clearances, center, half) -> int:
+    """``preload --map``: the loaded error's range over the box and the flipping legs over the workspace grid."""
+    import numpy as np
+
+    from ..accuracy.loads import wrench_set_map
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from .worst_cmd import parse_shape, shape_key
+
+    shape = parse_shape(args)
+    try:
+        ds = wrench_set_map(robot, clearances, center, half, np.radians(args.phi_deg or [0.0]), args.grid,
+                            region=shape)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    _common.emit(write_map(ds, args.out), args.format)
     return 0

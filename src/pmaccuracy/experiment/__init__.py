@@ -60,7 +60,7 @@ from ..model.plausibility import check_orientations
 from ..kinematics import DEFAULT_MAX_CONDITION, check_within_limits, inverse_kinematics
 from .measurements import CSV_COLUMNS, DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, MAX_DEVIATION_DEG, MAX_DEVIATION_MM, NOMINAL_TOLERANCE, PUSH_AXES, PUSHES, Measurements, _nominal_deg, _wrap_deg, load_measurements, write_measurements
 from ..io.resolve import load_clearances
-from .virtual_rig import MODELS, grid_poses, opposite, push_configurations, simulate_experiment, simulate_readings
+from .virtual_rig import MODELS, grid_poses, opposite, predict_pushes, push_configurations, simulate_experiment, simulate_readings
 from ..io.resolve import robot_arg
 
 #: Compared quantities and their units, in output order (``dphi`` in degrees outside the arrays).
@@ -132,6 +132,8 @@ class Comparison:
     predicted : :func:`~pmaccuracy.accuracy.bounds.max_pose_errors` at the nominal poses
     robot, clearances : names of the model used
     accuracy_mm, accuracy_deg : ``A_meas`` of the camera (Fig. 15 band ``+- 2 A_meas``)
+    pushes : with a known push force (``compare(..., push_n=N)``), each push's measured displacement beside
+        the loaded model's prediction (:class:`PushComparison`); else None
 
     ``factor`` arguments select the convention: 1 compares measured ranges with
     the one-sided maxima directly (the paper, Sec. 6), 2 with the full widths
@@ -145,6 +147,7 @@ class Comparison:
     clearances: str
     accuracy_mm: float = DEFAULT_ACCURACY_MM
     accuracy_deg: float = DEFAULT_ACCURACY_DEG
+    pushes: PushComparison | None = None
 
     def measured_values(self) -> dict[str, np.ndarray]:
         """Measured dx, dy, dp (mm) and dphi_deg (deg), each ``(n,)``."""
@@ -253,7 +256,8 @@ class Comparison:
         Keys: ``source, robot, clearances, accuracy_mm, accuracy_deg, conventions,
         points`` (see :meth:`records`), ``n_points, rmsd`` (paper convention),
         ``rmsd_width_consistent, mean, ssd, accuracy_iso9283, band, regression``
-        and ``orientations`` (the same statistics per nominal orientation).
+        and ``orientations`` (the same statistics per nominal orientation); with a push force also ``pushes``
+        (:meth:`PushComparison.summary`).
         """
         out: dict[str, Any] = {
             "source": self.measurements.source, "robot": self.robot, "clearances": self.clearances,
@@ -265,6 +269,8 @@ class Comparison:
             "points": self.records()}
         out.update(self._statistics())
         out["orientations"] = [{"phi_deg": phi, **sub._statistics()} for phi, sub in self.by_orientation().items()]
+        if self.pushes is not None:
+            out["pushes"] = self.pushes.summary()
         return out
 
 
@@ -289,10 +295,126 @@ def require_nominal_within_limits(robot: Manipulator, measurements: Measurements
             raise OutsideJointLimitsError(f"{measurements.source}: {measurements.line_of(k)}: nominal {exc}") from None
 
 
+# ============================================================================ pushes from physics
+#: Components of a push displacement and their units (``dphi_deg`` in degrees outside the arrays).
+PUSH_COMPONENTS = (("dx", "mm"), ("dy", "mm"), ("dphi_deg", "deg"))
+
+
+@dataclass(frozen=True, eq=False)
+class PushComparison:
+    """Measured push displacements against those the loaded model predicts for a push force (issue 24).
+
+    Each push of the protocol (:data:`PUSHES`) is a load of ``push_n`` N (a moment of ``push_n`` times the
+    robot's size for ``+-r``: :func:`~pmaccuracy.experiment.virtual_rig.push_loads`); the loaded model
+    (:func:`~pmaccuracy.experiment.virtual_rig.predict_pushes`) predicts where it moves the platform.
+
+    Attributes
+    ----------
+    push_n : the rig's push force (N)
+    points : ``(n,)`` labels;  nominal : ``(n, 3)`` [mm, mm, rad]
+    measured : ``(n, 6, 3)`` [mm, mm, rad]: reading minus nominal pose, push order :data:`PUSHES`
+    predicted : ``(n, 6, 3)`` [mm, mm, rad]: the first-order loaded pose error of each push
+    spread : ``(n, 6, 3)`` [mm, mm, rad]: half-width of the range the push's unloaded legs leave
+    accuracy_mm, accuracy_deg : ``A_meas``; the predicted range of a reading is
+        ``predicted +- (spread + 2 A_meas)`` (the Fig. 15 band widened by the unloaded legs)
+    """
+
+    push_n: float
+    points: np.ndarray
+    nominal: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    spread: np.ndarray
+    accuracy_mm: float = DEFAULT_ACCURACY_MM
+    accuracy_deg: float = DEFAULT_ACCURACY_DEG
+
+    @property
+    def difference(self) -> np.ndarray:
+        """``(n, 6, 3)`` measured minus predicted displacement [mm, mm, rad]."""
+        return self.measured - self.predicted
+
+    @property
+    def halfwidth(self) -> np.ndarray:
+        """``(n, 6, 3)`` half-width of the predicted range: ``spread + 2 A_meas`` [mm, mm, rad]."""
+        band = np.array([2 * self.accuracy_mm, 2 * self.accuracy_mm, 2 * math.radians(self.accuracy_deg)])
+        return self.spread + band
+
+    @property
+    def inside(self) -> np.ndarray:
+        """``(n, 6)`` bool: every component of the measured displacement within the predicted range."""
+        return np.all(np.abs(self.difference) <= self.halfwidth * (1 + 1e-12), axis=-1)
+
+    def rms(self) -> dict[str, float]:
+        """RMS of measured minus predicted over all points and pushes (mm; ``dphi_deg`` in deg)."""
+        diff = self.difference.reshape(-1, 3)
+        out = np.sqrt(np.mean(diff ** 2, axis=0))
+        return {"dx": float(out[0]), "dy": float(out[1]), "dphi_deg": math.degrees(out[2])}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One dict per point and push (mm, deg): nominal pose, measured, predicted, difference, the range's
+        half-width (``*_range``) and ``inside``."""
+        out = []
+        scale = (1.0, 1.0, math.degrees(1.0))
+        for k in range(self.points.shape[0]):
+            for j, push in enumerate(PUSHES):
+                rec: dict[str, Any] = {"point": str(self.points[k]), "x_nom": float(self.nominal[k, 0]),
+                                       "y_nom": float(self.nominal[k, 1]),
+                                       "phi_nom_deg": float(_nominal_deg(self.nominal[k, 2])), "push": push}
+                for q, (name, _unit) in enumerate(PUSH_COMPONENTS):
+                    rec[f"{name}_meas"] = float(self.measured[k, j, q] * scale[q])
+                    rec[f"{name}_pred"] = float(self.predicted[k, j, q] * scale[q])
+                    rec[f"{name}_diff"] = float(self.difference[k, j, q] * scale[q])
+                    rec[f"{name}_range"] = float(self.halfwidth[k, j, q] * scale[q])
+                rec["inside"] = bool(self.inside[k, j])
+                out.append(rec)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: ``push_n``, the convention, ``rms`` of the differences, ``share_inside`` and ``pushes``
+        (:meth:`records`)."""
+        return {"push_n": self.push_n,
+                "convention": "each push a load of push_n N (+-r: a moment of push_n times the robot's size, N mm); "
+                              "predicted: the first-order loaded pose error (clearances taken up along the joints' "
+                              "reactions); range: predicted +- (unloaded legs' spread + 2 A_meas)",
+                "rms": self.rms(), "share_inside": float(np.mean(self.inside)), "pushes": self.records()}
+
+    def __repr__(self) -> str:
+        rms = self.rms()
+        return (f"PushComparison({self.points.shape[0]} points x 6 pushes at {self.push_n:g} N: rms of measured - "
+                f"predicted dx {rms['dx']:.3g} mm, dy {rms['dy']:.3g} mm, dphi {rms['dphi_deg']:.3g} deg; "
+                f"{100 * float(np.mean(self.inside)):.0f} % inside the predicted range)")
+
+
+def compare_pushes(robot: Manipulator | str, clearances: ClearanceSet | str, measurements: Measurements | str | Path,
+                   push_n: float, *, accuracy_mm: float = DEFAULT_ACCURACY_MM,
+                   accuracy_deg: float = DEFAULT_ACCURACY_DEG, max_condition: float = DEFAULT_MAX_CONDITION,
+                   limit_tolerance_mm: float = NOMINAL_LIMIT_TOLERANCE_MM) -> PushComparison:
+    """Measured push displacements (reading minus nominal pose) beside the loaded model's prediction for a push
+    force of ``push_n`` N (:class:`PushComparison`), at the measurements' nominal poses.
+
+    Raises like :func:`compare`; :class:`~pmaccuracy.errors.ConfigError` for a push force that is not > 0.
+    """
+    if isinstance(measurements, Measurements):
+        check_orientations(measurements.nominal, "measurements.nominal", poses=True)
+    robot = robot_arg(robot)
+    clearances = load_clearances(clearances, robot)
+    if not isinstance(measurements, Measurements):
+        measurements = load_measurements(measurements)
+    _check_accuracy(accuracy_mm, accuracy_deg, limit_tolerance_mm)
+    if not (math.isfinite(push_n) and push_n > 0):
+        raise ConfigError(f"must be a force > 0 (N), got {push_n:g}", key="push_n")
+    require_nominal_within_limits(robot, measurements, limit_tolerance_mm)
+    predicted, spread = predict_pushes(robot, clearances, measurements.nominal, float(push_n), allow_outside=True,
+                                       max_condition=max_condition)
+    return PushComparison(push_n=float(push_n), points=measurements.points, nominal=measurements.nominal,
+                          measured=measurements.readings - measurements.nominal[:, None, :], predicted=predicted,
+                          spread=spread, accuracy_mm=float(accuracy_mm), accuracy_deg=float(accuracy_deg))
+
+
 def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measurements: Measurements | str | Path, *,
             accuracy_mm: float = DEFAULT_ACCURACY_MM, accuracy_deg: float = DEFAULT_ACCURACY_DEG,
             max_condition: float = DEFAULT_MAX_CONDITION,
-            limit_tolerance_mm: float = NOMINAL_LIMIT_TOLERANCE_MM) -> Comparison:
+            limit_tolerance_mm: float = NOMINAL_LIMIT_TOLERANCE_MM, push_n: float | None = None) -> Comparison:
     """Compare measurements with the model at the same nominal poses.
 
     Parameters
@@ -302,6 +424,8 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     accuracy_mm, accuracy_deg : camera accuracy ``A_meas`` (Sec. 5), > 0
     limit_tolerance_mm : how far outside the joint ranges a nominal pose may lie
         (default: the 5 um encoder accuracy); the model is evaluated there as is
+    push_n : the rig's push force (N), if known: each push's displacement is then also compared with the
+        loaded model's prediction (:func:`compare_pushes`, ``Comparison.pushes``)
 
     Raises
     ------
@@ -315,14 +439,23 @@ def compare(robot: Manipulator | str, clearances: ClearanceSet | str, measuremen
     clearances = load_clearances(clearances, robot)
     if not isinstance(measurements, Measurements):
         measurements = load_measurements(measurements)
+    _check_accuracy(accuracy_mm, accuracy_deg, limit_tolerance_mm)
+    if push_n is not None and not (math.isfinite(push_n) and push_n > 0):
+        raise ConfigError(f"must be a force > 0 (N), got {push_n:g}", key="push_n")
+    require_nominal_within_limits(robot, measurements, limit_tolerance_mm)
+    predicted = max_pose_errors(robot, clearances, measurements.nominal, allow_outside=True,
+                                max_condition=max_condition)
+    pushes = None if push_n is None else compare_pushes(
+        robot, clearances, measurements, push_n, accuracy_mm=accuracy_mm, accuracy_deg=accuracy_deg,
+        max_condition=max_condition, limit_tolerance_mm=limit_tolerance_mm)
+    return Comparison(measurements=measurements, measured=measured_errors(measurements), predicted=predicted,
+                      robot=robot.name, clearances=clearances.name, accuracy_mm=float(accuracy_mm),
+                      accuracy_deg=float(accuracy_deg), pushes=pushes)
+
+
+def _check_accuracy(accuracy_mm: float, accuracy_deg: float, limit_tolerance_mm: float) -> None:
     for name, value in (("accuracy_mm", accuracy_mm), ("accuracy_deg", accuracy_deg)):
         if not (math.isfinite(value) and value > 0):
             raise ConfigError(f"must be a positive number, got {value}", key=name)
     if not (math.isfinite(limit_tolerance_mm) and limit_tolerance_mm >= 0):
         raise ConfigError(f"must be a length >= 0, got {limit_tolerance_mm}", key="limit_tolerance_mm")
-    require_nominal_within_limits(robot, measurements, limit_tolerance_mm)
-    predicted = max_pose_errors(robot, clearances, measurements.nominal, allow_outside=True,
-                                max_condition=max_condition)
-    return Comparison(measurements=measurements, measured=measured_errors(measurements), predicted=predicted,
-                      robot=robot.name, clearances=clearances.name, accuracy_mm=float(accuracy_mm),
-                      accuracy_deg=float(accuracy_deg))

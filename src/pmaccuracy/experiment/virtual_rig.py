@@ -34,7 +34,8 @@ from ..accuracy.nonlinear import joint_displaced_pose
 from ..kinematics import inverse_kinematics
 from ..kinematics.workspace import constant_orientation_workspace
 from ..model.sources import first_order_error, worst_configuration
-from ..accuracy.loads import DEFAULT_THRESHOLD_N, Load, loaded_pose_error
+from ..accuracy.loads import DEFAULT_THRESHOLD_N, Load, loaded_pose_error, wrench_rows
+from ..kinematics import DEFAULT_MAX_CONDITION
 
 #: Reading models of the virtual experiment.
 MODELS = ("exact", "first_order")
@@ -80,16 +81,40 @@ def push_loads(robot: Manipulator, push_n: float) -> tuple[Load, ...]:
 
 
 def predict_pushes(robot: Manipulator | str, clearances, poses: np.ndarray, push_n: float, *,
-                   threshold: float = DEFAULT_THRESHOLD_N) -> tuple[np.ndarray, np.ndarray]:
+                   threshold: float = DEFAULT_THRESHOLD_N, allow_outside: bool = False,
+                   max_condition: float = DEFAULT_MAX_CONDITION) -> tuple[np.ndarray, np.ndarray]:
     """What each push of force ``push_n`` N does to the platform (first order, loaded model):
-    ``(displacement, spread)``, each ``(n, 6, 3)`` [mm, mm, rad] for the pushes :data:`PUSHES`: the loaded pose
-    error (:func:`pmaccuracy.accuracy.loads.loaded_pose_error`) and the half-width of the range its unloaded legs
-    leave."""
+    ``(displacement, spread)``, each ``(n, 6, 3)`` [mm, mm, rad] for the pushes :data:`PUSHES`.
+
+    With the error zonotope's generators ``g_i = c_i A^-1[:, i]`` (``max_pose_errors(details=True)``) and each
+    push's leg intensities ``lambda = -A^-T W`` (:mod:`pmaccuracy.accuracy.loads`), the displacement is
+    ``sum_i g_i t_i`` with ``t_i = -sign(lambda_i)`` (the loaded pose error of
+    :func:`pmaccuracy.accuracy.loads.loaded_pose_error`; ``t_i = 0`` for a leg with ``|lambda_i| <= threshold``)
+    and the spread ``sum over unloaded i of |g_i|``, the half-width of the range such legs leave.
+    ``allow_outside`` evaluates nominal poses outside the joint ranges too (``experiment compare`` accepts
+    nominal poses a few micrometres outside); singular poses are refused.
+
+    >>> d, s = predict_pushes("aalborg_3ppr", "case1", [[0.0, 0.0, 0.0]], 10.0)
+    >>> b = max_pose_errors("aalborg_3ppr", "case1", [[0.0, 0.0, 0.0]])
+    >>> bool(np.isclose(d[0, 0, 0], b.dx_max[0]) and np.isclose(d[0, 1, 0], -b.dx_max[0]))   # +x and -x pushes
+    True
+    """
     robot = robot_arg(robot)
+    clearances = load_clearances(clearances, robot)
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
+    sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
     poses = as_poses(poses).reshape(-1, 3)
-    out = [loaded_pose_error(robot, clearances, poses, load, threshold=threshold, exact=False)
-           for load in push_loads(robot, push_n)]
-    return np.stack([r.first_order for r in out], axis=1), np.stack([r.spread for r in out], axis=1)
+    loads = push_loads(robot, push_n)
+    b = max_pose_errors(robot, sources, poses, details=True, allow_outside=allow_outside,
+                        max_condition=max_condition)
+    A = wrench_rows(robot, poses)                                               # (n, 3, 3)
+    W = np.stack([load.wrench(poses) for load in loads], axis=1)                # (n, 6, 3)
+    lam = -np.linalg.solve(np.swapaxes(A, -1, -2)[:, None], W[..., None])[..., 0]
+    unloaded = np.abs(lam) <= threshold
+    t = np.where(unloaded, 0.0, -np.sign(lam))
+    G = b.generators                                                            # (n, 3, 3): columns g_i
+    return np.einsum("nqi,npi->npq", G, t), np.einsum("nqi,npi->npq", np.abs(G), unloaded.astype(float))
 
 
 def _check_simulation(take_up: float, noise_mm: float, noise_deg: float, model: str) -> None:
