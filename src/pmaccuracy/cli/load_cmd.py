@@ -46,9 +46,10 @@ def add_robot_clearances_poses(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..accuracy.loads import Load, loaded_pose_error
+    from ..accuracy.loads import G0, Load, loaded_pose_error
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
+    from ..model.plausibility import force_messages, orientation_messages, warn
 
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
@@ -57,8 +58,11 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
     if args.unloaded_below < 0:
         raise ConfigError(f"must be >= 0 (N), got {args.unloaded_below:g}", key="--unloaded-below")
-    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com),
-                gravity_deg=args.gravity_deg).check("--fx/--fy/--mass")
+    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com), gravity_deg=args.gravity_deg)
+    warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
+                        robot.characteristic_length))
+    if args.mass:
+        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions"))
     if not np.any(load.wrench(poses)):
         raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "
                           "possible: see `pmaccuracy bounds`)", key="--fx")

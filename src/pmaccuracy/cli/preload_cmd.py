@@ -32,6 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from ..accuracy.loads import design_preload, wrench_set_errors
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
+    from ..model.plausibility import force_messages, warn
 
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
@@ -43,6 +44,8 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"needs LO <= HI, got {lo[k]:g} {hi[k]:g}", key=key)
     if not np.any(hi - lo):
         raise ConfigError("the box of process wrenches is a single wrench: give a range LO HI", key="--fx")
+    ends = np.maximum(np.abs(lo), np.abs(hi))
+    warn(force_messages({"|--fx|": ends[0], "|--fy|": ends[1]}, {"|--m|": ends[2]}, robot.characteristic_length))
     center, half = (lo + hi) / 2, (hi - lo) / 2
     ranges = wrench_set_errors(robot, clearances, poses, center, half)
     rows = []
