@@ -31,6 +31,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--details", action="store_true",
                    help="also every joint's reaction: force (R), normal force and moment about the block (P)")
     p.add_argument("--allow-outside", action="store_true", help=argparse.SUPPRESS)
+    _common.add_plot(p, "draw the robot at the (first) pose with the load, every joint's force (arrows at a stated "
+                        "scale), each joint's contact state, unloaded legs greyed and the loaded platform magnified")
+    p.add_argument("--magnify", type=_common.finite_float, metavar="K",
+                   help="magnification of the loaded displacement in --plot (default: a round factor that makes it "
+                        "visible)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -51,6 +56,11 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..model.plausibility import force_messages, orientation_messages, warn
 
+    plot = _common.check_plot(args)
+    if args.magnify is not None and not args.magnify > 0:
+        raise ConfigError(f"must be a factor > 0, got {args.magnify:g}", key="--magnify")
+    if args.magnify is not None and not plot:
+        raise ConfigError("goes with --plot", key="--magnify")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
@@ -82,5 +92,11 @@ def run(args: argparse.Namespace) -> int:
                     else:
                         rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
                         rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
+    if plot:
+        from .._savefig import save_figure
+        from ..report.load_figures import plot_load
+
+        save_figure(plot_load(robot, clearances, poses[0], load, threshold=args.unloaded_below,
+                              magnify=args.magnify), plot, dpi=args.dpi, option="--plot")
     _common.emit(records, args.format)
     return 0

@@ -22,6 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm")):
         p.add_argument(f"--{key}", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("LO", "HI"),
                        help=f"range of the process {key} ({unit}; default 0 0)")
+    _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
+                        "error's range without preload beside the constant offset with it and the worst case")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -34,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..model.plausibility import force_messages, warn
 
+    plot = _common.check_plot(args)
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
@@ -60,5 +63,10 @@ def run(args: argparse.Namespace) -> int:
                      "preload_m_Nmm": float(pre.wrench[2]) + 0.0, "preload_size_N": pre.size,
                      "offset_dx": float(pre.offset[0]), "offset_dy": float(pre.offset[1]),
                      "offset_dphi_deg": math.degrees(pre.offset[2])})
+    if plot:
+        from .._savefig import save_figure
+        from ..report.load_figures import plot_preload
+
+        save_figure(plot_preload(robot, clearances, poses[0], center, half), plot, dpi=args.dpi, option="--plot")
     _common.emit(rows, args.format)
     return 0
