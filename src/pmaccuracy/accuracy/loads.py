@@ -75,7 +75,7 @@ G0 = 9.80665
 #: Default threshold (N) below which a leg's wrench intensity counts as no load.
 DEFAULT_THRESHOLD_N = 1e-6
 #: Forces above this (N) on a planar precision robot look like kN typed as N (a plausibility warning).
-PLAUSIBLE_FORCE_N = 1e5
+PLAUSIBLE_FORCE_N = plausibility.MAX_FORCE_N
 
 
 @dataclass(frozen=True)
@@ -121,12 +121,13 @@ class Load:
         m = self.m + cross(arm, weight)
         return np.stack([fx, fy, np.broadcast_to(m, fx.shape)], axis=-1)
 
-    def check(self, what: str = "load") -> "Load":
-        """Warn (:class:`~pmaccuracy.model.plausibility.PlausibilityWarning`) for forces that look like kN
-        typed as N; returns ``self``."""
-        big = max(abs(self.fx), abs(self.fy), G0 * self.mass)
-        if big > PLAUSIBLE_FORCE_N:
-            plausibility.warn([f"{what}: a force of {big:g} N on a planar precision robot: kN typed as N?"])
+    def check(self, what: str = "load", length_mm: float | None = None) -> "Load":
+        """Warn (:class:`~pmaccuracy.model.plausibility.PlausibilityWarning`) for forces (and, given the robot's
+        size ``length_mm``, moments) that look like kN typed as N
+        (:func:`~pmaccuracy.model.plausibility.force_messages`); returns ``self``."""
+        plausibility.warn(plausibility.force_messages(
+            {f"{what}: force": math.hypot(self.fx, self.fy), f"{what}: weight": G0 * self.mass},
+            {f"{what}: moment": self.m}, length_mm))
         return self
 
 
@@ -438,6 +439,9 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
     plausibility.check_orientations(pose, "pose", poses=True)
     robot = robot_arg(robot)
     c, h = _box(center, half)
+    if not (np.any(c) or np.any(h)):
+        raise ConfigError("the box of process wrenches is the zero wrench alone: no load to hold a contact "
+                          "against (give a range)", key="half")
     pose = as_poses(pose).reshape(1, 3)
     b = max_pose_errors(robot, clearances, pose, details=True)      # refuses a pose outside the ranges or singular
     L = _intensity_map(robot, pose)[0]

@@ -151,6 +151,10 @@ def run_simulate(args: argparse.Namespace) -> int:
         _common.prepare_output(args.repeats_out, "--repeats-out", (".csv",))
     if args.push_n is not None and not args.push_n > 0:
         raise ConfigError(f"must be a force > 0 (N), got {args.push_n:g}", key="--push-n")
+    if args.push_n is not None:
+        from ..model.plausibility import force_messages, warn
+
+        warn(force_messages({"--push-n": args.push_n}))
     measurements = experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
         noise_deg=args.noise_deg, model=args.model, seed=args.seed, push_n=args.push_n)

@@ -35,6 +35,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                        ".csv): dx, dy, dp (mm), dphi (deg), the spread the unloaded legs leave, the legs' "
                        "intensities and the number of unloaded legs, NaN outside the workspace")
     p.add_argument("--exact", action="store_true", help="with --map: also the exact loop closure (dx_exact, ...)")
+    _common.add_plot(p, "draw the robot at the (first) pose with the load, every joint's force (arrows at a stated "
+                        "scale), each joint's contact state, unloaded legs greyed and the loaded platform magnified")
+    p.add_argument("--magnify", type=_common.finite_float, metavar="K",
+                   help="magnification of the loaded displacement in --plot (default: a round factor that makes it "
+                        "visible)")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -112,15 +117,27 @@ def add_robot_clearances_poses(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..accuracy.loads import Load, loaded_pose_error
+    from ..accuracy.loads import G0, Load, loaded_pose_error
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
+    from ..model.plausibility import force_messages, orientation_messages, warn
 
     check_map_options(args)
     if args.exact and not args.map:
         raise ConfigError("goes with --map (the poses' output always has the exact columns)", key="--exact")
+    plot = _common.check_plot(args)
+    if plot and args.map:
+        raise ConfigError("draws one pose: give --pose, not --map", key="--plot")
+    if args.magnify is not None and not args.magnify > 0:
+        raise ConfigError(f"must be a factor > 0, got {args.magnify:g}", key="--magnify")
+    if args.magnify is not None and not plot:
+        raise ConfigError("goes with --plot", key="--magnify")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
+    warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
+                        robot.characteristic_length))
+    if args.mass:
+        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions"))
     if args.map:
         return run_map(args, robot, clearances)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
@@ -128,8 +145,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
     if args.unloaded_below < 0:
         raise ConfigError(f"must be >= 0 (N), got {args.unloaded_below:g}", key="--unloaded-below")
-    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com),
-                gravity_deg=args.gravity_deg).check("--fx/--fy/--mass")
+    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com), gravity_deg=args.gravity_deg)
     if not np.any(load.wrench(poses)):
         raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "
                           "possible: see `pmaccuracy bounds`)", key="--fx")
@@ -149,6 +165,12 @@ def run(args: argparse.Namespace) -> int:
                     else:
                         rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
                         rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
+    if plot:
+        from .._savefig import save_figure
+        from ..report.load_figures import plot_load
+
+        save_figure(plot_load(robot, clearances, poses[0], load, threshold=args.unloaded_below,
+                              magnify=args.magnify), plot, dpi=args.dpi, option="--plot")
     _common.emit(records, args.format)
     return 0
 

@@ -25,6 +25,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
+    _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
+                        "error's range without preload beside the constant offset with it and the worst case")
     _common.add_format(p)
     p.set_defaults(func=run)
 
@@ -35,8 +37,12 @@ def run(args: argparse.Namespace) -> int:
     from ..accuracy.loads import design_preload, wrench_set_errors
     from ..errors import ConfigError
     from ..io.resolve import load_clearances
+    from ..model.plausibility import force_messages, warn
 
     check_map_options(args)
+    plot = _common.check_plot(args)
+    if plot and args.map:
+        raise ConfigError("draws one pose: give --pose, not --map", key="--plot")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
@@ -46,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"needs LO <= HI, got {lo[k]:g} {hi[k]:g}", key=key)
     if not np.any(hi - lo):
         raise ConfigError("the box of process wrenches is a single wrench: give a range LO HI", key="--fx")
+    ends = np.maximum(np.abs(lo), np.abs(hi))
+    warn(force_messages({"|--fx|": ends[0], "|--fy|": ends[1]}, {"|--m|": ends[2]}, robot.characteristic_length))
     center, half = (lo + hi) / 2, (hi - lo) / 2
     if args.map:
         return run_map(args, robot, clearances, center, half)
@@ -63,6 +71,11 @@ def run(args: argparse.Namespace) -> int:
                      "preload_m_Nmm": float(pre.wrench[2]) + 0.0, "preload_size_N": pre.size,
                      "offset_dx": float(pre.offset[0]), "offset_dy": float(pre.offset[1]),
                      "offset_dphi_deg": math.degrees(pre.offset[2])})
+    if plot:
+        from .._savefig import save_figure
+        from ..report.load_figures import plot_preload
+
+        save_figure(plot_preload(robot, clearances, poses[0], center, half), plot, dpi=args.dpi, option="--plot")
     _common.emit(rows, args.format)
     return 0
 

@@ -523,12 +523,14 @@ def home_pose(robot: Manipulator) -> np.ndarray:
     return np.array([*ws.interior_point, 0.0])
 
 
-def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) -> None:
+def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True,
+               leg_colors: tuple[str, str, str] | None = None) -> None:
     """Draw the legs (joints and links), the base frames and the platform assembled at ``pose`` (mm, rad).
 
     Revolute joints are circles, prismatic joints squares at the middle of their
     slide; the actuated joint of each leg is filled red and an actuated slide's
-    range is drawn as a grey rail. Coordinates in mm.
+    range is drawn as a grey rail. Coordinates in mm. ``leg_colors`` (one matplotlib colour per leg,
+    default dark grey) colours the legs' links and joint outlines (e.g. light grey for unloaded legs).
     """
     from matplotlib.patches import Polygon
 
@@ -546,7 +548,8 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
                 origins.append(centres[k] + q[k] * dirs[k])
             origins.append(centres[k + 1] if k < 2 else end)
         path = np.array(origins)
-        ax.plot(path.real, path.imag, color="0.25", linewidth=1.6, zorder=3,
+        colour = "0.25" if leg_colors is None else leg_colors[i]
+        ax.plot(path.real, path.imag, color=colour, linewidth=1.6, zorder=3,
                 label="legs" if (label and i == 0) else None)
         a = chain.actuated_index
         if chain.actuated.kind == "P" and a == 0:  # a guide fixed on the base
@@ -560,14 +563,14 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True) 
             face = "tab:red" if actuated else "white"
             if joint.kind == "R":
                 ax.plot(centres[k].real, centres[k].imag, "o", markersize=6, markerfacecolor=face,
-                        markeredgecolor="k", zorder=5)
+                        markeredgecolor="k" if leg_colors is None else colour, zorder=5)
             else:
                 # the block: a bushing at the slide's origin; a carriage at the end of the slide when a link
                 # follows it, else half-way along it (the next joint's marker sits at its end)
                 mid = centres[k] if joint.block_kind == "bushing" else \
                     centres[k] + q[k] * dirs[k] * (1.0 if joint.link != (0.0, 0.0) else 0.5)
-                ax.plot(mid.real, mid.imag, "s", markersize=6, markerfacecolor=face, markeredgecolor="k",
-                        zorder=5)
+                ax.plot(mid.real, mid.imag, "s", markersize=6, markerfacecolor=face,
+                        markeredgecolor="k" if leg_colors is None else colour, zorder=5)
         ax.plot(chain.base[0], chain.base[1], "k^", markersize=7, zorder=4,
                 label="leg base frames" if (label and i == 0) else None)
     tri = pts_platform

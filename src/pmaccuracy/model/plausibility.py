@@ -30,6 +30,9 @@ mechanisms are micrometres and milliradians):
   orientation never needs more than a turn, while 15, 30, 90 deg typed as radians all exceed it.
   :func:`check_orientations` issues it, once per call of a public function (the package's own calls and
   the command line, whose angles are degrees by construction, are not checked again);
+* a **force** on the platform (N) above :data:`MAX_FORCE_N` = 1e4 N, or a moment (N mm) whose force at the
+  robot's size ``L`` (``|m| / L``) is: a tonne-force on a planar precision robot is kN typed as N
+  (:func:`force_messages`; loads, pushes and process wrenches);
 * a **first-order result beyond the linear model's validity**: a worst-case
   ``dphi_max`` above :data:`MAX_LINEAR_DPHI_DEG` = 1 deg. The error model
   (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
@@ -66,6 +69,8 @@ RADIAN_MATCH = 5e-4
 MAX_LINEAR_DPHI_DEG = 1.0
 #: Largest |orientation| (rad) the API takes without a warning: a full turn (module docstring).
 MAX_ORIENTATION_RAD = 2 * math.pi
+#: Largest plausible force on a planar precision robot's platform (N), and moment over its size (N mm / mm).
+MAX_FORCE_N = 1e4
 #: Largest share of the values listed in one message.
 _SHOWN = 3
 
@@ -117,6 +122,29 @@ def clearance_messages(values: Mapping[str, tuple[float, str]], what: str = "cle
             lo, hi = BLOCK_LENGTH_RANGE_MM
             out.append(f"{name} = {_g(value)} mm is outside [{_g(lo)}, {_g(hi)}] mm, the range of guide blocks "
                        f"(is it in m or um?)")
+    return out
+
+
+def force_messages(forces: Mapping[str, float], moments: Mapping[str, float] | None = None,
+                   length_mm: float | None = None) -> list[str]:
+    """Messages for forces ``{name: N}`` above :data:`MAX_FORCE_N` and moments ``{name: N mm}`` whose force at
+    the robot's size ``length_mm`` (``|m| / L``) is (kN typed as N; moments need ``length_mm``).
+
+    >>> force_messages({"--fx": 2e4})
+    ['--fx = 20000 N is above 10000 N on a planar precision robot (is it in kN, typed as N?)']
+    >>> force_messages({"--fx": 50.0}, {"--m": 3e8}, length_mm=300.0)
+    ["--m = 3e+08 N mm is above 10000 N at the robot's size 300 mm (kN typed as N?)"]
+    """
+    out = []
+    for name, value in forces.items():
+        if math.isfinite(value) and abs(value) > MAX_FORCE_N:
+            out.append(f"{name} = {_g(value)} N is above {_g(MAX_FORCE_N)} N on a planar precision robot "
+                       f"(is it in kN, typed as N?)")
+    if length_mm and length_mm > 0:
+        for name, value in (moments or {}).items():
+            if math.isfinite(value) and abs(value) / length_mm > MAX_FORCE_N:
+                out.append(f"{name} = {_g(value)} N mm is above {_g(MAX_FORCE_N)} N at the robot's size "
+                           f"{_g(length_mm)} mm (kN typed as N?)")
     return out
 
 
