@@ -117,9 +117,9 @@ def calibration_report(path: str | Path, identification: Identification, data: C
 
     ``experiment``: the :func:`~pmaccuracy.accuracy.calibration.simulate.simulate_calibration` run the data
     come from (its true parameters are drawn beside the estimates and its before/after errors at the targets
-    are the accuracy section); ``clearances`` (a preset, file or object; default the experiment's when its
-    compensation has a floor, else none): the floor, the worst case and the RMS of the clearances at the same
-    poses on the identified robot; ``seed``: of the random pose choices and the floor's Monte Carlo samples;
+    are the accuracy section); ``clearances`` (a preset, file or object): the floor, the worst case and the RMS
+    of the clearances at the same poses on the identified robot (an experiment run with clearances brings its
+    own floor at the targets, :attr:`Compensation.floor_dp_max` etc., which is used as it is); ``seed``: of the random pose choices and the floor's Monte Carlo samples;
     ``command``: the command line, for the footer. The figures are PNG embedded in the page.
 
     Returns the report's numbers, JSON-ready: ``residuals`` (``before``/``after``: max and RMS, mm and deg),
