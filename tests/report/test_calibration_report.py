@@ -244,3 +244,22 @@ def test_cli_simulate_report_checked_before_computing(tmp_path, capsys, monkeypa
     monkeypatch.setattr(simulate, "simulate_calibration", lambda *a, **k: (_ for _ in ()).throw(AssertionError))
     status, _, err = cli(["calibrate", "simulate", "--robot", ROBOT, "--report", tmp_path / "r.txt"], capsys)
     assert status == 2 and "--report" in err and len(err.strip().splitlines()) == 1
+
+
+def test_before_robot_keeps_the_fits_fixed_parameters(run):
+    """A measurement frame given to ``identify --frame`` stays fixed in the fit: the robot "before calibration"
+    is the nominal seen through that frame, not through the robot's own."""
+    import dataclasses
+
+    from pmaccuracy.report.calibration_report import start_values
+
+    pv, ex, _, _ = run
+    ident = ex.identification
+    assert set(ident.identifiability.fixed) >= {"frame.x", "frame.y", "frame.phi"}
+    values = ident.values.copy()
+    values[-3:] = (1.5, -2.0, 0.01)
+    moved = dataclasses.replace(ident, values=values)
+    start = start_values(moved)
+    np.testing.assert_array_equal(start[-3:], (1.5, -2.0, 0.01))
+    free = pv.index(ident.identifiability.identified)
+    np.testing.assert_array_equal(start[free], pv.nominal[free])

@@ -117,9 +117,9 @@ def calibration_report(path: str | Path, identification: Identification, data: C
 
     ``experiment``: the :func:`~pmaccuracy.accuracy.calibration.simulate.simulate_calibration` run the data
     come from (its true parameters are drawn beside the estimates and its before/after errors at the targets
-    are the accuracy section); ``clearances`` (a preset, file or object; default the experiment's when its
-    compensation has a floor, else none): the floor, the worst case and the RMS of the clearances at the same
-    poses on the identified robot; ``seed``: of the random pose choices and the floor's Monte Carlo samples;
+    are the accuracy section); ``clearances`` (a preset, file or object): the floor, the worst case and the RMS
+    of the clearances at the same poses on the identified robot (an experiment run with clearances brings its
+    own floor at the targets, :attr:`Compensation.floor_dp_max` etc., which is used as it is); ``seed``: of the random pose choices and the floor's Monte Carlo samples;
     ``command``: the command line, for the footer. The figures are PNG embedded in the page.
 
     Returns the report's numbers, JSON-ready: ``residuals`` (``before``/``after``: max and RMS, mm and deg),
@@ -221,7 +221,9 @@ def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -
         sigma_deg = np.degrees(experiment.compensation.predicted_sigma[:, 2])
     else:
         where = "measured poses"
-        keep = ~outliers & np.all(np.isfinite(after), axis=1) & np.all(np.isfinite(before), axis=1)
+        reached = ~outliers & np.all(np.isfinite(after), axis=1)
+        keep = reached & np.all(np.isfinite(before), axis=1)
+        unreached = int(np.sum(reached & ~keep))   # the nominal robot ends far from the reading (module docstring)
         b, a = before[keep], after[keep]
         poses = frame_apply(ident.values[-3:], data.poses[keep])
         sigma = np.hypot(data.sigmas[keep, 0], data.sigmas[keep, 1])
@@ -229,7 +231,8 @@ def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -
     out = {"where": where, "poses": len(b),
            "before_mm": np.hypot(b[:, 0], b[:, 1]).tolist(), "after_mm": np.hypot(a[:, 0], a[:, 1]).tolist(),
            "before_deg": np.degrees(np.abs(b[:, 2])).tolist(), "after_deg": np.degrees(np.abs(a[:, 2])).tolist(),
-           "sigma_mm": sigma.tolist(), "sigma_deg": sigma_deg.tolist(), "floor": None}
+           "sigma_mm": sigma.tolist(), "sigma_deg": sigma_deg.tolist(), "floor": None,
+           "left_out": 0 if experiment is not None else unreached}
     fl = None
     comp = None if experiment is None else experiment.compensation
     if comp is not None and comp.floor_dp_max is not None:   # the compensation's own floor at the targets
@@ -249,6 +252,10 @@ def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -
 
 def _verdict(r: dict, simulated: bool) -> list[str]:
     acc = r["accuracy"]
+    if acc["poses"] == 0:
+        return ["Removed: not known: no pose has both a reading the nominal robot explains and one the identified "
+                "robot explains (Section 1 lists the residuals that exist).",
+                "Left: not known.", "Floor: not compared."]
     b, a = np.asarray(acc["before_mm"]), np.asarray(acc["after_mm"])
     bd, ad = np.asarray(acc["before_deg"]), np.asarray(acc["after_deg"])
     where = (f"at {acc['poses']} targets the fit never saw (measured on the true robot)" if simulated
@@ -287,10 +294,16 @@ def _intro(doc: Document, r: dict, ident: Identification, experiment) -> None:
            + ")" if experiment is not None else f"the measurements `{r['source']}`")
     doc.paragraph(f"Calibration of `{r['robot']}` ({r['architecture']}) from {r['points']} measured poses of {src}: "
                   f"{len(ident.identifiability.identified)} parameters identified, {len(r['fixed'])} fixed at "
-                  f"nominal, {len(r['residuals']['outliers'])} outliers dropped"
-                  + (f" ({', '.join(map(str, r['residuals']['outliers']))})" if r["residuals"]["outliers"] else "")
-                  + f"; clearances: {r['clearances'] or 'none given'}. Lengths in mm, angles in degrees, gains as "
-                  "gain - 1 in units of 10^-3.")
+                  f"nominal, {_outliers(r['residuals']['outliers'])}; clearances: {r['clearances'] or 'none given'}. "
+                  "Lengths in mm, angles in degrees, gains as numbers (1 = nominal; their changes in Figure 2 in "
+                  "units of 10^-3).")
+
+
+def _outliers(labels: list) -> str:
+    if not labels:
+        return "no outlier"
+    return (f"{len(labels)} outlier{'s' if len(labels) > 1 else ''} dropped (point{'s' if len(labels) > 1 else ''} "
+            f"{', '.join(map(str, labels))})")
 
 
 def _outline(ax, robot, phis_rad) -> None:
@@ -512,7 +525,8 @@ def _observability_section(doc, tmp, r: dict) -> None:
                    "except the condition number.")
     doc.paragraph(f"Figure {n} and the table: the indices on the plan's scale (the nominal robot's whitened "
                   "identification Jacobian with the default camera sigmas, columns scaled by their RMS over the "
-                  "candidate grid of `calibrate plan`), so the rows compare as they are.")
+                  "default candidate grid of `calibrate plan`, orientations within +-0.35 rad, about 20 deg), so the rows compare as "
+                  "they are; the measured poses are taken where they were measured (robot frame).")
     doc.table(["poses", "O1", "O2", "O3", "O4", "condition"],
               [[lbl] + [ind[n][k] for k in keys] for n, lbl in names])
 
@@ -520,6 +534,14 @@ def _observability_section(doc, tmp, r: dict) -> None:
 def _accuracy_section(doc, tmp, r: dict, simulated: bool) -> None:
     doc.heading("Accuracy before and after calibration, beside the clearance floor")
     acc = r["accuracy"]
+    if acc["poses"] == 0:
+        doc.paragraph("No pose to compare: the nominal or the identified robot reaches none of the readings "
+                      "within 5 mm and 5 deg.")
+        return
+    if acc["left_out"]:
+        doc.paragraph(f"{acc['left_out']} measured poses are left out here: the nominal robot's forward kinematics "
+                      "ends more than 5 mm or 5 deg from the reading (or has no assembly mode there), so their error "
+                      "before calibration is not a number; Section 1 shows them after.")
     order = np.argsort(acc["before_mm"])
     x = np.arange(1, acc["poses"] + 1)
     fig = Figure(figsize=(REPORT_WIDTH_IN, 3.8))
@@ -549,8 +571,8 @@ def _accuracy_section(doc, tmp, r: dict, simulated: bool) -> None:
             "the residuals at the measured poses, of the nominal (before) and the identified (after) robot: the "
             "fit's own residuals, not an independent check")
     n = doc.figure(save_figure(fig, tmp / "accuracy.png"),
-                   f"Pose errors {what}, beside the clearance floor at the same poses on the identified robot."
-                   if fl is not None else f"Pose errors {what} (no clearances given: no floor).")
+                   f"Pose errors: {what}; beside them the clearance floor at the same poses on the identified robot."
+                   if fl is not None else f"Pose errors: {what} (no clearances given: no floor).")
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
     rows = [["before calibration", max(acc["before_mm"]), rms(acc["before_mm"]), max(acc["before_deg"]),
              rms(acc["before_deg"])],
