@@ -135,3 +135,13 @@ def test_cli_plots_in_the_format_asked_and_checks_the_path_first(tmp_path, capsy
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and option in err[0]
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["load.png", "preload.pdf"]
+
+
+def test_plot_load_refuses_a_zero_load_and_a_bad_factor():
+    from pmaccuracy.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="zero"):
+        plot_load("aalborg_3ppr", "case2", [0.0, 0.0, 0.0], Load())
+    for bad in (0.0, -2.0, float("nan")):
+        with pytest.raises(ConfigError, match="magnify"):
+            plot_load("aalborg_3ppr", "case2", [0.0, 0.0, 0.0], Load(fx=1.0), magnify=bad)

@@ -7,7 +7,8 @@ figures, the NetCDF maps and ``results.json``::
                                "dp_max": [...]}, "30": {...}},
                "case2": {...}},
      "paper_check": [...], "sources": {...}, "assembly": {...}, "design": {...},
-     "design_decisions": {...} (pmaccuracy.report.design_report), ...}
+     "design_decisions": {...} (pmaccuracy.report.design_report),
+     "loads": {...} (pmaccuracy.report.load_report), ...}
 
 (orientation keys in degrees; values in mm and deg).
 """
@@ -27,6 +28,7 @@ from ..accuracy.bounds import max_pose_errors
 from ..model.clearances import ClearanceSet
 from .design_report import PHI_RANGE_DEG as DESIGN_PHI_RANGE, TARGETS as DESIGN_TARGETS, design_section
 from .document import Document, provenance
+from .load_report import load_section
 from ..accuracy.error_model import assembly_errors, pose_error
 from ..model.manipulator import Manipulator
 from ..kinematics import inverse_kinematics
@@ -68,8 +70,9 @@ PAPER_RMSD = {("case1", 0.0): (50, 30, 51, 0.057), ("case1", 30.0): (47, 34, 34,
 TOLERANCE = 0.01  # 1 % acceptance on the reported values
 
 
-#: Figures of the report: workspace, 4 maps, assembly offsets, design comparison; 5 per case in the experiment.
-_FIGURES, _EXPERIMENT_FIGURES = 7, 10
+#: Figures of the report: workspace, 4 maps, assembly offsets, design comparison, 2 under load; 5 per case in
+#: the experiment.
+_FIGURES, _EXPERIMENT_FIGURES = 9, 10
 
 
 def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", grid: int = 101, *,
@@ -99,8 +102,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
                    footer=provenance(command, __version__))
     results: dict = {"robot": robot.name, "version": __version__, "grid": grid}
     show = sys.stderr.isatty() if progress is None else progress
-    # one bar: the maps, seven sections, the experiment, the files, and every figure
-    steps = 1 + 7 + int(experiment) + 1 + _FIGURES + (_EXPERIMENT_FIGURES if experiment else 0)
+    # one bar: the maps, eight sections, the experiment, the files, and every figure
+    steps = 1 + 8 + int(experiment) + 1 + _FIGURES + (_EXPERIMENT_FIGURES if experiment else 0)
     bar = tqdm(total=steps, disable=not show, desc="report", unit="step", file=sys.stderr)
     with bar, figures.Renderer(workers, on_done=bar.update) as renderer:
         # sections 4 and 6 are many small maps: computed by the workers while this process does the rest
@@ -129,7 +132,8 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
                         lambda: design_section(doc, robot, out, results, renderer, seed=seed,
                                                targets=targets or DESIGN_TARGETS,
                                                phi_range_deg=phi_range_deg or DESIGN_PHI_RANGE,
-                                               region=region)):
+                                               region=region),
+                        lambda: load_section(doc, robot, out, results, renderer, paper=PAPER_SIMULATED)):
             section()
             bar.update()
         if experiment:

@@ -33,6 +33,7 @@ from matplotlib.path import Path as MplPath
 
 from ..accuracy.bounds import max_pose_errors
 from ..accuracy.loads import DEFAULT_THRESHOLD_N, Load, design_preload, loaded_pose_error, wrench_set_errors
+from ..errors import ConfigError
 from ..io.resolve import clearances_arg, robot_arg
 from ..kinematics import as_poses, leg_states
 from ..kinematics.workspace import draw_robot
@@ -109,6 +110,10 @@ def plot_load(robot: Manipulator | str, clearances, pose, load: Load, *, thresho
     robot = robot_arg(robot)
     sources = _sources(robot, clearances)
     pose = as_poses(pose).reshape(3)
+    if magnify is not None and not (math.isfinite(magnify) and magnify > 0):
+        raise ConfigError(f"must be a factor > 0, got {magnify}", key="magnify")
+    if isinstance(load, Load) and not np.any(load.wrench(pose)):
+        raise ConfigError("the load is zero: no reaction to draw (every clearance state is possible)", key="load")
     res = loaded_pose_error(robot, sources, pose, load, threshold=threshold)
     st = res.statics
     span = _span(robot, pose)
