@@ -21,10 +21,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     s = steps.add_parser("plan", help="choose N measurement poses (D-optimal) and write them as a calibration CSV")
     _common.add_robot(s)
     s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
-    s.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, default=(-20.0, 20.0), metavar=("LO", "HI"),
-                   help="orientation range of the candidates, deg (default -20 20)")
-    s.add_argument("--grid", type=_common.positive_int, default=22, metavar="N",
-                   help="candidates per axis in x and y (default 22; 21 orientations)")
+    s.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="orientation range of the candidates, deg (default -20 20; parallel robots)")
+    s.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
+                   help="candidates per axis in x and y (default 22; 21 orientations; parallel robots). A serial "
+                        "arm's candidates are 4000 seeded configurations within its joint ranges")
     s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
     s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
     _common.add_format(s)
@@ -69,6 +70,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_simulate)
+
+
+def _robot(args: argparse.Namespace):
+    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``."""
+    from . import serial_cmd
+
+    if serial_cmd.is_serial_robot(args.robot):
+        from ..model.serial import SerialArm
+
+        return SerialArm.load(args.robot)
+    return _common.load_robot(args)
 
 
 def _estimates(ident) -> list[dict]:
@@ -117,14 +129,23 @@ def run_plan(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.plan import candidate_poses, plan_poses
     from ..errors import ConfigError
+    from ..model.serial import SerialArm
 
-    lo, hi = args.phi_range_deg
+    lo, hi = args.phi_range_deg or (-20.0, 20.0)
     if not lo <= hi:
         raise ConfigError(f"empty range [{lo:g}, {hi:g}] deg", key="--phi-range-deg")
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
-    pv = error_parameters(_common.load_robot(args))
-    cand = candidate_poses(pv, n=args.grid, phi_range=(np.radians(lo), np.radians(hi)))
+    robot = _robot(args)
+    pv = error_parameters(robot)
+    if isinstance(robot, SerialArm):
+        for opt, value in (("--grid", args.grid), ("--phi-range-deg", args.phi_range_deg)):
+            if value is not None:
+                raise ConfigError("a serial arm's candidates are configurations within its joint ranges: this "
+                                  "option is for parallel robots", key=opt)
+        cand = None
+    else:
+        cand = candidate_poses(pv, n=args.grid or 22, phi_range=(np.radians(lo), np.radians(hi)))
     plan = plan_poses(pv, args.poses, cand, seed=args.seed)
     if args.out:
         write_calibration_csv(pv.robot, plan.commands, None, args.out)
@@ -155,7 +176,7 @@ def run_identify(args: argparse.Namespace) -> int:
     for opt, path, kinds in (("--out", args.out, (".json",)), ("--robot-out", args.robot_out, (".toml",))):
         if path:
             _common.prepare_output(path, opt, kinds)
-    pv = error_parameters(_common.load_robot(args))
+    pv = error_parameters(_robot(args))
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
@@ -176,6 +197,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.compensate import compensate
     from ..accuracy.calibration.data import write_calibration_csv
     from ..accuracy.calibration.identify import identification_from_dict
+    from ..accuracy.calibration.parameters import actuators
     from ..errors import ConfigError
 
     targets = _common.poses_from_args(args.pose, args.poses_csv)
@@ -193,7 +215,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     pv = ident.parameters
     if args.out:
         write_calibration_csv(pv.robot, comp.commands, None, args.out)
-    kinds = [c.actuated.kind for c in pv.robot.chains]
+    kinds = [kind for kind, _ in actuators(pv.robot)]
     rows = []
     for n, t in enumerate(comp.targets):
         row = {"x": t[0], "y": t[1], "phi_deg": np.degrees(t[2])}
@@ -227,7 +249,7 @@ def run_simulate(args: argparse.Namespace) -> int:
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if args.data_out:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
-    pv = error_parameters(_common.load_robot(args))
+    pv = error_parameters(_robot(args))
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
                   error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)})
