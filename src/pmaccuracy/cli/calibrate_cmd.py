@@ -68,6 +68,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
+    s.add_argument("--photos", metavar="DIR",
+                   help="measure the planned poses from photos: render each into DIR/<point>.png (flat test camera, "
+                        "DIR/manifest.csv lists the commands) and measure them as 'vision pose' does, with the "
+                        "photos' own sigmas (instead of --noise-mm/--noise-deg); the folder is created if missing")
+    s.add_argument("--mm-per-pixel", type=float, default=None, metavar="S",
+                   help="scale of the photos' flat camera, mm per pixel, 0.01-1 (default 0.25; with --photos; markers "
+                        "of 1.5 mm radius or 6 px, whichever is larger)")
     _common.add_format(s)
     s.set_defaults(func=run_simulate)
 
@@ -249,10 +256,22 @@ def run_simulate(args: argparse.Namespace) -> int:
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if args.data_out:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
+    measure_with = None
+    if args.mm_per_pixel is not None and not args.photos:
+        raise ConfigError("only with --photos DIR", key="--mm-per-pixel")
+    if args.photos:
+        from ..vision.calibration_photos import PHOTO_MM_PER_PIXEL, photo_measurer
+
+        scale = PHOTO_MM_PER_PIXEL if args.mm_per_pixel is None else args.mm_per_pixel
+        if not (np.isfinite(scale) and 0.01 <= scale <= 1.0):
+            raise ConfigError(f"must be within [0.01, 1] mm per pixel, got {scale!r}", key="--mm-per-pixel")
+        folder = _common.prepare_output(args.photos, "--photos", folder=True)
+        measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=args.clearances)
     pv = error_parameters(_robot(args))
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
-                  error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)})
+                              error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)},
+                              measure_with=measure_with)
     ident = ex.identification
     if args.data_out:
         d = ex.data

@@ -13,6 +13,7 @@ inverse-kinematic residual of :mod:`.identify`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -116,19 +117,21 @@ class Experiment:
 
 def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
              noise=(0.01, 0.01, np.radians(0.01)), clearances=None, n_targets: int = 50,
-             true_fixed: tuple[str, ...] = ()) -> Experiment:
+             true_fixed: tuple[str, ...] = (), measure_with: Callable | None = None) -> Experiment:
     """Run the virtual calibration experiment (module docstring): plan ``n_poses``, measure, identify,
-    compensate at ``n_targets`` random candidate poses, measure again."""
+    compensate at ``n_targets`` random candidate poses, measure again.
+
+    ``measure_with(pv, true, commands, reference, seed) -> CalibrationData`` replaces the measurement of the
+    planned poses (e.g. :func:`pmaccuracy.vision.calibration_photos.photo_measurer`: photos rendered and
+    measured); ``noise`` then applies to the compensation's check only (there without noise).
+    """
     true = true_parameters(pv, seed, error_sigma, true_fixed)
     if isinstance(pv, SerialParameterVector):
-        return _simulate_serial(pv, true, n_poses, seed=seed, noise=noise, clearances=clearances, n_targets=n_targets)
+        return _simulate_serial(pv, true, n_poses, seed=seed, noise=noise, clearances=clearances, n_targets=n_targets,
+                                measure_with=measure_with)
     cand = candidate_poses(pv)
     plan = plan_poses(pv, n_poses, cand, seed=seed)
-    sig = np.broadcast_to(np.asarray(noise, dtype=float), (n_poses, 3)).copy()
-    meas = measure(pv, true, plan.commands, plan.poses, noise=noise, clearances=clearances, seed=seed + 1)
-    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas,
-                           np.maximum(sig, 1e-12), "<simulation>")
-    data = data.subset(np.all(np.isfinite(meas), axis=1))   # poses the true robot cannot reach are not measured
+    data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
     ident = identify(data, pv)
     rng = np.random.default_rng(seed + 2)
     lim = np.array([c.actuated.range for c in pv.robot.chains])
@@ -149,13 +152,22 @@ def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 
                       errors_after=after)
 
 
-def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, *, seed, noise, clearances,
-                     n_targets) -> Experiment:
-    plan = plan_poses(pv, n_poses, seed=seed)
+def _measured(pv, true, plan, noise, clearances, seed, measure_with) -> CalibrationData:
+    """The planned poses of the true robot measured (camera noise, clearance states) or by ``measure_with``."""
+    if measure_with is not None:
+        return measure_with(pv, true, plan.commands, plan.poses, seed + 1)
+    n_poses = len(plan.commands)
     sig = np.broadcast_to(np.asarray(noise, dtype=float), (n_poses, 3)).copy()
-    meas = measure_serial(pv, true, plan.commands, noise=noise, clearances=clearances, seed=seed + 1)
-    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas, np.maximum(sig, 1e-12),
-                           "<simulation>")
+    meas = measure(pv, true, plan.commands, plan.poses, noise=noise, clearances=clearances, seed=seed + 1)
+    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas,
+                           np.maximum(sig, 1e-12), "<simulation>")
+    return data.subset(np.all(np.isfinite(meas), axis=1))   # poses the true robot cannot reach are not measured
+
+
+def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, *, seed, noise, clearances,
+                     n_targets, measure_with=None) -> Experiment:
+    plan = plan_poses(pv, n_poses, seed=seed)
+    data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
     ident = identify(data, pv)
     # targets: where the nominal arm goes at random commands inside the ranges with a margin (so that the
     # identified arm reaches them within the ranges too)
