@@ -22,10 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     s = steps.add_parser("plan", help="choose N measurement poses (D-optimal) and write them as a calibration CSV")
     _common.add_robot(s)
     s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
-    s.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, default=(-20.0, 20.0), metavar=("LO", "HI"),
-                   help="orientation range of the candidates, deg (default -20 20)")
-    s.add_argument("--grid", type=_common.positive_int, default=22, metavar="N",
-                   help="candidates per axis in x and y (default 22; 21 orientations)")
+    s.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="orientation range of the candidates, deg (default -20 20; parallel robots)")
+    s.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
+                   help="candidates per axis in x and y (default 22; 21 orientations; parallel robots). A serial "
+                        "arm's candidates are 4000 seeded configurations within its joint ranges")
     s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
     s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
     _common.add_format(s)
@@ -71,6 +72,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--report", metavar="FILE.html",
                    help="also write the calibration report (self-contained HTML) of the run; missing parent folders "
                         "are created")
+    s.add_argument("--photos", metavar="DIR",
+                   help="measure the planned poses from photos: render each into DIR/<point>.png (flat test camera, "
+                        "DIR/manifest.csv lists the commands) and measure them as 'vision pose' does, with the "
+                        "photos' own sigmas (instead of --noise-mm/--noise-deg); the folder is created if missing")
+    s.add_argument("--mm-per-pixel", type=float, default=None, metavar="S",
+                   help="scale of the photos' flat camera, mm per pixel, 0.01-1 (default 0.25; with --photos; markers "
+                        "of 1.5 mm radius or 6 px, whichever is larger)")
     _common.add_format(s)
     s.set_defaults(func=run_simulate)
     _register_report(steps)
@@ -169,6 +177,17 @@ def run_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _robot(args: argparse.Namespace):
+    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``."""
+    from . import serial_cmd
+
+    if serial_cmd.is_serial_robot(args.robot):
+        from ..model.serial import SerialArm
+
+        return SerialArm.load(args.robot)
+    return _common.load_robot(args)
+
+
 def _estimates(ident) -> list[dict]:
     import numpy as np
 
@@ -215,14 +234,23 @@ def run_plan(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.plan import candidate_poses, plan_poses
     from ..errors import ConfigError
+    from ..model.serial import SerialArm
 
-    lo, hi = args.phi_range_deg
+    lo, hi = args.phi_range_deg or (-20.0, 20.0)
     if not lo <= hi:
         raise ConfigError(f"empty range [{lo:g}, {hi:g}] deg", key="--phi-range-deg")
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
-    pv = error_parameters(_common.load_robot(args))
-    cand = candidate_poses(pv, n=args.grid, phi_range=(np.radians(lo), np.radians(hi)))
+    robot = _robot(args)
+    pv = error_parameters(robot)
+    if isinstance(robot, SerialArm):
+        for opt, value in (("--grid", args.grid), ("--phi-range-deg", args.phi_range_deg)):
+            if value is not None:
+                raise ConfigError("a serial arm's candidates are configurations within its joint ranges: this "
+                                  "option is for parallel robots", key=opt)
+        cand = None
+    else:
+        cand = candidate_poses(pv, n=args.grid or 22, phi_range=(np.radians(lo), np.radians(hi)))
     plan = plan_poses(pv, args.poses, cand, seed=args.seed)
     if args.out:
         write_calibration_csv(pv.robot, plan.commands, None, args.out)
@@ -253,7 +281,7 @@ def run_identify(args: argparse.Namespace) -> int:
     for opt, path, kinds in (("--out", args.out, (".json",)), ("--robot-out", args.robot_out, (".toml",))):
         if path:
             _common.prepare_output(path, opt, kinds)
-    pv = error_parameters(_common.load_robot(args))
+    pv = error_parameters(_robot(args))
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
@@ -274,6 +302,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.compensate import compensate
     from ..accuracy.calibration.data import write_calibration_csv
     from ..accuracy.calibration.identify import identification_from_dict
+    from ..accuracy.calibration.parameters import actuators
     from ..errors import ConfigError
 
     targets = _common.poses_from_args(args.pose, args.poses_csv)
@@ -291,7 +320,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     pv = ident.parameters
     if args.out:
         write_calibration_csv(pv.robot, comp.commands, None, args.out)
-    kinds = [c.actuated.kind for c in pv.robot.chains]
+    kinds = [kind for kind, _ in actuators(pv.robot)]
     rows = []
     for n, t in enumerate(comp.targets):
         row = {"x": t[0], "y": t[1], "phi_deg": np.degrees(t[2])}
@@ -327,10 +356,22 @@ def run_simulate(args: argparse.Namespace) -> int:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
     if args.report:
         _common.prepare_output(args.report, "--report", (".html",))
-    pv = error_parameters(_common.load_robot(args))
+    measure_with = None
+    if args.mm_per_pixel is not None and not args.photos:
+        raise ConfigError("only with --photos DIR", key="--mm-per-pixel")
+    if args.photos:
+        from ..vision.calibration_photos import PHOTO_MM_PER_PIXEL, photo_measurer
+
+        scale = PHOTO_MM_PER_PIXEL if args.mm_per_pixel is None else args.mm_per_pixel
+        if not (np.isfinite(scale) and 0.01 <= scale <= 1.0):
+            raise ConfigError(f"must be within [0.01, 1] mm per pixel, got {scale!r}", key="--mm-per-pixel")
+        folder = _common.prepare_output(args.photos, "--photos", folder=True)
+        measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=args.clearances)
+    pv = error_parameters(_robot(args))
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
-                  error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)})
+                              error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)},
+                              measure_with=measure_with)
     ident = ex.identification
     if args.data_out:
         d = ex.data

@@ -27,7 +27,8 @@ import numpy as np
 from ...errors import MeasurementFileError
 from ...io.csvio import write_csv_columns
 from ...model.manipulator import Manipulator
-from .parameters import ParameterVector, commands_for, wrap_commands
+from ...model.serial import SerialArm
+from .parameters import ParameterVector, actuators, commands_for, wrap_commands
 
 #: Default 1-sigma of a measured pose: the paper's camera, 0.01 mm and 0.01 deg (Sec. 5).
 DEFAULT_ACCURACY_MM = 0.01
@@ -59,14 +60,19 @@ class CalibrationData:
                                self.poses[keep], self.sigmas[keep], self.source)
 
 
-def command_columns(robot: Manipulator) -> tuple[str, str, str]:
-    """``q{i}`` (prismatic actuator, mm) or ``q{i}_deg`` (revolute, deg) for the three legs."""
-    return tuple(f"q{i}" if c.actuated.kind == "P" else f"q{i}_deg" for i, c in enumerate(robot.chains, start=1))
+def command_columns(robot: Manipulator) -> tuple[str, ...]:
+    """``q{i}`` (prismatic actuator, mm) or ``q{i}_deg`` (revolute, deg) for the three legs (a serial arm:
+    for each joint)."""
+    return tuple(f"q{i}" if kind == "P" else f"q{i}_deg" for i, (kind, _) in enumerate(actuators(robot), start=1))
 
 
 def _to_file_units(robot: Manipulator, commands: np.ndarray) -> np.ndarray:
-    kinds = np.array([c.actuated.kind == "R" for c in robot.chains])
+    kinds = np.array([kind == "R" for kind, _ in actuators(robot)])
     return np.where(kinds, np.degrees(commands), commands)
+
+
+def _who(robot, i: int) -> str:
+    return f"joint {i}'s" if isinstance(robot, SerialArm) else f"leg {i}'s"
 
 
 def write_calibration_csv(robot: Manipulator, commands: np.ndarray, poses: np.ndarray | None, path,
@@ -113,11 +119,15 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
         other = f"q{i}_deg" if name == f"q{i}" else f"q{i}"
         if other in header:
             unit_ = "mm (column q%d)" % i if name == f"q{i}" else "degrees (column q%d_deg)" % i
-            raise MeasurementFileError(f"column {other}: leg {i}'s actuator is "
+            raise MeasurementFileError(f"column {other}: {_who(robot, i)} actuator is "
                                        f"{'prismatic' if name == f'q{i}' else 'revolute'}: give its command in "
                                        f"{unit_}", source=src, key="line 1")
     has_cmd = [c in header for c in want]
     nominal = all(c in header for c in ("x_nom", "y_nom", "phi_nom_deg"))
+    if not all(has_cmd) and nominal and isinstance(robot, SerialArm):
+        raise MeasurementFileError(f"a serial arm's calibration CSV needs the commands {','.join(want)} (the nominal "
+                                   "pose x_nom,y_nom,phi_nom_deg does not say which of the arm's configurations "
+                                   "was commanded)", source=src, key="line 1")
     if not all(has_cmd) and not nominal:
         raise MeasurementFileError(f"header must name the commands {','.join(want)} (or the nominal pose "
                                    "x_nom,y_nom,phi_nom_deg of an experiment file)", source=src, key="line 1")
@@ -154,10 +164,11 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
     if not values:
         raise MeasurementFileError("no data rows", source=src)
     arr = np.array(values)
-    poses = np.column_stack([arr[:, 3], arr[:, 4], np.radians(arr[:, 5])])
-    kinds_r = np.array([c.actuated.kind == "R" for c in robot.chains])
+    na = len(want) if use_cmd else 3
+    poses = np.column_stack([arr[:, na], arr[:, na + 1], np.radians(arr[:, na + 2])])
+    kinds_r = np.array([kind == "R" for kind, _ in actuators(robot)])
     if use_cmd:
-        commands = np.where(kinds_r, np.radians(arr[:, :3]), arr[:, :3])
+        commands = np.where(kinds_r, np.radians(arr[:, :na]), arr[:, :na])
     else:
         nom = np.column_stack([arr[:, 0], arr[:, 1], np.radians(arr[:, 2])])
         commands = commands_for(pv, pv.nominal, nom)
@@ -165,9 +176,9 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
         if bad.size:
             raise MeasurementFileError("the nominal pose x_nom,y_nom,phi_nom_deg is out of the nominal robot's "
                                        "reach", source=src, key=f"row {bad[0] + 1}")
-    rng = np.array([c.actuated.range for c in robot.chains])
+    rng = np.array([r for _, r in actuators(robot)])
     in_turn = wrap_commands(robot, commands)  # a revolute command is checked modulo whole turns
-    for k in range(3):
+    for k in range(len(want)):
         c = in_turn[:, k]
         out = np.flatnonzero((c < rng[k, 0] - RANGE_SLACK) | (c > rng[k, 1] + RANGE_SLACK))
         if out.size:
@@ -175,10 +186,10 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
             f = np.degrees if kinds_r[k] else (lambda v: v)
             u = "deg" if kinds_r[k] else "mm"
             raise MeasurementFileError(
-                f"{want[k]} = {f(commands[r, k]):.6g} {u} is outside leg {k + 1}'s actuator range "
+                f"{want[k]} = {f(commands[r, k]):.6g} {u} is outside {_who(robot, k + 1)} actuator range "
                 f"[{f(rng[k, 0]):.6g}, {f(rng[k, 1]):.6g}] {u}", source=src, key=f"row {r + 1} (point {labels[r]})")
     if all(has_sig):
-        sig = np.column_stack([arr[:, 6], arr[:, 7], np.radians(arr[:, 8])])
+        sig = np.column_stack([arr[:, na + 3], arr[:, na + 4], np.radians(arr[:, na + 5])])
         bad = np.argwhere(sig <= 0)
         if bad.size:
             raise MeasurementFileError(f"{sig_names[bad[0][1]]} must be positive", source=src,

@@ -28,7 +28,9 @@ from ...errors import ConfigError, GeometryError, MeasurementFileError
 from ...model.manipulator import Manipulator
 from .data import CalibrationData
 from .identifiability import Identifiability, RTOL, analyse
-from .parameters import ParameterVector, error_parameters, frame_apply, joint_values, leg_joint_value
+from ...model.serial import SerialArm
+from .parameters import (ParameterVector, SerialParameterVector, error_parameters, frame_apply, joint_values,
+                         leg_joint_value, serial_poses)
 
 #: Outlier threshold: the chi-square(3) quantile of a point's whitened residual norm squared.
 OUTLIER_QUANTILE = 0.999
@@ -216,6 +218,8 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     """
     pv = parameters if parameters is not None else error_parameters(robot)
     pv.index(fixed)
+    if isinstance(pv, SerialParameterVector):
+        return _identify_serial(data, pv, tuple(fixed), frame, robust, rtol)
     x0 = pv.nominal.copy()
     if frame is not None:
         x0[-3:] = np.asarray(frame, dtype=float)
@@ -233,21 +237,123 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     e0 = whitened(pv, x0, data, W)
     rms_before = float(np.sqrt(np.mean(e0 ** 2)))
 
-    def fun(z, d, w):
-        v = x0.copy()
-        v[free] = z
-        return whitened(pv, v, d, w).ravel()
+    def problem(d, v):
+        W = whitening(pv, v, d)
 
-    def jac(z, d, w):
-        v = x0.copy()
-        v[free] = z
-        return jacobian(pv, v, d, w, free)
+        def fun(z):
+            u = x0.copy()
+            u[free] = z
+            return whitened(pv, u, d, W).ravel()
 
+        def jac(z):
+            u = x0.copy()
+            u[free] = z
+            return jacobian(pv, u, d, W, free)
+        return fun, jac
+
+    v, res, keep, nfev, Jf = fit(data, x0, free, problem, robust)
+    cov, sigma, s2 = covariance(res, Jf, free, len(pv.names))
+    after = _pose_residuals(pv, v, data)
+    return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
+                          residuals_before=before, residuals_after=after, rms_before=rms_before,
+                          rms_after=float(np.sqrt(np.mean(res ** 2))),
+                          outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
+                          nfev=int(nfev), n_points=len(data))
+
+
+# ------------------------------------------------------------------ serial arms: the forward residual
+def serial_residuals(pv: SerialParameterVector, values: np.ndarray, data: CalibrationData) -> np.ndarray:
+    """Pose residuals ``m - F^-1 FK(theta; offset + gain * c)`` ``(N, 3)`` (mm, mm, rad; phi wrapped) of a
+    serial arm: its forward kinematics is explicit and single-valued, so the residual is the forward one
+    (no inverse kinematics, which for a serial arm has several branches, or none for n != 3 joints)."""
+    r = data.poses - serial_poses(pv, values, data.commands)
+    r[:, 2] = np.angle(np.exp(1j * r[:, 2]))
+    return r
+
+
+def serial_jacobian(pv: SerialParameterVector, values: np.ndarray, data: CalibrationData, cols=None) -> np.ndarray:
+    """``de/dtheta (3N, len(cols))`` of the whitened forward residual ``e = r / sigma`` by central differences."""
+    cols = range(len(pv.names)) if cols is None else cols
+    h = _steps(pv)
+    out = []
+    for j in cols:
+        vp, vm = np.array(values, dtype=float), np.array(values, dtype=float)
+        vp[j] += h[j]
+        vm[j] -= h[j]
+        d = serial_residuals(pv, vp, data) - serial_residuals(pv, vm, data)
+        d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
+        out.append((d / data.sigmas / (2 * h[j])).ravel())
+    return np.stack(out, axis=-1)
+
+
+def _check_start_serial(pv: SerialParameterVector, data: CalibrationData, values: np.ndarray) -> None:
+    r = serial_residuals(pv, values, data)
+    far = (np.hypot(r[:, 0], r[:, 1]) > MAX_START_DEVIATION_MM) | (np.degrees(np.abs(r[:, 2])) > MAX_START_DEVIATION_DEG)
+    if far.sum() > len(data) // 2:
+        n = int(np.flatnonzero(far)[0])
+        raise MeasurementFileError(
+            f"the measured pose is {np.hypot(*r[n, :2]):.3g} mm and {np.degrees(abs(r[n, 2])):.3g} deg from where the "
+            f"nominal arm puts the commands (more than {MAX_START_DEVIATION_MM:g} mm or {MAX_START_DEVIATION_DEG:g} "
+            f"deg, as are {far.sum()} of {len(data)} points): a measurement frame far from the arm's base (give "
+            "--frame X Y PHI_DEG), poses in radians or metres, or commands of other points", source=data.source,
+            key=f"row {n + 1} (point {data.labels[n]})")
+
+
+def _identify_serial(data, pv, fixed, frame, robust, rtol) -> Identification:
+    n = pv.robot.n
+    if data.commands.shape[1] != n:
+        raise MeasurementFileError(f"{data.commands.shape[1]} commands per point for an arm of {n} joints",
+                                   source=data.source)
+    x0 = pv.nominal.copy()
+    if frame is not None:
+        x0[-3:] = np.asarray(frame, dtype=float)
+    _check_start_serial(pv, data, x0)
+    ident = analyse(pv, serial_jacobian(pv, x0, data), rtol=rtol, fixed=fixed)
+    free = np.array(pv.index(ident.identified), dtype=int)
+    L = len(free)
+    if 3 * len(data) <= L:
+        raise MeasurementFileError(f"{len(data)} points give {3 * len(data)} residuals for {L} identifiable "
+                                   f"parameters: measure at least {L // 3 + 1} points (better 3 times as many)",
+                                   source=data.source)
+    before = serial_residuals(pv, x0, data)
+
+    def problem(d, v):
+        def fun(z):
+            u = x0.copy()
+            u[free] = z
+            return (serial_residuals(pv, u, d) / d.sigmas).ravel()
+
+        def jac(z):
+            u = x0.copy()
+            u[free] = z
+            return serial_jacobian(pv, u, d, free)
+        return fun, jac
+
+    v, res, keep, nfev, Jf = fit(data, x0, free, problem, robust)
+    cov, sigma, s2 = covariance(res, Jf, free, len(pv.names))
+    return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
+                          residuals_before=before, residuals_after=serial_residuals(pv, v, data),
+                          rms_before=float(np.sqrt(np.mean((before / data.sigmas) ** 2))),
+                          rms_after=float(np.sqrt(np.mean(res ** 2))),
+                          outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
+                          nfev=int(nfev), n_points=len(data))
+
+
+def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust: bool = True):
+    """The two-pass fit of the module docstring on the parameters ``free`` (the others stay at ``x0``).
+
+    ``problem(d, v) -> (fun, jac)``: the whitened residual ``(3 n,)`` and its Jacobian ``(3 n, L)`` of the
+    free values ``z`` for the points ``d``, whitened at the values ``v``. Returns the values ``(P,)``, the
+    final residual ``(3 n_in,)``, the inlier mask ``(N,)``, the function evaluations and the Jacobian of the
+    inliers at the estimate.
+    """
+    L = len(free)
     nfev = 0
     z = x0[free]
     keep = np.ones(len(data), dtype=bool)
     if robust:
-        sol = optimize.least_squares(fun, z, jac=jac, args=(data, W), loss="soft_l1", f_scale=3.0, x_scale="jac")
+        fun, jac = problem(data, x0)
+        sol = optimize.least_squares(fun, z, jac=jac, loss="soft_l1", f_scale=3.0, x_scale="jac")
         nfev += sol.nfev
         z = sol.x
         e = sol.fun.reshape(-1, 3)
@@ -259,23 +365,21 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     d_in = data.subset(keep)
     v = x0.copy()
     v[free] = z
-    W_in = whitening(pv, v, d_in)
-    sol = optimize.least_squares(fun, z, jac=jac, args=(d_in, W_in), x_scale="jac", xtol=1e-15, ftol=1e-15,
-                                 gtol=1e-15, max_nfev=200)
+    fun, jac = problem(d_in, v)
+    sol = optimize.least_squares(fun, z, jac=jac, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200)
     nfev += sol.nfev
     v[free] = sol.x
-    Jf = jacobian(pv, v, d_in, W_in, free)
-    m = Jf.shape[0]
-    s2 = float(np.sum(sol.fun ** 2) / (m - L))
+    return v, sol.fun, keep, nfev, jac(sol.x)
+
+
+def covariance(res: np.ndarray, Jf: np.ndarray, free, P: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(s^2 (J^T J)^-1 (L, L), sigma (P,) (0 where not free), s^2)`` with ``s^2 = |e|^2 / (m - L)``."""
+    m, L = Jf.shape
+    s2 = float(np.sum(res ** 2) / (m - L))
     cov = s2 * np.linalg.pinv(Jf.T @ Jf)
-    sigma = np.zeros(len(pv.names))
+    sigma = np.zeros(P)
     sigma[free] = np.sqrt(np.clip(np.diag(cov), 0.0, None))   # exact data: s = 0 up to rounding
-    after = _pose_residuals(pv, v, data)
-    return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
-                          residuals_before=before, residuals_after=after, rms_before=rms_before,
-                          rms_after=float(np.sqrt(np.mean(sol.fun ** 2))),
-                          outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
-                          nfev=int(nfev), n_points=len(data))
+    return cov, sigma, s2
 
 
 def identification_to_dict(ident: Identification) -> dict:
@@ -303,7 +407,10 @@ def identification_from_dict(record: dict, source: str = "<identification>") -> 
     """Rebuild an :class:`Identification` from :func:`identification_to_dict` (for compensation); raises
     :class:`~pmaccuracy.errors.ConfigError` naming the key of a malformed record."""
     try:
-        pv = error_parameters(Manipulator.from_dict(record["robot"], source=source))
+        table = record["robot"]
+        robot = (SerialArm.from_dict(table, source=source) if table.get("architecture") == "serial"
+                 else Manipulator.from_dict(table, source=source))
+        pv = error_parameters(robot)
         by_name = {p["name"]: p for p in record["parameters"]}
         values = np.array([float(by_name[n]["estimate"]) for n in pv.names])
         sigma = np.array([float(by_name[n]["sigma"]) for n in pv.names])

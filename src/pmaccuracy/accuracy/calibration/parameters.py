@@ -33,6 +33,7 @@ import numpy as np
 from ...errors import ConfigError
 from ...model.legs import ChainLeg, Joint, LegType, PPRLeg, PRRLeg, RPRLeg, RRRLeg
 from ...model.manipulator import Manipulator
+from ...model.serial import SerialArm
 
 #: Units of the parameters by kind.
 MM, RAD, ONE = "mm", "rad", "1"
@@ -182,13 +183,16 @@ class ParameterVector:
         return dict(zip(self.names, (float(v) for v in values)))
 
 
-def error_parameters(robot: Manipulator) -> ParameterVector:
-    """The named error-parameter vector of any parallel robot (module docstring for the names and units).
+def error_parameters(robot: Manipulator | SerialArm) -> ParameterVector:
+    """The named error-parameter vector of any parallel robot (module docstring for the names and units);
+    a serial arm's is a :class:`SerialParameterVector`.
 
     >>> pv = error_parameters(Manipulator.preset("aalborg_3ppr"))
     >>> pv.names[:3], pv.units[:3], len(pv.names)
     (('leg1.a', 'leg1.alpha', 'leg1.beta'), ('mm', 'rad', 'rad'), 33)
     """
+    if isinstance(robot, SerialArm):
+        return serial_error_parameters(robot)
     names, units, values = [], [], []
     for i, leg in enumerate(robot.legs, start=1):
         for name, unit_, get, _ in _leg_spec(leg):
@@ -207,7 +211,95 @@ def error_parameters(robot: Manipulator) -> ParameterVector:
     return ParameterVector(robot=robot, names=tuple(names), units=tuple(units), nominal=nominal)
 
 
-def robot_file(pv: ParameterVector, values: np.ndarray, name: str | None = None) -> dict:
+@dataclass(frozen=True)
+class SerialParameterVector:
+    """The error parameters of a planar serial arm ``robot`` (:class:`~pmaccuracy.model.serial.SerialArm`):
+    per joint ``k`` its ``joint{k}.offset`` (rad) and ``joint{k}.length`` (mm) of the robot file, its
+    actuator's ``joint{k}.actuator.offset`` (rad for R, mm for P) and ``joint{k}.actuator.gain`` (joint value
+    ``q_k = offset + gain * command``), then ``frame.x, frame.y`` (mm), ``frame.phi`` (rad): the
+    measurement frame in the arm's base frame. ``names``, ``units``, ``nominal (P,)`` as
+    :class:`ParameterVector`.
+
+    >>> pv = error_parameters(SerialArm.preset("planar_3r_arm"))
+    >>> len(pv.names), pv.names[:4], pv.units[:4]
+    (15, ('joint1.offset', 'joint1.length', 'joint1.actuator.offset', 'joint1.actuator.gain'), ('rad', 'mm', 'rad', '1'))
+    """
+
+    robot: SerialArm
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    nominal: np.ndarray
+
+    def __repr__(self) -> str:
+        return f"SerialParameterVector(robot={self.robot.name!r}, {len(self.names)} parameters)"
+
+    def index(self, names) -> list[int]:
+        """Positions of ``names`` in the vector; :class:`ConfigError` naming an unknown parameter."""
+        out = []
+        for n in names:
+            if n not in self.names:
+                raise ConfigError(f"no parameter {n!r} for this serial arm (names like joint1.length, "
+                                  "joint2.actuator.offset, frame.phi)", key=n)
+            out.append(self.names.index(n))
+        return out
+
+    def arrays(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``values (P,)`` -> joint offsets (n,) rad, lengths (n,) mm, actuator offsets (n,), gains (n,),
+        frame (3,) [mm, mm, rad]."""
+        v = np.asarray(values, dtype=float)
+        table = v[:-3].reshape(-1, 4)
+        return table[:, 0], table[:, 1], table[:, 2], table[:, 3], v[-3:]
+
+    def split(self, values: np.ndarray) -> tuple[SerialArm, np.ndarray, np.ndarray, np.ndarray]:
+        """``values`` -> (arm with those offsets and lengths, actuator offsets, gains, frame)."""
+        off, length, a_off, gain, frame = self.arrays(values)
+        joints = tuple(dataclasses.replace(j, offset=float(o), length=float(ln))
+                       for j, o, ln in zip(self.robot.joints, off, length))
+        return dataclasses.replace(self.robot, joints=joints), a_off, gain, frame
+
+    def table(self, values: np.ndarray | None = None) -> dict[str, float]:
+        """``{name: value}`` of ``values`` (default: the nominal)."""
+        values = self.nominal if values is None else np.asarray(values, dtype=float)
+        return dict(zip(self.names, (float(v) for v in values)))
+
+
+def serial_error_parameters(arm: SerialArm) -> SerialParameterVector:
+    """The :class:`SerialParameterVector` of ``arm`` (nominal: the file's offsets and lengths, actuator offset
+    0 and gain 1, the measurement frame at the base)."""
+    names, units, values = [], [], []
+    for k, j in enumerate(arm.joints, start=1):
+        names += [f"joint{k}.offset", f"joint{k}.length", f"joint{k}.actuator.offset", f"joint{k}.actuator.gain"]
+        units += [RAD, MM, RAD if j.kind == "R" else MM, ONE]
+        values += [j.offset, j.length, 0.0, 1.0]
+    names += ["frame.x", "frame.y", "frame.phi"]
+    units += [MM, MM, RAD]
+    values += [0.0, 0.0, 0.0]
+    nominal = np.array(values, dtype=float)
+    nominal.setflags(write=False)
+    return SerialParameterVector(robot=arm, names=tuple(names), units=tuple(units), nominal=nominal)
+
+
+def serial_poses(pv: SerialParameterVector, values: np.ndarray, commands: np.ndarray) -> np.ndarray:
+    """Measured poses ``(N, 3)`` (mm, mm, rad; measurement frame) of the arm ``values`` at ``commands (N, n)``:
+    its forward kinematics (:meth:`~pmaccuracy.model.serial.SerialArm.frames`: ``a_k = a_{k-1} + offset_k +
+    (q_k if R)``, ``c_{k+1} = c_k + exp(i a_k) (length_k + (q_k if P))``) at ``q = offset + gain * command``,
+    read in the frame: ``F^-1 p``. Vectorized; lengths are not checked (a trial step of a fit may pass 0).
+
+    >>> pv = error_parameters(SerialArm.preset("planar_3r_arm"))
+    >>> serial_poses(pv, pv.nominal, np.radians([[90.0, -90.0, 0.0]])).round(9).tolist()
+    [[350.0, 300.0, 0.0]]
+    """
+    off, length, a_off, gain, frame = pv.arrays(values)
+    q = a_off + gain * np.asarray(commands, dtype=float)
+    angle = np.zeros(q.shape[:-1])
+    pos = np.zeros(q.shape[:-1], dtype=complex)
+    for k, j in enumerate(pv.robot.joints):
+        angle = angle + off[k] + (q[..., k] if j.kind == "R" else 0.0)
+        pos = pos + np.exp(1j * angle) * (length[k] + (q[..., k] if j.kind == "P" else 0.0))
+    return frame_inverse(frame, np.stack([pos.real, pos.imag, angle], axis=-1))
+
+
+def robot_file(pv: ParameterVector | SerialParameterVector, values: np.ndarray, name: str | None = None) -> dict:
     """The robot-file table (:meth:`Manipulator.to_dict`) of the identified geometry in ``values``.
 
     The actuator offsets and gains and the measurement frame are not part of a robot file: they stay in
@@ -222,6 +314,7 @@ def robot_file(pv: ParameterVector, values: np.ndarray, name: str | None = None)
     out = robot.to_dict()
     out["name"] = name or f"{pv.robot.name}_identified"
     out["description"] = f"{pv.robot.name} with its geometry identified by kinematic calibration"
+
     return out
 
 
@@ -268,11 +361,22 @@ def commands_for(pv: ParameterVector, values: np.ndarray, measured: np.ndarray) 
     return (off + wrap_commands(pv.robot, q - off) - off) / gain
 
 
-def wrap_commands(robot: Manipulator, commands: np.ndarray) -> np.ndarray:
-    """Revolute commands ``(N, 3)`` (rad) turned by whole turns into ``[lo, lo + 2 pi)`` of their range."""
+def actuators(robot: Manipulator | SerialArm) -> list[tuple[str, tuple[float, float]]]:
+    """``(kind, range)`` of each actuator: the actuated joint of each leg of a parallel robot, every joint of
+    a serial arm (``"R"``: rad, ``"P"``: mm).
+
+    >>> [k for k, _ in actuators(Manipulator.preset("symmetric_3rpr"))]
+    ['P', 'P', 'P']
+    """
+    if isinstance(robot, SerialArm):
+        return [(j.kind, tuple(j.range)) for j in robot.joints]
+    return [(c.actuated.kind, tuple(c.actuated.range)) for c in robot.chains]
+
+
+def wrap_commands(robot: Manipulator | SerialArm, commands: np.ndarray) -> np.ndarray:
+    """Revolute commands ``(N, A)`` (rad) turned by whole turns into ``[lo, lo + 2 pi)`` of their range."""
     commands = np.array(commands, dtype=float)
-    for k, c in enumerate(robot.chains):
-        if c.actuated.kind == "R" and np.isfinite(c.actuated.range[0]):
-            lo = c.actuated.range[0]
+    for k, (kind, (lo, _)) in enumerate(actuators(robot)):
+        if kind == "R" and np.isfinite(lo):
             commands[:, k] = lo + np.mod(commands[:, k] - lo, 2 * np.pi)
     return commands

@@ -26,8 +26,8 @@ REACH_MARGIN_MM = 3.0
 REACH_MARGIN_DEG = 2.0
 from .data import DEFAULT_ACCURACY_DEG, DEFAULT_ACCURACY_MM, CalibrationData
 from .identifiability import analyse, observability_indices
-from .identify import jacobian, whitening
-from .parameters import ParameterVector, commands_for
+from .identify import jacobian, serial_jacobian, whitening
+from .parameters import ParameterVector, SerialParameterVector, commands_for, serial_poses
 from ...model.plausibility import check_orientations
 
 
@@ -100,17 +100,9 @@ def _indices(B: np.ndarray, sel: np.ndarray) -> dict:
     return dict(O1=o[0], O2=o[1], O3=o[2], O4=o[3], condition=float(s[0] / s[-1]) if s[-1] > 0 else float("inf"))
 
 
-def plan_poses(pv: ParameterVector, n_poses: int, candidates: np.ndarray | None = None, *, seed: int = 0,
-               exchange: bool = True) -> Plan:
-    """Choose ``n_poses`` of ``candidates`` (default :func:`candidate_poses`) D-optimally (module docstring).
-
-    Raises :class:`~pmaccuracy.errors.ConfigError` when fewer poses than needed for the identifiable
-    parameters are asked or more than the candidates.
-    """
-    if candidates is not None:
-        check_orientations(candidates, "candidates", poses=True)
-    cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
-    B, free = _blocks(pv, cand)
+def d_optimal(B: np.ndarray, n_poses: int, exchange: bool = True) -> np.ndarray:
+    """Indices ``(n_poses,)`` of the candidates (blocks ``B (C, 3, L)``) chosen greedily D-optimally, then
+    improved by Fedorov exchange sweeps (module docstring); :class:`ConfigError` for too few or too many."""
     C, _, L = B.shape
     if not 3 * n_poses > L:
         raise ConfigError(f"{n_poses} poses give {3 * n_poses} residuals for {L} identifiable parameters: plan at "
@@ -149,14 +141,72 @@ def plan_poses(pv: ParameterVector, n_poses: int, candidates: np.ndarray | None 
                     improved = True
             if not improved:
                 break
-    sel = np.array(chosen)
+    return np.array(chosen)
+
+
+def plan_poses(pv: ParameterVector, n_poses: int, candidates: np.ndarray | None = None, *, seed: int = 0,
+               exchange: bool = True) -> Plan:
+    """Choose ``n_poses`` of ``candidates`` (default :func:`candidate_poses`) D-optimally (module docstring).
+
+    Raises :class:`~pmaccuracy.errors.ConfigError` when fewer poses than needed for the identifiable
+    parameters are asked or more than the candidates.
+    """
+    if isinstance(pv, SerialParameterVector):   # candidates: the arm's commands (C, n)
+        return _plan_serial(pv, n_poses, candidates, seed=seed, exchange=exchange)
+    if candidates is not None:
+        check_orientations(candidates, "candidates", poses=True)
+    cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
+    B, free = _blocks(pv, cand)
+    sel = d_optimal(B, n_poses, exchange)
+    C = len(B)
+    random_index, grid_index = _compared(B, n_poses, seed)
+    poses = cand[sel]
+    return Plan(poses=poses, commands=commands_for(pv, pv.nominal, poses), indices=sel, index=_indices(B, sel),
+                random_index=random_index, grid_index=grid_index, n_candidates=C)
+
+
+def _compared(B: np.ndarray, n_poses: int, seed: int) -> tuple[dict, dict]:
+    """Indices of random (mean of 20 draws) and evenly spaced choices of ``n_poses`` candidates."""
+    C = len(B)
     rng = np.random.default_rng(seed)
     rand = [_indices(B, rng.choice(C, n_poses, replace=False)) for _ in range(20)]
     random_index = {k: float(np.mean([r[k] for r in rand])) for k in rand[0]}
     grid = np.unique(np.linspace(0, C - 1, n_poses).round().astype(int))
-    poses = cand[sel]
-    return Plan(poses=poses, commands=commands_for(pv, pv.nominal, poses), indices=sel, index=_indices(B, sel),
-                random_index=random_index, grid_index=_indices(B, grid), n_candidates=C)
+    return random_index, _indices(B, grid)
+
+
+def candidate_commands(pv: SerialParameterVector, n: int = 4000, seed: int = 0) -> np.ndarray:
+    """Candidate commands ``(n, J)`` of a serial arm: seeded uniform draws within each joint's range (an R
+    joint without limits: a full turn), rad / mm. :class:`ConfigError` for a P joint without limits."""
+    lo, hi = [], []
+    for k, j in enumerate(pv.robot.joints, start=1):
+        a, b = j.range
+        if j.kind == "R":
+            a, b = (a, b) if np.isfinite(a) and np.isfinite(b) and b - a < 2 * np.pi else (-np.pi, np.pi)
+        elif not (np.isfinite(a) and np.isfinite(b)):
+            raise ConfigError(f"{pv.robot.label(k)}: a prismatic joint needs a finite range to plan poses",
+                              key=f"joints[{k}].range")
+        lo.append(a)
+        hi.append(b)
+    return np.random.default_rng(seed).uniform(lo, hi, size=(n, len(lo)))
+
+
+def _plan_serial(pv: SerialParameterVector, n_poses: int, candidates=None, *, seed: int = 0,
+                 exchange: bool = True) -> Plan:
+    cand = candidate_commands(pv, seed=seed) if candidates is None else np.asarray(candidates, dtype=float)
+    if cand.ndim != 2 or cand.shape[1] != pv.robot.n:
+        raise ConfigError(f"candidates of a serial arm are its commands, shape (C, {pv.robot.n})", key="candidates")
+    sig = np.tile([DEFAULT_ACCURACY_MM, DEFAULT_ACCURACY_MM, np.radians(DEFAULT_ACCURACY_DEG)], (len(cand), 1))
+    data = CalibrationData(tuple(map(str, range(len(cand)))), cand, serial_poses(pv, pv.nominal, cand), sig,
+                           "<candidates>")
+    J = serial_jacobian(pv, pv.nominal, data)
+    free = pv.index(analyse(pv, J).identified)
+    J = J[:, free]
+    B = (J / np.sqrt(np.mean(J ** 2, axis=0) * 3)).reshape(len(cand), 3, -1)
+    sel = d_optimal(B, n_poses, exchange)
+    random_index, grid_index = _compared(B, n_poses, seed)
+    return Plan(poses=serial_poses(pv, pv.nominal, cand[sel]), commands=cand[sel], indices=sel,
+                index=_indices(B, sel), random_index=random_index, grid_index=grid_index, n_candidates=len(cand))
 
 
 def pose_set_indices(pv: ParameterVector, poses: np.ndarray, candidates: np.ndarray | None = None, *,

@@ -13,21 +13,26 @@ inverse-kinematic residual of :mod:`.identify`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from ...kinematics import FKSolution, forward_kinematics
 from ..distributions import sample_pose_errors
-from .compensate import Compensation, compensate
+from .compensate import SERIAL_PHI_WEIGHT, Compensation, compensate, sample_serial_errors, serial_pose_jacobian
 from .data import CalibrationData
 from .identify import Identification, identify
-from .parameters import ParameterVector, commands_for, frame_apply, frame_inverse
-from .plan import candidate_poses, plan_poses
+from .parameters import (ParameterVector, SerialParameterVector, actuators, commands_for, frame_apply, frame_inverse,
+                         serial_poses)
+from .plan import candidate_commands, candidate_poses, plan_poses
 
 #: A true pose further than this (mm, deg) from the nominal one counts as not reached (a singularity between).
 MAX_JUMP_MM = 5.0
 MAX_JUMP_DEG = 5.0
 #: Default 1-sigma parameter errors of the true robot: mm, rad, gain.
+#: A serial arm's target configurations keep the smallest singular value of their weighted pose Jacobian
+#: (mm per rad or mm per mm) above this: away from its singularities (a stretched elbow).
+MIN_SERIAL_SINGULAR_MM = 20.0
 DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
 
 
@@ -49,6 +54,8 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
     NaN rows where the true robot has no assembly mode for the commands or none within :data:`MAX_JUMP_MM`
     / :data:`MAX_JUMP_DEG` of the reference (it would have to pass a singularity: a real robot jams there).
     """
+    if isinstance(pv, SerialParameterVector):
+        return measure_serial(pv, true_values, commands, noise=noise, clearances=clearances, seed=seed)
     reference = np.asarray(reference, dtype=float)
     robot, off, gain, frame = pv.split(true_values)
     fk = forward_kinematics(robot, off + gain * np.asarray(commands, dtype=float))
@@ -67,6 +74,24 @@ def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, 
         e = sample_pose_errors(robot, clearances, poses[reach], n, seed=rng)
         poses[reach] = poses[reach] + e[np.arange(n), np.arange(n)]
     m = frame_inverse(frame, poses)
+    return m + rng.standard_normal(m.shape) * np.asarray(noise, dtype=float)
+
+
+def measure_serial(pv: SerialParameterVector, true_values: np.ndarray, commands: np.ndarray, *,
+                   noise=(0.01, 0.01, np.radians(0.01)), clearances=None, seed: int = 0) -> np.ndarray:
+    """Measured poses ``(N, 3)`` of the true serial arm at ``commands (N, n)``: its explicit forward
+    kinematics, one clearance state per pose drawn uniformly in the sets of its sources
+    (:func:`~.compensate.sample_serial_errors`, first order, base frame), read in the true measurement frame
+    with normal ``noise`` (mm, mm, rad)."""
+    rng = np.random.default_rng(seed)
+    base = true_values.copy()
+    base[-3:] = 0.0
+    poses = serial_poses(pv, base, commands)
+    if clearances is not None:
+        arm, off, gain, _ = pv.split(true_values)
+        e = sample_serial_errors(arm, clearances, off + gain * np.asarray(commands, dtype=float), 1, seed=rng)[0]
+        poses = poses + e
+    m = frame_inverse(np.asarray(true_values)[-3:], poses)
     return m + rng.standard_normal(m.shape) * np.asarray(noise, dtype=float)
 
 
@@ -92,17 +117,21 @@ class Experiment:
 
 def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
              noise=(0.01, 0.01, np.radians(0.01)), clearances=None, n_targets: int = 50,
-             true_fixed: tuple[str, ...] = ()) -> Experiment:
+             true_fixed: tuple[str, ...] = (), measure_with: Callable | None = None) -> Experiment:
     """Run the virtual calibration experiment (module docstring): plan ``n_poses``, measure, identify,
-    compensate at ``n_targets`` random candidate poses, measure again."""
+    compensate at ``n_targets`` random candidate poses, measure again.
+
+    ``measure_with(pv, true, commands, reference, seed) -> CalibrationData`` replaces the measurement of the
+    planned poses (e.g. :func:`pmaccuracy.vision.calibration_photos.photo_measurer`: photos rendered and
+    measured); ``noise`` then applies to the compensation's check only (there without noise).
+    """
     true = true_parameters(pv, seed, error_sigma, true_fixed)
+    if isinstance(pv, SerialParameterVector):
+        return _simulate_serial(pv, true, n_poses, seed=seed, noise=noise, clearances=clearances, n_targets=n_targets,
+                                measure_with=measure_with)
     cand = candidate_poses(pv)
     plan = plan_poses(pv, n_poses, cand, seed=seed)
-    sig = np.broadcast_to(np.asarray(noise, dtype=float), (n_poses, 3)).copy()
-    meas = measure(pv, true, plan.commands, plan.poses, noise=noise, clearances=clearances, seed=seed + 1)
-    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas,
-                           np.maximum(sig, 1e-12), "<simulation>")
-    data = data.subset(np.all(np.isfinite(meas), axis=1))   # poses the true robot cannot reach are not measured
+    data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
     ident = identify(data, pv)
     rng = np.random.default_rng(seed + 2)
     lim = np.array([c.actuated.range for c in pv.robot.chains])
@@ -121,3 +150,41 @@ def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 
         e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
     return Experiment(true=true, data=data, identification=ident, compensation=comp, targets=targets, errors_before=before,
                       errors_after=after)
+
+
+def _measured(pv, true, plan, noise, clearances, seed, measure_with) -> CalibrationData:
+    """The planned poses of the true robot measured (camera noise, clearance states) or by ``measure_with``."""
+    if measure_with is not None:
+        return measure_with(pv, true, plan.commands, plan.poses, seed + 1)
+    n_poses = len(plan.commands)
+    sig = np.broadcast_to(np.asarray(noise, dtype=float), (n_poses, 3)).copy()
+    meas = measure(pv, true, plan.commands, plan.poses, noise=noise, clearances=clearances, seed=seed + 1)
+    data = CalibrationData(tuple(str(i + 1) for i in range(n_poses)), plan.commands, meas,
+                           np.maximum(sig, 1e-12), "<simulation>")
+    return data.subset(np.all(np.isfinite(meas), axis=1))   # poses the true robot cannot reach are not measured
+
+
+def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, *, seed, noise, clearances,
+                     n_targets, measure_with=None) -> Experiment:
+    plan = plan_poses(pv, n_poses, seed=seed)
+    data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
+    ident = identify(data, pv)
+    # targets: where the nominal arm goes at random commands inside the ranges with a margin (so that the
+    # identified arm reaches them within the ranges too)
+    lim = np.array([r for _, r in actuators(pv.robot)])
+    cand = candidate_commands(pv, n=20 * n_targets, seed=seed + 2)
+    span = np.where(np.isfinite(lim[:, 1] - lim[:, 0]), lim[:, 1] - lim[:, 0], 2 * np.pi)
+    inner = np.all((cand > lim[:, 0] + 0.05 * span) & (cand < lim[:, 1] - 0.05 * span), axis=1)
+    cand = cand[inner]
+    sv = np.linalg.svd(serial_pose_jacobian(pv, pv.nominal, cand) * np.array([1.0, 1.0, SERIAL_PHI_WEIGHT])[:, None],
+                       compute_uv=False)
+    nominal_cmd = cand[sv[:, -1] > MIN_SERIAL_SINGULAR_MM][:n_targets]   # away from singularities
+    targets = serial_poses(pv, pv.nominal, nominal_cmd)
+    comp = compensate(ident, targets, clearances=clearances, start=nominal_cmd)
+    before = measure_serial(pv, true, comp.nominal_commands, noise=(0, 0, 0), clearances=clearances,
+                            seed=seed + 3) - targets
+    after = measure_serial(pv, true, comp.commands, noise=(0, 0, 0), clearances=clearances, seed=seed + 3) - targets
+    for e in (before, after):
+        e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
+    return Experiment(true=true, data=data, identification=ident, compensation=comp, targets=targets,
+                      errors_before=before, errors_after=after)

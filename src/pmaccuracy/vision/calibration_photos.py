@@ -1,0 +1,162 @@
+"""Kinematic calibration from photos (issue 23): the calibration poses photographed, measured, identified.
+
+:func:`render_calibration_photos` photographs the platform markers of a (true) robot at each command of a
+plan: its pose is the exact model's (:func:`pmaccuracy.accuracy.calibration.simulate.measure`, no camera
+noise: the photo's own pixel noise and blur are the camera), rendered by the flat test camera
+(:func:`pmaccuracy.vision.render.render_platform`: a plain scale ``mm_per_pixel``, origin at the image
+centre, so the measurement frame is the image's) into ``FOLDER/<point>.png``, with a manifest
+``FOLDER/manifest.csv``::
+
+    image,point,q1_deg,q2_deg,q3_deg,x_nom,y_nom,phi_nom_deg
+
+(the plan's command columns, as in the calibration CSV, and the nominal pose of each command).
+
+:func:`measure_calibration_photos` measures every photo of such a manifest as ``vision pose`` and
+``vision batch`` do (:func:`pmaccuracy.vision.pose.measure_pose`: blobs, the 2 x 2 marker square, its
+pose and 1-sigma uncertainty from the centres' noise) and returns the calibration data: commands, the
+measured poses (a square's orientation, known modulo 90 deg, taken nearest ``phi_nom_deg``) and the photos' sigmas, ready for :func:`~pmaccuracy.accuracy.calibration
+.identify.identify` (or written by :func:`~pmaccuracy.accuracy.calibration.data.write_calibration_csv` for
+``calibrate identify``).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..accuracy.calibration.data import CalibrationData, command_columns
+from ..accuracy.calibration.parameters import actuators
+from ..accuracy.calibration.simulate import measure
+from ..errors import MeasurementFileError, VisionError
+from ._util import DEFAULT_SPACING_MM
+from .images import load_image, save_image
+from .pose import measure_pose
+from .render import render_platform
+
+#: Scale of the flat camera of the calibration photos, mm per pixel, and the margin kept around the poses, mm.
+PHOTO_MM_PER_PIXEL = 0.25
+PHOTO_MARGIN_MM = 30.0
+#: Largest side of a calibration photo, px (a larger workspace needs a coarser scale).
+MAX_PHOTO_PX = 6000
+
+
+def photo_shape(poses: np.ndarray, mm_per_pixel: float = PHOTO_MM_PER_PIXEL,
+                margin_mm: float = PHOTO_MARGIN_MM) -> tuple[int, int]:
+    """Square image ``(H, W)`` px centred on the measurement frame's origin that holds ``poses (N, 3)``
+    with ``margin_mm`` around them; :class:`VisionError` above :data:`MAX_PHOTO_PX`.
+
+    >>> photo_shape(np.array([[10.0, -20.0, 0.1]]))
+    (400, 400)
+    """
+    half = float(np.max(np.abs(np.asarray(poses, dtype=float)[:, :2]))) + margin_mm
+    n = int(2 * math.ceil(half / mm_per_pixel))
+    if n > MAX_PHOTO_PX:
+        raise VisionError(f"the poses span +-{half:.4g} mm: photos of {n} px at {mm_per_pixel:g} mm per pixel, more "
+                          f"than {MAX_PHOTO_PX} px (take a coarser scale, --mm-per-pixel)")
+    return n, n
+
+
+def render_calibration_photos(pv, true_values: np.ndarray, commands: np.ndarray, reference: np.ndarray, folder,
+                              *, mm_per_pixel: float = PHOTO_MM_PER_PIXEL, clearances=None, seed: int = 0,
+                              spacing_mm: float = DEFAULT_SPACING_MM, marker_radius_mm: float | None = None,
+                              noise_sigma: float = 0.01) -> tuple[Path, np.ndarray]:
+    """Photograph the robot ``true_values`` at ``commands (N, A)`` (module docstring); ``reference (N, 3)``
+    picks the assembly mode (the nominal poses); ``marker_radius_mm`` defaults to 1.5 mm or 6 px, whichever is
+    larger (the detector needs round blobs of a few pixels). Returns the manifest's path and the true poses ``(N, 3)``
+    (mm, mm, rad; NaN rows where the robot cannot reach: no photo, no manifest row)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    commands = np.asarray(commands, dtype=float)
+    poses = measure(pv, np.asarray(true_values, dtype=float), commands, reference, noise=(0.0, 0.0, 0.0),
+                    clearances=clearances, seed=seed)
+    ok = np.all(np.isfinite(poses), axis=1)
+    if not np.any(ok):
+        raise VisionError("the robot reaches none of the planned poses: nothing to photograph")
+    shape = photo_shape(poses[ok], mm_per_pixel)
+    if marker_radius_mm is None:
+        marker_radius_mm = max(1.5, 6.0 * mm_per_pixel)
+    kinds_r = np.array([kind == "R" for kind, _ in actuators(pv.robot)])
+    cmd_file = np.where(kinds_r, np.degrees(commands), commands)
+    rows = []
+    for n in np.flatnonzero(ok):
+        name = f"{n + 1}.png"
+        x, y, phi = poses[n]
+        image = render_platform(x, y, phi, shape=shape, mm_per_pixel=mm_per_pixel, spacing_mm=spacing_mm,
+                                marker_radius_mm=marker_radius_mm, noise_sigma=noise_sigma, seed=seed + int(n))
+        save_image(folder / name, image)
+        nom = np.asarray(reference, dtype=float)[n]
+        rows.append([name, str(n + 1)] + [repr(float(v)) for v in cmd_file[n]] +
+                    [repr(float(nom[0])), repr(float(nom[1])), repr(math.degrees(nom[2]))])
+    with open(folder / "manifest.csv", "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(["image", "point", *command_columns(pv.robot), "x_nom", "y_nom", "phi_nom_deg"])
+        writer.writerows(rows)
+    return folder / "manifest.csv", poses
+
+
+def measure_calibration_photos(manifest, pv, *, mm_per_pixel: float = PHOTO_MM_PER_PIXEL,
+                               calibration=None, height_mm: float = 0.0,
+                               spacing_mm: float = DEFAULT_SPACING_MM) -> CalibrationData:
+    """Measure the photos of a calibration manifest (module docstring) -> :class:`CalibrationData` with the
+    photos' own 1-sigma uncertainties. ``calibration`` (a :class:`~pmaccuracy.vision.calibration.Calibration`)
+    replaces the flat camera's scale. Raises :class:`~pmaccuracy.errors.MeasurementFileError` naming the
+    manifest line of a malformed row and :class:`~pmaccuracy.errors.VisionError` naming a photo that cannot
+    be measured."""
+    manifest = Path(manifest)
+    want = command_columns(pv.robot)
+    try:
+        with open(manifest, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise MeasurementFileError(f"cannot read: {exc.strerror or exc}", source=str(manifest)) from None
+    header = [h.strip() for h in rows[0]] if rows else []
+    missing = [c for c in ("image", "point", *want, "phi_nom_deg") if c not in header]
+    if missing:
+        raise MeasurementFileError(f"header must name image,point,{','.join(want)},phi_nom_deg (missing "
+                                   f"{','.join(missing)})",
+                                   source=str(manifest), key="line 1")
+    kinds_r = np.array([kind == "R" for kind, _ in actuators(pv.robot)])
+    labels, commands, paths, phi_nom = [], [], [], []
+    for line, row in enumerate(rows[1:], start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        try:
+            vals = [float(row[header.index(c)]) for c in want]
+            phi_nom.append(math.radians(float(row[header.index("phi_nom_deg")])))
+        except (ValueError, IndexError):
+            raise MeasurementFileError(f"{','.join(want)},phi_nom_deg must be numbers", source=str(manifest),
+                                       key=f"line {line}") from None
+        labels.append(row[header.index("point")].strip())
+        commands.append(np.where(kinds_r, np.radians(vals), vals))
+        paths.append(manifest.parent / row[header.index("image")].strip())
+    if not labels:
+        raise MeasurementFileError("no photos listed", source=str(manifest))
+    commands = np.array(commands)
+    poses, sigmas = [], []
+    for label, path, ref in zip(labels, paths, phi_nom):
+        try:
+            pose = measure_pose(load_image(path), calibration=calibration,
+                                mm_per_pixel=None if calibration is not None else mm_per_pixel,
+                                height_mm=height_mm, spacing_mm=spacing_mm)
+        except VisionError as exc:
+            raise VisionError(f"{path} (point {label}): {exc}") from None
+        phi = ref + math.remainder(pose.phi - ref, math.pi / 2)
+        poses.append((pose.x, pose.y, phi))
+        if pose.sigma is None or not np.all(np.isfinite(pose.sigma)) or min(pose.sigma) <= 0:
+            raise VisionError(f"{path} (point {label}): the photo gives no uncertainty of its pose")
+        sigmas.append(pose.sigma)
+    return CalibrationData(tuple(labels), commands, np.array(poses), np.array(sigmas), str(manifest))
+
+
+def photo_measurer(folder, *, mm_per_pixel: float = PHOTO_MM_PER_PIXEL, clearances=None):
+    """A ``measure_with`` for :func:`~pmaccuracy.accuracy.calibration.simulate.simulate_calibration`: the
+    planned poses photographed into ``folder`` (:func:`render_calibration_photos`) and measured from the
+    photos (:func:`measure_calibration_photos`)."""
+    def measure_with(pv, true, commands, reference, seed):
+        manifest, _ = render_calibration_photos(pv, true, commands, reference, folder, mm_per_pixel=mm_per_pixel,
+                                                clearances=clearances, seed=seed)
+        return measure_calibration_photos(manifest, pv, mm_per_pixel=mm_per_pixel)
+    return measure_with
