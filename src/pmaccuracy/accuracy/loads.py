@@ -57,7 +57,8 @@ from scipy.optimize import linprog
 from .._display import html_table, summary, value_range
 from ..errors import ConfigError
 from ..io.resolve import clearances_arg, robot_arg
-from ..kinematics import as_poses, inverse_kinematics, leg_states
+from ..kinematics import as_poses, inverse_kinematics, leg_states, regular_mask
+from ..kinematics.workspace import constant_orientation_workspace
 from ..model import plausibility
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
@@ -68,6 +69,7 @@ from ..kinematics import DEFAULT_MAX_CONDITION
 from . import maps as _maps
 from .bounds import bounds_or_nan, max_pose_errors
 from .nonlinear import joint_displaced_pose
+from .global_worst import Region, SingularRegionError, _check_regular
 from .regions import Disc, Polygon, Rect
 
 #: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
@@ -678,6 +680,239 @@ def wrench_set_map(robot: Manipulator | str, clearances, center, half, phis, n: 
     return _dataset(values, WRENCH_SET_MAP_VARIABLES, phis, x, y, attrs)
 
 
-__all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "Statics",
-           "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "design_preload", "loaded_error_map", "loaded_pose_error",
-           "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]
+# ----------------------------------------------------------------------------- preload over a region
+@dataclass(frozen=True)
+class RegionPreload:
+    """The smallest constant platform wrench that keeps every contact fixed for every process wrench of a box at
+    every pose of a region (:func:`design_region_preload`).
+
+    Attributes
+    ----------
+    region : description of the region;  center, half : ``(3,)`` the process box [N, N, N mm]
+    wrench : ``(3,)`` [fx N, fy N, m N mm]: the preload (a constant wrench on the platform, base frame)
+    size : its size ``max(|fx|, |fy|, |m| / L)`` (N), the optimum of the linear program over the poses used:
+        no smaller preload keeps the contacts fixed at those poses (a lower bound for the region)
+    pattern : ``(3,)`` the legs' intensity signs it holds everywhere
+    attaining : ``(3,)`` [mm, mm, rad]: the pose whose constraint binds (the region's hardest pose)
+    per_pose_size : the size :func:`design_preload` needs at ``attaining`` alone (N): a preload adjusted pose
+        by pose could be this small there; the constant one must serve the whole region
+    min_intensity : the smallest ``s_i lambda_i`` (N) over the check poses and every wrench of the box with the
+        preload (``>= margin`` when the design holds there)
+    n_design, n_check : poses in the linear program, poses checked (grid, midpoints, local searches)
+    offset_max : ``(3,)`` [mm, mm, rad]: the largest ``|offset|`` over the check poses; with the preload the loaded
+        error at a pose is this constant offset ``A^{-1} diag(c) (-s)`` whatever the process wrench (range 0),
+        which calibration removes
+    worst_max : ``(3,)`` [mm, mm, rad]: the unloaded worst case (dx_max, dy_max, dphi_max) over the same poses
+    range_without : ``(3,)`` [mm, mm, rad]: the largest range (hi - lo) of the loaded error over the process box
+        without the preload, over the same poses (:func:`wrench_set_map`'s range)
+    """
+
+    region: str
+    center: np.ndarray
+    half: np.ndarray
+    wrench: np.ndarray
+    size: float
+    pattern: np.ndarray
+    attaining: np.ndarray
+    per_pose_size: float
+    min_intensity: float
+    n_design: int
+    n_check: int
+    offset_max: np.ndarray
+    worst_max: np.ndarray
+    range_without: np.ndarray
+
+    def record(self) -> dict:
+        """The command line's record (N, N mm, mm, deg)."""
+        d = math.degrees
+        return {"region": self.region, "pattern": ",".join("+" if v > 0 else "-" for v in self.pattern),
+                "preload_fx_N": float(self.wrench[0]) + 0.0, "preload_fy_N": float(self.wrench[1]) + 0.0,
+                "preload_m_Nmm": float(self.wrench[2]) + 0.0, "preload_size_N": self.size,
+                "attaining_x": float(self.attaining[0]), "attaining_y": float(self.attaining[1]),
+                "attaining_phi_deg": d(self.attaining[2]), "per_pose_size_N": self.per_pose_size,
+                "min_intensity_N": self.min_intensity, "n_design": self.n_design, "n_check": self.n_check,
+                "offset_dx_max": float(self.offset_max[0]), "offset_dy_max": float(self.offset_max[1]),
+                "offset_dphi_deg_max": d(self.offset_max[2]),
+                "dx_max": float(self.worst_max[0]), "dy_max": float(self.worst_max[1]),
+                "dphi_deg_max": d(self.worst_max[2]),
+                "dx_range_without": float(self.range_without[0]), "dy_range_without": float(self.range_without[1]),
+                "dphi_deg_range_without": d(self.range_without[2])}
+
+    def __repr__(self) -> str:
+        return (f"RegionPreload({self.region}: preload ({self.wrench[0]:.4g} N, {self.wrench[1]:.4g} N, "
+                f"{self.wrench[2]:.4g} N mm), size {self.size:.4g} N, set by the pose ({self.attaining[0]:.4g} mm, "
+                f"{self.attaining[1]:.4g} mm, {math.degrees(self.attaining[2]):.4g} deg); holds on {self.n_check} "
+                f"checked poses with min s_i lambda_i {self.min_intensity:.3g} N)")
+
+
+def _region_poses(robot: Manipulator, region, n: int, n_phi: int) -> np.ndarray:
+    """Poses ``(m, 3)`` of an ``n x n`` grid over the region's box at ``n_phi`` orientations (1 for a point
+    interval), inside the region's shape and the workspace (joint ranges)."""
+    phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
+    out = [np.zeros((0, 3))]
+    for phi in phis:
+        ws = constant_orientation_workspace(robot, float(phi))
+        if ws.is_empty:
+            continue
+        (wx0, wx1), (wy0, wy1) = ws.bounds
+        x0, x1 = max(region.x[0], wx0), min(region.x[1], wx1)
+        y0, y1 = max(region.y[0], wy0), min(region.y[1], wy1)
+        if x0 > x1 or y0 > y1:
+            continue
+        X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n))
+        pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)])
+        out.append(pts[region.contains(pts[:, 0], pts[:, 1])])
+    pts = np.vstack(out)
+    return pts[inverse_kinematics(robot, pts).within_limits] if pts.shape[0] else pts
+
+
+def _slack(robot: Manipulator, poses: np.ndarray, P: np.ndarray, s: np.ndarray, c: np.ndarray,
+           h: np.ndarray) -> np.ndarray:
+    """``(m,)`` N: ``min_i min_{W in box} s_i lambda_i(P + W)`` at poses ``(m, 3)``."""
+    L = _intensity_map(robot, poses)
+    return np.min(s * (L @ (P + c)) - np.abs(L) @ h, axis=-1)
+
+
+def _preload_lp(L: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray):
+    """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` s.t. ``s_i L_ni (P + W) >= margin`` for
+    every pose ``n`` and wrench ``W`` of the box (scipy HiGHS), or None."""
+    best = None
+    for s in _PATTERNS:
+        rows = (s[None, :, None] * L).reshape(-1, 3)                                # (3m, 3): s_i L_ni
+        rhs = (margin - (s[None] * (L @ c)) + np.abs(L) @ h).reshape(-1)
+        A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
+                          np.column_stack([np.diag(1 / scale), -np.ones(3)]),
+                          np.column_stack([-np.diag(1 / scale), -np.ones(3)])])
+        b_ub = np.concatenate([-rhs, np.zeros(6)])
+        res = linprog(np.array([0.0, 0.0, 0.0, 1.0]), A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 4,
+                      method="highs")
+        if res.status == 0 and (best is None or res.fun < best[0]):
+            best = (float(res.fun), res.x[:3], s)
+    return best
+
+
+def design_region_preload(robot: Manipulator | str, clearances, region, center, half, *, grid: int = 21,
+                          n_phi: int = 5, margin: float = DEFAULT_THRESHOLD_N, rounds: int = 8,
+                          max_condition: float = DEFAULT_MAX_CONDITION) -> RegionPreload:
+    """The smallest constant platform wrench ``P`` (size ``max(|P_x|, |P_y|, |P_m| / L)``) keeping every leg's
+    intensity on one side, with at least ``margin`` N, for every process wrench of the box ``center +- half``
+    at every pose of ``region`` (a :class:`pmaccuracy.accuracy.global_worst.Region`: positions in a box or
+    shape times an orientation interval, intersected with the workspace; ``make_region``).
+
+    Over a connected region a preload that keeps every contact loaded keeps one pattern ``s`` everywhere (the
+    intensities are continuous in the pose and the wrench and never cross ``(-margin, margin)``), so for each
+    of the eight patterns one linear program (scipy HiGHS) takes every pose at once:
+    ``min z`` s.t. ``s_i L_i(p) P >= margin - s_i L_i(p) center + |L_i(p)| half`` (the box's worst wrench,
+    module docstring) and ``|P_j| / scale_j <= z``, over a ``grid x grid`` sample at ``n_phi`` orientations.
+    Its optimum is a **lower bound** of the smallest preload over the region (the sample is part of it).
+    Exchange: the design is checked on a sample twice as dense (the grid and its midpoints) and at the local
+    minima of the slack found around its five worst poses (:func:`_refine`); poses where it fails join the
+    program, ``rounds`` times at most. **Guaranteed**: the preload holds (every ``s_i lambda_i >= margin``) at
+    every checked pose (``n_check``) and every wrench of the box (the box's worst wrench is exact, the
+    intensities being linear in the wrench); between checked poses it is not certified (no interval bound).
+    Regions reaching a parallel singularity (where no finite preload suffices) are refused like ``worst``;
+    poses at an actuator's serial singularity (the workspace's edge for some architectures) are skipped.
+    The offsets, worst cases and ranges of the result are taken over the ``grid x grid`` sample.
+
+    >>> from pmaccuracy.accuracy.global_worst import make_region
+    >>> from pmaccuracy.accuracy.regions import Disc
+    >>> r = design_region_preload("symmetric_3rpr", "rpr_typical", make_region("symmetric_3rpr", (0.0, 0.0),
+    ...                           Disc((0.0, 0.0), 5.0)), [0.0, 0.0, 0.0], [2.0, 2.0, 0.0], grid=7)
+    >>> bool(r.size >= r.per_pose_size - 1e-9 and r.min_intensity >= 1e-6 * (1 - 1e-6))
+    True
+    """
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
+    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
+        ErrorSources.from_clearance_set(clearances)
+    c, h = _box(center, half)
+    if not isinstance(region, Region):
+        raise ConfigError(f"expected a Region (pmaccuracy.accuracy.global_worst.make_region), got {region!r}",
+                          key="region")
+    for key, value, least in (("grid", grid, 2), ("n_phi", n_phi, 1), ("rounds", rounds, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+            raise ConfigError(f"must be a whole number >= {least}, got {value!r}", key=key)
+    if not (math.isfinite(margin) and margin > 0):
+        raise ConfigError(f"must be a force > 0 (N), got {margin}", key="margin")
+    base = _region_poses(robot, region, grid, n_phi)
+    if base.shape[0] == 0:
+        raise EmptyWorkspaceError(f"no pose of the {grid} x {grid} grid lies in {region.describe()} and the workspace")
+    dense = _region_poses(robot, region, 2 * grid - 1, 2 * n_phi - 1)
+    try:
+        _check_regular(robot, np.vstack([base, dense]), region, max_condition)
+    except SingularRegionError as exc:
+        raise SingularRegionError(str(exc).split("; the worst-case")[0] + "; the legs' intensities, and the preload "
+                                  "keeping them on one side, are unbounded there: narrow --phi-deg or the region"
+                                  ) from None
+    # serial singularities at the workspace's edge (an actuator's B_ii = 0) are skipped like worst's grid does
+    base = base[regular_mask(robot, base, max_condition)]
+    check = np.vstack([base, dense[regular_mask(robot, dense, max_condition)]])
+    design = base
+    scale = np.array([1.0, 1.0, robot.characteristic_length])
+    n_steps = 1 if region.phi[0] == region.phi[1] else 2 * n_phi - 2
+    step = np.array([(region.x[1] - region.x[0]) / (2 * grid - 2), (region.y[1] - region.y[0]) / (2 * grid - 2),
+                     (region.phi[1] - region.phi[0]) / n_steps])
+    for _ in range(rounds):
+        best = _preload_lp(_intensity_map(robot, design), c, h, margin, scale)
+        if best is None:
+            raise ConfigError(f"no constant preload keeps the contacts fixed over {region.describe()} (a leg's "
+                              "intensity changes sign whatever the preload: the region reaches or crosses a "
+                              "singularity?): narrow the region", key="region")
+        size, P, pattern = best
+        slack = _slack(robot, check, P, pattern, c, h)
+        worst = np.argsort(slack)[:5]
+        check = np.vstack([check, _refine(robot, region, check[worst], step, P, pattern, c, h, max_condition)])
+        slack = _slack(robot, check, P, pattern, c, h)
+        bad = slack < margin * (1 - 1e-9)
+        if not np.any(bad):
+            break
+        design = np.vstack([design, check[bad]])
+    L = _intensity_map(robot, design)
+    binding = np.min(pattern * (L @ (P + c)) - np.abs(L) @ h, axis=-1)
+    attaining = design[int(np.argmin(binding))]
+    per_pose = design_preload(robot, sources, attaining, c, h, margin=margin).size
+    b = max_pose_errors(robot, sources, base, details=True)
+    offsets = np.einsum("nij,j->ni", b.generators, -pattern)
+    reached = _reached_patterns(_intensity_map(robot, base), c, h, margin)
+    errors = np.einsum("nij,kj->nki", b.generators, -_PATTERNS)
+    masked = np.where(reached[..., None], errors, np.nan)
+    width = np.nanmax(masked, axis=1) - np.nanmin(masked, axis=1)
+    return RegionPreload(region=region.describe(), center=c, half=h, wrench=P, size=size, pattern=pattern,
+                         attaining=attaining, per_pose_size=float(per_pose), min_intensity=float(np.min(slack)),
+                         n_design=int(design.shape[0]), n_check=int(check.shape[0]),
+                         offset_max=np.max(np.abs(offsets), axis=0),
+                         worst_max=np.array([np.max(b.dx_max), np.max(b.dy_max), np.max(b.dphi_max)]),
+                         range_without=np.max(width, axis=0))
+
+
+def _refine(robot: Manipulator, region, starts: np.ndarray, step: np.ndarray, P, s, c, h,
+            max_condition: float) -> np.ndarray:
+    """Local minima ``(k, 3)`` of the slack (:func:`_slack`) near ``starts`` ``(k, 3)``: a 7 x 7 x 7 pattern of
+    poses ``+- step`` around each (``step`` ``(3,)`` mm, mm, rad), kept inside the region, the joint ranges and
+    away from singularities, the best taken and the pattern shrunk by 3, five times (vectorized)."""
+    lo = np.array([region.x[0], region.y[0], region.phi[0]])
+    hi = np.array([region.x[1], region.y[1], region.phi[1]])
+    offsets = np.stack(np.meshgrid(*[np.linspace(-1.0, 1.0, 7)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    best = starts.copy()
+    value = _slack(robot, best, P, s, c, h)
+    step = np.asarray(step, dtype=float).copy()
+    for _ in range(5):
+        cand = (best[:, None, :] + offsets[None] * step).reshape(-1, 3)
+        cand = np.clip(cand, lo, hi)
+        owner = np.repeat(np.arange(best.shape[0]), offsets.shape[0])
+        ok = region.contains(cand[:, 0], cand[:, 1]) & inverse_kinematics(robot, cand).within_limits
+        ok[ok] = regular_mask(robot, cand[ok], max_condition)
+        if np.any(ok):
+            vals = _slack(robot, cand[ok], P, s, c, h)
+            for k in range(best.shape[0]):
+                mine = owner[ok] == k
+                if np.any(mine) and vals[mine].min() < value[k]:
+                    j = int(np.argmin(np.where(mine, vals, np.inf)))
+                    best[k], value[k] = cand[ok][j], vals[j]
+        step /= 3.0
+    return best
+
+
+__all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "RegionPreload",
+           "Statics", "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "design_preload", "design_region_preload",
+           "loaded_error_map", "loaded_pose_error", "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]
