@@ -70,6 +70,17 @@ def test_region_preload_holds_on_a_dense_sample_and_two_percent_less_flips_a_con
         assert design_preload(robot, clear, pose, CENTER, HALF).size <= res.size * (1 + 1e-9)
     assert res.per_pose_size <= res.size * (1 + 1e-9)
     assert res.min_intensity >= 1e-6 * (1 - 1e-6)
+    # the proof: the certified preload holds on the sample too, and 2 % less is refuted by a pose that does flip
+    from pmaccuracy.accuracy.loads import certify_preload
+
+    assert math.isfinite(res.certified_size) and res.size <= res.certified_size <= 1.05 * res.size
+    assert np.all(signs(robot, poses, res.certified_wrench, W) == res.pattern)
+    region = make_region(robot, PHI, disc)
+    proved, _, counter = certify_preload(robot, region, 0.98 * res.certified_wrench, res.pattern, CENTER, HALF)
+    assert not proved and counter is not None
+    assert disc.contains(counter[0], counter[1]) and PHI[0] <= counter[2] <= PHI[1]
+    corners = np.array(list(np.ndindex(2, 2, 2))) * 2.0 - 1.0
+    assert np.any(signs(robot, counter[None], 0.98 * res.certified_wrench, corners * HALF + CENTER) != res.pattern)
 
 
 @pytest.mark.parametrize("name, clear", ROBOTS[:2])
@@ -110,18 +121,42 @@ def test_region_preload_refuses_singular_regions_and_bad_input():
 def test_cli_preload_over_a_region(capsys):
     from pmaccuracy.cli import main
 
-    argv = ["preload", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--fx", "-3", "5",
-            "--fy", "-5", "1", "--m", "-70", "90", "--disc", "1", "-1", "6", "--phi-deg", "0", "6", "--grid", "9",
-            "--phi-steps", "3", "--format", "json"]
+    argv = ["preload", "--fx", "-3", "5", "--fy", "-5", "1", "--m", "-70", "90", "--box=-10,5,-3,8", "--grid", "9",
+            "--format", "json"]
     assert main(argv) == 0
     rec = json.loads(capsys.readouterr().out)[0]
-    ref = design_region_preload("symmetric_3rpr", "rpr_typical",
-                                make_region("symmetric_3rpr", (0.0, math.radians(6.0)), Disc((1.0, -1.0), 6.0)),
-                                CENTER, HALF, grid=9, n_phi=3)
+    ref = design_region_preload("aalborg_3ppr", "case2", make_region("aalborg_3ppr", (0.0, 0.0), (-10, 5, -3, 8)),
+                                CENTER, HALF, grid=9)
     assert rec["preload_size_N"] == pytest.approx(ref.size, rel=1e-9)
+    assert rec["certified_size_N"] == pytest.approx(ref.certified_size, rel=1e-9)
     assert rec["pattern"] == ",".join("+" if v > 0 else "-" for v in ref.pattern)
     for bad, key in ((["--phi-deg", "0", "1", "2"], "--phi-deg"), (["--grid", "1"], "--grid"),
                      (["--disc", "1000", "0", "1"], "--disc")):
         assert main(["preload", "--fx", "-1", "1", *bad]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and key in err and "Traceback" not in err, (bad, err)
+
+
+@pytest.mark.parametrize("name, clear", ROBOTS)
+def test_interval_bounds_of_the_intensities_enclose_a_brute_force_sample_of_each_box(name, clear):
+    from pmaccuracy.accuracy.global_worst import leg_branches
+    from pmaccuracy.accuracy.loads import _box_intensities
+
+    robot = Manipulator.preset(name)
+    centres = random_region_poses(robot, Disc((0.0, 0.0), 5.0), PHI, 6, 11)
+    half_sides = np.array([0.4, 0.3, math.radians(0.5)])
+    boxes = np.column_stack([centres[:, 0] - half_sides[0], centres[:, 0] + half_sides[0],
+                             centres[:, 1] - half_sides[1], centres[:, 1] + half_sides[1],
+                             centres[:, 2] - half_sides[2], centres[:, 2] + half_sides[2]])
+    P, s = np.array([3.0, -4.0, 60.0]), np.array([1.0, -1.0, 1.0])
+    lower, infeasible, _ = _box_intensities(robot, boxes, leg_branches(robot, centres[0]), P, s, CENTER, HALF)
+    corners = np.array(list(np.ndindex(2, 2, 2))) * 2.0 - 1.0
+    rng = np.random.default_rng(5)
+    for k in range(len(boxes)):
+        pts = centres[k] + rng.uniform(-1, 1, (400, 3)) * half_sides
+        pts = pts[inverse_kinematics(robot, pts).within_limits]
+        assert not infeasible[k] and len(pts) > 0
+        vals = [np.min(s * statics(robot, pts, Load(fx=P[0] + W[0], fy=P[1] + W[1], m=P[2] + W[2])).intensity)
+                for W in corners * HALF + CENTER]
+        assert lower[k] <= min(vals) + 1e-12, (k, lower[k], min(vals))
+        assert lower[k] > min(vals) - 0.5 * (abs(min(vals)) + 1.0)      # and not uselessly loose on a small box

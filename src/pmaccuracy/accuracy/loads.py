@@ -62,6 +62,7 @@ from ..kinematics.workspace import constant_orientation_workspace
 from ..model import plausibility
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
+from ..numerics.interval import Iv, t_parts, v_cv
 from ..numerics.screws import cross, dot
 from .._optional import require
 from ..errors import EmptyWorkspaceError
@@ -69,8 +70,9 @@ from ..kinematics import DEFAULT_MAX_CONDITION
 from . import maps as _maps
 from .bounds import bounds_or_nan, max_pose_errors
 from .nonlinear import joint_displaced_pose
-from .global_worst import Region, SingularRegionError, _check_regular
-from .regions import Disc, Polygon, Rect
+from .global_worst import Region, SingularRegionError, _check_regular, leg_branches
+from .interval import leg_box_state
+from .regions import OUTSIDE, Disc, Polygon, Rect
 
 #: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
 G0 = 9.80665
@@ -705,6 +707,10 @@ class RegionPreload:
     worst_max : ``(3,)`` [mm, mm, rad]: the unloaded worst case (dx_max, dy_max, dphi_max) over the same poses
     range_without : ``(3,)`` [mm, mm, rad]: the largest range (hi - lo) of the loaded error over the process box
         without the preload, over the same poses (:func:`wrench_set_map`'s range)
+    certified_wrench : ``(3,)`` a preload **proved** (:func:`certify_preload`) to keep every contact strictly on its
+        side at every pose of the region for every wrench of the box (NaN when no proof was found)
+    certified_size : its size (N): ``size <= smallest preload <= certified_size`` (NaN without a proof)
+    certified_boxes : pose boxes the proofs evaluated
     """
 
     region: str
@@ -721,6 +727,9 @@ class RegionPreload:
     offset_max: np.ndarray
     worst_max: np.ndarray
     range_without: np.ndarray
+    certified_wrench: np.ndarray = None
+    certified_size: float = float("nan")
+    certified_boxes: int = 0
 
     def record(self) -> dict:
         """The command line's record (N, N mm, mm, deg)."""
@@ -736,13 +745,29 @@ class RegionPreload:
                 "dx_max": float(self.worst_max[0]), "dy_max": float(self.worst_max[1]),
                 "dphi_deg_max": d(self.worst_max[2]),
                 "dx_range_without": float(self.range_without[0]), "dy_range_without": float(self.range_without[1]),
-                "dphi_deg_range_without": d(self.range_without[2])}
+                "dphi_deg_range_without": d(self.range_without[2]),
+                "certified_size_N": self.certified_size if math.isfinite(self.certified_size) else None,
+                "certified_fx_N": _plain(self.certified_wrench, 0), "certified_fy_N": _plain(self.certified_wrench, 1),
+                "certified_m_Nmm": _plain(self.certified_wrench, 2), "certified_boxes": self.certified_boxes}
 
     def __repr__(self) -> str:
         return (f"RegionPreload({self.region}: preload ({self.wrench[0]:.4g} N, {self.wrench[1]:.4g} N, "
                 f"{self.wrench[2]:.4g} N mm), size {self.size:.4g} N, set by the pose ({self.attaining[0]:.4g} mm, "
                 f"{self.attaining[1]:.4g} mm, {math.degrees(self.attaining[2]):.4g} deg); holds on {self.n_check} "
-                f"checked poses with min s_i lambda_i {self.min_intensity:.3g} N)")
+                f"checked poses with min s_i lambda_i {self.min_intensity:.3g} N; "
+                + (f"{self.certified_size:.4g} N proved for the whole region)" if math.isfinite(self.certified_size)
+                   else "no proof for the whole region)"))
+
+
+def _plain(values, k: int):
+    """``values[k]`` as a float, None when missing or NaN."""
+    if values is None or not math.isfinite(float(values[k])):
+        return None
+    return float(values[k]) + 0.0
+
+
+#: Factors of the designed preload tried, in turn, by the proof of :func:`design_region_preload`.
+CERTIFY_FACTORS = (1.0, 1.005, 1.01, 1.02, 1.05, 1.1, 1.25, 1.5)
 
 
 def _region_poses(robot: Manipulator, region, n: int, n_phi: int) -> np.ndarray:
@@ -793,6 +818,7 @@ def _preload_lp(L: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scal
 
 def design_region_preload(robot: Manipulator | str, clearances, region, center, half, *, grid: int = 21,
                           n_phi: int = 5, margin: float = DEFAULT_THRESHOLD_N, rounds: int = 8,
+                          certify: bool = True, max_boxes: int = 400_000,
                           max_condition: float = DEFAULT_MAX_CONDITION) -> RegionPreload:
     """The smallest constant platform wrench ``P`` (size ``max(|P_x|, |P_y|, |P_m| / L)``) keeping every leg's
     intensity on one side, with at least ``margin`` N, for every process wrench of the box ``center +- half``
@@ -809,7 +835,11 @@ def design_region_preload(robot: Manipulator | str, clearances, region, center, 
     minima of the slack found around its five worst poses (:func:`_refine`); poses where it fails join the
     program, ``rounds`` times at most. **Guaranteed**: the preload holds (every ``s_i lambda_i >= margin``) at
     every checked pose (``n_check``) and every wrench of the box (the box's worst wrench is exact, the
-    intensities being linear in the wrench); between checked poses it is not certified (no interval bound).
+    intensities being linear in the wrench). **Certified** (``certify``): :func:`certify_preload` then tries to
+    prove it over the whole region by interval branch and bound; a counterexample pose joins the program (the
+    lower bound rises), and when the design itself cannot be proved, the designed wrench times
+    :data:`CERTIFY_FACTORS` is tried in turn: the first proved one is ``certified_wrench``, so that
+    ``size <= smallest preload for the region <= certified_size`` (``max_boxes`` per proof).
     Regions reaching a parallel singularity (where no finite preload suffices) are refused like ``worst``;
     poses at an actuator's serial singularity (the workspace's edge for some architectures) are skipped.
     The offsets, worst cases and ranges of the result are taken over the ``grid x grid`` sample.
@@ -867,6 +897,26 @@ def design_region_preload(robot: Manipulator | str, clearances, region, center, 
         if not np.any(bad):
             break
         design = np.vstack([design, check[bad]])
+    cert_wrench, cert_size, cert_boxes = np.full(3, np.nan), float("nan"), 0
+    if certify:
+        for factor in CERTIFY_FACTORS:
+            for _ in range(3 if factor == 1.0 else 1):
+                proved, used, counter = certify_preload(robot, region, factor * P, pattern, c, h, max_boxes=max_boxes,
+                                                        max_condition=max_condition)
+                cert_boxes += used
+                if proved or counter is None or factor != 1.0:
+                    break
+                design = np.vstack([design, counter[None]])          # a pose the design missed: solve again
+                best = _preload_lp(_intensity_map(robot, design), c, h, margin, scale)
+                if best is None:
+                    raise ConfigError(f"no constant preload keeps the contacts fixed over {region.describe()}",
+                                      key="region")
+                size, P, pattern = best
+                check = np.vstack([check, counter[None]])
+                slack = _slack(robot, check, P, pattern, c, h)
+            if proved:
+                cert_wrench, cert_size = factor * P, factor * size
+                break
     L = _intensity_map(robot, design)
     binding = np.min(pattern * (L @ (P + c)) - np.abs(L) @ h, axis=-1)
     attaining = design[int(np.argmin(binding))]
@@ -882,7 +932,8 @@ def design_region_preload(robot: Manipulator | str, clearances, region, center, 
                          n_design=int(design.shape[0]), n_check=int(check.shape[0]),
                          offset_max=np.max(np.abs(offsets), axis=0),
                          worst_max=np.array([np.max(b.dx_max), np.max(b.dy_max), np.max(b.dphi_max)]),
-                         range_without=np.max(width, axis=0))
+                         range_without=np.max(width, axis=0), certified_wrench=cert_wrench,
+                         certified_size=cert_size, certified_boxes=int(cert_boxes))
 
 
 def _refine(robot: Manipulator, region, starts: np.ndarray, step: np.ndarray, P, s, c, h,
@@ -913,6 +964,122 @@ def _refine(robot: Manipulator, region, starts: np.ndarray, step: np.ndarray, P,
     return best
 
 
+# ----------------------------------------------------------------------------- certificate of a region preload
+#: Relative widening of interval lower bounds of the certificate (covers floating-point rounding).
+_ROUNDING = 1e-9
+
+
+def _box_intensities(robot: Manipulator, boxes: np.ndarray, sigmas, P: np.ndarray, s: np.ndarray, c: np.ndarray,
+                     h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower bounds ``(n,)`` (N) of ``min_i s_i lambda_i`` over boxes of poses ``(n, 6)`` ``[x0, x1, y0, y1, phi0,
+    phi1]`` and every wrench ``P + W``, ``W`` in the box ``c +- h``; also ``infeasible (n,)`` (no pose of the box
+    is in the workspace) and ``det_zero (n,)`` (``det A`` may vanish: no bound).
+
+    ``lambda = -A^{-T} (P + W)``, i.e. ``lambda_i = -sum_r adj(A)[r, i] (P + W)_r / det A``, with the rows of
+    ``A`` over the box from the closed forms of :func:`pmaccuracy.accuracy.interval.leg_box_state` (the
+    adjugate and determinant enclosed as in :func:`pmaccuracy.accuracy.interval.box_maxima_once`: trigonometric
+    polynomials and interval products, intersected); ``P + W`` is an interval vector, which each term uses once.
+    """
+    x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
+    n = boxes.shape[0]
+    infeasible = np.zeros(n, dtype=bool)
+    rows, rows_iv = [], []
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        gvar = [phi]
+        for i, (chain, sigma) in enumerate(zip(robot.chains, sigmas)):
+            lb = leg_box_state(chain, x, y, phi, sigma, 1e-9)
+            infeasible |= lb.infeasible
+            index = (0, 1 + 3 * i, 2 + 3 * i, 3 + 3 * i)
+            gvar.extend(lb.var[1:])
+            fx, fy = t_parts(lb.f)
+            rows.append(tuple(t.remap(index, 10) for t in (fx, fy, lb.m_P_trig)))
+            fc = v_cv(lb.f, lb.var)
+            rows_iv.append((fc.re, fc.im, lb.m_P))
+
+        def meet(a: Iv, b: Iv) -> Iv:
+            return Iv(np.maximum(a.lo, b.lo), np.minimum(a.hi, b.hi))
+
+        adj = [[None] * 3 for _ in range(3)]        # adj[r][i] = cofactor of A[i, r]
+        for i in range(3):
+            ri = [k for k in range(3) if k != i]
+            for r in range(3):
+                cc = [k for k in range(3) if k != r]
+                m = rows[ri[0]][cc[0]] * rows[ri[1]][cc[1]] - rows[ri[0]][cc[1]] * rows[ri[1]][cc[0]]
+                mi = rows_iv[ri[0]][cc[0]] * rows_iv[ri[1]][cc[1]] - rows_iv[ri[0]][cc[1]] * rows_iv[ri[1]][cc[0]]
+                sign = 1.0 if (i + r) % 2 == 0 else -1.0
+                adj[r][i] = (m * sign, mi * sign)
+        det_t = rows[0][0] * adj[0][0][0] + rows[0][1] * adj[1][0][0] + rows[0][2] * adj[2][0][0]
+        det_i = rows_iv[0][0] * adj[0][0][1] + rows_iv[0][1] * adj[1][0][1] + rows_iv[0][2] * adj[2][0][1]
+        det = meet(det_t.iv(gvar), det_i)
+        adj_iv = [[meet(adj[r][i][0].iv(gvar), adj[r][i][1]) for i in range(3)] for r in range(3)]
+        det_zero = det.contains_zero() | ~np.isfinite(det.lo) | ~np.isfinite(det.hi)
+        V = [Iv(np.full(n, P[r] + c[r] - h[r]), np.full(n, P[r] + c[r] + h[r])) for r in range(3)]
+        lower = np.full(n, np.inf)
+        for i in range(3):
+            num = adj_iv[0][i] * V[0] + adj_iv[1][i] * V[1] + adj_iv[2][i] * V[2]
+            q = (num * float(-s[i])) / det
+            lower = np.minimum(lower, q.lo - _ROUNDING * np.maximum(np.abs(q.lo), np.abs(q.hi)))
+    lower = np.where(det_zero | np.isnan(lower), -np.inf, lower)
+    return lower, infeasible, det_zero
+
+
+def certify_preload(robot: Manipulator | str, region, wrench, pattern, center, half, *, max_boxes: int = 400_000,
+                    max_condition: float = DEFAULT_MAX_CONDITION) -> tuple[bool, int, np.ndarray | None]:
+    """Prove that the preload ``wrench`` ``(3,)`` [N, N, N mm] keeps every leg's intensity strictly on the side
+    ``pattern`` ``(3,)`` for every process wrench of the box ``center +- half`` at every pose of ``region`` (a
+    :class:`~pmaccuracy.accuracy.global_worst.Region`, intersected with the workspace), by branch and bound on
+    interval enclosures of the intensities over boxes of poses (:func:`_box_intensities`, rigorous up to a
+    relative ``1e-9`` for rounding). A box is closed when its lower bound of ``min_i s_i lambda_i`` is positive,
+    or when it is proved outside the workspace or the region's shape; the others are bisected along their
+    widest side (phi times the robot's size).
+
+    Returns ``(certified, boxes evaluated, counterexample)``: ``certified`` False with a pose ``(3,)`` of the
+    region where a contact does flip (the box centres are evaluated exactly), or with None when ``max_boxes``
+    was spent first.
+    """
+    robot = robot_arg(robot)
+    c, h = _box(center, half)
+    P = np.asarray(wrench, dtype=float).reshape(3)
+    s = np.asarray(pattern, dtype=float).reshape(3)
+    sample = _region_poses(robot, region, 5, 3)
+    sample = sample[regular_mask(robot, sample, max_condition)] if sample.shape[0] else sample
+    start = sample[0] if sample.shape[0] else np.array([region.x[0], region.y[0], region.phi[0]])
+    sigmas = leg_branches(robot, start)
+    scale = np.array([1.0, 1.0, robot.characteristic_length])
+    boxes = np.array([[*region.x, *region.y, *region.phi]])
+    n_boxes = 0
+    while boxes.shape[0]:
+        if region.shape is not None:
+            boxes = boxes[region.shape.classify(boxes[:, :4]) != OUTSIDE]
+            if not boxes.shape[0]:
+                break
+        n_boxes += boxes.shape[0]
+        lower, infeasible, _ = _box_intensities(robot, boxes, sigmas, P, s, c, h)
+        boxes = boxes[~infeasible & ~(lower > 0)]
+        if not boxes.shape[0]:
+            break
+        pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])
+        ok = region.contains(pts[:, 0], pts[:, 1]) & inverse_kinematics(robot, pts).within_limits
+        ok[ok] = regular_mask(robot, pts[ok], max_condition)
+        if np.any(ok):
+            slack = _slack(robot, pts[ok], P, s, c, h)
+            if np.any(slack <= 0):
+                return False, n_boxes, pts[ok][int(np.argmin(slack))]
+        if n_boxes + 2 * boxes.shape[0] > max_boxes:
+            return False, n_boxes, None
+        sizes = np.column_stack([boxes[:, 1] - boxes[:, 0], boxes[:, 3] - boxes[:, 2],
+                                 boxes[:, 5] - boxes[:, 4]]) * scale
+        axis = np.argmax(sizes, axis=1)
+        rows = np.arange(boxes.shape[0])
+        mid = 0.5 * (boxes[rows, 2 * axis] + boxes[rows, 2 * axis + 1])
+        left, right = boxes.copy(), boxes.copy()
+        left[rows, 2 * axis + 1] = mid
+        right[rows, 2 * axis] = mid
+        boxes = np.concatenate([left, right])
+    return True, n_boxes, None
+
+
 __all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "RegionPreload",
-           "Statics", "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "design_preload", "design_region_preload",
+           "Statics", "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "certify_preload", "design_preload",
+           "design_region_preload",
            "loaded_error_map", "loaded_pose_error", "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]

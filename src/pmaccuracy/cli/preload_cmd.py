@@ -25,6 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
+    p.add_argument("--certify", action=argparse.BooleanOptionalAction, default=True,
+                   help="without poses: prove the preload over the whole region by interval branch and bound "
+                        "(certified_size_N; default: on)")
     p.add_argument("--phi-steps", type=_common.positive_int, default=5, metavar="K",
                    help="without poses: orientations sampled over the --phi-deg LO HI interval (default: 5)")
     _common.add_format(p)
@@ -117,7 +120,8 @@ def run_region(args: argparse.Namespace, robot, clearances, center, half) -> int
     _common.check_grid_memory(2 * args.phi_steps, 2 * grid, "--grid")
     region = make_region(robot, tuple(np.radians(phi)), parse_shape(args))
     try:
-        res = design_region_preload(robot, clearances, region, center, half, grid=grid, n_phi=args.phi_steps)
+        res = design_region_preload(robot, clearances, region, center, half, grid=grid, n_phi=args.phi_steps,
+                                   certify=args.certify)
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit([res.record()], args.format)
