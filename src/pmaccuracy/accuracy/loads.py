@@ -355,9 +355,10 @@ class WrenchSetErrors:
     ----------
     poses : ``(n, 3)``;  center, half : ``(3,)`` the box ``center +- half`` [N, N, N mm]
     patterns : ``(n, 8)`` bool: which contact patterns ``s`` (rows of ``_PATTERNS``, the signs of the legs'
-        intensities) some wrench of the box reaches with every leg loaded above the threshold
+        intensities) are possible: some wrench of the box loads every leg on its side of ``s`` or leaves it
+        unloaded (``|lambda_i| <= threshold``, its state undetermined)
     lower, upper : ``(n, 3)`` [mm, mm, rad]: the range of the first-order loaded error over the box
-    flips : ``(n, 3)`` bool: legs whose contact side changes inside the box (the error jumps there)
+    flips : ``(n, 3)`` bool: legs with both sides possible inside the box (the error jumps there)
     """
 
     poses: np.ndarray
@@ -374,40 +375,28 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     """Range of the loaded pose error when the process wrench may be anywhere in the box ``center +- half``
     ([fx N, fy N, m N mm]), and the legs whose contact flips inside it.
 
-    ``lambda = L W`` is linear, so a contact pattern ``s`` is reached by the box iff the linear program
-    ``max delta`` subject to ``s_i L_i W >= delta, W in the box`` has ``delta > threshold`` (scipy HiGHS, per pose and
-    pattern); the loaded error of pattern ``s`` is ``A^{-1} diag(c) (-s)`` (module docstring), and the range
-    is taken over the reached patterns. A box that reaches a leg's zero (``delta`` in ``[-threshold,
-    threshold]`` only) makes that leg unloaded somewhere: it counts as flipping.
+    ``lambda = L W`` is linear. A contact pattern ``s`` is possible when some wrench of the box loads every leg
+    on its side or leaves it unloaded (``s_i L_i W >= -threshold``: an unloaded leg's state is undetermined, so
+    both its sides count); :func:`_reached_patterns` decides it for every pose and pattern at once from the
+    vertices of the pattern's polytope of wrenches. The loaded error of pattern ``s`` is
+    ``A^{-1} diag(c) (-s)`` (module docstring) and the range is taken over the possible patterns: the exact
+    range of the loaded error over the box (the error set at one wrench is the convex hull of its possible
+    patterns). A leg flips when both its sides are possible (its intensity's range over the box reaches zero).
     """
     plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     c, h = _box(center, half)
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
     poses = as_poses(poses).reshape(-1, 3)
     b = max_pose_errors(robot, clearances, poses, details=True)     # refuses poses outside the ranges or singular
-    L = _intensity_map(robot, poses)
-    reached = np.zeros((poses.shape[0], 8), dtype=bool)
-    bounds = [(ci - hi, ci + hi) for ci, hi in zip(c, h)]
-    for n in range(poses.shape[0]):
-        for k, s in enumerate(_PATTERNS):
-            # variables (W, delta): maximize delta s.t. delta - s_i L_i W <= 0
-            A_ub = np.column_stack([-(s[:, None] * L[n]), np.ones(3)])
-            res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=A_ub, b_ub=np.zeros(3),
-                          bounds=bounds + [(None, 1e300)], method="highs")
-            reached[n, k] = res.status == 0 and -res.fun > threshold
+    reached = _reached_patterns(_intensity_map(robot, poses), c, h, threshold)
     errors = np.einsum("nij,kj->nki", b.generators, -_PATTERNS)          # (n, 8, 3): A^-1 diag(c) t
     masked = np.where(reached[..., None], errors, np.nan)
     lower, upper = np.nanmin(masked, axis=1), np.nanmax(masked, axis=1)
     signs = np.where(reached[..., None], _PATTERNS[None], np.nan)
-    flips = ~(np.nanmin(signs, axis=1) == np.nanmax(signs, axis=1))
-    # a leg that can only be loaded on one side but also reaches zero: its state is undetermined there
-    lam_lo = np.einsum("nij,j->ni", L, c) - np.einsum("nij,j->ni", np.abs(L), h)
-    lam_hi = np.einsum("nij,j->ni", L, c) + np.einsum("nij,j->ni", np.abs(L), h)
-    touches = (lam_lo <= threshold) & (lam_hi >= -threshold)
-    flips = flips | touches
-    extra = np.einsum("nij,nj->ni", np.abs(b.generators), (touches & ~flips).astype(float))
-    return WrenchSetErrors(poses=poses, center=c, half=h, patterns=reached, lower=lower - extra,
-                           upper=upper + extra, flips=flips)
+    flips = np.nanmin(signs, axis=1) != np.nanmax(signs, axis=1)
+    return WrenchSetErrors(poses=poses, center=c, half=h, patterns=reached, lower=lower, upper=upper, flips=flips)
 
 
 @dataclass(frozen=True)
