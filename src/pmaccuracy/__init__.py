@@ -71,7 +71,8 @@ _EXPORTS = {
     "pose_statistics": "accuracy.distributions", "PoseStatistics": "accuracy.distributions",
     **{name: "accuracy.loads" for name in ("Load", "LoadedError", "Statics", "loaded_pose_error", "statics",
                                            "WrenchSetErrors", "wrench_set_errors", "Preload", "design_preload",
-                                           "loaded_error_map", "wrench_set_map")},
+                                           "loaded_error_map", "wrench_set_map", "RegionPreload",
+                                           "design_region_preload", "certify_preload")},
     # calibration and compensation (issue 23)
     "error_parameters": "accuracy.calibration.parameters", "ParameterVector": "accuracy.calibration.parameters",
     "CalibrationData": "accuracy.calibration.data", "read_calibration_csv": "accuracy.calibration.data",

@@ -127,19 +127,48 @@ def test_wrench_set_map_against_a_dense_sample_of_the_box(name, clear):
     assert 0 < np.mean(flips) < 1                                         # the box flips some legs, not all
 
 
-def test_wrench_set_map_agrees_with_the_per_pose_linear_programs():
-    center, half = np.array([1.0, -8.0, 0.0]), np.array([3.0, 3.0, 40.0])
+def lp_range(name, clear, poses, center, half, threshold=1e-6):
+    """Reference range and flips by linear programming, written here: pattern ``s`` is possible at a pose iff
+    ``max t`` s.t. ``s_i lambda_i(W) >= t``, ``W`` in the box, has ``t >= -threshold`` (scipy HiGHS)."""
+    from scipy.optimize import linprog
+
+    A = wrench_rows(name, poses)
+    G = max_pose_errors(name, clear, poses, details=True).generators
+    lo, hi = np.full((len(poses), 3), np.inf), np.full((len(poses), 3), -np.inf)
+    sides = np.zeros((len(poses), 3, 2), dtype=bool)
+    for n in range(len(poses)):
+        Lm = -np.linalg.inv(A[n].T)                     # lambda = Lm W
+        for s in VERTICES:
+            A_ub = np.column_stack([-(s[:, None] * Lm), np.ones(3)])
+            res = linprog([0, 0, 0, -1.0], A_ub=A_ub, b_ub=np.zeros(3),
+                          bounds=[(c - h, c + h) for c, h in zip(center, half)] + [(None, 1e9)], method="highs")
+            if res.status == 0 and -res.fun >= -threshold:
+                e = G[n] @ (-s)
+                lo[n], hi[n] = np.minimum(lo[n], e), np.maximum(hi[n], e)
+                sides[n, :, 0] |= s > 0
+                sides[n, :, 1] |= s < 0
+    return lo, hi, sides.all(axis=-1)
+
+
+@pytest.mark.parametrize("center, half", [([1.0, -8.0, 0.0], [3.0, 3.0, 40.0]), ([0.0, -5.0, 0.0], [0.0, 5.0, 0.0])])
+def test_wrench_set_map_and_errors_agree_with_linear_programs(center, half):
+    """The second box reaches every leg's zero on a face (fy = 0): every pattern is possible there."""
+    center, half = np.array(center), np.array(half)
     ds = wrench_set_map("symmetric_3rrr", "rrr_typical", center, half, 0.1, n=6)
     X, Y = np.meshgrid(ds.x.values, ds.y.values)
     ok = np.isfinite(ds.dx_lo.values[0])
     poses = np.column_stack([X[ok], Y[ok], np.full(int(ok.sum()), 0.1)])
-    lp = wrench_set_errors("symmetric_3rrr", "rrr_typical", poses, center, half)
+    lo, hi, flips_ref = lp_range("symmetric_3rrr", "rrr_typical", poses, center, half)
     got_lo = np.column_stack([ds.dx_lo.values[0][ok], ds.dy_lo.values[0][ok], np.radians(ds.dphi_lo.values[0][ok])])
     got_hi = np.column_stack([ds.dx_hi.values[0][ok], ds.dy_hi.values[0][ok], np.radians(ds.dphi_hi.values[0][ok])])
-    np.testing.assert_allclose(got_lo, lp.lower, rtol=1e-9, atol=1e-14)
-    np.testing.assert_allclose(got_hi, lp.upper, rtol=1e-9, atol=1e-14)
+    np.testing.assert_allclose(got_lo, lo, rtol=1e-9, atol=1e-14)
+    np.testing.assert_allclose(got_hi, hi, rtol=1e-9, atol=1e-14)
     flips = np.column_stack([ds[f"flip{i}"].values[0][ok] for i in (1, 2, 3)]).astype(bool)
-    np.testing.assert_array_equal(flips, lp.flips)
+    np.testing.assert_array_equal(flips, flips_ref)
+    per_pose = wrench_set_errors("symmetric_3rrr", "rrr_typical", poses, center, half)
+    np.testing.assert_allclose(per_pose.lower, lo, rtol=1e-9, atol=1e-14)
+    np.testing.assert_allclose(per_pose.upper, hi, rtol=1e-9, atol=1e-14)
+    np.testing.assert_array_equal(per_pose.flips, flips_ref)
 
 
 def test_cli_load_and_preload_maps_write_the_library_maps(tmp_path, capsys):

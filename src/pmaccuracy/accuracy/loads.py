@@ -57,10 +57,12 @@ from scipy.optimize import linprog
 from .._display import html_table, summary, value_range
 from ..errors import ConfigError
 from ..io.resolve import clearances_arg, robot_arg
-from ..kinematics import as_poses, inverse_kinematics, leg_states
+from ..kinematics import as_poses, inverse_kinematics, leg_states, regular_mask
+from ..kinematics.workspace import constant_orientation_workspace
 from ..model import plausibility
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
+from ..numerics.interval import Iv, t_parts, v_cv
 from ..numerics.screws import cross, dot
 from .._optional import require
 from ..errors import EmptyWorkspaceError
@@ -68,7 +70,9 @@ from ..kinematics import DEFAULT_MAX_CONDITION
 from . import maps as _maps
 from .bounds import bounds_or_nan, max_pose_errors
 from .nonlinear import joint_displaced_pose
-from .regions import Disc, Polygon, Rect
+from .global_worst import Region, SingularRegionError, _check_regular, leg_branches
+from .interval import leg_box_state
+from .regions import OUTSIDE, Disc, Polygon, Rect
 
 #: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
 G0 = 9.80665
@@ -352,9 +356,10 @@ class WrenchSetErrors:
     ----------
     poses : ``(n, 3)``;  center, half : ``(3,)`` the box ``center +- half`` [N, N, N mm]
     patterns : ``(n, 8)`` bool: which contact patterns ``s`` (rows of ``_PATTERNS``, the signs of the legs'
-        intensities) some wrench of the box reaches with every leg loaded above the threshold
+        intensities) are possible: some wrench of the box loads every leg on its side of ``s`` or leaves it
+        unloaded (``|lambda_i| <= threshold``, its state undetermined)
     lower, upper : ``(n, 3)`` [mm, mm, rad]: the range of the first-order loaded error over the box
-    flips : ``(n, 3)`` bool: legs whose contact side changes inside the box (the error jumps there)
+    flips : ``(n, 3)`` bool: legs with both sides possible inside the box (the error jumps there)
     """
 
     poses: np.ndarray
@@ -371,40 +376,28 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     """Range of the loaded pose error when the process wrench may be anywhere in the box ``center +- half``
     ([fx N, fy N, m N mm]), and the legs whose contact flips inside it.
 
-    ``lambda = L W`` is linear, so a contact pattern ``s`` is reached by the box iff the linear program
-    ``max delta`` subject to ``s_i L_i W >= delta, W in the box`` has ``delta > threshold`` (scipy HiGHS, per pose and
-    pattern); the loaded error of pattern ``s`` is ``A^{-1} diag(c) (-s)`` (module docstring), and the range
-    is taken over the reached patterns. A box that reaches a leg's zero (``delta`` in ``[-threshold,
-    threshold]`` only) makes that leg unloaded somewhere: it counts as flipping.
+    ``lambda = L W`` is linear. A contact pattern ``s`` is possible when some wrench of the box loads every leg
+    on its side or leaves it unloaded (``s_i L_i W >= -threshold``: an unloaded leg's state is undetermined, so
+    both its sides count); :func:`_reached_patterns` decides it for every pose and pattern at once from the
+    vertices of the pattern's polytope of wrenches. The loaded error of pattern ``s`` is
+    ``A^{-1} diag(c) (-s)`` (module docstring) and the range is taken over the possible patterns: the exact
+    range of the loaded error over the box (the error set at one wrench is the convex hull of its possible
+    patterns). A leg flips when both its sides are possible (its intensity's range over the box reaches zero).
     """
     plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
     c, h = _box(center, half)
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")
     poses = as_poses(poses).reshape(-1, 3)
     b = max_pose_errors(robot, clearances, poses, details=True)     # refuses poses outside the ranges or singular
-    L = _intensity_map(robot, poses)
-    reached = np.zeros((poses.shape[0], 8), dtype=bool)
-    bounds = [(ci - hi, ci + hi) for ci, hi in zip(c, h)]
-    for n in range(poses.shape[0]):
-        for k, s in enumerate(_PATTERNS):
-            # variables (W, delta): maximize delta s.t. delta - s_i L_i W <= 0
-            A_ub = np.column_stack([-(s[:, None] * L[n]), np.ones(3)])
-            res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=A_ub, b_ub=np.zeros(3),
-                          bounds=bounds + [(None, 1e300)], method="highs")
-            reached[n, k] = res.status == 0 and -res.fun > threshold
+    reached = _reached_patterns(_intensity_map(robot, poses), c, h, threshold)
     errors = np.einsum("nij,kj->nki", b.generators, -_PATTERNS)          # (n, 8, 3): A^-1 diag(c) t
     masked = np.where(reached[..., None], errors, np.nan)
     lower, upper = np.nanmin(masked, axis=1), np.nanmax(masked, axis=1)
     signs = np.where(reached[..., None], _PATTERNS[None], np.nan)
-    flips = ~(np.nanmin(signs, axis=1) == np.nanmax(signs, axis=1))
-    # a leg that can only be loaded on one side but also reaches zero: its state is undetermined there
-    lam_lo = np.einsum("nij,j->ni", L, c) - np.einsum("nij,j->ni", np.abs(L), h)
-    lam_hi = np.einsum("nij,j->ni", L, c) + np.einsum("nij,j->ni", np.abs(L), h)
-    touches = (lam_lo <= threshold) & (lam_hi >= -threshold)
-    flips = flips | touches
-    extra = np.einsum("nij,nj->ni", np.abs(b.generators), (touches & ~flips).astype(float))
-    return WrenchSetErrors(poses=poses, center=c, half=h, patterns=reached, lower=lower - extra,
-                           upper=upper + extra, flips=flips)
+    flips = np.nanmin(signs, axis=1) != np.nanmax(signs, axis=1)
+    return WrenchSetErrors(poses=poses, center=c, half=h, patterns=reached, lower=lower, upper=upper, flips=flips)
 
 
 @dataclass(frozen=True)
@@ -682,6 +675,404 @@ def wrench_set_map(robot: Manipulator | str, clearances, center, half, phis, n: 
     return _dataset(values, WRENCH_SET_MAP_VARIABLES, phis, x, y, attrs)
 
 
-__all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "Statics",
-           "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "design_preload", "loaded_error_map", "loaded_pose_error",
-           "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]
+# ----------------------------------------------------------------------------- preload over a region
+@dataclass(frozen=True)
+class RegionPreload:
+    """The smallest constant platform wrench that keeps every contact fixed for every process wrench of a box at
+    every pose of a region (:func:`design_region_preload`).
+
+    Attributes
+    ----------
+    region : description of the region;  center, half : ``(3,)`` the process box [N, N, N mm]
+    wrench : ``(3,)`` [fx N, fy N, m N mm]: the preload (a constant wrench on the platform, base frame)
+    size : its size ``max(|fx|, |fy|, |m| / L)`` (N), the optimum of the linear program over the poses used:
+        no smaller preload keeps the contacts fixed at those poses (a lower bound for the region)
+    pattern : ``(3,)`` the legs' intensity signs it holds everywhere
+    attaining : ``(3,)`` [mm, mm, rad]: the pose whose constraint binds (the region's hardest pose)
+    per_pose_size : the size :func:`design_preload` needs at ``attaining`` alone (N): a preload adjusted pose
+        by pose could be this small there; the constant one must serve the whole region
+    min_intensity : the smallest ``s_i lambda_i`` (N) over the check poses and every wrench of the box with the
+        preload (``>= margin`` when the design holds there)
+    n_design, n_check : poses in the linear program, poses checked (grid, midpoints, local searches)
+    offset_max : ``(3,)`` [mm, mm, rad]: the largest ``|offset|`` over the check poses; with the preload the loaded
+        error at a pose is this constant offset ``A^{-1} diag(c) (-s)`` whatever the process wrench (range 0),
+        which calibration removes
+    worst_max : ``(3,)`` [mm, mm, rad]: the unloaded worst case (dx_max, dy_max, dphi_max) over the same poses
+    range_without : ``(3,)`` [mm, mm, rad]: the largest range (hi - lo) of the loaded error over the process box
+        without the preload, over the same poses (:func:`wrench_set_map`'s range)
+    certified_wrench : ``(3,)`` a preload **proved** (:func:`certify_preload`) to keep every contact strictly on its
+        side at every pose of the region for every wrench of the box (NaN when no proof was found)
+    certified_size : its size (N): ``size <= smallest preload <= certified_size`` (NaN without a proof)
+    certified_boxes : pose boxes the proofs evaluated
+    """
+
+    region: str
+    center: np.ndarray
+    half: np.ndarray
+    wrench: np.ndarray
+    size: float
+    pattern: np.ndarray
+    attaining: np.ndarray
+    per_pose_size: float
+    min_intensity: float
+    n_design: int
+    n_check: int
+    offset_max: np.ndarray
+    worst_max: np.ndarray
+    range_without: np.ndarray
+    certified_wrench: np.ndarray = None
+    certified_size: float = float("nan")
+    certified_boxes: int = 0
+
+    def record(self) -> dict:
+        """The command line's record (N, N mm, mm, deg)."""
+        d = math.degrees
+        return {"region": self.region, "pattern": ",".join("+" if v > 0 else "-" for v in self.pattern),
+                "preload_fx_N": float(self.wrench[0]) + 0.0, "preload_fy_N": float(self.wrench[1]) + 0.0,
+                "preload_m_Nmm": float(self.wrench[2]) + 0.0, "preload_size_N": self.size,
+                "attaining_x": float(self.attaining[0]), "attaining_y": float(self.attaining[1]),
+                "attaining_phi_deg": d(self.attaining[2]), "per_pose_size_N": self.per_pose_size,
+                "min_intensity_N": self.min_intensity, "n_design": self.n_design, "n_check": self.n_check,
+                "offset_dx_max": float(self.offset_max[0]), "offset_dy_max": float(self.offset_max[1]),
+                "offset_dphi_deg_max": d(self.offset_max[2]),
+                "dx_max": float(self.worst_max[0]), "dy_max": float(self.worst_max[1]),
+                "dphi_deg_max": d(self.worst_max[2]),
+                "dx_range_without": float(self.range_without[0]), "dy_range_without": float(self.range_without[1]),
+                "dphi_deg_range_without": d(self.range_without[2]),
+                "certified_size_N": self.certified_size if math.isfinite(self.certified_size) else None,
+                "certified_fx_N": _plain(self.certified_wrench, 0), "certified_fy_N": _plain(self.certified_wrench, 1),
+                "certified_m_Nmm": _plain(self.certified_wrench, 2), "certified_boxes": self.certified_boxes}
+
+    def __repr__(self) -> str:
+        return (f"RegionPreload({self.region}: preload ({self.wrench[0]:.4g} N, {self.wrench[1]:.4g} N, "
+                f"{self.wrench[2]:.4g} N mm), size {self.size:.4g} N, set by the pose ({self.attaining[0]:.4g} mm, "
+                f"{self.attaining[1]:.4g} mm, {math.degrees(self.attaining[2]):.4g} deg); holds on {self.n_check} "
+                f"checked poses with min s_i lambda_i {self.min_intensity:.3g} N; "
+                + (f"{self.certified_size:.4g} N proved for the whole region)" if math.isfinite(self.certified_size)
+                   else "no proof for the whole region)"))
+
+
+def _plain(values, k: int):
+    """``values[k]`` as a float, None when missing or NaN."""
+    if values is None or not math.isfinite(float(values[k])):
+        return None
+    return float(values[k]) + 0.0
+
+
+#: Factors of the designed preload tried, in turn, by the proof of :func:`design_region_preload`.
+CERTIFY_FACTORS = (1.0, 1.005, 1.01, 1.02, 1.05, 1.1, 1.25, 1.5)
+
+
+def _region_poses(robot: Manipulator, region, n: int, n_phi: int) -> np.ndarray:
+    """Poses ``(m, 3)`` of an ``n x n`` grid over the region's box at ``n_phi`` orientations (1 for a point
+    interval), inside the region's shape and the workspace (joint ranges)."""
+    phis = np.linspace(*region.phi, 1 if region.phi[0] == region.phi[1] else n_phi)
+    out = [np.zeros((0, 3))]
+    for phi in phis:
+        ws = constant_orientation_workspace(robot, float(phi))
+        if ws.is_empty:
+            continue
+        (wx0, wx1), (wy0, wy1) = ws.bounds
+        x0, x1 = max(region.x[0], wx0), min(region.x[1], wx1)
+        y0, y1 = max(region.y[0], wy0), min(region.y[1], wy1)
+        if x0 > x1 or y0 > y1:
+            continue
+        X, Y = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n))
+        pts = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, phi)])
+        out.append(pts[region.contains(pts[:, 0], pts[:, 1])])
+    pts = np.vstack(out)
+    return pts[inverse_kinematics(robot, pts).within_limits] if pts.shape[0] else pts
+
+
+def _slack(robot: Manipulator, poses: np.ndarray, P: np.ndarray, s: np.ndarray, c: np.ndarray,
+           h: np.ndarray) -> np.ndarray:
+    """``(m,)`` N: ``min_i min_{W in box} s_i lambda_i(P + W)`` at poses ``(m, 3)``."""
+    L = _intensity_map(robot, poses)
+    return np.min(s * (L @ (P + c)) - np.abs(L) @ h, axis=-1)
+
+
+def _preload_lp(L: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray):
+    """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` s.t. ``s_i L_ni (P + W) >= margin`` for
+    every pose ``n`` and wrench ``W`` of the box (scipy HiGHS), or None."""
+    best = None
+    for s in _PATTERNS:
+        rows = (s[None, :, None] * L).reshape(-1, 3)                                # (3m, 3): s_i L_ni
+        rhs = (margin - (s[None] * (L @ c)) + np.abs(L) @ h).reshape(-1)
+        A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
+                          np.column_stack([np.diag(1 / scale), -np.ones(3)]),
+                          np.column_stack([-np.diag(1 / scale), -np.ones(3)])])
+        b_ub = np.concatenate([-rhs, np.zeros(6)])
+        res = linprog(np.array([0.0, 0.0, 0.0, 1.0]), A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 4,
+                      method="highs")
+        if res.status == 0 and (best is None or res.fun < best[0]):
+            best = (float(res.fun), res.x[:3], s)
+    return best
+
+
+def design_region_preload(robot: Manipulator | str, clearances, region, center, half, *, grid: int = 21,
+                          n_phi: int = 5, margin: float = DEFAULT_THRESHOLD_N, rounds: int = 8,
+                          certify: bool = True, max_boxes: int = 400_000,
+                          max_condition: float = DEFAULT_MAX_CONDITION) -> RegionPreload:
+    """The smallest constant platform wrench ``P`` (size ``max(|P_x|, |P_y|, |P_m| / L)``) keeping every leg's
+    intensity on one side, with at least ``margin`` N, for every process wrench of the box ``center +- half``
+    at every pose of ``region`` (a :class:`pmaccuracy.accuracy.global_worst.Region`: positions in a box or
+    shape times an orientation interval, intersected with the workspace; ``make_region``).
+
+    Over a connected region a preload that keeps every contact loaded keeps one pattern ``s`` everywhere (the
+    intensities are continuous in the pose and the wrench and never cross ``(-margin, margin)``), so for each
+    of the eight patterns one linear program (scipy HiGHS) takes every pose at once:
+    ``min z`` s.t. ``s_i L_i(p) P >= margin - s_i L_i(p) center + |L_i(p)| half`` (the box's worst wrench,
+    module docstring) and ``|P_j| / scale_j <= z``, over a ``grid x grid`` sample at ``n_phi`` orientations.
+    Its optimum is a **lower bound** of the smallest preload over the region (the sample is part of it).
+    Exchange: the design is checked on a sample twice as dense (the grid and its midpoints) and at the local
+    minima of the slack found around its five worst poses (:func:`_refine`); poses where it fails join the
+    program, ``rounds`` times at most. **Guaranteed**: the preload holds (every ``s_i lambda_i >= margin``) at
+    every checked pose (``n_check``) and every wrench of the box (the box's worst wrench is exact, the
+    intensities being linear in the wrench). **Certified** (``certify``): :func:`certify_preload` then tries to
+    prove it over the whole region by interval branch and bound; a counterexample pose joins the program (the
+    lower bound rises), and when the design itself cannot be proved, the designed wrench times
+    :data:`CERTIFY_FACTORS` is tried in turn: the first proved one is ``certified_wrench``, so that
+    ``size <= smallest preload for the region <= certified_size`` (``max_boxes`` per proof).
+    Regions reaching a parallel singularity (where no finite preload suffices) are refused like ``worst``;
+    poses at an actuator's serial singularity (the workspace's edge for some architectures) are skipped.
+    The offsets, worst cases and ranges of the result are taken over the ``grid x grid`` sample.
+
+    >>> from pmaccuracy.accuracy.global_worst import make_region
+    >>> from pmaccuracy.accuracy.regions import Disc
+    >>> r = design_region_preload("symmetric_3rpr", "rpr_typical", make_region("symmetric_3rpr", (0.0, 0.0),
+    ...                           Disc((0.0, 0.0), 5.0)), [0.0, 0.0, 0.0], [2.0, 2.0, 0.0], grid=7)
+    >>> bool(r.size >= r.per_pose_size - 1e-9 and r.min_intensity >= 1e-6 * (1 - 1e-6))
+    True
+    """
+    robot = robot_arg(robot)
+    clearances = clearances_arg(clearances, robot)
+    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
+        ErrorSources.from_clearance_set(clearances)
+    c, h = _box(center, half)
+    if not isinstance(region, Region):
+        raise ConfigError(f"expected a Region (pmaccuracy.accuracy.global_worst.make_region), got {region!r}",
+                          key="region")
+    for key, value, least in (("grid", grid, 2), ("n_phi", n_phi, 1), ("rounds", rounds, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+            raise ConfigError(f"must be a whole number >= {least}, got {value!r}", key=key)
+    if not (math.isfinite(margin) and margin > 0):
+        raise ConfigError(f"must be a force > 0 (N), got {margin}", key="margin")
+    base = _region_poses(robot, region, grid, n_phi)
+    if base.shape[0] == 0:
+        raise EmptyWorkspaceError(f"no pose of the {grid} x {grid} grid lies in {region.describe()} and the workspace")
+    dense = _region_poses(robot, region, 2 * grid - 1, 2 * n_phi - 1)
+    try:
+        _check_regular(robot, np.vstack([base, dense]), region, max_condition)
+    except SingularRegionError as exc:
+        raise SingularRegionError(str(exc).split("; the worst-case")[0] + "; the legs' intensities, and the preload "
+                                  "keeping them on one side, are unbounded there: narrow --phi-deg or the region"
+                                  ) from None
+    # serial singularities at the workspace's edge (an actuator's B_ii = 0) are skipped like worst's grid does
+    base = base[regular_mask(robot, base, max_condition)]
+    check = np.vstack([base, dense[regular_mask(robot, dense, max_condition)]])
+    design = base
+    scale = np.array([1.0, 1.0, robot.characteristic_length])
+    n_steps = 1 if region.phi[0] == region.phi[1] else 2 * n_phi - 2
+    step = np.array([(region.x[1] - region.x[0]) / (2 * grid - 2), (region.y[1] - region.y[0]) / (2 * grid - 2),
+                     (region.phi[1] - region.phi[0]) / n_steps])
+    for _ in range(rounds):
+        best = _preload_lp(_intensity_map(robot, design), c, h, margin, scale)
+        if best is None:
+            raise ConfigError(f"no constant preload keeps the contacts fixed over {region.describe()} (a leg's "
+                              "intensity changes sign whatever the preload: the region reaches or crosses a "
+                              "singularity?): narrow the region", key="region")
+        size, P, pattern = best
+        slack = _slack(robot, check, P, pattern, c, h)
+        worst = np.argsort(slack)[:5]
+        check = np.vstack([check, _refine(robot, region, check[worst], step, P, pattern, c, h, max_condition)])
+        slack = _slack(robot, check, P, pattern, c, h)
+        bad = slack < margin * (1 - 1e-9)
+        if not np.any(bad):
+            break
+        design = np.vstack([design, check[bad]])
+    cert_wrench, cert_size, cert_boxes = np.full(3, np.nan), float("nan"), 0
+    if certify:
+        for factor in CERTIFY_FACTORS:
+            for _ in range(3 if factor == 1.0 else 1):
+                proved, used, counter = certify_preload(robot, region, factor * P, pattern, c, h, max_boxes=max_boxes,
+                                                        max_condition=max_condition)
+                cert_boxes += used
+                if proved or counter is None or factor != 1.0:
+                    break
+                design = np.vstack([design, counter[None]])          # a pose the design missed: solve again
+                best = _preload_lp(_intensity_map(robot, design), c, h, margin, scale)
+                if best is None:
+                    raise ConfigError(f"no constant preload keeps the contacts fixed over {region.describe()}",
+                                      key="region")
+                size, P, pattern = best
+                check = np.vstack([check, counter[None]])
+                slack = _slack(robot, check, P, pattern, c, h)
+            if proved:
+                cert_wrench, cert_size = factor * P, factor * size
+                break
+    L = _intensity_map(robot, design)
+    binding = np.min(pattern * (L @ (P + c)) - np.abs(L) @ h, axis=-1)
+    attaining = design[int(np.argmin(binding))]
+    per_pose = design_preload(robot, sources, attaining, c, h, margin=margin).size
+    b = max_pose_errors(robot, sources, base, details=True)
+    offsets = np.einsum("nij,j->ni", b.generators, -pattern)
+    reached = _reached_patterns(_intensity_map(robot, base), c, h, margin)
+    errors = np.einsum("nij,kj->nki", b.generators, -_PATTERNS)
+    masked = np.where(reached[..., None], errors, np.nan)
+    width = np.nanmax(masked, axis=1) - np.nanmin(masked, axis=1)
+    return RegionPreload(region=region.describe(), center=c, half=h, wrench=P, size=size, pattern=pattern,
+                         attaining=attaining, per_pose_size=float(per_pose), min_intensity=float(np.min(slack)),
+                         n_design=int(design.shape[0]), n_check=int(check.shape[0]),
+                         offset_max=np.max(np.abs(offsets), axis=0),
+                         worst_max=np.array([np.max(b.dx_max), np.max(b.dy_max), np.max(b.dphi_max)]),
+                         range_without=np.max(width, axis=0), certified_wrench=cert_wrench,
+                         certified_size=cert_size, certified_boxes=int(cert_boxes))
+
+
+def _refine(robot: Manipulator, region, starts: np.ndarray, step: np.ndarray, P, s, c, h,
+            max_condition: float) -> np.ndarray:
+    """Local minima ``(k, 3)`` of the slack (:func:`_slack`) near ``starts`` ``(k, 3)``: a 7 x 7 x 7 pattern of
+    poses ``+- step`` around each (``step`` ``(3,)`` mm, mm, rad), kept inside the region, the joint ranges and
+    away from singularities, the best taken and the pattern shrunk by 3, five times (vectorized)."""
+    lo = np.array([region.x[0], region.y[0], region.phi[0]])
+    hi = np.array([region.x[1], region.y[1], region.phi[1]])
+    offsets = np.stack(np.meshgrid(*[np.linspace(-1.0, 1.0, 7)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    best = starts.copy()
+    value = _slack(robot, best, P, s, c, h)
+    step = np.asarray(step, dtype=float).copy()
+    for _ in range(5):
+        cand = (best[:, None, :] + offsets[None] * step).reshape(-1, 3)
+        cand = np.clip(cand, lo, hi)
+        owner = np.repeat(np.arange(best.shape[0]), offsets.shape[0])
+        ok = region.contains(cand[:, 0], cand[:, 1]) & inverse_kinematics(robot, cand).within_limits
+        ok[ok] = regular_mask(robot, cand[ok], max_condition)
+        if np.any(ok):
+            vals = _slack(robot, cand[ok], P, s, c, h)
+            for k in range(best.shape[0]):
+                mine = owner[ok] == k
+                if np.any(mine) and vals[mine].min() < value[k]:
+                    j = int(np.argmin(np.where(mine, vals, np.inf)))
+                    best[k], value[k] = cand[ok][j], vals[j]
+        step /= 3.0
+    return best
+
+
+# ----------------------------------------------------------------------------- certificate of a region preload
+#: Relative widening of interval lower bounds of the certificate (covers floating-point rounding).
+_ROUNDING = 1e-9
+
+
+def _box_intensities(robot: Manipulator, boxes: np.ndarray, sigmas, P: np.ndarray, s: np.ndarray, c: np.ndarray,
+                     h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower bounds ``(n,)`` (N) of ``min_i s_i lambda_i`` over boxes of poses ``(n, 6)`` ``[x0, x1, y0, y1, phi0,
+    phi1]`` and every wrench ``P + W``, ``W`` in the box ``c +- h``; also ``infeasible (n,)`` (no pose of the box
+    is in the workspace) and ``det_zero (n,)`` (``det A`` may vanish: no bound).
+
+    ``lambda = -A^{-T} (P + W)``, i.e. ``lambda_i = -sum_r adj(A)[r, i] (P + W)_r / det A``, with the rows of
+    ``A`` over the box from the closed forms of :func:`pmaccuracy.accuracy.interval.leg_box_state` (the
+    adjugate and determinant enclosed as in :func:`pmaccuracy.accuracy.interval.box_maxima_once`: trigonometric
+    polynomials and interval products, intersected); ``P + W`` is an interval vector, which each term uses once.
+    """
+    x, y, phi = Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5])
+    n = boxes.shape[0]
+    infeasible = np.zeros(n, dtype=bool)
+    rows, rows_iv = [], []
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        gvar = [phi]
+        for i, (chain, sigma) in enumerate(zip(robot.chains, sigmas)):
+            lb = leg_box_state(chain, x, y, phi, sigma, 1e-9)
+            infeasible |= lb.infeasible
+            index = (0, 1 + 3 * i, 2 + 3 * i, 3 + 3 * i)
+            gvar.extend(lb.var[1:])
+            fx, fy = t_parts(lb.f)
+            rows.append(tuple(t.remap(index, 10) for t in (fx, fy, lb.m_P_trig)))
+            fc = v_cv(lb.f, lb.var)
+            rows_iv.append((fc.re, fc.im, lb.m_P))
+
+        def meet(a: Iv, b: Iv) -> Iv:
+            return Iv(np.maximum(a.lo, b.lo), np.minimum(a.hi, b.hi))
+
+        adj = [[None] * 3 for _ in range(3)]        # adj[r][i] = cofactor of A[i, r]
+        for i in range(3):
+            ri = [k for k in range(3) if k != i]
+            for r in range(3):
+                cc = [k for k in range(3) if k != r]
+                m = rows[ri[0]][cc[0]] * rows[ri[1]][cc[1]] - rows[ri[0]][cc[1]] * rows[ri[1]][cc[0]]
+                mi = rows_iv[ri[0]][cc[0]] * rows_iv[ri[1]][cc[1]] - rows_iv[ri[0]][cc[1]] * rows_iv[ri[1]][cc[0]]
+                sign = 1.0 if (i + r) % 2 == 0 else -1.0
+                adj[r][i] = (m * sign, mi * sign)
+        det_t = rows[0][0] * adj[0][0][0] + rows[0][1] * adj[1][0][0] + rows[0][2] * adj[2][0][0]
+        det_i = rows_iv[0][0] * adj[0][0][1] + rows_iv[0][1] * adj[1][0][1] + rows_iv[0][2] * adj[2][0][1]
+        det = meet(det_t.iv(gvar), det_i)
+        adj_iv = [[meet(adj[r][i][0].iv(gvar), adj[r][i][1]) for i in range(3)] for r in range(3)]
+        det_zero = det.contains_zero() | ~np.isfinite(det.lo) | ~np.isfinite(det.hi)
+        V = [Iv(np.full(n, P[r] + c[r] - h[r]), np.full(n, P[r] + c[r] + h[r])) for r in range(3)]
+        lower = np.full(n, np.inf)
+        for i in range(3):
+            num = adj_iv[0][i] * V[0] + adj_iv[1][i] * V[1] + adj_iv[2][i] * V[2]
+            q = (num * float(-s[i])) / det
+            lower = np.minimum(lower, q.lo - _ROUNDING * np.maximum(np.abs(q.lo), np.abs(q.hi)))
+    lower = np.where(det_zero | np.isnan(lower), -np.inf, lower)
+    return lower, infeasible, det_zero
+
+
+def certify_preload(robot: Manipulator | str, region, wrench, pattern, center, half, *, max_boxes: int = 400_000,
+                    max_condition: float = DEFAULT_MAX_CONDITION) -> tuple[bool, int, np.ndarray | None]:
+    """Prove that the preload ``wrench`` ``(3,)`` [N, N, N mm] keeps every leg's intensity strictly on the side
+    ``pattern`` ``(3,)`` for every process wrench of the box ``center +- half`` at every pose of ``region`` (a
+    :class:`~pmaccuracy.accuracy.global_worst.Region`, intersected with the workspace), by branch and bound on
+    interval enclosures of the intensities over boxes of poses (:func:`_box_intensities`, rigorous up to a
+    relative ``1e-9`` for rounding). A box is closed when its lower bound of ``min_i s_i lambda_i`` is positive,
+    or when it is proved outside the workspace or the region's shape; the others are bisected along their
+    widest side (phi times the robot's size).
+
+    Returns ``(certified, boxes evaluated, counterexample)``: ``certified`` False with a pose ``(3,)`` of the
+    region where a contact does flip (the box centres are evaluated exactly), or with None when ``max_boxes``
+    was spent first.
+    """
+    robot = robot_arg(robot)
+    c, h = _box(center, half)
+    P = np.asarray(wrench, dtype=float).reshape(3)
+    s = np.asarray(pattern, dtype=float).reshape(3)
+    sample = _region_poses(robot, region, 5, 3)
+    sample = sample[regular_mask(robot, sample, max_condition)] if sample.shape[0] else sample
+    start = sample[0] if sample.shape[0] else np.array([region.x[0], region.y[0], region.phi[0]])
+    sigmas = leg_branches(robot, start)
+    scale = np.array([1.0, 1.0, robot.characteristic_length])
+    boxes = np.array([[*region.x, *region.y, *region.phi]])
+    n_boxes = 0
+    while boxes.shape[0]:
+        if region.shape is not None:
+            boxes = boxes[region.shape.classify(boxes[:, :4]) != OUTSIDE]
+            if not boxes.shape[0]:
+                break
+        n_boxes += boxes.shape[0]
+        lower, infeasible, _ = _box_intensities(robot, boxes, sigmas, P, s, c, h)
+        boxes = boxes[~infeasible & ~(lower > 0)]
+        if not boxes.shape[0]:
+            break
+        pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])
+        ok = region.contains(pts[:, 0], pts[:, 1]) & inverse_kinematics(robot, pts).within_limits
+        ok[ok] = regular_mask(robot, pts[ok], max_condition)
+        if np.any(ok):
+            slack = _slack(robot, pts[ok], P, s, c, h)
+            if np.any(slack <= 0):
+                return False, n_boxes, pts[ok][int(np.argmin(slack))]
+        if n_boxes + 2 * boxes.shape[0] > max_boxes:
+            return False, n_boxes, None
+        sizes = np.column_stack([boxes[:, 1] - boxes[:, 0], boxes[:, 3] - boxes[:, 2],
+                                 boxes[:, 5] - boxes[:, 4]]) * scale
+        axis = np.argmax(sizes, axis=1)
+        rows = np.arange(boxes.shape[0])
+        mid = 0.5 * (boxes[rows, 2 * axis] + boxes[rows, 2 * axis + 1])
+        left, right = boxes.copy(), boxes.copy()
+        left[rows, 2 * axis + 1] = mid
+        right[rows, 2 * axis] = mid
+        boxes = np.concatenate([left, right])
+    return True, n_boxes, None
+
+
+__all__ = ["DEFAULT_THRESHOLD_N", "G0", "LOADED_MAP_VARIABLES", "Load", "LoadedError", "Preload", "RegionPreload",
+           "Statics", "WRENCH_SET_MAP_VARIABLES", "WrenchSetErrors", "certify_preload", "design_preload",
+           "design_region_preload",
+           "loaded_error_map", "loaded_pose_error", "statics", "wrench_rows", "wrench_set_errors", "wrench_set_map"]

@@ -44,13 +44,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+#: Default grid of ``load --map`` and ``preload --map``.
+MAP_GRID = 41
+
+
 def add_map_options(p: argparse.ArgumentParser, what: str) -> None:
     """``--map``, ``--grid``, ``--phi-deg``, ``--out`` and the region (``--workspace``, ``--box``, ``--disc``,
     ``--polygon``) of ``load --map`` and ``preload``."""
     from .worst_cmd import add_shape
 
     p.add_argument("--map", action="store_true", help=what)
-    p.add_argument("--grid", type=_common.positive_int, default=41, metavar="N",
+    p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
                    help="with --map: N x N grid over the workspace's bounding box (default: 41)")
     p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", default=None, metavar="PHI",
                    help="platform orientation(s) in degrees of the map (default: 0)")
@@ -70,6 +74,7 @@ def check_map_options(args: argparse.Namespace, *, region_design: bool = False) 
                               key="--map")
         if not args.out:
             raise ConfigError("--map needs --out FILE.nc or FILE.csv", key="--out")
+        args.grid = MAP_GRID if args.grid is None else args.grid
         if args.grid < 2:
             raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
         _common.check_grid_memory(len(args.phi_deg or [0.0]), args.grid, "--grid")
@@ -77,7 +82,7 @@ def check_map_options(args: argparse.Namespace, *, region_design: bool = False) 
         return
     if region_design and not poses:
         return
-    for key, given in (("--out", args.out), ("--phi-deg", args.phi_deg),
+    for key, given in (("--out", args.out), ("--phi-deg", args.phi_deg), ("--grid", args.grid),
                        (shape_key(args), shape_key(args) != "--workspace" or args.workspace)):
         if given:
             raise ConfigError("goes with --map" + (" (or, without poses, the preload over a region)"

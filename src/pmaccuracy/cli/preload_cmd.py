@@ -27,7 +27,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "(flipping_legs), written to --out (.nc or .csv)")
     _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
                         "error's range without preload beside the constant offset with it and the worst case")
+    p.add_argument("--certify", action=argparse.BooleanOptionalAction, default=True,
+                   help="without poses: prove the preload over the whole region by interval branch and bound "
+                        "(certified_size_N; default: on)")
+    p.add_argument("--phi-steps", type=_common.positive_int, default=5, metavar="K",
+                   help="without poses: orientations sampled over the --phi-deg LO HI interval (default: 5)")
     _common.add_format(p)
+    p.epilog = ((p.epilog or "") + " Without poses and without --map: the smallest constant preload for every "
+                "process wrench of the box at every pose of the region (--workspace, default, --box, --disc, "
+                "--polygon; --phi-deg PHI or LO HI): a linear program over a --grid N x N (default 21) by "
+                "--phi-steps sample, checked on a twice denser sample and refined at its worst poses.").strip()
     p.set_defaults(func=run)
 
 
@@ -39,10 +48,13 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..model.plausibility import force_messages, warn
 
-    check_map_options(args)
+    check_map_options(args, region_design=True)
+    if args.phi_deg is not None and not args.map and len(args.phi_deg) > 2:
+        raise ConfigError(f"the region's orientations: expected PHI or LO HI in degrees, got {len(args.phi_deg)} "
+                          "values", key="--phi-deg")
     plot = _common.check_plot(args)
-    if plot and args.map:
-        raise ConfigError("draws one pose: give --pose, not --map", key="--plot")
+    if plot and not (args.pose or args.poses_csv):
+        raise ConfigError("draws one pose: give --pose (not with --map or a region)", key="--plot")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
@@ -57,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
     center, half = (lo + hi) / 2, (hi - lo) / 2
     if args.map:
         return run_map(args, robot, clearances, center, half)
+    if not (args.pose or args.poses_csv):
+        return run_region(args, robot, clearances, center, half)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     ranges = wrench_set_errors(robot, clearances, poses, center, half)
     rows = []
@@ -95,4 +109,33 @@ def run_map(args: argparse.Namespace, robot, clearances, center, half) -> int:
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit(write_map(ds, args.out), args.format)
+    return 0
+
+
+#: Default grid of the preload over a region.
+REGION_GRID = 21
+
+
+def run_region(args: argparse.Namespace, robot, clearances, center, half) -> int:
+    """``preload`` over a region: one constant preload for every pose of it (``design_region_preload``)."""
+    import numpy as np
+
+    from ..accuracy.global_worst import make_region
+    from ..accuracy.loads import design_region_preload
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from .worst_cmd import parse_shape, shape_key
+
+    grid = REGION_GRID if args.grid is None else args.grid
+    if grid < 2:
+        raise ConfigError(f"needs at least 2 points per axis, got {grid}", key="--grid")
+    phi = list(args.phi_deg or [0.0])
+    phi = phi * 2 if len(phi) == 1 else phi
+    _common.check_grid_memory(2 * args.phi_steps, 2 * grid, "--grid")
+    region = make_region(robot, tuple(np.radians(phi)), parse_shape(args))
+    try:
+        res = design_region_preload(robot, clearances, region, center, half, grid=grid, n_phi=args.phi_steps,
+                                   certify=args.certify)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    _common.emit([res.record()], args.format)
     return 0
