@@ -97,6 +97,8 @@ def _calls():
                                                               exact=False),
         "wrench_set_errors": lambda phi: pm.wrench_set_errors(PPR, "case1", _pose(phi), [1.0, 0, 0], [1.0, 1, 1]),
         "design_preload": lambda phi: pm.design_preload(PPR, "case1", _pose(phi)[0], [0.0, 0, 0], [1.0, 1, 1]),
+        "loaded_error_map": lambda phi: pm.loaded_error_map(PPR, "case1", pm.Load(fx=1.0), [phi], n=5),
+        "wrench_set_map": lambda phi: pm.wrench_set_map(PPR, "case1", [0.0, 0, 0], [1.0, 1, 1], [phi], n=5),
     }
 
 
@@ -117,6 +119,9 @@ NO_ORIENTATION = {
     "write_calibration_csv": "a CalibrationData and a path", "identify": "a CalibrationData (read from a file)",
     "simulate_calibration": "a parameter vector and counts (poses are planned inside)",
     "compensate": "an Identification and targets: checked like plan_poses' candidates (tested there)",
+    "calibration_report": "an Identification and CalibrationData (read from files)",
+    "design_region_preload": "a Region, checked where it is made (make_region)",
+    "certify_preload": "a Region, checked where it is made (make_region)",
 }
 
 
