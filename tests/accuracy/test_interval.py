@@ -310,3 +310,37 @@ def test_mean_value_form_is_second_order_and_valid(kind, seed):
         assert np.all(up[0] >= best * (1 - 1e-12))
         over.append(np.max(up[0] / best - 1))
     assert over[1] < 3e-4 and over[1] < over[0] / 8
+
+
+@pytest.mark.parametrize("kind,seed", [("rpr", 3), ("rrr", 4), ("prr", 1), ("chain", 2), ("chain", 5)])
+def test_box_bounds_never_below_samples_on_random_robots(kind, seed):
+    # boxes of 0.05-8 mm and 0.05-8 deg about random poses near the nominal one, many straddling the edge of
+    # the workspace: the bound (the smaller of the natural enclosure and the mean-value form) must never be
+    # below the exact maxima at sampled reachable poses of the box
+    import error_reference as eref
+    import planar_reference as pref
+    from pmaccuracy.accuracy.interval import box_bounds
+    from pmaccuracy.model.sources import ErrorSources
+    rng = np.random.default_rng(100 + seed)
+    gen = {"rpr": pref.random_rpr, "rrr": pref.random_rrr, "prr": pref.random_prr, "chain": pref.random_chain}
+    data, nom = gen[kind](np.random.default_rng(seed))
+    robot = Manipulator.from_dict(data, source="random")
+    src = ErrorSources.from_dict(eref.random_clearances(np.random.default_rng(seed), eref.load_robot(data))[0])
+    n = 60
+    half = np.exp(rng.uniform(np.log(0.025), np.log(4.0), (n, 1))) * np.array([1.0, 1.0, np.radians(1.0)])
+    centres = nom + rng.uniform(-1, 1, (n, 3)) * np.array([25.0, 25.0, np.radians(12)])
+    boxes = np.column_stack([centres - half, centres + half])[:, [0, 3, 1, 4, 2, 5]]
+    upper, infeasible, _, share = box_bounds(robot, src, boxes, leg_branches(robot, nom))
+    pts = centres[:, None, :] + rng.uniform(-1, 1, (n, 150, 3)) * half[:, None, :]
+    pts[:, :8] = centres[:, None, :] + np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * half[:, None, :]
+    flat = pts.reshape(-1, 3)
+    inside = inverse_kinematics(robot, flat).within_limits
+    vals = np.full((flat.shape[0], 4), -np.inf)
+    b = max_pose_errors(robot, src, flat[inside], singular="nan", max_condition=np.inf)
+    vals[inside] = np.nan_to_num(np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max]), nan=-np.inf)
+    best = np.max(vals.reshape(n, 150, 4), axis=1)
+    has = np.isfinite(best[:, 0])
+    assert has.sum() >= 10
+    assert not np.any(infeasible & has)
+    assert np.all(upper[has] >= best[has] * (1 - 1e-9))
+    assert np.any(np.isfinite(share))   # the mean-value form took part
