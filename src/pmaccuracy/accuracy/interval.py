@@ -328,15 +328,26 @@ def box_bounds(robot, sources: ErrorSources, boxes: np.ndarray, sigmas: tuple[fl
     make ``Q`` non-smooth), ``G`` from the closed forms differentiated in interval arithmetic
     (:class:`pmaccuracy.numerics.interval.GIv`); its overestimation shrinks like ``w^2``. ``G`` is
     ``inf`` wherever a closed form is not smooth over the whole box (a square root or ``1/x`` at 0, the box
-    cut by a joint range or the reach); ``Q(c)`` is :func:`box_maxima_once` at the centre (``inf`` if the
-    centre is not feasible). Both hold, the smaller is returned.
+    cut by a joint range or the reach: such boxes keep the natural bound only); ``Q(c)`` is
+    :func:`box_maxima_once` at the centre (``inf`` if the centre is not feasible). For ``dp``, the largest of
+    the four sign patterns' norms of Eq. 22, each pattern gets its own form and the largest is taken. Both
+    bounds hold, the smaller is returned.
 
     ``threshold`` ``(n, 4)`` (optional): the mean-value form is only evaluated for the boxes whose natural
     enclosure exceeds it for some quantity (the others are closed already; it costs several natural ones).
 
     The fourth output ``(n, 4, 3)``: ``G_j r_j`` divided by the bound (the share of the bound each side of
-    the box is responsible for; ``inf`` where unknown or where the natural enclosure is the smaller), which the branch and bound
-    (:func:`pmaccuracy.accuracy.global_worst.global_worst`) uses to choose the side to bisect.
+    the box is responsible for; ``inf`` where unknown or where the natural enclosure is the smaller), which
+    the branch and bound (:func:`pmaccuracy.accuracy.global_worst.global_worst`) uses to choose the side to
+    bisect.
+
+    >>> from pmaccuracy.model.manipulator import Manipulator
+    >>> from pmaccuracy.accuracy.global_worst import as_sources
+    >>> robot = Manipulator.preset("symmetric_3rpr")
+    >>> box = np.array([[0.0, 0.2, 0.0, 0.2, 0.0, 0.002]])   # 0.2 x 0.2 mm x 0.11 deg
+    >>> upper, infeasible, det_zero, share = box_bounds(robot, as_sources(robot, "rpr_typical"), box, (1.0, 1.0, 1.0))
+    >>> bool(np.all(np.isfinite(share[0, :3])))   # the mean-value form is the smaller bound of dx, dy, dphi
+    True
 
     Then, in the boxes where a leg's
     turning angle ``t`` (its first angle variable, ``var[1]`` of :class:`LegBox`) has an enclosure much wider
