@@ -25,7 +25,8 @@ Branch and bound, for each quantity ``Q``:
 * a box whose upper bound is ``<= L (1 + gap)`` is closed (its bound is kept in
   ``U``); the others are bisected along the side whose term ``G_j r_j`` is the largest share of their open
   bounds where the mean-value form binds, else along their widest side (phi scaled by the characteristic
-  length), until none is left.
+  length), until none is left; while at most ``SMALL_BATCH / 4`` boxes are open each half is bisected once
+  more in the same round (fewer rounds of small batches).
 
 At the end ``U = max`` of the closed boxes' bounds, so ``L <= max_R Q <= U``
 and ``(U - L) / L <= gap``. Boxes whose ``det A`` interval keeps containing 0 down
@@ -65,6 +66,8 @@ ROUNDING = 1e-9
 ATOL = 1e-12
 #: Characteristic lengths per radian that turn a box's phi width into mm when choosing the side to split.
 PHI_SCALE = 1.0
+#: Below this many boxes a round of the branch and bound splits each open box in four (two bisections).
+SMALL_BATCH = 512
 
 
 class SingularRegionError(SingularPoseError):
@@ -430,24 +433,31 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         boxes, active, sizes, share = boxes[alive], active[alive], sizes[alive], share[alive]
         if not boxes.shape[0]:
             break
-        if n_boxes + 2 * boxes.shape[0] > max_boxes:
+        if n_boxes + (4 if 4 * boxes.shape[0] <= SMALL_BATCH else 2) * boxes.shape[0] > max_boxes:
             upper = upper[alive]
             closed_upper = np.maximum(closed_upper, np.max(np.where(active, upper, 0.0), axis=0))
             converged = ~np.any(active, axis=0)
             break
         # bisect each box along the side responsible for most of its open bounds (mean-value form), else
-        # along its widest (scaled) side
+        # along its widest (scaled) side; while few boxes are open, each half is bisected again (along the side
+        # that is then the largest) in the same round: fewer rounds of small batches
         smear = np.max(np.where(active[:, :, None], share, 0.0), axis=1)
         known = np.all(np.isfinite(smear), axis=1) & np.any(smear > 0, axis=1)
-        axis = np.where(known, np.argmax(np.where(np.isfinite(smear), smear, 0.0), axis=1), np.argmax(sizes, axis=1))
-        lo_idx, hi_idx = 2 * axis, 2 * axis + 1
-        rows = np.arange(boxes.shape[0])
-        mid = 0.5 * (boxes[rows, lo_idx] + boxes[rows, hi_idx])
-        left, right = boxes.copy(), boxes.copy()
-        left[rows, hi_idx] = mid
-        right[rows, lo_idx] = mid
-        boxes = np.concatenate([left, right])
-        active = np.concatenate([active, active])
+        weight = np.where(known[:, None], np.where(np.isfinite(smear), smear, 0.0), sizes)
+        rounds = 2 if 4 * boxes.shape[0] <= SMALL_BATCH else 1
+        for _ in range(rounds):
+            axis = np.argmax(weight, axis=1)
+            lo_idx, hi_idx = 2 * axis, 2 * axis + 1
+            rows = np.arange(boxes.shape[0])
+            mid = 0.5 * (boxes[rows, lo_idx] + boxes[rows, hi_idx])
+            left, right = boxes.copy(), boxes.copy()
+            left[rows, hi_idx] = mid
+            right[rows, lo_idx] = mid
+            weight = weight.copy()
+            weight[rows, axis] *= 0.5   # the split side's share (or width) halves
+            boxes = np.concatenate([left, right])
+            active = np.concatenate([active, active])
+            weight = np.concatenate([weight, weight])
     if not np.any(np.isfinite(lower_pose)):
         raise EmptyWorkspaceError(f"{region.describe()}: no pose of the region is in the workspace")
     out = {}
