@@ -215,3 +215,132 @@ def test_box_maxima_tight_and_valid_at_the_serial_singular_boundary():
     assert not np.any(infeasible & has)
     assert np.all(upper[has] >= best[has] * (1 - 1e-9))
     assert np.all(upper[straddle] <= best[straddle] * 1.005)
+
+
+# ------------------------------------------------------------------- derivatives (mean-value form)
+from pmaccuracy.numerics.interval import GIv, iv_arcsin, iv_max  # noqa: E402
+
+
+def _gx(a: Iv) -> GIv:
+    return GIv(a.lo, a.hi, (Iv(1.0), Iv(0.0), Iv(0.0)))
+
+
+def _fd(fn, x, h=1e-6):
+    return (fn(x + h) - fn(x - h)) / (2 * h)
+
+
+@pytest.mark.parametrize("op,fn,dom", [
+    (lambda a: iv_sqr(a) - a * 2.5, lambda x: x * x - 2.5 * x, None),
+    (lambda a: a * iv_cos(a * 3.0) + iv_sin(a), lambda x: x * np.cos(3 * x) + np.sin(x), None),
+    (lambda a: iv_sqrt(a) / (a + 1.0), lambda x: np.sqrt(x) / (x + 1), (0.5, 9)),
+    (lambda a: iv_arccos(a * 0.5) + iv_arcsin(a * 0.3), lambda x: np.arccos(x / 2) + np.arcsin(0.3 * x), (-1.5, 1.5)),
+    (lambda a: iv_abs(a - 0.3) + iv_max(a, 1.0 - a), lambda x: np.abs(x - 0.3) + np.maximum(x, 1 - x), None),
+    (lambda a: cv_angle(Cv(a, iv_sqr(a) + 2.0)), lambda x: np.arctan2(x * x + 2, x), None),
+])
+def test_derivative_enclosures_contain_finite_differences(op, fn, dom):
+    a = random_intervals(scale=4.0)
+    if dom is not None:
+        a = Iv(np.clip(a.lo, *dom), np.clip(a.hi, *dom))
+    out = op(_gx(a))
+    assert contains(Iv(out.lo, out.hi), fn(samples(a)))                  # values still enclosed
+    x = samples(a, 50)
+    d = out.d[0]
+    # finite differences at interior points (abs and max have kinks: their one-sided slopes are in the hull)
+    assert contains(Iv(d.lo - 1e-5, d.hi + 1e-5), _fd(fn, x))
+    assert np.all(out.d[1].lo == 0) and np.all(out.d[2].hi == 0)
+
+
+def test_a_cut_or_a_square_root_at_zero_makes_the_derivative_unknown():
+    from pmaccuracy.numerics.interval import iv_intersect
+    a = _gx(Iv(np.array([0.0, 1.0, -1.0]), np.array([2.0, 2.0, 0.5])))
+    cut = iv_intersect(a, 0.5, 10.0)
+    assert np.isinf(cut.d[0].hi[0]) and np.isfinite(cut.d[0].hi[1])      # [0, 2] was cut, [1, 2] was not
+    root = iv_sqrt(a)
+    assert np.isinf(root.d[0].hi[0]) and np.isfinite(root.d[0].hi[1])
+
+
+def _random_robot(kind, seed):
+    import error_reference as eref
+    import planar_reference as pref
+    from pmaccuracy.model.sources import ErrorSources
+    rng = np.random.default_rng(seed)
+    data, nominal = {"rpr": pref.random_rpr, "rrr": pref.random_rrr, "prr": pref.random_prr}[kind](rng)
+    clear, _ = eref.random_clearances(rng, eref.load_robot(data))
+    return Manipulator.from_dict(data, source="random"), ErrorSources.from_dict(clear), nominal
+
+
+@pytest.mark.parametrize("kind,seed", [("rpr", 7), ("rrr", 1), ("prr", 2)])
+def test_box_slopes_bound_finite_differences_of_the_exact_maxima(kind, seed):
+    from pmaccuracy.accuracy.interval import box_maxima_once
+    robot, src, nom = _random_robot(kind, seed)
+    half = np.array([0.5, 0.5, np.radians(0.5)])
+    centres = nom + RNG.uniform(-4, 4, (12, 3)) * np.array([1, 1, np.radians(1)])
+    boxes = np.column_stack([centres - half, centres + half])[:, [0, 3, 1, 4, 2, 5]]
+    sig = leg_branches(robot, nom)
+    _, infeasible, _, _, slopes, _, _ = box_maxima_once(robot, src, boxes, sig, gradients=True)
+    assert np.isfinite(slopes).all() and not infeasible.any()
+    pts = centres[:, None, :] + RNG.uniform(-0.9, 0.9, (12, 20, 3)) * half
+    for j, h in enumerate((1e-5, 1e-5, 1e-7)):
+        step = np.zeros(3)
+        step[j] = h
+        plus = max_pose_errors(robot, src, (pts + step).reshape(-1, 3))
+        minus = max_pose_errors(robot, src, (pts - step).reshape(-1, 3))
+        fd = np.column_stack([(getattr(plus, f) - getattr(minus, f)) / (2 * h)
+                              for f in ("dx_max", "dy_max", "dphi_max", "dp_max")]).reshape(12, 20, 4)
+        bound = slopes[:, None, :, j]
+        assert np.all(np.abs(fd) <= bound * (1 + 1e-4) + 1e-9), (kind, j)
+
+
+@pytest.mark.parametrize("kind,seed", [("rpr", 7), ("rrr", 0)])
+def test_mean_value_form_is_second_order_and_valid(kind, seed):
+    # boxes of width w inside the region: the natural enclosure is ~0.7-0.8 % above the sampled maximum per
+    # 0.1 mm (and 0.1 deg), linear in w; the mean-value form is far below that and shrinks like w^2
+    robot, src, nom = _random_robot(kind, seed)
+    sig = leg_branches(robot, nom)
+    over = []
+    for w in (0.4, 0.1):
+        h = np.array([w, w, np.radians(w)])
+        lo = nom + np.array([1.0, -2.0, 0.01])
+        box = np.array([[lo[0], lo[0] + h[0], lo[1], lo[1] + h[1], lo[2], lo[2] + h[2]]])
+        up, inf, _ = box_maxima(robot, src, box, sig)
+        g = np.linspace(0, 1, 7)
+        pts = np.stack(np.meshgrid(*(lo[j] + g * h[j] for j in range(3)), indexing="ij"), -1).reshape(-1, 3)
+        b = max_pose_errors(robot, src, pts)
+        best = np.max(np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max]), axis=0)
+        assert np.all(up[0] >= best * (1 - 1e-12))
+        over.append(np.max(up[0] / best - 1))
+    assert over[1] < 3e-4 and over[1] < over[0] / 8
+
+
+@pytest.mark.parametrize("kind,seed", [("rpr", 3), ("rrr", 4), ("prr", 1), ("chain", 2), ("chain", 5)])
+def test_box_bounds_never_below_samples_on_random_robots(kind, seed):
+    # boxes of 0.05-8 mm and 0.05-8 deg about random poses near the nominal one, many straddling the edge of
+    # the workspace: the bound (the smaller of the natural enclosure and the mean-value form) must never be
+    # below the exact maxima at sampled reachable poses of the box
+    import error_reference as eref
+    import planar_reference as pref
+    from pmaccuracy.accuracy.interval import box_bounds
+    from pmaccuracy.model.sources import ErrorSources
+    rng = np.random.default_rng(100 + seed)
+    gen = {"rpr": pref.random_rpr, "rrr": pref.random_rrr, "prr": pref.random_prr, "chain": pref.random_chain}
+    data, nom = gen[kind](np.random.default_rng(seed))
+    robot = Manipulator.from_dict(data, source="random")
+    src = ErrorSources.from_dict(eref.random_clearances(np.random.default_rng(seed), eref.load_robot(data))[0])
+    n = 60
+    half = np.exp(rng.uniform(np.log(0.025), np.log(4.0), (n, 1))) * np.array([1.0, 1.0, np.radians(1.0)])
+    centres = nom + rng.uniform(-1, 1, (n, 3)) * np.array([25.0, 25.0, np.radians(12)])
+    boxes = np.column_stack([centres - half, centres + half])[:, [0, 3, 1, 4, 2, 5]]
+    upper, infeasible, _, share = box_bounds(robot, src, boxes, leg_branches(robot, nom))
+    pts = centres[:, None, :] + rng.uniform(-1, 1, (n, 150, 3)) * half[:, None, :]
+    pts[:, :8] = centres[:, None, :] + np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * half[:, None, :]
+    flat = pts.reshape(-1, 3)
+    inside = inverse_kinematics(robot, flat).within_limits
+    vals = np.full((flat.shape[0], 4), -np.inf)
+    b = max_pose_errors(robot, src, flat[inside], singular="nan", max_condition=np.inf)
+    vals[inside] = np.nan_to_num(np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max]), nan=-np.inf)
+    best = np.max(vals.reshape(n, 150, 4), axis=1)
+    has = np.isfinite(best[:, 0])
+    assert has.sum() >= 10
+    assert not np.any(infeasible & has)
+    assert np.all(upper[has] >= best[has] * (1 - 1e-9))
+    assert np.any(np.isfinite(share))   # the mean-value form took part

@@ -167,3 +167,68 @@ def test_cli_template_without_effect_exits_2(tmp_path, capsys, mode):
     status, out, err = run(["synthesize", "--robot", "symmetric_3rpr", "--clearances", str(tpl), "--target",
                             "dp=0.1", "--region=-5,5,-5,5", "--mode", mode], capsys)
     assert status == 2 and err.count("\n") == 1 and "--target" in err and "affect" in err
+
+
+def test_uniform_mode_certifies_once_and_scales_that_certificate(monkeypatch):
+    import pmaccuracy.accuracy.synthesis as S
+    calls = []
+    real = S.global_worst
+
+    def counting(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(S, "global_worst", counting)
+    region = make_region(AALBORG, (np.radians(-5), np.radians(5)), None)
+    res = synthesize(AALBORG, region, TARGETS, mode="uniform")
+    assert len(calls) == 1 and res.certified
+    # against an independent certificate of the synthesized clearances and the exact maxima at the poses
+    fresh = global_worst(AALBORG, res.clearances, region)
+    for q, w in res.worst.quantities.items():
+        assert w.lower <= fresh[q].upper * (1 + 1e-12) and fresh[q].lower <= w.upper * (1 + 1e-12), q
+        b = max_pose_errors(AALBORG, res.clearances, w.pose[None])
+        exact = {"dx": b.dx_max, "dy": b.dy_max, "dphi": b.dphi_max, "dp": b.dp_max}[q][0]
+        assert exact == pytest.approx(w.lower, rel=1e-12), q
+    assert max(res.worst[q].upper / TARGETS[q] for q in TARGETS) == pytest.approx(1.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("mode", ["uniform", "min-cost"])
+def test_an_uncertified_worst_case_is_reported_with_its_gap(mode):
+    from pmaccuracy.model.plausibility import PlausibilityWarning
+    region = make_region(AALBORG, (np.radians(-30), np.radians(30)), None)
+    with pytest.warns(PlausibilityWarning, match=r"not within the requested gap of 0.1 % for .*dp \("):
+        res = synthesize(AALBORG, region, TARGETS, mode=mode, max_boxes=200)
+    assert not res.certified and "dp" in res.uncertified
+    assert all(g > 1e-3 for g in res.uncertified.values())
+    assert all(res.worst[q].gap == g for q, g in res.uncertified.items())
+    # the targets still hold: the result relies on the (valid) upper bounds
+    worst = dense_maxima(AALBORG, res.clearances, region, n=41)
+    for q, target in res.targets.items():
+        assert res.worst[q].upper <= target * (1 + 1e-12) and worst[q] <= target * (1 + 1e-12), q
+
+
+def test_cli_rows_say_whether_certified_and_the_gap(capsys):
+    import json
+    status, text, err = run(["synthesize", "--target", "dp=0.3", "--format", "json"], capsys)
+    assert status == 0, err
+    rows = {r["quantity"]: r for r in json.loads(text)["worst"]}
+    assert rows["dp"]["certified"] is True and 0 <= rows["dp"]["gap_pct"] <= 0.1
+    assert rows["dp"]["gap_pct"] == pytest.approx(100 * (rows["dp"]["upper"] - rows["dp"]["lower"]) / rows["dp"]["lower"],
+                                                  rel=1e-6)
+
+
+def test_cli_warns_in_one_line_when_the_certificate_stops_short(monkeypatch, capsys):
+    import pmaccuracy.accuracy.synthesis as S
+    real = S.global_worst
+
+    def short(*args, **kwargs):   # a budget too small for the certificate to reach its gap
+        kwargs["max_boxes"] = 200
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(S, "global_worst", short)
+    status, text, err = run(["synthesize", "--target", "dp=0.3", "--phi-deg", "-30", "30"], capsys)
+    assert status == 0
+    lines = [ln for ln in err.splitlines() if ln]
+    assert len(lines) == 1 and lines[0].startswith("pmaccuracy synthesize: warning: the certified worst case is not")
+    assert "dp (" in lines[0]
+    assert "False" in text   # the certificate table's certified column

@@ -15,12 +15,18 @@ Branch and bound, for each quantity ``Q``:
 * **lower bound** ``L``: the largest ``Q`` at the centres and corners of the
   boxes (and an initial grid) that are in the workspace, exact at those poses
   (:func:`~pmaccuracy.accuracy.bounds.max_pose_errors`); the pose attaining it is kept;
-* **upper bound** of a box: interval arithmetic on the closed forms
-  (:func:`pmaccuracy.accuracy.interval.box_maxima`), rigorous over the box's part in the
-  workspace, widened by a relative ``1e-9`` for rounding;
+* **upper bound** of a box: the smaller of the natural interval enclosure of the closed forms and
+  their mean-value form ``Q(c) + sum_j G_j r_j`` (centre ``c``, half-widths ``r``, slope bounds ``G`` from
+  the closed forms differentiated in interval arithmetic; :func:`pmaccuracy.accuracy.interval.box_bounds`),
+  rigorous over the box's part in the workspace, widened by a relative ``1e-9`` for rounding. The natural
+  enclosure overestimates by a fraction proportional to the box's width, the mean-value form by one
+  proportional to its square, so boxes near a flat maximum (over an orientation interval, or inside the box)
+  close without being split down to the gap;
 * a box whose upper bound is ``<= L (1 + gap)`` is closed (its bound is kept in
-  ``U``); the others are bisected along their widest side (phi scaled by the
-  characteristic length) until none is left.
+  ``U``); the others are bisected along the side whose term ``G_j r_j`` is the largest share of their open
+  bounds where the mean-value form binds, else along their widest side (phi scaled by the characteristic
+  length), until none is left; while at most ``SMALL_BATCH / 4`` boxes are open each half is bisected once
+  more in the same round (fewer rounds of small batches).
 
 At the end ``U = max`` of the closed boxes' bounds, so ``L <= max_R Q <= U``
 and ``(U - L) / L <= gap``. Boxes whose ``det A`` interval keeps containing 0 down
@@ -42,7 +48,7 @@ from .._display import html_table
 from ..errors import ConfigError, EmptyWorkspaceError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator
 from ..model.plausibility import check_orientations
-from .interval import Iv, box_maxima, leg_box_state
+from .interval import Iv, box_bounds, leg_box_state
 from .regions import OUTSIDE, Disc, Polygon, Rect, Shape
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
 from ..model.sources import ErrorSources, refuse_first_order_only
@@ -60,6 +66,8 @@ ROUNDING = 1e-9
 ATOL = 1e-12
 #: Characteristic lengths per radian that turn a box's phi width into mm when choosing the side to split.
 PHI_SCALE = 1.0
+#: Below this many boxes a round of the branch and bound splits each open box in four (two bisections).
+SMALL_BATCH = 512
 
 
 class SingularRegionError(SingularPoseError):
@@ -392,10 +400,11 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
             if not boxes.shape[0]:
                 break
         n_boxes += boxes.shape[0]
-        upper, infeasible, det_zero = box_maxima(robot, sources, boxes, sigmas)
+        threshold = np.where(active, lower * (1 + gap) + atol, np.inf) / (1 + ROUNDING)
+        upper, infeasible, det_zero, share = box_bounds(robot, sources, boxes, sigmas, threshold=threshold)
         upper = upper * (1 + ROUNDING)
         keep = ~infeasible
-        boxes, active, upper, det_zero = boxes[keep], active[keep], upper[keep], det_zero[keep]
+        boxes, active, upper, det_zero, share = boxes[keep], active[keep], upper[keep], det_zero[keep], share[keep]
         if not boxes.shape[0]:
             break
         pts = 0.5 * (boxes[:, 0::2] + boxes[:, 1::2])   # centres, and the workspace's corners at the best phis
@@ -421,24 +430,34 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         closed_upper = np.maximum(closed_upper, np.max(np.where(done, upper, 0.0), axis=0))
         active = active & ~done
         alive = np.any(active, axis=1)
-        boxes, active, sizes = boxes[alive], active[alive], sizes[alive]
+        boxes, active, sizes, share = boxes[alive], active[alive], sizes[alive], share[alive]
         if not boxes.shape[0]:
             break
-        if n_boxes + 2 * boxes.shape[0] > max_boxes:
+        if n_boxes + (4 if 4 * boxes.shape[0] <= SMALL_BATCH else 2) * boxes.shape[0] > max_boxes:
             upper = upper[alive]
             closed_upper = np.maximum(closed_upper, np.max(np.where(active, upper, 0.0), axis=0))
             converged = ~np.any(active, axis=0)
             break
-        # bisect each box along its widest (scaled) side
-        axis = np.argmax(sizes, axis=1)
-        lo_idx, hi_idx = 2 * axis, 2 * axis + 1
-        rows = np.arange(boxes.shape[0])
-        mid = 0.5 * (boxes[rows, lo_idx] + boxes[rows, hi_idx])
-        left, right = boxes.copy(), boxes.copy()
-        left[rows, hi_idx] = mid
-        right[rows, lo_idx] = mid
-        boxes = np.concatenate([left, right])
-        active = np.concatenate([active, active])
+        # bisect each box along the side responsible for most of its open bounds (mean-value form), else
+        # along its widest (scaled) side; while few boxes are open, each half is bisected again (along the side
+        # that is then the largest) in the same round: fewer rounds of small batches
+        smear = np.max(np.where(active[:, :, None], share, 0.0), axis=1)
+        known = np.all(np.isfinite(smear), axis=1) & np.any(smear > 0, axis=1)
+        weight = np.where(known[:, None], np.where(np.isfinite(smear), smear, 0.0), sizes)
+        rounds = 2 if 4 * boxes.shape[0] <= SMALL_BATCH else 1
+        for _ in range(rounds):
+            axis = np.argmax(weight, axis=1)
+            lo_idx, hi_idx = 2 * axis, 2 * axis + 1
+            rows = np.arange(boxes.shape[0])
+            mid = 0.5 * (boxes[rows, lo_idx] + boxes[rows, hi_idx])
+            left, right = boxes.copy(), boxes.copy()
+            left[rows, hi_idx] = mid
+            right[rows, lo_idx] = mid
+            weight = weight.copy()
+            weight[rows, axis] *= 0.5   # the split side's share (or width) halves
+            boxes = np.concatenate([left, right])
+            active = np.concatenate([active, active])
+            weight = np.concatenate([weight, weight])
     if not np.any(np.isfinite(lower_pose)):
         raise EmptyWorkspaceError(f"{region.describe()}: no pose of the region is in the workspace")
     out = {}

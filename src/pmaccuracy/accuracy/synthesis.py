@@ -46,7 +46,8 @@ from ..model import _tomlio
 from ..errors import ConfigError
 from ..model.clearances import ClearanceSet
 from ..model.manipulator import Manipulator
-from .global_worst import DEFAULT_GAP, GlobalWorst, Region, as_sources, global_worst
+from .global_worst import DEFAULT_GAP, GlobalWorst, QuantityWorst, Region, as_sources, global_worst
+from ..model.plausibility import PlausibilityWarning
 from ..kinematics import inverse_3x3, inverse_kinematics
 from ..model.sources import KEYS, ErrorSources, JointErrors, half_widths
 from ..io.resolve import load_clearances
@@ -204,6 +205,9 @@ class Synthesis:
     cost : ``sum b_j eps0_j / eps_j`` (min-cost; None for uniform)
     targets : ``{quantity: target}`` mm / rad;  worst : the certificate of the result
     cuts : cutting-plane rounds; poses : constraint poses at the end
+    certified : every targeted quantity's certificate reached the requested gap (:attr:`uncertified` lists
+    the others with their gaps; the result still meets the targets, since it relies on the upper bounds, but
+    may be up to that gap tighter than needed)
     """
 
     clearances: ErrorSources
@@ -217,6 +221,33 @@ class Synthesis:
     worst: GlobalWorst
     cuts: int
     poses: int
+
+    @property
+    def uncertified(self) -> dict[str, float]:
+        """``{quantity: gap}`` (relative) of the targeted quantities whose certificate did not reach the gap."""
+        return {q: self.worst[q].gap for q in self.targets if not self.worst[q].converged}
+
+    @property
+    def certified(self) -> bool:
+        return not self.uncertified
+
+
+def scaled_worst(worst: GlobalWorst, factor: float) -> GlobalWorst:
+    """The certificate of the clearances times ``factor > 0``: every quantity is homogeneous of degree 1 in
+    the sources' values (module docstring), so its lower and upper bounds scale by ``factor`` at the same
+    poses, with the same gap (no second branch and bound)."""
+    out = {q: QuantityWorst(name=w.name, lower=w.lower * factor, upper=w.upper * factor, pose=w.pose.copy(),
+                            gap=w.gap, converged=w.converged) for q, w in worst.quantities.items()}
+    return replace(worst, quantities=out)
+
+
+def _warn_uncertified(result: "Synthesis", target_gap: float) -> None:
+    bad = result.uncertified
+    if bad:
+        warnings.warn("the certified worst case is not within the requested gap of "
+                      f"{100 * target_gap:.3g} % for " + ", ".join(f"{q} ({100 * g:.3g} %)" for q, g in bad.items())
+                      + ": the clearances meet the targets (they rely on the upper bounds) but may be that much "
+                      "tighter than needed", PlausibilityWarning, stacklevel=3)
 
 
 def _region_grid(robot, region: Region, n: int) -> np.ndarray:
@@ -329,7 +360,7 @@ def targets_arg(targets) -> dict[str, float]:
 
 def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=None, template=None,
                costs=None, mode: str = "uniform", gap: float = DEFAULT_GAP, grid: int = 15, max_cuts: int = 10,
-               name: str | None = None) -> Synthesis:
+               name: str | None = None, max_boxes: int = 2_000_000) -> Synthesis:
     """Largest clearances meeting ``targets`` over ``region`` (:func:`pmaccuracy.accuracy.global_worst.make_region`),
     certified by the global worst case.
 
@@ -340,7 +371,11 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
     argument under its older name (give one of them). Without either, :func:`default_template`.
     ``mode="uniform"``: the template times the largest factor (module docstring);
     ``"min-cost"``: per-source values minimizing ``sum b_j eps0_j / eps_j`` with
-    the weights of ``costs`` (:func:`load_costs`: a file, or an array ``(m,)``).
+    the weights of ``costs`` (:func:`load_costs`: a file, or an array ``(m,)``). ``max_boxes``: the budget
+    of each certificate (:func:`~pmaccuracy.accuracy.global_worst.global_worst`); the uniform mode certifies
+    once, the template, and scales that certificate (:func:`scaled_worst`). Where a targeted quantity's
+    certificate stops short of ``gap`` the result says so (``certified``, ``uncertified``) and a
+    :class:`~pmaccuracy.model.plausibility.PlausibilityWarning` gives the gaps.
 
     Raises :class:`ConfigError` naming the argument: ``region`` not a :class:`Region` (clearances passed
     in its place, as the other functions' second argument: they go in ``clearances=``), ``clearances`` and
@@ -364,7 +399,7 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
     name = name or f"synthesized_{robot.name}"
     tq = list(targets)
     if mode == "uniform":
-        base = global_worst(robot, tpl, region, gap=gap)
+        base = global_worst(robot, tpl, region, gap=gap, max_boxes=max_boxes)
         size = NO_EFFECT * float(np.max(_lengths(robot, sources)))
         L = robot.characteristic_length
         ratios = [targets[q] / base[q].upper for q in tq if base[q].upper * (L if q == "dphi" else 1.0) > size]
@@ -372,13 +407,14 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
             raise ConfigError("the template's sources do not affect the targeted errors", key="--target")
         scale = min(ratios)
         result = with_values(tpl, sources, eps0 * scale, name)
-        worst = global_worst(robot, result, region, gap=gap)
-        return Synthesis(result, sources, eps0 * scale, eps0, mode, float(scale), None, dict(targets), worst, 0,
-                         0)
+        out = Synthesis(result, sources, eps0 * scale, eps0, mode, float(scale), None, dict(targets),
+                        scaled_worst(base, float(scale)), 0, 0)
+        _warn_uncertified(out, gap)
+        return out
     weights = np.asarray(costs, dtype=float) if isinstance(costs, (list, tuple, np.ndarray)) else \
         load_costs(costs, tpl, sources)
     poses = _region_grid(robot, region, grid)
-    start = global_worst(robot, tpl, region, gap=gap)
+    start = global_worst(robot, tpl, region, gap=gap, max_boxes=max_boxes)
     poses = np.vstack([poses] + [start[q].pose[None] for q in tq])
     cuts = 0
     free = None
@@ -393,7 +429,7 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
                               "effect on the targeted errors in the region, kept at the template's value")
         z = _solve(lin, Mx, My, targets, weights, free)
         result = with_values(tpl, sources, eps0 * z, name)
-        worst = global_worst(robot, result, region, gap=gap)
+        worst = global_worst(robot, result, region, gap=gap, max_boxes=max_boxes)
         over = [q for q in tq if worst[q].upper > targets[q]]
         if not over or cuts >= max_cuts:
             break
@@ -407,10 +443,11 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
     if shrink < 1.0:
         z = z * shrink
         result = with_values(tpl, sources, eps0 * z, name)
-        worst = global_worst(robot, result, region, gap=gap)
-    return Synthesis(result, sources, eps0 * z, eps0, mode, None, float(weights[free] @ (1.0 / z[free])),
-                     dict(targets), worst,
-                     cuts, poses.shape[0])
+        worst = scaled_worst(worst, shrink)   # homogeneity: the same certificate, scaled
+    out = Synthesis(result, sources, eps0 * z, eps0, mode, None, float(weights[free] @ (1.0 / z[free])),
+                    dict(targets), worst, cuts, poses.shape[0])
+    _warn_uncertified(out, gap)
+    return out
 
 
 def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str:
@@ -430,5 +467,5 @@ def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str
     return "\n".join(lines) + "\n" + tomli_w.dumps(data)
 
 
-__all__ = ["TARGETS", "Synthesis", "parse_targets", "targets_arg", "synthesize", "free_sources", "pose_coefficients",
+__all__ = ["TARGETS", "Synthesis", "scaled_worst", "parse_targets", "targets_arg", "synthesize", "free_sources", "pose_coefficients",
            "clearance_toml", "load_costs", "default_template", "with_values", "JointErrors"]

@@ -69,8 +69,8 @@ def run(args: argparse.Namespace) -> int:
         f = np.degrees if q == "dphi" else float
         target = targets.get(q)
         worst.append({"quantity": q + ("_deg" if q == "dphi" else ""), "target": None if target is None else f(target),
-                      "lower": f(w.lower), "upper": f(w.upper), "x": w.pose[0], "y": w.pose[1],
-                      "phi_deg": np.degrees(w.pose[2])})
+                      "lower": f(w.lower), "upper": f(w.upper), "gap_pct": 100 * w.gap, "x": w.pose[0],
+                      "y": w.pose[1], "phi_deg": np.degrees(w.pose[2]), "certified": w.converged})
     if args.format == "json":
         _common.emit({"robot": robot.name, "mode": mode, "scale": res.scale, "cost": res.cost, "cuts": res.cuts,
                       "region": region.describe(), "sources": sources, "worst": worst}, "json")

@@ -66,8 +66,8 @@ class Iv:
         if not isinstance(other, Iv):
             s = np.asarray(other, dtype=float)
             return Iv(np.where(s >= 0, s * self.lo, s * self.hi), np.where(s >= 0, s * self.hi, s * self.lo))
-        p = (self.lo * other.lo, self.lo * other.hi, self.hi * other.lo, self.hi * other.hi)
         with np.errstate(invalid="ignore"):  # 0 * inf: the product's bound is then 0 or inf, see below
+            p = (self.lo * other.lo, self.lo * other.hi, self.hi * other.lo, self.hi * other.hi)
             lo = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3]))
             hi = np.maximum(np.maximum(p[0], p[1]), np.maximum(p[2], p[3]))
         return Iv(np.where(np.isnan(lo), -np.inf, lo), np.where(np.isnan(hi), np.inf, hi))
@@ -105,28 +105,46 @@ def iv_abs(a: Iv) -> Iv:
     """``|x|``: ``[0, max]`` when the interval contains 0."""
     m = np.maximum(np.abs(a.lo), np.abs(a.hi))
     lo = np.where(a.lo >= 0, a.lo, np.where(a.hi <= 0, -a.hi, 0.0))
-    return Iv(lo, m)
+    if not isinstance(a, GIv):
+        return Iv(lo, m)
+    pos, neg = a.lo > 0, a.hi < 0
+    return GIv(lo, m, tuple(Iv(np.where(pos, d.lo, np.where(neg, -d.hi, h.lo)), np.where(pos, d.hi, np.where(neg, -d.lo, h.hi)))
+                           for d, h in ((d, _hull_sym(d)) for d in a.d)))
 
 
 def iv_sqr(a: Iv) -> Iv:
     """``x^2`` (tighter than ``x * x``)."""
-    b = iv_abs(a)
-    return Iv(b.lo * b.lo, b.hi * b.hi)
+    b = iv_abs(_plain(a))
+    val = Iv(b.lo * b.lo, b.hi * b.hi)
+    return _chain(a, val, _plain(a) * 2.0) if isinstance(a, GIv) else val
 
 
 def iv_sqrt(a: Iv) -> Iv:
     """``sqrt(x)`` over the part ``x >= 0`` of the interval (the caller checks ``hi >= 0``)."""
-    return Iv(np.sqrt(np.maximum(a.lo, 0.0)), np.sqrt(np.maximum(a.hi, 0.0)))
+    val = Iv(np.sqrt(np.maximum(a.lo, 0.0)), np.sqrt(np.maximum(a.hi, 0.0)))
+    return _chain(a, val, (val * 2.0).reciprocal()) if isinstance(a, GIv) else val
 
 
 def iv_max(a: Iv, b: Iv) -> Iv:
     """``max(x, y)`` elementwise."""
-    return Iv(np.maximum(a.lo, b.lo), np.maximum(a.hi, b.hi))
+    val = Iv(np.maximum(a.lo, b.lo), np.maximum(a.hi, b.hi))
+    if not isinstance(a, GIv) and not isinstance(b, GIv):
+        return val
+    da, db = _ders(a), _ders(b)
+    first, second = a.lo > b.hi, b.lo > a.hi
+    return GIv.make(val, tuple(Iv(np.where(first, x.lo, np.where(second, y.lo, np.minimum(x.lo, y.lo))),
+                                  np.where(first, x.hi, np.where(second, y.hi, np.maximum(x.hi, y.hi))))
+                               for x, y in zip(da, db)))
 
 
 def iv_intersect(a: Iv, lo, hi) -> Iv:
-    """``a`` cut to ``[lo, hi]`` (empty where ``lo > hi`` afterwards: :meth:`Iv.empty`)."""
-    return Iv(np.maximum(a.lo, lo), np.minimum(a.hi, hi))
+    """``a`` cut to ``[lo, hi]`` (empty where ``lo > hi`` afterwards: :meth:`Iv.empty`). With derivatives
+    (:class:`GIv`): unknown (``(-inf, inf)``) where the cut removes part of ``a``."""
+    val = Iv(np.maximum(a.lo, lo), np.minimum(a.hi, hi))
+    if not isinstance(a, GIv):
+        return val
+    bite = (val.lo > a.lo) | (val.hi < a.hi)
+    return GIv.make(val, tuple(Iv(np.where(bite, -np.inf, d.lo), np.where(bite, np.inf, d.hi)) for d in a.d))
 
 
 def iv_cos(a: Iv) -> Iv:
@@ -136,7 +154,8 @@ def iv_cos(a: Iv) -> Iv:
     has_max = TWO_PI * np.ceil(a.lo / TWO_PI) <= a.hi
     has_min = TWO_PI * np.ceil((a.lo - np.pi) / TWO_PI) + np.pi <= a.hi
     full = (a.hi - a.lo) >= TWO_PI
-    return Iv(np.where(has_min | full, -1.0, lo), np.where(has_max | full, 1.0, hi))
+    val = Iv(np.where(has_min | full, -1.0, lo), np.where(has_max | full, 1.0, hi))
+    return _chain(a, val, -iv_sin(_plain(a))) if isinstance(a, GIv) else val
 
 
 def iv_sin(a: Iv) -> Iv:
@@ -146,7 +165,8 @@ def iv_sin(a: Iv) -> Iv:
 
 def iv_arccos(a: Iv) -> Iv:
     """``arccos(x)`` on ``[-1, 1]`` (decreasing; the interval is cut to ``[-1, 1]``)."""
-    return Iv(np.arccos(np.clip(a.hi, -1.0, 1.0)), np.arccos(np.clip(a.lo, -1.0, 1.0)))
+    val = Iv(np.arccos(np.clip(a.hi, -1.0, 1.0)), np.arccos(np.clip(a.lo, -1.0, 1.0)))
+    return _chain(a, val, -_inv_sqrt_one_minus_sqr(_plain(a))) if isinstance(a, GIv) else val
 
 
 class Cv:
@@ -238,7 +258,13 @@ def cv_angle(z: Cv) -> Iv:
     crosses = (z.re.hi < 0) & (z.im.lo < 0) & (z.im.hi >= 0)
     ang = np.where(crosses, np.mod(ang, TWO_PI), ang)
     zero = z.contains_zero()
-    return Iv(np.where(zero, -np.pi, ang.min(axis=0)), np.where(zero, 3 * np.pi, ang.max(axis=0)))
+    val = Iv(np.where(zero, -np.pi, ang.min(axis=0)), np.where(zero, 3 * np.pi, ang.max(axis=0)))
+    if not isinstance(z.re, GIv) and not isinstance(z.im, GIv):
+        return val
+    # d arg z = (re d im - im d re) / |z|^2
+    re, im = _plain(z.re), _plain(z.im)
+    inv = (iv_sqr(re) + iv_sqr(im)).reciprocal()
+    return GIv.make(val, tuple((re * di - im * dr) * inv for dr, di in zip(_ders(z.re), _ders(z.im))))
 
 
 def unit_cv(z: Cv) -> Cv:
@@ -477,4 +503,122 @@ def v_cv(a: Vec, var) -> Cv:
     return Cv(re, im)
 
 
-# ---------------------------------------------------------------------------------------------- legs
+# ---------------------------------------------------------------------------------------------- derivatives
+#: Number of pose variables ``(x, y, phi)`` whose partial derivatives :class:`GIv` carries.
+NV = 3
+
+
+def _plain(a) -> Iv:
+    return Iv(a.lo, a.hi) if isinstance(a, Iv) else Iv(a)
+
+
+def _ders(a) -> tuple:
+    """Derivative enclosures of an operand: a :class:`GIv`'s own; a plain :class:`Iv` of zero width is a
+    constant over the box (derivative 0), one of positive width was computed without derivatives
+    (``(-inf, inf)``: nothing known); a number is a constant."""
+    if isinstance(a, GIv):
+        return a.d
+    if isinstance(a, Iv):
+        unknown = np.where(a.lo == a.hi, 0.0, np.inf)
+        return (Iv(-unknown, unknown),) * NV
+    return (Iv(0.0),) * NV
+
+
+def _hull_sym(d: Iv) -> Iv:
+    m = np.maximum(np.abs(d.lo), np.abs(d.hi))
+    return Iv(-m, m)
+
+
+class GIv(Iv):
+    """Intervals with enclosures ``d`` of their partial derivatives with respect to the pose ``(x, y, phi)``
+    over the box (forward-mode differentiation in interval arithmetic), for the mean-value form
+    ``f(X) <= f(c) + sum_j max |df/dX_j| |X_j - c_j|`` (:func:`pmaccuracy.accuracy.interval.box_maxima`).
+
+    Every operation of :class:`Iv` and the functions of this module (``iv_abs``, ``iv_sqr``, ``iv_sqrt``,
+    ``iv_max``, ``iv_intersect``, ``iv_cos``, ``iv_sin``, ``iv_arccos``, ``iv_arcsin``, ``cv_angle``) carry the
+    derivatives by the chain rule (``|x|`` and ``max`` by the hull of their one-sided derivatives, Clarke's
+    generalized gradient). Where a value is unbounded in slope (``sqrt`` at 0, ``1/x`` at 0, ``arccos`` at
+    +-1, the angle of a rectangle holding 0) or a cut of :func:`iv_intersect` removes part of the enclosure
+    (the formula then only holds at part of the box), the derivative is ``(-inf, inf)``.
+
+    >>> x = GIv(np.array([1.0]), np.array([2.0]), d=(Iv(1.0), Iv(0.0), Iv(0.0)))
+    >>> p = x * x
+    >>> (float(p.d[0].lo[0]), float(p.d[0].hi[0]))
+    (2.0, 4.0)
+    """
+
+    __slots__ = ("d",)
+
+    def __init__(self, lo, hi=None, d=None):
+        super().__init__(lo, hi)
+        self.d = tuple(d) if d is not None else _ders(Iv(self.lo, self.hi))
+
+    @staticmethod
+    def make(val: Iv, d) -> "GIv":
+        return GIv(val.lo, val.hi, d)
+
+    def __add__(self, other):
+        if isinstance(other, (Cv, complex)):
+            return Cv._wrap(other) + self
+        return GIv.make(_plain(self) + _plain(other), tuple(a + b for a, b in zip(self.d, _ders(other))))
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return GIv.make(-_plain(self), tuple(-a for a in self.d))
+
+    def __sub__(self, other):
+        if isinstance(other, (Cv, complex)):
+            return Cv._wrap(self) - other
+        return GIv.make(_plain(self) - _plain(other), tuple(a - b for a, b in zip(self.d, _ders(other))))
+
+    def __rsub__(self, other):
+        return (-self) + other
+
+    def __mul__(self, other):
+        if isinstance(other, (Cv, complex)):
+            return Cv(self, Iv(0.0)) * other
+        a = _plain(self)
+        if not isinstance(other, Iv):
+            s = np.asarray(other, dtype=float)
+            return GIv.make(a * s, tuple(d * s for d in self.d))
+        b = _plain(other)
+        return GIv.make(a * b, tuple(da * b + a * db for da, db in zip(self.d, _ders(other))))
+
+    __rmul__ = __mul__
+
+    def reciprocal(self) -> "GIv":
+        r = _plain(self).reciprocal()
+        r2 = iv_sqr(r)
+        return GIv.make(r, tuple(-(d * r2) for d in self.d))
+
+    def __truediv__(self, other):
+        if not isinstance(other, Iv):
+            return self * (1.0 / np.asarray(other, dtype=float))
+        return self * (other.reciprocal() if isinstance(other, GIv) else GIv(other.lo, other.hi).reciprocal())
+
+    def magnitude(self) -> np.ndarray:
+        """``(..., NV)`` the largest ``|df/dX_j|`` over the box (inf where unknown)."""
+        out = [np.maximum(np.abs(d.lo), np.abs(d.hi)) for d in self.d]
+        out = [np.where(np.isnan(m), np.inf, m) for m in out]
+        return np.stack(np.broadcast_arrays(*out, self.lo), axis=-1)[..., :NV]
+
+
+def _chain(a, val: Iv, slope: Iv) -> Iv:
+    """``val`` with derivative ``slope * a'`` when ``a`` carries derivatives."""
+    if not isinstance(a, GIv):
+        return val
+    return GIv.make(val, tuple(d * slope for d in a.d))
+
+
+def iv_arcsin(a: Iv) -> Iv:
+    """``arcsin(x)`` on ``[-1, 1]`` (increasing; the interval is cut to ``[-1, 1]``)."""
+    val = Iv(np.arcsin(np.clip(a.lo, -1.0, 1.0)), np.arcsin(np.clip(a.hi, -1.0, 1.0)))
+    if not isinstance(a, GIv):
+        return val
+    return _chain(a, val, _inv_sqrt_one_minus_sqr(_plain(a)))
+
+
+def _inv_sqrt_one_minus_sqr(a: Iv) -> Iv:
+    w = 1.0 - iv_sqr(a)
+    return Iv(np.sqrt(np.maximum(w.lo, 0.0)), np.sqrt(np.maximum(w.hi, 0.0))).reciprocal()
