@@ -218,3 +218,49 @@ def test_bad_input():
         loaded_serial_error(arm, "arm_typical", [math.nan, 0.0, 0.0], Load(fx=1.0))
     assert "SerialStatics(1 pose" in repr(serial_statics(arm, [0.0, 0.0, 0.0], Load(fx=1.0)))
     assert "SerialLoadedError(1 pose" in repr(loaded_serial_error(arm, "arm_typical", [0.0, 0.0, 0.0], Load(fx=1.0)))
+
+
+def test_cli_serial_load_matches_the_library(capsys):
+    import json
+
+    from pmaccuracy.cli import main
+
+    assert main(["load", "--robot", "planar_3r_arm", "--joints", "30", "45", "-20", "--joints", "10", "20", "30",
+                 "--fx", "3", "--fy", "-20", "--m", "150", "--details", "--format", "json"]) == 0
+    recs = json.loads(capsys.readouterr().out)
+    q = np.radians([[30.0, 45.0, -20.0], [10.0, 20.0, 30.0]])
+    res = loaded_serial_error("planar_3r_arm", "arm_typical", q, Load(fx=3.0, fy=-20.0, m=150.0))
+    for i, rec in enumerate(recs):
+        assert rec["q2_deg"] == pytest.approx(np.degrees(q[i, 1]), rel=1e-12)
+        assert rec["dy"] == pytest.approx(float(res.first_order[i, 1]), rel=1e-12)
+        assert rec["dphi_deg_exact"] == pytest.approx(float(np.degrees(res.exact[i, 2])), rel=1e-12)
+        assert rec["tau1_Nmm"] == pytest.approx(float(res.statics.actuator[i, 0]), rel=1e-12)
+        assert rec["joint2.moment_Nmm"] == pytest.approx(float(res.statics.moment[i, 1]), rel=1e-12)
+        assert rec["joints[3].actuator"] == pytest.approx(float(res.values["joints[3].actuator"][i]), rel=1e-12)
+
+
+@pytest.mark.parametrize("argv, key", [
+    (["--joints", "30", "45", "-20"], "--fx"),                                          # zero load
+    (["--joints", "30", "45", "--fx", "1"], "--joints"),                                 # wrong count
+    (["--pose", "0", "0", "0", "--fx", "1"], "--pose"),
+    (["--joints", "30", "45", "-20", "--fx", "1", "--plot", "a.png"], "--plot"),
+    (["--joints", "30", "45", "-20", "--fx", "1", "--map"], "--map"),
+    (["--joints", "30", "45", "-20", "--fx", "1", "--mass", "-2"], "--mass"),
+    (["--joints", "30", "45", "-20", "--fx", "1", "--unloaded-below", "-1"], "--unloaded-below"),
+    (["--joints", "30", "45", "-20", "--fx", "1", "--clearances", "case1"], "case1"),
+    (["--joints", "300", "45", "-20", "--fx", "1"], "outside its range"),
+])
+def test_cli_serial_bad_input_one_line(capsys, argv, key):
+    from pmaccuracy.cli import main
+
+    assert main(["load", "--robot", "planar_3r_arm", *argv]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and key in err and "Traceback" not in err
+
+
+def test_cli_joints_with_a_parallel_robot(capsys):
+    from pmaccuracy.cli import main
+
+    assert main(["load", "--robot", "aalborg_3ppr", "--joints", "1", "2", "3", "--fx", "1"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--joints" in err and "serial" in err

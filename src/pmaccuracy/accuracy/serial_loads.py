@@ -167,8 +167,9 @@ def _statics(arm: SerialArm, q: np.ndarray, load: Load) -> SerialStatics:
     blocks = _block_centres(arm, q, centres, dirs)
     normal = np.where(is_r, 0.0, dot(force, 1j * dirs))
     block_moment = np.where(is_r, 0.0, -(m + cross(end[..., None] - blocks, f)))
-    return SerialStatics(joints=q, poses=poses, wrench=W, force=force, moment=moment, actuator=actuator,
-                         normal=normal, block_moment=block_moment)
+    z = 0.0     # + 0.0 turns the -0.0 of a zero load into 0.0 for display
+    return SerialStatics(joints=q, poses=poses, wrench=W, force=force + z, moment=moment + z, actuator=actuator + z,
+                         normal=normal + z, block_moment=block_moment + z)
 
 
 def _block_centres(arm: SerialArm, q: np.ndarray, centres: np.ndarray, dirs: np.ndarray) -> np.ndarray:
