@@ -264,3 +264,23 @@ def test_cli_joints_with_a_parallel_robot(capsys):
     assert main(["load", "--robot", "aalborg_3ppr", "--joints", "1", "2", "3", "--fx", "1"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "--joints" in err and "serial" in err
+
+
+def test_threshold_is_the_generalized_reaction():
+    """A P block's two segments are unloaded exactly when its end contact forces (statics, checked above against
+    virtual work) are at most the threshold; an R actuator when its torque is."""
+    arm = SerialArm((SerialJoint("R", 200.0), SerialJoint("P", 50.0), SerialJoint("R", 100.0)))
+    sources = SerialErrorSources((JointErrors(actuator=1e-3), JointErrors(lateral=0.01, block_length=40.0),
+                                  JointErrors(actuator=1e-3)))
+    q = np.array([0.4, 80.0, -0.7])
+    load = Load(fx=3.0, fy=-5.0, m=200.0)
+    st = serial_statics(arm, q, load)
+    contacts = np.abs(st.contact_forces(40.0)[1])
+    torque = abs(st.actuator[0])
+    for t, unloaded in ((0.999 * contacts.min(), 0), (1.001 * contacts.min(), 1), (1.001 * contacts.max(), 2)):
+        r = loaded_serial_error(arm, sources, q, load, threshold=t)
+        assert int(r.unloaded[1:3].sum()) == unloaded
+    r = loaded_serial_error(arm, sources, q, load, threshold=0.999 * torque)
+    assert not r.unloaded[0]
+    r = loaded_serial_error(arm, sources, q, load, threshold=1.001 * torque)
+    assert r.unloaded[0]

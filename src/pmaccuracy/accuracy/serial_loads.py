@@ -289,7 +289,7 @@ def loaded_serial_error(arm: SerialArm | str, sources, q, load: Load, *, thresho
     for key, (start, stop, _) in layout.segments.items():
         joint, name = key.split(".")
         half = getattr(src.joints[int(joint[7:-1]) - 1], name)
-        scale[start:stop] = half / 2 if name == "lateral" else half   # lateral: work / (eps/2) = an end contact force
+        scale[start:stop] = half     # G_s . W / eps: a moment, a force or (lateral) an end contact force
         names[start:stop] = [key] * (stop - start)
     with np.errstate(divide="ignore", invalid="ignore"):
         unloaded = np.abs(work) / scale <= threshold if m else np.zeros(work.shape, dtype=bool)
