@@ -284,3 +284,22 @@ def test_threshold_is_the_generalized_reaction():
     assert not r.unloaded[0]
     r = loaded_serial_error(arm, sources, q, load, threshold=1.001 * torque)
     assert r.unloaded[0]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_weight_from_its_potential(seed):
+    """The end link's weight: tau_k = dV/dq_k with V = -m g . r_com(q) (finite differences of SerialArm.forward
+    and the centre of mass turned with the end frame), plus the wrench's own -J^T W."""
+    arm, table, errs, sources, q, _ = random_case(300 + seed)
+    rng = np.random.default_rng(seed)
+    mass, com, gdeg = float(rng.uniform(0.1, 3)), tuple(rng.uniform(-80, 80, 2)), float(rng.uniform(-180, 180))
+    g = 9.80665 * mass * np.array([math.cos(math.radians(gdeg)), math.sin(math.radians(gdeg))])
+
+    def potential(qq):
+        x, y, phi = arm.forward(qq)
+        r = np.array([x, y]) + np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]]) @ com
+        return -g @ r
+
+    tau = np.array([(potential(q + h) - potential(q - h)) / 2e-5 for h in np.eye(arm.n) * 1e-5])
+    st = serial_statics(arm, q, Load(mass=mass, com=com, gravity_deg=gdeg))
+    np.testing.assert_allclose(st.actuator, tau, rtol=1e-6, atol=1e-6 * np.abs(tau).max())

@@ -192,8 +192,8 @@ class SerialLoadedError:
     coefficients : ``(..., m)``: ``a_s`` of the segments (0 where unloaded)
     unloaded : ``(..., m)`` bool per segment;  disk_unloaded : ``(...)`` bool (``|f| <= threshold``)
     spread : ``(..., 3)`` [mm, mm, rad]: half-width of the range the unloaded sources still span
-    values : per source key ``"joints[k].<key>"`` its value (mm or rad; ``lateral``: ``(..., 2)``
-        ``(sigma mm, tau rad)``; disks: ``(..., 2)`` ``(dx, dy)`` mm)
+    values : per source key ``"joints[k].<key>"`` the value the load drives it to (mm or rad; ``lateral``:
+        ``(..., 2)`` ``(sigma mm, tau rad)``; disks: ``(..., 2)`` ``(dx, dy)`` mm; 0 where unloaded)
     segment_keys : ``(m,)`` the source key of each segment;  disk_keys : the disks' source keys
     units : per joint the actuator effort's unit, ``"Nmm"`` (R) or ``"N"`` (P)
     """
