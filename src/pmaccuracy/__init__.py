@@ -73,6 +73,8 @@ _EXPORTS = {
                                            "WrenchSetErrors", "wrench_set_errors", "Preload", "design_preload",
                                            "loaded_error_map", "wrench_set_map", "RegionPreload",
                                            "design_region_preload", "certify_preload")},
+    **{name: "accuracy.serial_loads" for name in ("serial_statics", "SerialStatics", "loaded_serial_error",
+                                                  "SerialLoadedError")},
     # calibration and compensation (issue 23)
     "error_parameters": "accuracy.calibration.parameters", "ParameterVector": "accuracy.calibration.parameters",
     "CalibrationData": "accuracy.calibration.data", "read_calibration_csv": "accuracy.calibration.data",

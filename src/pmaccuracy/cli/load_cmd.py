@@ -16,7 +16,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "intensity, the actuator efforts and every joint's reaction; each clearance taken up along its "
                     "joint's reaction; the resulting pose error, first order and on the exact loop closure. Forces "
                     "in N, moments in N mm about the platform centre, base frame; poses x mm, y mm, phi deg.")
-    add_robot_clearances_poses(p)
+    add_robot_clearances_poses(p, serial=True)
+    p.add_argument("--joints", nargs="+", type=_common.finite_float, action="append", metavar="Q",
+                   help="serial arms (architecture = \"serial\", preset planar_3r_arm) instead of --pose: the joint "
+                        "values base to tip, deg for R, mm for P (repeatable); the load then acts on the end link, "
+                        "--m about the end point, --com in the end frame")
     p.add_argument("--fx", type=_common.finite_float, default=0.0, help="force on the platform along x (N)")
     p.add_argument("--fy", type=_common.finite_float, default=0.0, help="force on the platform along y (N)")
     p.add_argument("--m", type=_common.finite_float, default=0.0, metavar="M",
@@ -111,11 +115,15 @@ def write_map(ds, out: str) -> list[dict]:
     return rows
 
 
-def add_robot_clearances_poses(p: argparse.ArgumentParser) -> None:
-    """``--robot``, ``--clearances`` (default case2) and the poses (``--pose``, ``--poses-csv``) of ``load`` and
-    ``preload``."""
+def add_robot_clearances_poses(p: argparse.ArgumentParser, serial: bool = False) -> None:
+    """``--robot``, ``--clearances`` (default case2; with ``serial``, arm_typical for a serial arm) and the poses
+    (``--pose``, ``--poses-csv``) of ``load`` and ``preload``."""
     _common.add_robot(p)
-    p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
+    if serial:
+        p.add_argument("--clearances", default=None,
+                       help="clearance preset or file (default: case2; for a serial arm arm_typical)")
+    else:
+        p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
     p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
                    help="a commanded pose (repeatable)")
     p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
@@ -127,6 +135,12 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..model.plausibility import force_messages, orientation_messages, warn
 
+    from . import serial_cmd
+
+    if serial_cmd.is_serial_robot(args.robot):   # architecture = "serial": joint values instead of poses
+        return run_serial(args)
+    serial_cmd.refuse_joints(args)
+    args.clearances = "case2" if args.clearances is None else args.clearances
     check_map_options(args)
     if args.exact and not args.map:
         raise ConfigError("goes with --map (the poses' output always has the exact columns)", key="--exact")
@@ -209,4 +223,66 @@ def run_map(args: argparse.Namespace, robot, clearances) -> int:
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit(write_map(ds, args.out), args.format)
+    return 0
+
+
+def run_serial(args: argparse.Namespace) -> int:
+    """``load`` for a serial arm: statics and loaded end-effector error at ``--joints`` configurations."""
+    from ..accuracy.loads import G0, Load
+    from ..accuracy.serial_loads import loaded_serial_error
+    from ..errors import ConfigError
+    from ..model.plausibility import force_messages, orientation_messages, warn
+    from ..model.serial import SerialArm, load_serial_sources
+    from .serial_cmd import _joint_values
+    from .worst_cmd import shape_key
+
+    for option, given in (("--pose", args.pose), ("--poses-csv", args.poses_csv), ("--map", args.map),
+                          ("--plot", args.plot), ("--magnify", args.magnify is not None), ("--exact", args.exact),
+                          ("--out", args.out), ("--grid", args.grid), ("--phi-deg", args.phi_deg),
+                          (shape_key(args), shape_key(args) != "--workspace" or args.workspace)):
+        if given:
+            raise ConfigError(f"{args.robot} is a serial arm: `load` takes its joint values (--joints Q1 Q2 ..., deg "
+                              "for R, mm for P) and prints the loaded error there (no map or drawing for serial "
+                              "arms)", key=option)
+    if args.mass < 0:
+        raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
+    if args.unloaded_below < 0:
+        raise ConfigError(f"must be >= 0 (N or N mm), got {args.unloaded_below:g}", key="--unloaded-below")
+    arm = SerialArm.load(args.robot)
+    q = _joint_values(arm, args.joints)
+    sources = load_serial_sources(args.clearances or "arm_typical", arm)
+    warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
+                        sum(j.length for j in arm.joints) or None))
+    if args.mass:
+        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions"))
+    load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com), gravity_deg=args.gravity_deg)
+    if not (load.fx or load.fy or load.m or load.mass):
+        raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "
+                          "possible: see `pmaccuracy bounds`)", key="--fx")
+    res = loaded_serial_error(arm, sources, q, load, threshold=args.unloaded_below, allow_outside=args.allow_outside)
+    records = res.records()
+    shown = np.array(args.joints, dtype=float)
+    for i, rec in enumerate(records):
+        joints = {f"q{k}_{j.unit}": float(shown[i, k - 1]) for k, j in enumerate(arm.joints, start=1)}
+        records[i] = {**joints, **rec}
+    if args.details:
+        st = res.statics
+        for i, rec in enumerate(records):
+            for k, joint in enumerate(arm.joints):
+                key = f"joint{k + 1}"
+                rec[f"{key}.force_x_N"] = float(st.force[i, k].real)
+                rec[f"{key}.force_y_N"] = float(st.force[i, k].imag)
+                rec[f"{key}.moment_Nmm"] = float(st.moment[i, k])
+                if joint.kind == "P":
+                    rec[f"{key}.normal_N"] = float(st.normal[i, k])
+                    rec[f"{key}.block_moment_Nmm"] = float(st.block_moment[i, k])
+            for name, value in res.values.items():    # every source's state: its value (0: unloaded)
+                v = np.asarray(value).reshape(len(records), -1)[i]
+                if name.endswith(".lateral"):
+                    rec[f"{name}.sigma_mm"], rec[f"{name}.tau_rad"] = float(v[0]), float(v[1])
+                elif v.size == 2:
+                    rec[f"{name}.dx_mm"], rec[f"{name}.dy_mm"] = float(v[0]), float(v[1])
+                else:
+                    rec[name] = float(v[0])
+    _common.emit(records, args.format)
     return 0
