@@ -319,7 +319,7 @@ class _CertifiedKernel:
 def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray,
                         n: int = 101, *, chunk_size: int = CERTIFIED_CHUNK, use_dask: bool = False,
                         progress: bool | None = None, max_condition: float = DEFAULT_MAX_CONDITION,
-                        region: Shape | None = None, split_gap: float = 0.005, max_pieces: int = 96) -> xr.Dataset:
+                        region: Shape | None = None, split_gap: float = 0.005, max_pieces: int = 256) -> xr.Dataset:
     """Certified upper bounds of the exact (nonlinear) worst-case pose errors on the grid of :func:`error_map`.
 
     The same dims ``(phi, y, x)``, coordinates and attributes as :func:`error_map` (``method`` says certified);

@@ -161,7 +161,7 @@ import numpy as np
 from ..._display import html_table, summary, value_range
 
 from ...errors import CertificationError
-from ...model.plausibility import check_orientations
+from ...model.plausibility import check_orientations, warn
 from .ascent import _ascent, _first_order_starts, _nonlinear, _objective_gradient  # noqa: F401 (the package's names)
 from .branch import (  # noqa: F401 (the package's names)
     DISK_SECTORS,
@@ -217,6 +217,8 @@ from ..bounds import max_pose_errors
 #: :func:`certified_pose_errors` refines the dual bound (5) of a row only while it exceeds the best feasible value by
 #: more than this fraction of ``split_gap`` (the cheaper bound of every other row is kept: valid, and tight enough).
 REFINE_FRACTION = 0.2
+#: A certified bound more than this above the best feasible value is returned with a PlausibilityWarning.
+GAP_WARNING = 0.05
 
 
 # ============================================================================ certificate
@@ -281,7 +283,7 @@ class CertifiedPoseErrors:
 
 def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allow_outside: bool = False,
                           on_failure: str = "raise", split: int = 2, split_gap: float = 0.005,
-                          max_pieces: int = 96) -> CertifiedPoseErrors:
+                          max_pieces: int = 256) -> CertifiedPoseErrors:
     """Certified upper bounds of the exact worst-case ``|dx|, |dy|, |dphi|, |dp|`` and the best feasible values.
 
     Parameters
@@ -386,13 +388,50 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
             for q in QUANTITIES:
                 if search and bb["worst"][q] is not None and not bb["lower"][q] <= lower[q][k]:
                     lower[q][k], worst[q][k] = bb["lower"][q], bb["worst"][q]
+    for k in np.flatnonzero(reason != ""):  # refused: say why the continuation cannot be certified
+        if rb["reason"][k] != "singular loop-closure Jacobian at the commanded pose":
+            budget = max_pieces * REFUSED_BUDGET if split and max_pieces > 1 else 1
+            reason[k] = _refusal(_take(model, k), sets, budget)
     if on_failure == "raise" and np.any(reason != ""):
         k = int(np.flatnonzero(reason != "")[0])
         x, y, phi = poses[k]
         raise CertificationError(f"pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg): {reason[k]}")
     gap = {q: _gap(upper[q], lower[q]) for q in QUANTITIES}
+    loose = [(k, q) for q in QUANTITIES for k in np.flatnonzero(gap[q] > GAP_WARNING)]
+    if loose:  # valid but loose: said once, for the loosest
+        k, q = max(loose, key=lambda kq: gap[kq[1]][kq[0]])
+        x, y, phi = poses[k]
+        warn([f"certified bound of {q} at pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg) is "
+              f"{gap[q][k] * 100:.3g} % above the best feasible configuration (valid, but loose: the error set is large "
+              f"for this pose{'' if len(loose) == 1 else f'; {len(loose)} such bounds'})"])
     return CertifiedPoseErrors(poses=poses, upper=upper, lower=lower, first_order=first, gap=gap,
                                worst=worst, remainder=rb["b"], reason=reason, sets=rb["sets"], rejected=rejected)
+
+
+def _refusal(model1: _Model, sets, budget: int) -> str:
+    """Why the continuation of the commanded assembly of one pose (``model1``) is not certified over the error
+    set: the exact closure solved (Newton from the first-order solution, :func:`exact_change`) at the first-order
+    worst vertices and their negatives; a vertex where it fails (no closure near the continuation: another
+    assembly, or none, is reached inside the set) or where ``J_z`` is near-singular (condition number above
+    1e8: a singularity inside the set) is named; otherwise the budget ran out."""
+    M = _first_order_map(model1)
+    d0 = _first_order_starts(sets, M)[:, 0]  # (4, 1, n)
+    cand = np.concatenate([d0, -d0])  # (8, 1, n)
+    dz = exact_change(model1, M, cand)
+    if not np.all(np.isfinite(dz)):
+        return ("the commanded assembly does not continue over the whole error set: the exact closure fails at a "
+                "first-order worst configuration (another assembly, or none, is reached inside the set)")
+    J = model1.jacobian(np.concatenate([dz, cand], axis=-1), z_only=True)
+    with np.errstate(all="ignore"):
+        cond = float(np.max(np.linalg.cond(J)))
+    if not cond < 1e8:
+        return (f"a singularity inside the error set: the loop-closure Jacobian is near-singular at a first-order "
+                f"worst configuration (condition number {cond:.3g})")
+    where = (f"within up to {budget} pieces of the error set" if budget > 1 else
+             "over the uncut error set (split=0 or max_pieces <= 1)")
+    return (f"the continuation of the commanded assembly could not be certified {where} (the remainder bound does "
+            f"not close or contract on some piece; no failure of the closure or singularity found at its worst "
+            f"vertices): a larger max_pieces (--max-pieces) may certify it")
 
 
 def nonlinear_pose_errors(robot, clearances, poses, *, allow_outside: bool = False, polish: int = 0
