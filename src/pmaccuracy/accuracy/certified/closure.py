@@ -223,11 +223,12 @@ def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: in
     delta = np.asarray(delta, dtype=float)
     dz = np.einsum("nij,...nj->...ni", M, delta)
     scale = max(1.0, float(np.max(np.abs(model.r0)))) if model.r0.size else 1.0
-    # the chord method first (the Jacobian of the first-order point, inverted once: each step a residual and a
-    # product), then Newton's method where it has not converged (the same solution: both start at M delta and
-    # stay in its contraction region where the chord steps converge)
+    # the chord method first (the Jacobian J_z of the expansion point, the same for every delta of a pose,
+    # inverted once: each step a residual and a product), then Newton's method where it has not converged (the
+    # same solution: both start at M delta and stay in its contraction region where the chord steps converge)
+    N = model.z0.shape[0]
     with np.errstate(all="ignore"):
-        J0 = model.jacobian(np.concatenate([dz, delta], axis=-1), z_only=True)
+        J0 = model.jacobian(np.zeros((N, 9 + model.n)), z_only=True)  # (N, 9, 9)
         try:
             J0inv = np.linalg.inv(J0)
         except np.linalg.LinAlgError:
@@ -236,7 +237,7 @@ def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: in
     for _ in range(CHORD_STEPS):
         r = model.residual(np.concatenate([dz, delta], axis=-1))
         with np.errstate(all="ignore"):
-            step = np.einsum("...ij,...j->...i", J0inv, r)
+            step = np.einsum("nij,...nj->...ni", J0inv, r)
         dz = dz - step
         if np.all((np.abs(step) <= 1e-14 * scale) | ~np.isfinite(step)):
             converged = True
