@@ -46,7 +46,7 @@ def workspace_poses(robot, sources, n: int, rng: np.random.Generator) -> np.ndar
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=1000)
-    parser.add_argument("--factors", type=float, nargs="+", default=[1.0, 10.0])
+    parser.add_argument("--factors", type=float, nargs="*", default=[1.0, 10.0])
     parser.add_argument("--map", action="store_true", help="also time a certified 101 x 101 x 2 map of aalborg_3ppr")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
@@ -77,10 +77,11 @@ def main() -> None:
         from pmaccuracy.accuracy.maps import certified_error_map
 
         t = time.perf_counter()
-        ds = certified_error_map("aalborg_3ppr", "case2", n=101, phis_deg=(0.0, 5.0))
+        ds = certified_error_map("aalborg_3ppr", "case2", np.radians([0.0, 5.0]), n=101)
         dt = time.perf_counter() - t
         print(f"certified map aalborg_3ppr case2 101 x 101 x 2: {dt:.1f} s "
-              f"({int(np.sum(np.isfinite(ds['dx_upper'].values)))} certified grid poses)")
+              f"({int(np.sum(np.isfinite(ds['dx_max'].values)))} certified grid poses, largest gap "
+              f"{float(np.nanmax([ds[q + '_gap'].values for q in QUANTITIES])) * 100:.3g} %)")
 
 
 if __name__ == "__main__":

@@ -141,14 +141,24 @@ point, so equal on the whole piece (implicit function theorem: the set where the
 closed). Measured: no piece rejected on the paper robot or the random robots of the tests at 1x and 10x; a
 Newton solution moved to another branch (test) is rejected.
 
+Batched pipeline (:func:`certified_pose_errors`). All poses at once: the best feasible values first (12 exact
+closures a pose from the first-order vertices, ascent steps only for the rows still rising); then the box of
+(3) alone (the second bound of the box only where it does not close or contract), the bound (4) of every row
+and the dual bound (5) (batched, one row per pose and direction) only for the rows whose bound (4) is above
+``1 + REFINE_FRACTION * split_gap`` times the best feasible value, refined only while above it; the poses still
+above ``split_gap`` get the tightened box with refined multipliers and every row refined (one batch); only the
+poses still above it go on to the split and the branch and bound. Every value kept is one of the valid bounds
+above, so the guarantee is the same; the gap at the paper's clearances is up to 0.1 % (``REFINE_FRACTION``).
+
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
 Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
 10x on the Aalborg 3-PPR; on 25 random robots within 0.5 % of the dense search at 1x (24 certified, one
 65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
 that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
-budget). Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core
-machine; 5-10 s where the set is cut up to the budget, up to 40 s for a pose with no whole-set certificate.
+budget). Speed (batches of 200 poses, shared 2-core machine, ``benchmarks/bench_certified.py``): 1.5-3.5 ms a pose at
+the presets' clearances, 8-45 ms a pose at 10x (the tight dual bound and the cut set for more poses); a pose
+cut up to the budget takes seconds, up to tens of seconds with no whole-set certificate.
 """
 
 from __future__ import annotations
