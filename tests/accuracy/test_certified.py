@@ -131,7 +131,7 @@ def test_too_large_errors_are_refused():
 def test_whole_set_refused_but_pieces_certified_at_100x():
     """At 100x case2 (dx 7.5 % above first order) the whole error set has no certificate, but every configuration
     can be closed: the cut pieces certify it, never below the independent dense search (1.5 % above it at most
-    here, with the budget of a refused pose, 8 x 96 pieces)."""
+    here, with the budget of a refused pose, 3 x 256 pieces)."""
     robot = Manipulator.preset("aalborg_3ppr")
     big = ErrorSources.from_dict(_paper_spec("case2")).scaled(100.0)
     assert C.remainder_bounds(robot, big, np.zeros((1, 3)))["reason"][0]
@@ -236,14 +236,14 @@ def _scaled_file(tmp_path, factor: float):
 
 def test_cli_max_pieces(tmp_path):
     """At 100x only the cut pieces certify the pose: without the branch and bound (``--max-pieces 1``) exit 2
-    with one line, with it (12 x 8 pieces: enough) the certified values; the option needs --certified or
+    with one line, with it (3 x 32 pieces: enough) the certified values; the option needs --certified or
     --nonlinear."""
     path = _scaled_file(tmp_path, 100.0)
     base = ("--clearances", str(path), "--pose", "0", "0", "0", "--format", "json")
     out = _cli("--certified", "--max-pieces", "1", *base)
     errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]
     assert out.returncode == 2 and len(errors) == 1 and "pose 0" in errors[0]
-    out = _cli("--certified", "--max-pieces", "12", *base)
+    out = _cli("--certified", "--max-pieces", "32", *base)
     assert out.returncode == 0, out.stderr
     rec = json.loads(out.stdout)[0]
     assert all(np.isfinite(rec[k]) for k in ("dx_max", "dy_max", "dphi_max_deg", "dp_max"))

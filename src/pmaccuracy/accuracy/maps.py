@@ -47,11 +47,12 @@ import numpy as np
 import xarray as xr
 
 from .bounds import bounds_or_nan
+from .certified import QUANTITIES, certified_pose_errors
 from .regions import Disc, Polygon, Rect, Shape
 from ..model.clearances import ClearanceSet
 from ..errors import ConfigError, EmptyWorkspaceError
 from ..model.manipulator import Manipulator, round_trip_degrees
-from ..model.plausibility import check_orientations
+from ..model.plausibility import PlausibilityWarning, check_orientations
 from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
 from ..kinematics.workspace import constant_orientation_workspace
 from .._optional import require
@@ -275,6 +276,91 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
     return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
 
 
+#: Certified map variables: name -> (units, long name); the bounds keep the names of :data:`MAP_VARIABLES`.
+CERTIFIED_VARIABLES = {
+    "dx_max": ("mm", "certified upper bound of the exact maximum |dx| over the error set"),
+    "dy_max": ("mm", "certified upper bound of the exact maximum |dy| over the error set"),
+    "dphi_max": ("deg", "certified upper bound of the exact maximum |dphi| over the error set"),
+    "dp_max": ("mm", "certified upper bound of the exact maximum |dp| over the error set"),
+    "dx_gap": ("1", "(certified bound - best feasible value) / best feasible value of |dx|"),
+    "dy_gap": ("1", "(certified bound - best feasible value) / best feasible value of |dy|"),
+    "dphi_gap": ("1", "(certified bound - best feasible value) / best feasible value of |dphi|"),
+    "dp_gap": ("1", "(certified bound - best feasible value) / best feasible value of |dp|"),
+}
+#: Grid points per band of a certified map (one batch of :func:`certified_pose_errors`; several bands a layer, so
+#: ``use_dask`` spreads them).
+CERTIFIED_CHUNK = 2048
+
+
+class _CertifiedKernel:
+    """A band of a certified map (picklable for dask.distributed): ``(rows, len(x), 8)`` = the upper bounds
+    ``[dx mm, dy mm, dphi deg, dp mm]`` and their gaps, NaN outside the joint ranges, near a singularity (as
+    :func:`_rows_block`) or where the bound is not certified."""
+
+    def __init__(self, split_gap: float, max_pieces: int):
+        self.split_gap, self.max_pieces = split_gap, max_pieces
+
+    def __call__(self, robot, clearances, x, y_rows, phi, max_condition):
+        X, Y = np.meshgrid(x, y_rows)
+        poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
+        out = np.full((poses.shape[0], 8), np.nan)
+        ok = np.isfinite(bounds_or_nan(robot, clearances, poses, max_condition)[:, 0])
+        if np.any(ok):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PlausibilityWarning)
+                res = certified_pose_errors(robot, clearances, poses[ok], on_failure="nan", split_gap=self.split_gap,
+                                            max_pieces=self.max_pieces)
+            for v, q in enumerate(QUANTITIES):
+                out[ok, v] = np.degrees(res.upper[q]) if q == "dphi" else res.upper[q]
+                out[ok, 4 + v] = np.where(np.isfinite(res.upper[q]), res.gap[q], np.nan)
+        return out.reshape(X.shape + (8,))
+
+
+def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray,
+                        n: int = 101, *, chunk_size: int = CERTIFIED_CHUNK, use_dask: bool = False,
+                        progress: bool | None = None, max_condition: float = DEFAULT_MAX_CONDITION,
+                        region: Shape | None = None, split_gap: float = 0.005, max_pieces: int = 256) -> xr.Dataset:
+    """Certified upper bounds of the exact (nonlinear) worst-case pose errors on the grid of :func:`error_map`.
+
+    The same dims ``(phi, y, x)``, coordinates and attributes as :func:`error_map` (``method`` says certified);
+    ``dx_max``, ``dy_max``, ``dp_max`` (mm), ``dphi_max`` (deg) are the upper bounds of
+    :func:`pmaccuracy.accuracy.certified.certified_pose_errors` (never below the exact maximum over the error
+    set) and ``dx_gap`` ... ``dp_gap`` their relative gaps to the best feasible configuration. NaN outside the
+    workspace, near a singularity, and where the continuation of the commanded assembly is not certified.
+    Computed in bands of about ``chunk_size`` grid points (each one batch; Dask tasks with ``use_dask``);
+    ``split_gap``, ``max_pieces`` as in ``certified_pose_errors``. Other arguments as :func:`error_map`.
+
+    >>> ds = certified_error_map("aalborg_3ppr", "case2", 0.0, n=5)
+    >>> bool((ds.dx_max >= error_map("aalborg_3ppr", "case2", 0.0, n=5).dx_max).sum() > 0)
+    True
+    """
+    check_orientations(phis, "phis")
+    if chunk_size < 1:
+        raise ConfigError(f"chunk size must be positive, got {chunk_size}", key="chunk_size")
+    robot, clearances, phis, x, y = _prepare(robot, clearances, phis, n, max_condition)
+    check_fits_in_memory(2 * len(phis), n)
+    attrs = _attrs(robot, clearances)
+    attrs["title"] = f"Certified maximum pose errors of {robot.name} with clearances {clearances.name}"
+    attrs["method"] = ("certified upper bound of the exact loop closure's worst case (first order plus a rigorous "
+                       "remainder bound, pmaccuracy.accuracy.certified) and its gap to the best feasible configuration")
+    if region is not None:
+        if not isinstance(region, (Disc, Polygon, Rect)):
+            raise ConfigError(f"expected a Disc, Polygon or Rect of pmaccuracy.accuracy.regions, got {region!r}",
+                              key="region")
+        x, y = _cut(region, x, y, n)
+        attrs["region"] = f"{region.describe()}: grid cut to its bounding box, NaN outside it"
+    values = {name: np.empty((len(phis), len(y), len(x))) for name in CERTIFIED_VARIABLES}
+    _evaluate(robot, clearances, x, y, phis, chunk_size, use_dask, progress, max_condition, values,
+              kernel=_CertifiedKernel(split_gap, max_pieces), rows=max(1, chunk_size // len(x)))
+    if region is not None:
+        outside = ~region.contains(*np.meshgrid(x, y))
+        for name in CERTIFIED_VARIABLES:
+            values[name][:, outside] = np.nan
+    data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
+                 for name, (units, long_name) in CERTIFIED_VARIABLES.items()}
+    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+
+
 def _cut(region: Shape, x: np.ndarray, y: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The grid vectors ``(n,)`` over the part of the workspaces' bounding box in the shape's bounding box."""
     x0, x1, y0, y1 = region.bounds
@@ -295,12 +381,16 @@ def _block_rows(n_phi: int, ny: int, nx: int, chunk_size: int) -> int:
 
 def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np.ndarray, phis: np.ndarray,
               chunk_size: int, use_dask: bool, progress: bool | None, max_condition: float,
-              out: dict[str, np.ndarray]) -> None:
-    """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points)."""
+              out: dict[str, np.ndarray], kernel=None, rows: int | None = None) -> None:
+    """Fill ``out[name]`` ``(len(phis), len(y), len(x))`` band by band (bands of about ``chunk_size`` points).
+
+    ``kernel(robot, clearances, x, y_rows, phi, max_condition) -> (rows, len(x), len(out))`` computes a band
+    (default :func:`_rows_block`); ``rows``: grid rows per band (default :func:`_block_rows`)."""
     show = sys.stderr.isatty() if progress is None else progress
-    rows = _block_rows(len(phis), len(y), len(x), chunk_size)
+    kernel = _rows_block if kernel is None else kernel
+    rows = _block_rows(len(phis), len(y), len(x), chunk_size) if rows is None else rows
     blocks = [(k, j) for k in range(len(phis)) for j in range(0, len(y), rows)]
-    names = list(MAP_VARIABLES)
+    names = list(out)
 
     def store(k: int, j: int, block: np.ndarray) -> None:
         for v, name in enumerate(names):
@@ -312,14 +402,14 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
     with bar:
         if not use_dask:
             for k, j in blocks:
-                store(k, j, _rows_block(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
+                store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
                 bar.update()
             return
         try:
             dask = require("dask")
         except ImportError:  # pragma: no cover - depends on the installation
             raise ConfigError("use_dask needs Dask: pip install 'pmaccuracy[dask]'", key="use_dask") from None
-        task = dask.delayed(_rows_block, pure=True)
+        task = dask.delayed(kernel, pure=True)
         # A window of tasks at a time: every worker stays busy, and at most `window` blocks wait to be copied.
         window = 4 * max(1, os.cpu_count() or 1)
         for start in range(0, len(blocks), window):

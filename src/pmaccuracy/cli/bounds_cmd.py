@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "first-order worst vertices), with the gap to the certified bound")
     p.add_argument("--max-pieces", type=_common.positive_int, metavar="N",
                    help="with --certified or --nonlinear: how many pieces of the error set the branch and bound may "
-                        "certify per pose (default 96; more is tighter and slower, and may certify a pose whose "
+                        "certify per pose (default 256; more is tighter and slower, and may certify a pose whose "
                         "whole error set has no certificate; 1: no cutting beyond the first four pieces)")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",

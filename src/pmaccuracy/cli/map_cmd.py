@@ -53,6 +53,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                         ".zarr every worker must see --out)")
     p.add_argument("--workers", type=_common.positive_int, default=None, metavar="W",
                    help="threads of the local Dask scheduler for .zarr (default: one per core)")
+    p.add_argument("--certified", action="store_true",
+                   help="certified upper bounds of the exact (nonlinear) worst case instead of the first-order "
+                        "maxima, with the gap to the best feasible configuration per quantity (dx_gap, dy_gap, "
+                        "dphi_gap, dp_gap); NaN where not certified; computed in memory (bands of --chunk-size "
+                        "points, default 2048; Dask tasks with --dask), .zarr written chunked like map")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="estimate and progress bar on stderr (default: when stderr is a terminal)")
     _common.add_format(p)
@@ -99,17 +104,25 @@ def run(args: argparse.Namespace) -> int:
     # Dask or a CSV map is also drawn: then the map is assembled in memory first.
     # a region's map is cut to its bounding box and computed in memory (write_map takes the whole workspace)
     streamed = (suffix != ".zarr" and not args.dask and not args.scheduler and not (suffix == ".csv" and args.plot)
-                and shape is None)
+                and shape is None and not args.certified)
+    if args.certified:
+        if suffix == ".csv":
+            raise ConfigError("a certified map is written as .nc or .zarr (it has eight variables)", key="--out")
+        if args.workers:
+            raise ConfigError("--workers applies to first-order .zarr maps (use --dask with --certified)",
+                              key="--workers")
     if suffix == ".nc":
         maps.check_netcdf_size(n_phi, args.grid)
     if suffix == ".zarr" or streamed:   # before anything is computed or created
-        _check_disk(maps, out, n_phi, args.grid)
-    else:
-        maps.check_fits_in_memory(n_phi, args.grid)
+        _check_disk(maps, out, n_phi * (2 if args.certified else 1), args.grid)
+    if not streamed and (suffix != ".zarr" or args.certified):
+        maps.check_fits_in_memory(n_phi * (2 if args.certified else 1), args.grid)
     _common.prepare_output(out, "--out", OUT_TYPES)
     _common.check_plot(args)
     chunk = args.chunk_size or maps.DEFAULT_CHUNK
     show = sys.stderr.isatty() if args.progress is None else args.progress
+    if args.certified:
+        return _certified(maps, robot, clearances, phis, args, out, show)
     if show:
         _announce(maps, robot, clearances, phis, args, suffix, streamed)
     elif args.grid > LONG_GRID:
@@ -162,6 +175,51 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _certified(maps, robot, clearances, phis, args, out: Path, show: bool) -> int:
+    """``map --certified``: :func:`pmaccuracy.accuracy.maps.certified_error_map` in memory, written as .nc or
+    as .zarr chunked like ``map`` (one orientation, ``--tile`` x ``--tile`` points per chunk); prints each layer's
+    ranges and largest gaps."""
+    import numpy as np
+
+    from ..model.plausibility import warn
+
+    chunk = args.chunk_size or maps.CERTIFIED_CHUNK
+    try:
+        if args.scheduler:
+            Client = require("distributed").Client
+            with Client(args.scheduler):
+                ds = maps.certified_error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True,
+                                              progress=show, region=args.shape)
+        else:
+            ds = maps.certified_error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
+                                          progress=show, region=args.shape)
+    except EmptyWorkspaceError as exc:
+        if args.shape is None:
+            raise
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    if out.suffix.lower() == ".zarr":
+        tile = args.tile or maps.DEFAULT_ZARR_TILE
+        ds = ds.chunk({"phi": 1, "y": min(tile, ds.sizes["y"]), "x": min(tile, ds.sizes["x"])})
+    maps.save_map(ds, out)
+    if args.plot:
+        _plots(_thinned(ds), Path(args.plot), args)
+    rows = []
+    for key, ranges in maps.summarize(ds).items():
+        layer = ds.sel(phi=float(key))
+        gaps = {q: float(np.nanmax(layer[f"{q}_gap"].values)) if np.isfinite(layer[f"{q}_gap"].values).any()
+                else float("nan") for q in ("dx", "dy", "dphi", "dp")}
+        rows.append({"phi_deg": float(key), **ranges, "largest_gap": gaps,
+                     "certified_points": int(np.isfinite(layer["dx_max"].values).sum())})
+    worst = max((g for r in rows for g in r["largest_gap"].values() if np.isfinite(g)), default=0.0)
+    if worst > GAP_WARNING:
+        warn([f"certified bounds up to {worst * 100:.3g} % above the best feasible configuration (loose where the "
+              f"error set is large for the pose)"])
+    _common.emit(rows, args.format)
+    return 0
+
+
+#: ``map --certified`` warns (one line) where a certified bound exceeds the best feasible value by more than this.
+GAP_WARNING = 0.05
 #: Grids above this many points per axis get a time estimate before computing (a warning when long).
 LONG_GRID = 500
 #: Estimated run time (s) above which ``map`` warns before computing.

@@ -141,14 +141,24 @@ point, so equal on the whole piece (implicit function theorem: the set where the
 closed). Measured: no piece rejected on the paper robot or the random robots of the tests at 1x and 10x; a
 Newton solution moved to another branch (test) is rejected.
 
+Batched pipeline (:func:`certified_pose_errors`). All poses at once: the best feasible values first (12 exact
+closures a pose from the first-order vertices, ascent steps only for the rows still rising); then the box of
+(3) alone (the second bound of the box only where it does not close or contract), the bound (4) of every row
+and the dual bound (5) (batched, one row per pose and direction) only for the rows whose bound (4) is above
+``1 + REFINE_FRACTION * split_gap`` times the best feasible value, refined only while above it; the poses still
+above ``split_gap`` get the tightened box with refined multipliers and every row refined (one batch); only the
+poses still above it go on to the split and the branch and bound. Every value kept is one of the valid bounds
+above, so the guarantee is the same; the gap at the paper's clearances is up to 0.1 % (``REFINE_FRACTION``).
+
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
 Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
 10x on the Aalborg 3-PPR; on 25 random robots within 0.5 % of the dense search at 1x (24 certified, one
 65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
 that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
-budget). Speed: 0.03-0.2 s (3-PPR) to 0.1-0.6 s (3-RRR, 21 source parameters) per pose on a shared 2-core
-machine; 5-10 s where the set is cut up to the budget, up to 40 s for a pose with no whole-set certificate.
+budget). Speed (batches of 200 poses, shared 2-core machine, ``benchmarks/bench_certified.py``): 1.5-3.5 ms a pose at
+the presets' clearances, 8-45 ms a pose at 10x (the tight dual bound and the cut set for more poses); a pose
+cut up to the budget takes seconds, up to tens of seconds with no whole-set certificate.
 """
 
 from __future__ import annotations
@@ -161,7 +171,7 @@ import numpy as np
 from ..._display import html_table, summary, value_range
 
 from ...errors import CertificationError
-from ...model.plausibility import check_orientations
+from ...model.plausibility import check_orientations, warn
 from .ascent import _ascent, _first_order_starts, _nonlinear, _objective_gradient  # noqa: F401 (the package's names)
 from .branch import (  # noqa: F401 (the package's names)
     DISK_SECTORS,
@@ -213,6 +223,12 @@ from .remainder import (  # noqa: F401 (the package's names)
     remainder_bounds,
 )
 from ..bounds import max_pose_errors
+
+#: :func:`certified_pose_errors` refines the dual bound (5) of a row only while it exceeds the best feasible value by
+#: more than this fraction of ``split_gap`` (the cheaper bound of every other row is kept: valid, and tight enough).
+REFINE_FRACTION = 0.2
+#: A certified bound more than this above the best feasible value is returned with a PlausibilityWarning.
+GAP_WARNING = 0.05
 
 
 # ============================================================================ certificate
@@ -277,7 +293,7 @@ class CertifiedPoseErrors:
 
 def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allow_outside: bool = False,
                           on_failure: str = "raise", split: int = 2, split_gap: float = 0.005,
-                          max_pieces: int = 96) -> CertifiedPoseErrors:
+                          max_pieces: int = 256) -> CertifiedPoseErrors:
     """Certified upper bounds of the exact worst-case ``|dx|, |dy|, |dphi|, |dp|`` and the best feasible values.
 
     Parameters
@@ -317,13 +333,37 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
         raise ValueError(f"on_failure must be 'raise' or 'nan', got {on_failure!r}")
     robot, sources, poses = _prepare(robot, clearances, poses)
     fo = max_pose_errors(robot, sources, poses, allow_outside=allow_outside)
-    rb = remainder_bounds(robot, sources, poses)
     first = {q: np.asarray(getattr(fo, f"{q}_max"), dtype=float).reshape(-1) for q in QUANTITIES}
-    if search:
-        lower, worst, _ = _nonlinear(rb["model"], rb["M"], rb["sets"])
+    sets = error_set(robot, sources)
+    model = _build_model(robot, sets, poses)
+    if search:  # the best feasible values first: they set the targets of the refinement below
+        lower, worst, _ = _nonlinear(model, _first_order_map(model), sets)
     else:
         lower = {q: np.full(poses.shape[0], np.nan) for q in QUANTITIES}
         worst = {}
+    ref = {q: np.where(np.isfinite(lower[q]), lower[q], first[q]) for q in QUANTITIES}
+    # the cheap bounds (4) and the unrefined dual bound (5) of every row at once; the interior-point refinement
+    # only for the (pose, row) pairs still above REFINE_FRACTION of the allowed gap (every value is a valid bound)
+    target = {q: ref[q] * (1 + REFINE_FRACTION * split_gap) for q in QUANTITIES}
+    rb = _certify(model, sets, robot.characteristic_length, target=target, lazy_box=True)
+    if model.n == 0:  # no error source: the pose does not move, exactly
+        rb["upper"] = {q: np.zeros(poses.shape[0]) for q in QUANTITIES}
+    rb.update(model=model, sets=sets)
+    # poses still above split_gap (or not certified): the whole set again with the tighter box and every row
+    # refined (the full bound of equations (3)-(5)), batched over those poses only; the smaller valid bound is kept
+    loose = (rb["reason"] != "") | np.any([_gap(rb["upper"][q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
+    idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
+    if idx.size and model.n:
+        full = _certify(_take_many(model, idx), sets, robot.characteristic_length,
+                        target={q: target[q][idx] for q in QUANTITIES}, refine_box=True)
+        for q in QUANTITIES:
+            rb["upper"][q][idx] = np.where(full["certified"], np.fmin(rb["upper"][q][idx], full["upper"][q]),
+                                           rb["upper"][q][idx])
+        now = full["certified"] & ~rb["certified"][idx]  # certified only with the tighter box: take its box
+        for key in ("b", "b_centre"):
+            rb[key][idx[now]] = full[key][now]
+        rb["reason"][idx[now]] = ""
+        rb["certified"][idx[now]] = True
     upper, reason = dict(rb["upper"]), rb["reason"].copy()
     # the whole set's certificate: the parent every piece is checked against (_continues)
     anc_b = np.where(rb["certified"][:, None], rb["b"], np.nan)
@@ -332,7 +372,6 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     if split:
         # poses without a certificate or with a gap above split_gap: bound again over 2^split pieces, keep the
         # smaller of the valid bounds (both hold)
-        ref = {q: np.where(np.isfinite(lower[q]), lower[q], first[q]) for q in QUANTITIES}
         loose = (reason != "") | np.any([_gap(upper[q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
         idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
         if idx.size:
@@ -359,13 +398,50 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
             for q in QUANTITIES:
                 if search and bb["worst"][q] is not None and not bb["lower"][q] <= lower[q][k]:
                     lower[q][k], worst[q][k] = bb["lower"][q], bb["worst"][q]
+    for k in np.flatnonzero(reason != ""):  # refused: say why the continuation cannot be certified
+        if rb["reason"][k] != "singular loop-closure Jacobian at the commanded pose":
+            budget = max_pieces * REFUSED_BUDGET if split and max_pieces > 1 else 1
+            reason[k] = _refusal(_take(model, k), sets, budget)
     if on_failure == "raise" and np.any(reason != ""):
         k = int(np.flatnonzero(reason != "")[0])
         x, y, phi = poses[k]
         raise CertificationError(f"pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg): {reason[k]}")
     gap = {q: _gap(upper[q], lower[q]) for q in QUANTITIES}
+    loose = [(k, q) for q in QUANTITIES for k in np.flatnonzero(gap[q] > GAP_WARNING)]
+    if loose:  # valid but loose: said once, for the loosest
+        k, q = max(loose, key=lambda kq: gap[kq[1]][kq[0]])
+        x, y, phi = poses[k]
+        warn([f"certified bound of {q} at pose {k} (x={x:g} mm, y={y:g} mm, phi={math.degrees(phi):g} deg) is "
+              f"{gap[q][k] * 100:.3g} % above the best feasible configuration (valid, but loose: the error set is large "
+              f"for this pose{'' if len(loose) == 1 else f'; {len(loose)} such bounds'})"])
     return CertifiedPoseErrors(poses=poses, upper=upper, lower=lower, first_order=first, gap=gap,
                                worst=worst, remainder=rb["b"], reason=reason, sets=rb["sets"], rejected=rejected)
+
+
+def _refusal(model1: _Model, sets, budget: int) -> str:
+    """Why the continuation of the commanded assembly of one pose (``model1``) is not certified over the error
+    set: the exact closure solved (Newton from the first-order solution, :func:`exact_change`) at the first-order
+    worst vertices and their negatives; a vertex where it fails (no closure near the continuation: another
+    assembly, or none, is reached inside the set) or where ``J_z`` is near-singular (condition number above
+    1e8: a singularity inside the set) is named; otherwise the budget ran out."""
+    M = _first_order_map(model1)
+    d0 = _first_order_starts(sets, M)[:, 0]  # (4, 1, n)
+    cand = np.concatenate([d0, -d0])  # (8, 1, n)
+    dz = exact_change(model1, M, cand)
+    if not np.all(np.isfinite(dz)):
+        return ("the commanded assembly does not continue over the whole error set: the exact closure fails at a "
+                "first-order worst configuration (another assembly, or none, is reached inside the set)")
+    J = model1.jacobian(np.concatenate([dz, cand], axis=-1), z_only=True)
+    with np.errstate(all="ignore"):
+        cond = float(np.max(np.linalg.cond(J)))
+    if not cond < 1e8:
+        return (f"a singularity inside the error set: the loop-closure Jacobian is near-singular at a first-order "
+                f"worst configuration (condition number {cond:.3g})")
+    where = (f"within up to {budget} pieces of the error set" if budget > 1 else
+             "over the uncut error set (split=0 or max_pieces <= 1)")
+    return (f"the continuation of the commanded assembly could not be certified {where} (the remainder bound does "
+            f"not close or contract on some piece; no failure of the closure or singularity found at its worst "
+            f"vertices): a larger max_pieces (--max-pieces) may certify it")
 
 
 def nonlinear_pose_errors(robot, clearances, poses, *, allow_outside: bool = False, polish: int = 0
@@ -392,6 +468,17 @@ def nonlinear_pose_errors(robot, clearances, poses, *, allow_outside: bool = Fal
     gap = {q: _gap(rb["upper"][q], lower[q]) for q in QUANTITIES}
     return CertifiedPoseErrors(poses=poses, upper=rb["upper"], lower=lower, first_order=first, gap=gap,
                                worst=worst, remainder=rb["b"], reason=rb["reason"], sets=rb["sets"])
+
+
+def _first_order_map(model: _Model) -> np.ndarray:
+    """``M = -J_z^-1 J_delta`` ``(N, 9, n)`` at the commanded configuration (module docstring, equation (2));
+    the identity stands in for ``J_z`` where it is singular (those poses are refused by :func:`_certify`)."""
+    N = model.z0.shape[0]
+    J = model.jacobian(np.zeros((N, 9 + model.n)))
+    with np.errstate(all="ignore"):
+        cond = np.linalg.cond(J[..., :9])
+    ok = np.isfinite(cond) & (cond < 1e12)
+    return -np.linalg.solve(np.where(ok[:, None, None], J[..., :9], np.eye(9)), J[..., 9:])
 
 
 def _gap(upper: np.ndarray, lower: np.ndarray) -> np.ndarray:

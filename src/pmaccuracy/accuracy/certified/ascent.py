@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .closure import _Model, _objective, _take, exact_change
+from .closure import _Model, _objective, _take, _take_many, exact_change
 from .error_set import QUANTITIES, argsupport, project, support
 
 
@@ -97,31 +97,62 @@ def _objective_gradient(dz: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.n
     return np.stack(vals), np.stack(grads)
 
 
+def _row_objective(q: np.ndarray, dz: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Value and gradient in ``delta`` of quantity ``q`` (index into :data:`QUANTITIES`, broadcast to
+    ``dz.shape[:-1]``) at ``dz (..., 9)`` with ``G = dDz/ddelta (..., 9, n)``: ``(...)``, ``(..., n)``."""
+    q = np.broadcast_to(q, dz.shape[:-1])
+    j = np.minimum(q, 2)
+    row = np.take_along_axis(dz, j[..., None], axis=-1)[..., 0]
+    grow = np.take_along_axis(G, j[..., None, None], axis=-2)[..., 0, :]
+    sgn = np.where(row < 0, -1.0, 1.0)
+    p = dz[..., :2]
+    norm = np.hypot(p[..., 0], p[..., 1])
+    unit = p / np.where(norm > 0, norm, 1.0)[..., None]
+    gp = np.einsum("...r,...rd->...d", unit, G[..., :2, :])
+    is_p = q == 3
+    return np.where(is_p, norm, np.abs(row)), np.where(is_p[..., None], gp, sgn[..., None] * grow)
+
+
 def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish: int = 0
                ) -> tuple[dict, dict, dict]:
     """Best feasible exact values ``{q: (N,)}``, their ``delta`` ``{q: (N, n)}`` and the exact values at the
-    first-order worst vertices ``{q: (N,)}`` (:func:`nonlinear_pose_errors`)."""
+    first-order worst vertices ``{q: (N,)}`` (:func:`nonlinear_pose_errors`).
+
+    The starts (each first-order worst vertex of dx, dy, dphi and the three of ``|dp|``, both signs: 12 rows per
+    pose) are solved exactly in one batch; then each row steps to the vertex maximizing its exact gradient's
+    linear form while that increases its value, only the rows still increasing being solved again."""
     N, n = M.shape[0], model.n
     if n == 0:
         z = {q: np.zeros(N) for q in QUANTITIES}
         return z, {q: np.zeros((N, 0)) for q in QUANTITIES}, dict(z)
-    d0 = _first_order_starts(sets, M)  # (4, 3, N, n)
-    cur = np.concatenate([d0, -d0], axis=1)  # (4, 6, N, n): both signs of each vertex
+    d0 = _first_order_starts(sets, M)  # (4, 3, N, n); the rows of dx, dy, dphi are repeated
+    qidx = np.array([0, 0, 1, 1, 2, 2] + [3] * 6)
+    cur = np.stack([sg * d0[q, 0] for q in range(3) for sg in (1, -1)]
+                   + [sg * d0[3, k] for k in range(d0.shape[1]) for sg in (1, -1)])  # (12, N, n)
     dz, G = exact_change(model, M, cur, gradient=True)
-    val, grad = _objective_gradient(dz, G)
+    val, grad = _row_objective(qidx[:, None], dz, G)
     val = np.where(np.isfinite(val), val, -np.inf)
-    vertex = np.max(val, axis=1)  # (4, N)
+    at_start = val.copy()
+    active = np.isfinite(val)
     for _ in range(iterations):
         # successive linearization: the vertex maximizing the exact gradient's linear form over S
-        cand = argsupport(sets, grad)
-        dzc, Gc = exact_change(model, M, cand, gradient=True)
-        vc, gc = _objective_gradient(dzc, Gc)
-        better = np.isfinite(vc) & (vc > val * (1 + 1e-15))
-        if not np.any(better):
+        rr, kk = np.nonzero(active)
+        if not rr.size:
             break
-        cur = np.where(better[..., None], cand, cur)
-        val = np.where(better, vc, val)
-        grad = np.where(better[..., None], gc, grad)
+        cand = argsupport(sets, grad[rr, kk])  # (B, n)
+        dzc, Gc = exact_change(_take_many(model, kk), M[kk], cand, gradient=True)
+        vc, gc = _row_objective(qidx[rr], dzc, Gc)
+        better = np.isfinite(vc) & (vc > val[rr, kk] * (1 + 1e-15))
+        active[rr, kk] = better
+        rb, kb = rr[better], kk[better]
+        cur[rb, kb], val[rb, kb], grad[rb, kb] = cand[better], vc[better], gc[better]
+    R = len(qidx)
+    val4, start4 = np.full((4, R, N), -np.inf), np.full((4, R, N), -np.inf)
+    val4[qidx, np.arange(R)], start4[qidx, np.arange(R)] = val, at_start
+    cur4 = np.zeros((4, R, N, n))
+    cur4[qidx, np.arange(R)] = cur
+    val, cur = val4, cur4
+    vertex = np.max(start4, axis=1)  # (4, N)
     pick = np.argmax(val, axis=1)  # (4, N)
     best_val = np.take_along_axis(val, pick[:, None, :], axis=1)[:, 0]
     best = np.take_along_axis(cur, pick[:, None, :, None], axis=1)[:, 0]

@@ -80,7 +80,7 @@ def _split_bounds(model: _Model, sets, scale: float, k: int, anchor_M: np.ndarra
 DISK_SECTORS = 8
 #: A pose with no certificate yet (whole set and first cut) may bound this many times ``max_pieces`` pieces, once
 #: some piece is used within the first ``max_pieces`` (otherwise it stops there).
-REFUSED_BUDGET = 8
+REFUSED_BUDGET = 3
 #: Directions of ``|dp|`` tried at the extreme points of every accepted piece for the best feasible values.
 PIECE_DIRECTIONS = 16
 

@@ -59,18 +59,25 @@ class _Model:
         t = self.t0 + np.einsum("nmv,...nv->...nm", self.tg, D)
         terms = r * np.exp(1j * t)
         F = self.aff0 + np.einsum("niv,...nv->...ni", self.affg, D)
-        F = F + np.stack([terms[..., self.leg_of == i].sum(axis=-1) for i in range(3)], axis=-1)
+        F = F + terms @ self.onehot
         G = self.ang0 + np.einsum("niv,...nv->...ni", self.angg, D)
         return np.stack([F.real, F.imag, G], axis=-1).reshape(F.shape[:-1] + (9,))
 
-    def jacobian(self, D: np.ndarray) -> np.ndarray:
-        """``d residual / d Delta`` ``(..., N, 9, nv)``."""
+    @property
+    def onehot(self) -> np.ndarray:
+        """``(m, 3)``: 1 where term ``m`` belongs to leg ``i``."""
+        return (self.leg_of[:, None] == np.arange(3)[None, :]).astype(float)
+
+    def jacobian(self, D: np.ndarray, z_only: bool = False) -> np.ndarray:
+        """``d residual / d Delta`` ``(..., N, 9, nv)`` (only the 9 columns of ``z`` with ``z_only``)."""
         r = self.r0 + np.einsum("nmv,...nv->...nm", self.rg, D)
         t = self.t0 + np.einsum("nmv,...nv->...nm", self.tg, D)
         e = np.exp(1j * t)
-        dterm = e[..., None] * (self.rg + 1j * r[..., None] * self.tg)  # (..., N, m, nv)
-        dF = self.affg + np.stack([dterm[..., self.leg_of == i, :].sum(axis=-2) for i in range(3)], axis=-2)
-        dG = np.broadcast_to(self.angg, dF.shape)
+        cols = slice(0, 9) if z_only else slice(None)
+        rg, tg, affg, angg = self.rg[..., cols], self.tg[..., cols], self.affg[..., cols], self.angg[..., cols]
+        dterm = e[..., None] * (rg + 1j * r[..., None] * tg)  # (..., N, m, nv)
+        dF = affg + np.stack([dterm[..., self.leg_of == i, :].sum(axis=-2) for i in range(3)], axis=-2)
+        dG = np.broadcast_to(angg, dF.shape)
         out = np.stack([dF.real, dF.imag, dG], axis=-2)  # (..., N, 3, 3, nv)
         return out.reshape(out.shape[:-3] + (9, out.shape[-1]))
 
@@ -201,6 +208,10 @@ def _take_many(model: _Model, idx: np.ndarray) -> _Model:
                   n=model.n, z0=model.z0[idx])
 
 
+#: Chord steps of :func:`exact_change` before Newton's method takes over (where they have not converged).
+CHORD_STEPS = 8
+
+
 def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: int = 20,
                  gradient: bool = False):
     """Exact change ``Dz`` ``(..., N, 9)`` of pose and passive joints for source values ``delta`` ``(..., N, n)``.
@@ -212,10 +223,29 @@ def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: in
     delta = np.asarray(delta, dtype=float)
     dz = np.einsum("nij,...nj->...ni", M, delta)
     scale = max(1.0, float(np.max(np.abs(model.r0)))) if model.r0.size else 1.0
-    for _ in range(iterations):
+    # the chord method first (the Jacobian J_z of the expansion point, the same for every delta of a pose,
+    # inverted once: each step a residual and a product), then Newton's method where it has not converged (the
+    # same solution: both start at M delta and stay in its contraction region where the chord steps converge)
+    N = model.z0.shape[0]
+    with np.errstate(all="ignore"):
+        J0 = model.jacobian(np.zeros((N, 9 + model.n)), z_only=True)  # (N, 9, 9)
+        try:
+            J0inv = np.linalg.inv(J0)
+        except np.linalg.LinAlgError:
+            J0inv = np.full_like(J0, np.nan)
+    converged = False
+    for _ in range(CHORD_STEPS):
+        r = model.residual(np.concatenate([dz, delta], axis=-1))
+        with np.errstate(all="ignore"):
+            step = np.einsum("nij,...nj->...ni", J0inv, r)
+        dz = dz - step
+        if np.all((np.abs(step) <= 1e-14 * scale) | ~np.isfinite(step)):
+            converged = True
+            break
+    for _ in range(0 if converged else iterations):
         D = np.concatenate([dz, delta], axis=-1)
         r = model.residual(D)
-        J = model.jacobian(D)[..., :9]
+        J = model.jacobian(D, z_only=True)
         with np.errstate(all="ignore"):
             try:
                 step = np.linalg.solve(J, r[..., None])[..., 0]

@@ -27,6 +27,11 @@ from ...model.manipulator import Manipulator
 from ...model.sources import ErrorSources, refuse_first_order_only
 
 
+#: Convergence tolerance of the dual bound of the box's second bound with ``refine_box``: the box only enters the
+#: second-order rest of the bounds, so 1e-3 relative on it moves them by far less than their gap.
+BOX_RTOL = 1e-3
+
+
 def _prepare(robot, clearances, poses):
 
     if not isinstance(robot, Manipulator):
@@ -57,14 +62,20 @@ def remainder_bounds(robot, sources, poses: np.ndarray, *, max_iterations: int =
 
 
 def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None, max_iterations: int = 60,
-             target: dict | None = None) -> dict:
+             target: dict | None = None, lazy_box: bool = False, refine_box: bool = False) -> dict:
     """The certificate of :func:`remainder_bounds` for a built model (equations (2)-(5)); ``offset`` ``(N, 9)``
     is added to every bounded change (the exact change at the centre of a piece of the error set,
     :func:`_split_bounds`). With ``target`` ``{q: float}`` (mm, rad) the interior-point refinement of
     :func:`dual_bound` is skipped for the rows and directions whose cheaper bound is already below it (the
-    branch and bound only needs a piece below its target; every value returned is still a valid bound)."""
+    branch and bound only needs a piece below its target; every value returned is still a valid bound). With
+    ``lazy_box`` the box ``b`` is tightened by the second-order bound (module docstring) only at the poses where
+    the box of (3) alone does not close or contract (a looser but valid box, much cheaper for a batch); with
+    ``refine_box`` the multipliers of that second bound are refined (interior point, no SDP) even with a target."""
     N, n = model.z0.shape[0], model.n
     offset = np.zeros((N, 9)) if offset is None else offset
+    if target is not None:  # per pose (N,); no target (NaN) refines every row
+        tgt = {q: np.broadcast_to(np.asarray(target[q], dtype=float), (N,)) for q in QUANTITIES}
+        tgt = {q: np.where(np.isfinite(v), v, -np.inf) for q, v in tgt.items()}
     J = model.jacobian(np.zeros((N, 9 + n)))
     Jz, Jd = J[..., :9], J[..., 9:]
     reason = np.full(N, "", dtype=object)
@@ -103,11 +114,15 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
     e0 = np.exp(1j * model.t0)
     JinvF0 = np.einsum("nij,nj->ni", Jinv, F0)
 
+    def coefficients(kap: np.ndarray, rows: np.ndarray):
+        """``c'_m`` and ``c_m`` ``(N', R, m)`` of row combinations ``kap`` ``(N', R, 3)`` at the poses ``rows``."""
+        cp = np.conj(kap[..., model.leg_of]) * e0[rows][:, None, :]  # (N', R, m)
+        return cp * model.r0[rows][:, None, :], cp
+
     def pieces(kap: np.ndarray, rows: np.ndarray):
         """``c'_m``, ``c_m`` and the second-order model ``H`` (equation (5)) of row combinations ``kap``
         ``(N', R, 3)`` at the poses ``rows``."""
-        cp = np.conj(kap[..., model.leg_of]) * e0[rows][:, None, :]  # (N', R, m)
-        c = cp * model.r0[rows][:, None, :]
+        c, cp = coefficients(kap, rows)
         al, be = alpha[rows], beta[rows]
         v = np.imag(cp[..., None] * be[:, None, :, :])  # (N', R, m, n)
         H = (np.einsum("nrm,nmk,nml->nrkl", c.real / 2, al, al)
@@ -126,15 +141,24 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
     # A second bound of the map (2) over the box: |w_j| <= max_s [max_S delta^T (s H_j) delta - s (J_z^-1 F0)_j]
     # + rest_j(b) (the duality bound of the second-order model, module docstring). The smaller of it and (3) is
     # still monotone in b: iterate b <- Phi(b) from 0 (increasing) and check Phi(b) <= b after inflation.
-    oi = np.flatnonzero(ok)
     quad_w = np.full((N, 18), np.inf)
-    if oi.size:
+    oi = np.zeros(0, dtype=int)
+
+    def second_order_box(idx: np.ndarray) -> None:
+        """The second bound of the box at the poses ``idx`` (one batch): ``cw``, ``cpw``, ``Hw``, ``f_w`` of ``oi``."""
+        nonlocal oi, cw, cpw, Hw, f_w
+        oi = idx
         cw, cpw, Hw = pieces(np.concatenate([kappa[oi], -kappa[oi]], axis=1), oi)
         f_w = np.concatenate([JinvF0[oi], -JinvF0[oi]], axis=1)
         # a piece of the branch and bound takes the first feasible multipliers (refining them moved the pieces'
         # bounds by less than 1 % on the test robots and cost 40 % of the time); refined where the box then
         # does not close or contract (below)
-        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw, refine=target is None, sdp=target is None) - f_w
+        quad_w[oi] = dual_bound(sets, np.zeros(Hw.shape[:-1]), Hw, refine=target is None or refine_box,
+                                sdp=target is None, rtol=1e-7 if target is None else BOX_RTOL) - f_w
+
+    cw = cpw = Hw = f_w = None
+    if not lazy_box:
+        second_order_box(np.flatnonzero(ok))
 
     def phi2(b):
         out = phi(b)
@@ -164,6 +188,11 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         return b, fixed, np.max(L, axis=-1)
 
     b, fixed, contraction = close()
+    if lazy_box:  # the box of (3) alone where it closes and contracts; the second bound where it does not
+        again = np.flatnonzero(ok & ~(fixed & (contraction < CONTRACTION)))
+        if again.size:
+            second_order_box(again)
+            b, fixed, contraction = close()
     redo = np.flatnonzero((ok & ~(fixed & (contraction < CONTRACTION)))[oi])
     if target is not None and redo.size:  # the pieces not certified: again with refined multipliers
         quad_w[oi[redo]] = dual_bound(sets, np.zeros(Hw[redo].shape[:-1]), Hw[redo], iterations=12,
@@ -180,19 +209,28 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
     X, D = terms(b)
 
     def row_bound(kap: np.ndarray, g: np.ndarray, f0: np.ndarray, rows: np.ndarray, refine: bool = True,
-                  stop: np.ndarray | None = None) -> np.ndarray:
+                  stop: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
         """Upper bound ``(N', R)`` of ``max over S of g . delta + (J_z^-1 row combination of -(F0 + R))`` at the
         poses ``rows`` (indices).
 
         ``kap`` ``(N', R, 3)``: the row combination's ``kappa`` per leg; ``g`` ``(N', R, n)`` its first-order
         map; ``f0`` ``(N', R)`` its ``(J_z^-1 F0)``. The smaller of the term-by-term bound (4) and the
         second-order model bound of :func:`dual_bound` plus its rest (equation (5)); the refinement of a row
-        ends once it is below ``stop`` ``(N', R)`` (if given).
+        ends once it is below ``stop`` ``(N', R)`` (if given). Rows whose bound (4) is already at or below ``skip``
+        ``(N', R)`` (if given) keep it: the second-order bound is computed (batched) for the others only.
         """
-        c, cp, H = pieces(kap, rows)
+        c, cp = coefficients(kap, rows)
         X_, D_ = X[rows], D[rows]
         cheap = (support(sets, g) - f0 + np.einsum("nrm,nm->nr", np.maximum(c.real, 0), X_ ** 2 / 2)
                  + np.einsum("nrm,nm->nr", np.abs(c), X_ ** 3 / 6) + np.einsum("nrm,nm->nr", np.abs(cp), D_ * X_))
+        if skip is not None:
+            kk, rr = np.nonzero(~(cheap <= np.broadcast_to(skip, cheap.shape)))
+            if kk.size:
+                st = None if stop is None else np.broadcast_to(stop, cheap.shape)[kk, rr][:, None]
+                cheap[kk, rr] = row_bound(kap[kk, rr][:, None], g[kk, rr][:, None], f0[kk, rr][:, None], rows[kk],
+                                          refine, st)[:, 0]
+            return cheap
+        _, _, H = pieces(kap, rows)
         extra = -f0 + rest_of(c, cp, b[rows], rows)
         model_bound = dual_bound(sets, g, H, refine=refine, stop=None if stop is None else stop - extra,
                                  rtol=1e-7 if stop is None else PIECE_RTOL) + extra
@@ -209,12 +247,12 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         if target is None:
             ub = row_bound(kap_rows, g_rows, f_rows, ci)  # (N', 6)
         else:  # the refined bound only for the rows still above their target
-            ub = row_bound(kap_rows, g_rows, f_rows, ci, refine=False)
-            t_rows = np.array([target[q] for q in ("dx", "dy", "dphi")] * 2) / (1 + 1e-6)
+            t_rows = np.stack([tgt[q][ci] for q in ("dx", "dy", "dphi")] * 2, axis=1) / (1 + 1e-6)  # (N', 6)
+            ub = row_bound(kap_rows, g_rows, f_rows, ci, refine=False, skip=t_rows)
             kk, rr = np.nonzero(ub > t_rows)  # every (pose, row) still above: one batch, one row each
             if kk.size:
                 ub[kk, rr] = row_bound(kap_rows[kk, rr][:, None], g_rows[kk, rr][:, None], f_rows[kk, rr][:, None],
-                                       ci[kk], stop=t_rows[rr][:, None])[:, 0]
+                                       ci[kk], stop=t_rows[kk, rr][:, None])[:, 0]
         for j, q in enumerate(("dx", "dy", "dphi")):
             upper[q][ci] = np.maximum(ub[:, j], ub[:, 3 + j])
         # |dp| <= max_k u_k . p / cos(pi / K) through K directions: the cheap bound of every direction, then the
@@ -224,25 +262,28 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         kap_u = np.einsum("kr,nri->nki", u, kappa[ci, :2, :])
         g_u = np.einsum("kr,nrd->nkd", u, M[ci, :2, :])
         f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2] - offset[ci, :2])
-        ub = row_bound(kap_u, g_u, f_u, ci, refine=False)
-        floor = -np.inf if target is None else target["dp"] * math.cos(math.pi / N_DIRECTIONS) / (1 + 1e-6)
+        floor = (np.full(ci.size, -np.inf) if target is None
+                 else tgt["dp"][ci] * math.cos(math.pi / N_DIRECTIONS) / (1 + 1e-6))  # (N',)
+        ub = row_bound(kap_u, g_u, f_u, ci, refine=False, skip=None if target is None else floor[:, None])
         done = np.zeros((ci.size, N_DIRECTIONS), dtype=bool)
         active = np.ones(ci.size, dtype=bool)
         while True:  # rounds: per pose the (up to) 8 worst directions not yet refined, all poses in one batch
-            sel_k, sel_d = [], []
-            for k in np.flatnonzero(active):
-                todo = np.argsort(np.where(done[k], np.inf, -ub[k]))[:8]
-                todo = todo[~done[k, todo]]
-                if not todo.size or not np.max(ub[k, todo]) > max(np.max(ub[k, done[k]], initial=-np.inf), floor):
-                    active[k] = False
-                    continue
-                sel_k.append(np.full(todo.size, k))
-                sel_d.append(todo)
-            if not sel_k:
+            ak = np.flatnonzero(active)
+            if not ak.size:
                 break
-            kk, dd = np.concatenate(sel_k), np.concatenate(sel_d)
+            todo = np.argsort(np.where(done[ak], np.inf, -ub[ak]), axis=-1)[:, :8]  # (A, 8)
+            fresh = ~np.take_along_axis(done[ak], todo, axis=-1)
+            top = np.max(np.where(fresh, np.take_along_axis(ub[ak], todo, axis=-1), -np.inf), axis=-1)
+            best_done = np.max(np.where(done[ak], ub[ak], -np.inf), axis=-1)
+            go = top > np.maximum(best_done, floor[ak])
+            active[ak[~go]] = False
+            if not np.any(go):
+                break
+            sel = fresh & go[:, None]
+            kk = np.broadcast_to(ak[:, None], todo.shape)[sel]
+            dd = todo[sel]
             ub[kk, dd] = row_bound(kap_u[kk, dd][:, None], g_u[kk, dd][:, None], f_u[kk, dd][:, None], ci[kk],
-                                   stop=None if target is None else np.full((kk.size, 1), floor))[:, 0]
+                                   stop=None if target is None else floor[kk][:, None])[:, 0]
             done[kk, dd] = True
         upper["dp"][ci] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS)
     # first-order |dp|: the largest vertex norm of the zonotope (max over directions of the support, exactly)
