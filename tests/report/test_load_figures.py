@@ -145,3 +145,68 @@ def test_plot_load_refuses_a_zero_load_and_a_bad_factor():
     for bad in (0.0, -2.0, float("nan")):
         with pytest.raises(ConfigError, match="magnify"):
             plot_load("aalborg_3ppr", "case2", [0.0, 0.0, 0.0], Load(fx=1.0), magnify=bad)
+
+
+def _meshes(fig) -> dict[str, np.ndarray]:
+    """Title (before any ': constant') -> the array drawn by the panel's pcolormesh."""
+    out = {}
+    for ax in fig.axes:
+        if ax.get_title() and ax.collections:
+            out[ax.get_title().split(":")[0]] = np.ma.filled(ax.collections[0].get_array(), np.nan)
+    return out
+
+
+def test_loaded_map_figure_draws_the_loaded_errors_of_each_pose():
+    """Each panel of the map figure holds loaded_pose_error at the grid poses (computed here pose by pose)."""
+    from pmaccuracy.accuracy.loads import loaded_error_map
+    from pmaccuracy.report.load_figures import plot_loaded_map
+
+    load = Load(fx=4.0, fy=-7.0, m=30.0)
+    ds = loaded_error_map("symmetric_3rpr", "rpr_typical", load, [np.radians(5.0)], n=9)
+    drawn = _meshes(plot_loaded_map(ds, 5.0))
+    assert len(drawn) == 4                                # every leg loaded under this wrench
+    xs, ys = np.meshgrid(ds["x"].values, ds["y"].values)
+    inside = np.isfinite(ds["dx"].values[0])
+    poses = np.column_stack([xs[inside], ys[inside], np.full(inside.sum(), np.radians(5.0))])
+    ref = loaded_pose_error("symmetric_3rpr", "rpr_typical", poses, load, exact=False).first_order
+    for title, column in ((r"$\delta x$ [mm]", ref[:, 0]), (r"$\delta y$ [mm]", ref[:, 1]),
+                          (r"$|\delta p|$ [mm]", np.hypot(ref[:, 0], ref[:, 1])),
+                          (r"$\delta\phi$ [deg]", np.degrees(ref[:, 2]))):
+        Z = drawn[title].reshape(inside.shape)
+        assert np.all(np.isnan(Z[~inside]))
+        np.testing.assert_allclose(Z[inside], column, rtol=1e-9, atol=1e-12)
+
+
+def test_wrench_set_map_figure_draws_ranges_and_flips_and_the_cli_writes_one_figure_per_orientation(tmp_path):
+    from pmaccuracy.accuracy.loads import wrench_set_errors, wrench_set_map
+    from pmaccuracy.report.load_figures import plot_wrench_set_map
+
+    center, half = np.array([1.0, 0.0, 0.0]), np.array([3.0, 2.0, 40.0])
+    ds = wrench_set_map("symmetric_3rpr", "rpr_typical", center, half, [0.0], n=7)
+    drawn = _meshes(plot_wrench_set_map(ds, 0.0))
+    xs, ys = np.meshgrid(ds["x"].values, ds["y"].values)
+    inside = np.isfinite(ds["dx_lo"].values[0])
+    poses = np.column_stack([xs[inside], ys[inside], np.zeros(inside.sum())])
+    ref = wrench_set_errors("symmetric_3rpr", "rpr_typical", poses, center, half)
+    np.testing.assert_allclose(drawn[r"$\delta x$ range [mm]"].reshape(inside.shape)[inside],
+                               ref.upper[:, 0] - ref.lower[:, 0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(drawn["legs whose contact flips"].reshape(inside.shape)[inside],
+                                  ref.flips.sum(axis=1))
+    png = tmp_path / "m.png"
+    assert main(["load", "--map", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--fy", "-5",
+                 "--grid", "7", "--phi-deg", "0", "10", "--out", str(tmp_path / "m.nc"), "--plot", str(png)]) == 0
+    assert sorted(p.name for p in tmp_path.glob("m-*deg.png")) == ["m-0deg.png", "m-10deg.png"]
+    assert main(["preload", "--map", "--fx", "-5", "5", "--grid", "7", "--out", str(tmp_path / "s.nc"),
+                 "--plot", str(tmp_path / "s.svg")]) == 0
+    assert (tmp_path / "s.svg").read_bytes().lstrip().startswith(b"<?xml")
+
+
+@pytest.mark.parametrize("argv, key", [
+    (["load", "--map", "--fy", "-5", "--plot", "x.png", "--magnify", "10"], "--magnify"),
+    (["preload", "--fx", "-5", "5", "--disc", "0", "0", "3", "--plot", "x.png"], "--plot"),
+])
+def test_map_and_region_plot_options_are_checked(argv, key, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv + ["--out", "o.nc"] * ("--map" in argv)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and key in err[0]

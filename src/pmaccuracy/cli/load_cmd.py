@@ -40,7 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "intensities and the number of unloaded legs, NaN outside the workspace")
     p.add_argument("--exact", action="store_true", help="with --map: also the exact loop closure (dx_exact, ...)")
     _common.add_plot(p, "draw the robot at the (first) pose with the load, every joint's force (arrows at a stated "
-                        "scale), each joint's contact state, unloaded legs greyed and the loaded platform magnified")
+                        "scale), each joint's contact state, unloaded legs greyed and the loaded platform magnified; "
+                        "with --map: the map's panels (dx, dy, |dp| mm, dphi deg; unloaded legs' spread), one "
+                        "figure per --phi-deg (FILE-<phi>deg.EXT when several)")
     p.add_argument("--magnify", type=_common.finite_float, metavar="K",
                    help="magnification of the loaded displacement in --plot (default: a round factor that makes it "
                         "visible)")
@@ -145,8 +147,8 @@ def run(args: argparse.Namespace) -> int:
     if args.exact and not args.map:
         raise ConfigError("goes with --map (the poses' output always has the exact columns)", key="--exact")
     plot = _common.check_plot(args)
-    if plot and args.map:
-        raise ConfigError("draws one pose: give --pose, not --map", key="--plot")
+    if args.magnify is not None and args.map:
+        raise ConfigError("goes with --plot of a pose, not --map", key="--magnify")
     if args.magnify is not None and not args.magnify > 0:
         raise ConfigError(f"must be a factor > 0, got {args.magnify:g}", key="--magnify")
     if args.magnify is not None and not plot:
@@ -223,7 +225,23 @@ def run_map(args: argparse.Namespace, robot, clearances) -> int:
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit(write_map(ds, args.out), args.format)
+    if args.plot:
+        from ..report.load_figures import plot_loaded_map
+
+        map_plots(ds, args.plot, args.dpi, plot_loaded_map)
     return 0
+
+
+def map_plots(ds, plot: str, dpi: int, draw) -> None:
+    """``--plot`` of a map: one figure per orientation (``FILE-<phi>deg.EXT`` when there are several)."""
+    from pathlib import Path
+
+    from .._savefig import save_figure
+
+    plot = Path(plot)
+    for phi in ds["phi"].values:
+        path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{float(phi):g}deg{plot.suffix}")
+        save_figure(draw(ds, float(phi)), path, dpi=dpi, option="--plot")
 
 
 def run_serial(args: argparse.Namespace) -> int:

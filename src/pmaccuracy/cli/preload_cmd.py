@@ -26,7 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
     _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
-                        "error's range without preload beside the constant offset with it and the worst case")
+                        "error's range without preload beside the constant offset with it and the worst case; with "
+                        "--map: the ranges over the box and the flipping legs, one figure per --phi-deg")
     p.add_argument("--certify", action=argparse.BooleanOptionalAction, default=True,
                    help="without poses: prove the preload over the whole region by interval branch and bound "
                         "(certified_size_N; default: on)")
@@ -53,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"the region's orientations: expected PHI or LO HI in degrees, got {len(args.phi_deg)} "
                           "values", key="--phi-deg")
     plot = _common.check_plot(args)
-    if plot and not (args.pose or args.poses_csv):
-        raise ConfigError("draws one pose: give --pose (not with --map or a region)", key="--plot")
+    if plot and not (args.pose or args.poses_csv or args.map):
+        raise ConfigError("draws one pose (--pose) or a map (--map), not a region's preload", key="--plot")
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances, robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
@@ -109,6 +110,11 @@ def run_map(args: argparse.Namespace, robot, clearances, center, half) -> int:
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit(write_map(ds, args.out), args.format)
+    if args.plot:
+        from ..report.load_figures import plot_wrench_set_map
+        from .load_cmd import map_plots
+
+        map_plots(ds, args.plot, args.dpi, plot_wrench_set_map)
     return 0
 
 

@@ -39,7 +39,7 @@ from ..kinematics import as_poses, leg_states
 from ..kinematics.workspace import draw_robot
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, block_centre
-from .figures import nice_step
+from .figures import nice_step, plot_panels
 
 #: Colours: the external wrench, the joints' forces, a leg's contact state, unloaded legs, the preload.
 LOAD_COLOUR, REACTION_COLOUR, CONTACT_COLOUR, UNLOADED_COLOUR, PRELOAD_COLOUR = \
@@ -276,3 +276,56 @@ def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, ti
 
 
 __all__ = ["plot_load", "plot_preload"]
+
+
+def plot_loaded_map(ds, phi_deg: float, *, vmin: float | None = None, vmax: float | None = None,
+                    log: bool = False) -> Figure:
+    """Panels of a loaded error map (:func:`pmaccuracy.accuracy.loads.loaded_error_map`) at ``phi_deg``: the
+    signed first-order loaded errors ``dx, dy`` (mm) and ``dphi`` (deg), ``|dp|`` (mm), and, where some leg is
+    unloaded, the half-width ``dp`` spread it leaves (``hypot(dx_spread, dy_spread)``, mm) and the number of
+    unloaded legs. ``vmin``/``vmax``/``log`` apply to the mm panels.
+
+    >>> from pmaccuracy.accuracy.loads import loaded_error_map
+    >>> ds = loaded_error_map("aalborg_3ppr", "case2", Load(fx=5.0, fy=-3.0), [0.0], n=9)
+    >>> len([ax for ax in plot_loaded_map(ds, 0.0).axes if ax.get_title()])     # every leg loaded: 4 panels
+    4
+    """
+    d = ds.sel(phi=phi_deg, method="nearest")
+    x, y = ds["x"].values, ds["y"].values
+    panels = [(x, y, d["dx"].values, r"$\delta x$ [mm]", "mm"), (x, y, d["dy"].values, r"$\delta y$ [mm]", "mm"),
+              (x, y, d["dp"].values, r"$|\delta p|$ [mm]", "mm"), (x, y, d["dphi"].values, r"$\delta\phi$ [deg]", "deg")]
+    limited = [True, True, True, False]
+    unloaded = d["unloaded_legs"].values
+    if np.nanmax(unloaded, initial=0.0) > 0:
+        panels += [(x, y, np.hypot(d["dx_spread"].values, d["dy_spread"].values), r"$\delta p$ spread of unloaded legs [mm]",
+                    "mm"), (x, y, unloaded, "unloaded legs", "legs")]
+        limited += [True, False]
+    load = ds.attrs.get("load", "")
+    fig = plot_panels(panels, suptitle=f"Loaded pose error of {ds.attrs.get('robot', '')} at phi = {phi_deg:g} deg\n"
+                                       f"{load}", ncols=min(len(panels), 3), vmin=vmin, vmax=vmax, log=log,
+                      limited=limited)
+    return fig
+
+
+def plot_wrench_set_map(ds, phi_deg: float, *, vmin: float | None = None, vmax: float | None = None,
+                        log: bool = False) -> Figure:
+    """Panels of a wrench-set map (:func:`pmaccuracy.accuracy.loads.wrench_set_map`) at ``phi_deg``: the width of
+    the loaded error's range over the box of process wrenches, ``dx_hi - dx_lo``, ``dy_hi - dy_lo`` (mm) and
+    ``dphi_hi - dphi_lo`` (deg), and the number of legs whose contact flips inside the box (where the error
+    jumps). ``vmin``/``vmax``/``log`` apply to the mm panels.
+
+    >>> from pmaccuracy.accuracy.loads import wrench_set_map
+    >>> ds = wrench_set_map("aalborg_3ppr", "case2", [0.0, 0, 0], [5.0, 5, 100], [0.0], n=9)
+    >>> len([ax for ax in plot_wrench_set_map(ds, 0.0).axes if ax.get_title()])
+    4
+    """
+    d = ds.sel(phi=phi_deg, method="nearest")
+    x, y = ds["x"].values, ds["y"].values
+    panels = [(x, y, d["dx_hi"].values - d["dx_lo"].values, r"$\delta x$ range [mm]", "mm"),
+              (x, y, d["dy_hi"].values - d["dy_lo"].values, r"$\delta y$ range [mm]", "mm"),
+              (x, y, d["dphi_hi"].values - d["dphi_lo"].values, r"$\delta\phi$ range [deg]", "deg"),
+              (x, y, d["flipping_legs"].values, "legs whose contact flips", "legs")]
+    return plot_panels(panels, suptitle=f"Loaded error's range over the process wrenches: {ds.attrs.get('robot', '')}, "
+                                        f"phi = {phi_deg:g} deg\n"
+                                        f"{ds.attrs.get('wrench_box', '')}", ncols=2, vmin=vmin, vmax=vmax,
+                       log=log, limited=[True, True, False, False])
