@@ -49,6 +49,8 @@ def test_arm_report_sections(run):
     assert results["serial"] is True and results["points"] == len(ex.data)
     planned = plan_poses(pv, len(ex.data), seed=SEED)
     assert results["indices"]["planned"]["O1"] == pytest.approx(planned.index["O1"], rel=1e-9)
+    if np.allclose(ex.data.commands, planned.commands):   # measured where planned: the same index, recomputed
+        assert results["indices"]["poses"]["O1"] == pytest.approx(planned.index["O1"], rel=1e-6)
     assert results["indices"]["poses"]["O1"] > 0
     acc = results["accuracy"]
     assert acc["where"] == "targets" and acc["poses"] == len(ex.targets)

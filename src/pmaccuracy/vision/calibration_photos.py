@@ -37,15 +37,16 @@ from ..accuracy.calibration.parameters import actuators
 from ..accuracy.calibration.simulate import measure
 from ..errors import MeasurementFileError, VisionError
 from ._util import DEFAULT_SPACING_MM
-from .images import load_image, save_image
+from .images import MAX_IMAGE_PIXELS, load_image, save_image
 from .pose import measure_pose
 from .render import render_platform
 
 #: Scale of the flat camera of the calibration photos, mm per pixel, and the margin kept around the poses, mm.
 PHOTO_MM_PER_PIXEL = 0.25
 PHOTO_MARGIN_MM = 30.0
-#: Largest side of a calibration photo, px (a larger workspace needs a coarser scale).
-MAX_PHOTO_PX = 6000
+#: Largest side of a calibration photo, px (a larger workspace needs a coarser scale): a square photo within
+#: the readers' pixel limit (:data:`pmaccuracy.vision.images.MAX_IMAGE_PIXELS`), so it is refused before rendering.
+MAX_PHOTO_PX = math.isqrt(MAX_IMAGE_PIXELS)
 
 
 def photo_shape(poses: np.ndarray, mm_per_pixel: float = PHOTO_MM_PER_PIXEL,
