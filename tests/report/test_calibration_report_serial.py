@@ -81,10 +81,14 @@ def test_arm_measured_data_floor_at_the_joint_values(run, tmp_path):
 
 def test_cli_arm_simulate_report_and_report(tmp_path, capsys):
     assert main(["calibrate", "simulate", "--robot", ARM, "--poses", "12", "--report", str(tmp_path / "s.html"),
-                 "--format", "csv"]) == 0
+                 "--data-out", str(tmp_path / "m.csv"), "--format", "csv"]) == 0
+    assert main(["calibrate", "identify", "--robot", ARM, "--data", str(tmp_path / "m.csv"), "--out",
+                 str(tmp_path / "id.json"), "--format", "csv"]) == 0
+    assert main(["calibrate", "report", "--data", str(tmp_path / "m.csv"), "--identification",
+                 str(tmp_path / "id.json"), "--clearances", CLEARANCES, "--out", str(tmp_path / "d.html")]) == 0
     assert main(["calibrate", "report", "--robot", ARM, "--poses", "12", "--clearances", CLEARANCES,
                  "--out", str(tmp_path / "r.html")]) == 0
     out = capsys.readouterr()
     assert "internal error" not in out.err
-    for f in ("s.html", "r.html"):
+    for f in ("s.html", "r.html", "d.html"):
         assert (tmp_path / f).read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
