@@ -6,7 +6,9 @@ Sub-commands:
   homography with radial distortion);
 * ``pose IMAGE (--calibration CAL.toml | --mm-per-pixel S) [--marker-height-mm H]`` - pose of the 2 x 2 markers,
   with its 1-sigma uncertainty;
-* ``batch MANIFEST.csv --calibration CAL.toml --out MEASUREMENTS.csv`` - photos -> measurement CSV;
+* ``batch MANIFEST.csv --calibration CAL.toml --out MEASUREMENTS.csv`` - photos -> measurement CSV; a
+  calibration manifest (command columns, no ``push``; ``--calibration`` or ``--mm-per-pixel``) -> the
+  calibration CSV of ``calibrate identify``;
 * ``detect IMAGE`` - list the detected dot centres in pixels;
 * ``render-sheet`` / ``render-pose`` / ``render-batch`` - seeded test images from the physically modelled camera
   (or the flat one).
