@@ -168,7 +168,7 @@ def run_report(args: argparse.Namespace) -> int:
         _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
-    pv = error_parameters(_common.load_robot(args))
+    pv = error_parameters(_robot(args))
     noise = (max(values["noise_mm"], 1e-9), max(values["noise_mm"], 1e-9), max(np.radians(values["noise_deg"]), 1e-11))
     ex = simulate_calibration(pv, values["poses"], seed=values["seed"], noise=noise, clearances=args.clearances,
                               error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])})

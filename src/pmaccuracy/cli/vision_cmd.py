@@ -6,7 +6,9 @@ Sub-commands:
   homography with radial distortion);
 * ``pose IMAGE (--calibration CAL.toml | --mm-per-pixel S) [--marker-height-mm H]`` - pose of the 2 x 2 markers,
   with its 1-sigma uncertainty;
-* ``batch MANIFEST.csv --calibration CAL.toml --out MEASUREMENTS.csv`` - photos -> measurement CSV;
+* ``batch MANIFEST.csv --calibration CAL.toml --out MEASUREMENTS.csv`` - photos -> measurement CSV; a
+  calibration manifest (command columns, no ``push``; ``--calibration`` or ``--mm-per-pixel``) -> the
+  calibration CSV of ``calibrate identify``;
 * ``detect IMAGE`` - list the detected dot centres in pixels;
 * ``render-sheet`` / ``render-pose`` / ``render-batch`` - seeded test images from the physically modelled camera
   (or the flat one).
@@ -207,12 +209,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_format(p)
     p.set_defaults(func=run_pose)
 
-    p = vsub.add_parser("batch", help="measure the photos of a manifest and write the measurement CSV",
+    p = vsub.add_parser("batch", help="measure the photos of a manifest and write the measurement CSV (or the "
+                                      "calibration CSV of a calibration manifest)",
                         description="MANIFEST.csv has the columns image,point,x_nom,y_nom,phi_nom_deg,push (image "
-                                    "paths relative to the manifest). Writes the measurement CSV that 'experiment "
-                                    "compare' reads; any photo that fails stops the batch with its name.")
+                                    "paths relative to the manifest): writes the measurement CSV that 'experiment "
+                                    "compare' reads (needs --calibration). A calibration manifest (image,point, the "
+                                    "command columns q1 or q1_deg, ..., x_nom,y_nom,phi_nom_deg; written by "
+                                    "'calibrate simulate --photos'): writes the calibration CSV (point, the "
+                                    "commands, x,y,phi_deg and the photos' sigma_x,sigma_y,sigma_phi_deg) that "
+                                    "'calibrate identify --data' reads. Any photo that fails stops the batch with "
+                                    "its name.")
     p.add_argument("manifest", metavar="MANIFEST.csv", help="manifest of the photos")
-    p.add_argument("--calibration", required=True, metavar="CAL.toml", help="calibration file")
+    scale = p.add_mutually_exclusive_group(required=True)
+    scale.add_argument("--calibration", metavar="CAL.toml", help="calibration file")
+    scale.add_argument("--mm-per-pixel", type=_positive_float, metavar="S",
+                       help="plain scale instead of a calibration (origin at the image centre, y up; the flat "
+                            "camera of 'calibrate simulate --photos', default there 0.25); calibration manifests "
+                            "only")
     _add_height(p)
     p.add_argument("--out", required=True, metavar="MEASUREMENTS.csv",
                    help=f"measurement CSV to write; {OUT_POLICY}")
@@ -565,6 +578,12 @@ def run_batch(args: argparse.Namespace) -> int:
 
     out = _output(args.out)
     _check_spacing(args.spacing_mm)
+    _check_scale(args.mm_per_pixel)
+    if _is_calibration_manifest(args.manifest):
+        return _run_calibration_batch(args, out)
+    if args.calibration is None:
+        raise PmAccuracyError("--mm-per-pixel: the clearance experiment's manifest (image,point,x_nom,y_nom,"
+                              "phi_nom_deg,push) needs --calibration CAL.toml")
     calibration = _load_calibration(args.calibration)
     _check_height(args, calibration, args.calibration)
     rows = read_manifest(args.manifest)
@@ -573,6 +592,43 @@ def run_batch(args: argparse.Namespace) -> int:
     for record in records:
         _finite(record, record["image"])
     write_measurements(out, measurements)
+    _common.emit(records, args.format)
+    return 0
+
+
+def _is_calibration_manifest(path: str) -> bool:
+    """Whether the manifest's header is a calibration manifest's (an unreadable file: False, and the clearance
+    manifest's reader names the problem)."""
+    import csv
+
+    from ..vision.calibration_photos import is_calibration_manifest
+
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            header = next(csv.reader(fh), [])
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return False
+    return is_calibration_manifest(header)
+
+
+def _run_calibration_batch(args: argparse.Namespace, out) -> int:
+    """``vision batch`` of a calibration manifest: the calibration CSV of ``calibrate identify``."""
+    from ..vision.calibration_photos import measure_calibration_manifest, write_calibration_readings
+
+    calibration = _load_calibration(args.calibration) if args.calibration else None
+    if calibration is None and args.marker_height_mm != 0:
+        raise PmAccuracyError("--marker-height-mm needs --calibration with a multi-view calibration, not a plain "
+                              "--mm-per-pixel scale")
+    _check_height(args, calibration, args.calibration)
+    commands, records = measure_calibration_manifest(args.manifest, calibration=calibration,
+                                                     mm_per_pixel=args.mm_per_pixel, height_mm=args.marker_height_mm,
+                                                     spacing_mm=args.spacing_mm, polarity=args.polarity)
+    for record in records:
+        _finite(record, record["image"])
+    try:
+        write_calibration_readings(out, commands, records)
+    except OSError as exc:
+        raise PmAccuracyError(f"{out}: --out: cannot write ({exc.strerror or exc})") from None
     _common.emit(records, args.format)
     return 0
 

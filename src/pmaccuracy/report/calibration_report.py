@@ -34,16 +34,18 @@ from matplotlib.figure import Figure
 from .. import __version__
 from .._savefig import SYMBOLS, save_figure
 from ..accuracy.bounds import max_pose_errors
+from ..accuracy.calibration.compensate import sample_serial_errors
 from ..accuracy.calibration.data import CalibrationData
 from ..accuracy.calibration.identifiability import RTOL
-from ..accuracy.calibration.identify import Identification, jacobian, whitening
-from ..accuracy.calibration.parameters import frame_apply
-from ..accuracy.calibration.plan import pose_set_indices
+from ..accuracy.calibration.identify import Identification, jacobian, serial_jacobian, whitening
+from ..accuracy.calibration.parameters import SerialParameterVector, frame_apply, serial_poses
+from ..accuracy.calibration.plan import candidate_commands, pose_set_indices
 from ..accuracy.calibration.simulate import Experiment, measure
 from ..accuracy.distributions import sample_pose_errors
 from ..errors import ConfigError
 from ..io.resolve import load_clearances
 from ..kinematics.workspace import constant_orientation_workspace
+from ..model.serial import SerialArm, load_serial_sources, max_serial_errors
 from .document import Document, provenance
 from .figures import REPORT_WIDTH_IN
 
@@ -51,6 +53,8 @@ from .figures import REPORT_WIDTH_IN
 FLOOR_SAMPLES = 2000
 #: The longest "before" arrow of the residual map is drawn this fraction of the workspace's span long.
 ARROW_FRACTION = 0.12
+#: Random joint values drawn for the reachable area of a serial arm behind its residual maps.
+REACH_SAMPLES = 4000
 #: What is left counts as the clearance floor at a pose when it is within the floor plus this many sigmas.
 FLOOR_SIGMAS = 3.0
 
@@ -69,8 +73,11 @@ def model_residuals(ident: Identification, data: CalibrationData, values: np.nda
     """
     pv = ident.parameters
     values = ident.values if values is None else np.asarray(values, dtype=float)
-    reference = frame_apply(values[-3:], data.poses)
-    model = measure(pv, values, data.commands, reference, noise=(0.0, 0.0, 0.0))
+    if isinstance(pv, SerialParameterVector):   # explicit, single-valued forward kinematics of the arm
+        model = serial_poses(pv, values, data.commands)
+    else:
+        reference = frame_apply(values[-3:], data.poses)
+        model = measure(pv, values, data.commands, reference, noise=(0.0, 0.0, 0.0))
     r = data.poses - model
     r[:, 2] = np.angle(np.exp(1j * r[:, 2]))
     return r
@@ -98,9 +105,16 @@ def _stats(r: np.ndarray) -> dict:
 
 
 def _floor(robot, clearances, poses: np.ndarray, seed: int) -> dict:
-    """The clearance floor at robot-frame ``poses (T, 3)``: worst case and RMS of ``|dp|`` (mm), ``|dphi|`` (rad)."""
-    b = max_pose_errors(robot, clearances, poses)
-    e = sample_pose_errors(robot, clearances, poses, FLOOR_SAMPLES, seed=seed)
+    """The clearance floor at robot-frame ``poses (T, 3)``: worst case and RMS of ``|dp|`` (mm), ``|dphi|`` (rad).
+    A serial arm (``robot`` a :class:`~pmaccuracy.model.serial.SerialArm`): ``poses`` are its joint values
+    ``(T, n)`` (a pose does not say the arm's configuration), the worst case from
+    :func:`~pmaccuracy.model.serial.max_serial_errors` as ``calibrate compensate`` takes it."""
+    if isinstance(robot, SerialArm):
+        b = max_serial_errors(robot, clearances, poses, allow_outside=True)
+        e = sample_serial_errors(robot, clearances, poses, FLOOR_SAMPLES, seed=seed)
+    else:
+        b = max_pose_errors(robot, clearances, poses)
+        e = sample_pose_errors(robot, clearances, poses, FLOOR_SAMPLES, seed=seed)
     return {"dp_max": np.asarray(b.dp_max, dtype=float), "dphi_max": np.asarray(b.dphi_max, dtype=float),
             "dp_rms": np.sqrt(np.mean(np.sum(e[..., :2] ** 2, axis=-1), axis=0)),
             "dphi_rms": np.sqrt(np.mean(e[..., 2] ** 2, axis=0))}
@@ -142,8 +156,12 @@ def calibration_report(path: str | Path, identification: Identification, data: C
     outliers = np.isin(np.asarray(data.labels, dtype=object), np.asarray(ident.outliers, dtype=object))
     res = {"before": _stats(before), "after": _stats(after[~outliers]),
            "outliers": list(ident.outliers)}
-    indices = pose_set_indices(pv, positions, seed=seed)
-    sources = None if clearances is None else load_clearances(clearances, robot_id)
+    serial = isinstance(pv, SerialParameterVector)
+    indices = pose_set_indices(pv, positions, seed=seed, commands=data.commands if serial else None)
+    if clearances is None:
+        sources = None
+    else:
+        sources = load_serial_sources(clearances, robot_id) if serial else load_clearances(clearances, robot_id)
     acc = _accuracy(ident, data, experiment, sources, before, after, outliers, seed)
     results = {"robot": nominal_robot.name, "architecture": nominal_robot.architecture, "points": len(data),
                "source": data.source, "clearances": _clearance_name(sources, experiment),
@@ -152,19 +170,19 @@ def calibration_report(path: str | Path, identification: Identification, data: C
                "condition": ident.identifiability.condition,
                "observability": {k: getattr(ident.identifiability, k) for k in ("O1", "O2", "O3", "O4")},
                "fixed": list(ident.identifiability.fixed), "combinations": list(ident.identifiability.combinations),
-               "indices": indices, "accuracy": acc}
+               "indices": indices, "accuracy": acc, "serial": serial}
     results["verdict"] = _verdict(results, experiment is not None)
     doc = Document(f"pmaccuracy: kinematic calibration of {nominal_robot.name} ({nominal_robot.architecture})",
                    footer=provenance(command, __version__))
     with tempfile.TemporaryDirectory(prefix="pmaccuracy-calibration-") as tmp:
         tmp = Path(tmp)
         _intro(doc, results, ident, experiment)
-        _residual_section(doc, tmp, nominal_robot, float(ident.values[-1]), positions, before, after, outliers, res)
+        _residual_section(doc, tmp, pv, float(ident.values[-1]), positions, before, after, outliers, res)
         _parameter_section(doc, tmp, results, experiment is not None)
         _identifiability_section(doc, tmp, ident, data, results)
         _observability_section(doc, tmp, results)
         _accuracy_section(doc, tmp, results, experiment is not None)
-        _method_section(doc)
+        _method_section(doc, serial)
         html = doc.to_html()
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(html, encoding="utf-8")
@@ -213,6 +231,7 @@ def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -
     """Per pose: before/after position (mm) and orientation (deg) error sizes and the floor (module docstring)."""
     pv = ident.parameters
     robot_id = pv.split(ident.values)[0]
+    keep = None
     if experiment is not None:
         where = "targets"
         b, a = experiment.errors_before, experiment.errors_after
@@ -239,6 +258,9 @@ def _accuracy(ident, data, experiment, sources, before, after, outliers, seed) -
         fl = {"dp_max": comp.floor_dp_max, "dphi_max": comp.floor_dphi_max, "dp_rms": comp.floor_dp_rms,
               "dphi_rms": comp.floor_dphi_rms}
     elif sources is not None:
+        if isinstance(pv, SerialParameterVector):   # the floor at the arm's joint values (as compensate takes it)
+            _, off, gain, _ = pv.split(ident.values)
+            poses = off + gain * data.commands[keep]
         fl = _floor(robot_id, sources, poses, seed)
     if fl is not None:
         out["floor"] = {"dp_max_mm": np.asarray(fl["dp_max"]).tolist(), "dp_rms_mm": np.asarray(fl["dp_rms"]).tolist(),
@@ -323,8 +345,17 @@ def _nice(v: float) -> float:
     return float(max(m for m in (1, 2, 5) if m * e <= v) * e)
 
 
-def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outliers, res) -> None:
+def _reach(ax, pv: SerialParameterVector) -> None:
+    """The positions the nominal arm reaches: :data:`REACH_SAMPLES` seeded joint values within the ranges."""
+    p = serial_poses(pv, pv.nominal, candidate_commands(pv, n=REACH_SAMPLES, seed=0))
+    ax.plot(p[:, 0], p[:, 1], ".", color="0.82", ms=1.5, zorder=0,
+            label=f"reachable by the nominal arm ({REACH_SAMPLES} random joint values within range)")
+
+
+def _residual_section(doc, tmp, pv, frame_phi, positions, before, after, outliers, res) -> None:
     from matplotlib.colors import Normalize
+
+    serial = isinstance(pv, SerialParameterVector)
 
     doc.heading("Residuals of the measured poses, before and after calibration")
     phi_lo, phi_hi = float(np.nanmin(positions[:, 2])), float(np.nanmax(positions[:, 2]))
@@ -343,7 +374,10 @@ def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outl
         key = _nice(longest / 2)
         vmax = float(np.max(np.degrees(np.abs(r[ok & ~outliers, 2])))) if (ok & ~outliers).any() else 1.0
         scales.append((magnify, key, vmax))
-        _outline(ax, robot, np.array(phis))
+        if serial:
+            _reach(ax, pv)
+        else:
+            _outline(ax, pv.robot, np.array(phis))
         u, v = c * r[ok, 0] - s_ * r[ok, 1], s_ * r[ok, 0] + c * r[ok, 1]
         extent.append(np.column_stack([positions[ok, 0] + magnify * u, positions[ok, 1] + magnify * v]))
         quiv = ax.quiver(positions[ok, 0], positions[ok, 1], u, v, np.degrees(r[ok, 2]), cmap="coolwarm",
@@ -380,8 +414,11 @@ def _residual_section(doc, tmp, robot, frame_phi, positions, before, after, outl
                    f"Residuals (measured minus model pose) of the measured poses before (left) and after (right) "
                    f"calibration, drawn at the poses in the robot frame. Arrows are the position residuals, "
                    f"magnified {mb:.3g} times before (key arrow {kb:g} mm) and {ma:.3g} times after (key arrow "
-                   f"{ka:g} mm); colours the orientation residual (deg; scales +-{vb:.3g} and +-{va:.3g} deg); grey "
-                   "lines the nominal robot's workspace at the orientations stated. Outliers (crosses) are drawn "
+                   f"{ka:g} mm); colours the orientation residual (deg; scales +-{vb:.3g} and +-{va:.3g} deg); "
+                   + ("light grey dots the positions the nominal arm reaches within its joint ranges (an arm's "
+                      "reachable area: its orientation is free there, so no outline per orientation is drawn). "
+                      if serial else "grey lines the nominal robot's workspace at the orientations stated. ")
+                   + "Outliers (crosses) are drawn "
                    "but set neither scale.")
     b, a = res["before"], res["after"]
     doc.paragraph(f"Figure {n}: the residual is the measured pose minus the pose where the model robot (nominal, "
@@ -463,8 +500,10 @@ def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationD
     idf = ident.identifiability
     s = np.asarray(idf.singular_values, dtype=float)
     pv = ident.parameters
-    W = whitening(pv, ident.values, data)
-    J = jacobian(pv, ident.values, data, W)
+    if isinstance(pv, SerialParameterVector):
+        J = serial_jacobian(pv, ident.values, data)
+    else:
+        J = jacobian(pv, ident.values, data, whitening(pv, ident.values, data))
     norms = np.linalg.norm(J, axis=0)
     Js = J[:, norms > 0] / norms[norms > 0]
     full = np.linalg.svd(Js, compute_uv=False)
@@ -523,10 +562,18 @@ def _observability_section(doc, tmp, r: dict) -> None:
                    f"Observability indices of the {r['points']} measured poses beside a D-optimal plan, random "
                    "choices (mean of 20) and evenly spaced candidates of the same number; larger is better, "
                    "except the condition number.")
-    doc.paragraph(f"Figure {n} and the table: the indices on the plan's scale (the nominal robot's whitened "
-                  "identification Jacobian with the default camera sigmas, columns scaled by their RMS over the "
-                  "default candidate grid of `calibrate plan`, orientations within +-0.35 rad, about 20 deg), so the rows compare as "
-                  "they are; the measured poses are taken where they were measured (robot frame).")
+    if r.get("serial"):
+        doc.paragraph(f"Figure {n} and the table: the indices on the plan's scale (the nominal arm's identification "
+                      "Jacobian with the default camera sigmas, columns scaled by their RMS over the candidates of "
+                      "`calibrate plan`: 4000 seeded random joint values within the ranges), so the rows compare as "
+                      "they are; the measured poses are taken at the commands they were measured with (a pose "
+                      "alone does not say the arm's configuration).")
+    else:
+        doc.paragraph(f"Figure {n} and the table: the indices on the plan's scale (the nominal robot's whitened "
+                      "identification Jacobian with the default camera sigmas, columns scaled by their RMS over the "
+                      "default candidate grid of `calibrate plan`, orientations within +-0.35 rad, about 20 deg), so "
+                      "the rows compare as they are; the measured poses are taken where they were measured (robot "
+                      "frame).")
     doc.table(["poses", "O1", "O2", "O3", "O4", "condition"],
               [[lbl] + [ind[n][k] for k in keys] for n, lbl in names])
 
@@ -591,8 +638,18 @@ def _accuracy_section(doc, tmp, r: dict, simulated: bool) -> None:
     doc.table(["", "max |dp| [mm]", "RMS |dp| [mm]", "max |dphi| [deg]", "RMS |dphi| [deg]"], rows)
 
 
-def _method_section(doc: Document) -> None:
+def _method_section(doc: Document, serial: bool = False) -> None:
     doc.heading("Method", numbered=False)
+    if serial:
+        doc.paragraph("Identification (`calibrate identify`) of a serial arm: nonlinear least squares on the exact "
+                      "model, the forward residual (measured pose minus the arm's explicit forward kinematics at the "
+                      "commands) divided by the readings' sigmas, a robust soft_l1 pass that drops outliers, then a "
+                      "plain pass whose covariance s^2 (J^T J)^-1 gives the 1-sigma uncertainties. Parameters whose "
+                      "scaled Jacobian columns add a singular value below 1e-6 s_1 are fixed at nominal and named in "
+                      "words. The clearance floor: the worst case of the joints' clearances and the actuator errors "
+                      "(exact first-order bound, as `pmaccuracy bounds` on the arm) and their RMS (Monte Carlo, "
+                      "uniform in the sets) at the joint values of the same poses on the identified arm.")
+        return
     doc.paragraph("Identification (`calibrate identify`): nonlinear least squares on the exact model, each leg's "
                   "inverse-kinematic residual whitened by the inverse-kinematic Jacobian and the readings' sigmas "
                   "(first-order equal to the forward pose residual), a robust soft_l1 pass that drops outliers, "

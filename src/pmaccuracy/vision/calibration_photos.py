@@ -16,13 +16,18 @@ centre, so the measurement frame is the image's) into ``FOLDER/<point>.png``, wi
 pose and 1-sigma uncertainty from the centres' noise) and returns the calibration data: commands, the
 measured poses (a square's orientation, known modulo 90 deg, taken nearest ``phi_nom_deg``) and the photos' sigmas, ready for :func:`~pmaccuracy.accuracy.calibration
 .identify.identify` (or written by :func:`~pmaccuracy.accuracy.calibration.data.write_calibration_csv` for
-``calibrate identify``).
+``calibrate identify``). ``pmaccuracy vision batch`` reads such a manifest too, with a calibration file or a
+plain scale (:func:`read_calibration_manifest`, :func:`measure_calibration_manifest`,
+:func:`write_calibration_readings`: the command columns copied as written, so no robot is needed), and writes
+the calibration CSV that ``calibrate identify --data`` reads.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,15 +37,16 @@ from ..accuracy.calibration.parameters import actuators
 from ..accuracy.calibration.simulate import measure
 from ..errors import MeasurementFileError, VisionError
 from ._util import DEFAULT_SPACING_MM
-from .images import load_image, save_image
+from .images import MAX_IMAGE_PIXELS, load_image, save_image
 from .pose import measure_pose
 from .render import render_platform
 
 #: Scale of the flat camera of the calibration photos, mm per pixel, and the margin kept around the poses, mm.
 PHOTO_MM_PER_PIXEL = 0.25
 PHOTO_MARGIN_MM = 30.0
-#: Largest side of a calibration photo, px (a larger workspace needs a coarser scale).
-MAX_PHOTO_PX = 6000
+#: Largest side of a calibration photo, px (a larger workspace needs a coarser scale): a square photo within
+#: the readers' pixel limit (:data:`pmaccuracy.vision.images.MAX_IMAGE_PIXELS`), so it is refused before rendering.
+MAX_PHOTO_PX = math.isqrt(MAX_IMAGE_PIXELS)
 
 
 def photo_shape(poses: np.ndarray, mm_per_pixel: float = PHOTO_MM_PER_PIXEL,
@@ -160,3 +166,145 @@ def photo_measurer(folder, *, mm_per_pixel: float = PHOTO_MM_PER_PIXEL, clearanc
                                                 clearances=clearances, seed=seed)
         return measure_calibration_photos(manifest, pv, mm_per_pixel=mm_per_pixel)
     return measure_with
+
+
+# ------------------------------------------------------------------ the calibration manifest in `vision batch`
+#: Columns of a calibration manifest besides its command columns (``q{i}`` mm, ``q{i}_deg`` deg).
+CALIBRATION_MANIFEST_COLUMNS = ("image", "point", "x_nom", "y_nom", "phi_nom_deg")
+_COMMAND_COLUMN = re.compile(r"q[1-9][0-9]*(_deg)?$")
+
+
+def is_calibration_manifest(header) -> bool:
+    """Whether a manifest's ``header`` (column names) is a calibration manifest (module docstring: ``image,
+    point``, command columns ``q1 | q1_deg, ...``, ``x_nom, y_nom, phi_nom_deg``, no ``push``) rather than the
+    clearance experiment's (:mod:`pmaccuracy.vision.batch`, with a ``push`` column).
+
+    >>> is_calibration_manifest("image,point,q1_deg,q2_deg,q3_deg,x_nom,y_nom,phi_nom_deg".split(","))
+    True
+    >>> is_calibration_manifest("image,point,x_nom,y_nom,phi_nom_deg,push".split(","))
+    False
+    """
+    names = [str(h).strip() for h in header]
+    return ("push" not in names and all(c in names for c in CALIBRATION_MANIFEST_COLUMNS)
+            and any(_COMMAND_COLUMN.match(n) for n in names))
+
+
+@dataclass(frozen=True)
+class CalibrationPhoto:
+    """One photo of a calibration manifest: its ``path``, manifest ``line``, ``point`` label, ``commands`` as
+    written (mm or deg, in the order of the manifest's command columns) and ``nominal`` pose (mm, mm, rad)."""
+
+    path: Path
+    line: int
+    point: str
+    commands: tuple[float, ...]
+    nominal: tuple[float, float, float]
+
+
+def read_calibration_manifest(path) -> tuple[tuple[str, ...], list[CalibrationPhoto]]:
+    """The command column names (in file order) and the photos of a calibration manifest, checked completely
+    (header, numbers, repeated points, files present) before any photo is measured; every problem is a
+    :class:`~pmaccuracy.errors.VisionError` naming the file and the line."""
+    path = Path(path)
+    src = str(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            header = [h.strip() for h in next(reader, [])]
+            body = [(reader.line_num, row) for row in reader]
+    except FileNotFoundError:
+        raise VisionError(f"{src}: no such manifest file") from None
+    except IsADirectoryError:
+        raise VisionError(f"{src}: is a directory, not a manifest CSV") from None
+    except (UnicodeDecodeError, csv.Error, OSError) as exc:
+        raise VisionError(f"{src}: cannot read the manifest ({exc})") from None
+    if not is_calibration_manifest(header):
+        raise VisionError(f"{src}: line 1: a calibration manifest's header names image,point, the command columns "
+                          f"(q1 or q1_deg, ...) and x_nom,y_nom,phi_nom_deg, got {','.join(header) or 'nothing'!r}")
+    commands = tuple(h for h in header if _COMMAND_COLUMN.match(h))
+    if len(set(commands)) != len(commands) or len({c.split("_")[0] for c in commands}) != len(commands):
+        raise VisionError(f"{src}: line 1: a command column is repeated ({','.join(commands)})")
+    numeric = (*commands, "x_nom", "y_nom", "phi_nom_deg")
+    photos: list[CalibrationPhoto] = []
+    seen: dict[str, int] = {}
+    for line, raw in body:
+        if not raw or all(not c.strip() for c in raw):
+            continue
+        where = f"{src}: line {line}"
+        if len(raw) != len(header):
+            raise VisionError(f"{where}: expected {len(header)} values ({','.join(header)}), got {len(raw)}")
+        row = dict(zip(header, (c.strip() for c in raw)))
+        if not row["image"]:
+            raise VisionError(f"{where}: empty image path")
+        if not row["point"]:
+            raise VisionError(f"{where}: empty point label")
+        if row["point"] in seen:
+            raise VisionError(f"{where}: point {row['point']} repeated (already on line {seen[row['point']]})")
+        seen[row["point"]] = line
+        values = {}
+        for name in numeric:
+            try:
+                values[name] = float(row[name])
+            except ValueError:
+                raise VisionError(f"{where}: column {name}: not a number: {row[name]!r}") from None
+            if not math.isfinite(values[name]):
+                raise VisionError(f"{where}: column {name}: must be finite, got {row[name]!r}")
+        file = Path(row["image"]) if Path(row["image"]).is_absolute() else path.parent / row["image"]
+        photos.append(CalibrationPhoto(file, line, row["point"], tuple(values[c] for c in commands),
+                                       (values["x_nom"], values["y_nom"], math.radians(values["phi_nom_deg"]))))
+    if not photos:
+        raise VisionError(f"{src}: the manifest lists no images")
+    absent = [p for p in photos if not p.path.is_file()]
+    if absent:
+        more = f" (and {len(absent) - 1} more)" if len(absent) > 1 else ""
+        raise VisionError(f"{src}: line {absent[0].line}: no such image file {absent[0].path}{more}")
+    return commands, photos
+
+
+def measure_calibration_manifest(path, *, calibration=None, mm_per_pixel: float | None = None,
+                                 height_mm: float = 0.0, spacing_mm: float = DEFAULT_SPACING_MM,
+                                 polarity: str = "dark") -> tuple[tuple[str, ...], list[dict]]:
+    """Measure every photo of a calibration manifest (:func:`read_calibration_manifest`) as ``vision pose``
+    does (:func:`~pmaccuracy.vision.pose.measure_pose`, with ``calibration`` or a plain ``mm_per_pixel``
+    scale, exactly one): returns the command column names and one record per photo, ``point``, the commands
+    as written, the pose ``x, y`` (mm) and ``phi_deg`` (the square's orientation, known modulo 90 deg, taken
+    nearest ``phi_nom_deg``), ``sigma_x, sigma_y`` (mm) and ``sigma_phi_deg``, ``image`` and
+    ``residual_mm``: the rows of the calibration CSV (:func:`write_calibration_readings`). The first photo that
+    cannot be measured (or gives no uncertainty) raises :class:`~pmaccuracy.errors.VisionError` naming it and
+    its manifest line."""
+    if (calibration is None) == (mm_per_pixel is None):
+        raise VisionError("give either a calibration or mm_per_pixel (exactly one)")
+    commands, photos = read_calibration_manifest(path)
+    if calibration is not None:
+        calibration.plane_at(height_mm)   # refuses a height the calibration cannot measure, before any work
+    records = []
+    for photo in photos:   # one photo at a time
+        try:
+            pose = measure_pose(load_image(photo.path), calibration=calibration, mm_per_pixel=mm_per_pixel,
+                                height_mm=height_mm, spacing_mm=spacing_mm, polarity=polarity)
+            if pose.sigma is None or not np.all(np.isfinite(pose.sigma)) or min(pose.sigma) <= 0:
+                raise VisionError("the photo gives no uncertainty of its pose")
+        except VisionError as exc:
+            text = str(exc)
+            prefix = f"{photo.path}: "
+            text = text[len(prefix):] if text.startswith(prefix) else text
+            raise VisionError(f"{photo.path} (manifest line {photo.line}): {text}") from None
+        phi = photo.nominal[2] + math.remainder(pose.phi - photo.nominal[2], math.pi / 2)
+        rec = {"point": photo.point, **dict(zip(commands, photo.commands)), "x": pose.x, "y": pose.y,
+               "phi_deg": math.degrees(phi), "sigma_x": pose.sigma[0], "sigma_y": pose.sigma[1],
+               "sigma_phi_deg": math.degrees(pose.sigma[2]), "image": str(photo.path),
+               "residual_mm": pose.residual_mm}
+        records.append(rec)
+    return commands, records
+
+
+def write_calibration_readings(path, commands: tuple[str, ...], records: list[dict]) -> None:
+    """Write the records of :func:`measure_calibration_manifest` as a calibration CSV
+    (:mod:`pmaccuracy.accuracy.calibration.data`: ``point``, the command columns, ``x, y, phi_deg``,
+    ``sigma_x, sigma_y, sigma_phi_deg``), which ``calibrate identify --data`` reads as it is."""
+    names = ("point", *commands, "x", "y", "phi_deg", "sigma_x", "sigma_y", "sigma_phi_deg")
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(names)
+        for rec in records:
+            writer.writerow([rec["point"]] + [repr(float(rec[n])) for n in names[1:]])

@@ -209,8 +209,8 @@ def _plan_serial(pv: SerialParameterVector, n_poses: int, candidates=None, *, se
                 index=_indices(B, sel), random_index=random_index, grid_index=grid_index, n_candidates=len(cand))
 
 
-def pose_set_indices(pv: ParameterVector, poses: np.ndarray, candidates: np.ndarray | None = None, *,
-                     seed: int = 0) -> dict:
+def pose_set_indices(pv: ParameterVector | SerialParameterVector, poses: np.ndarray,
+                     candidates: np.ndarray | None = None, *, seed: int = 0, commands: np.ndarray | None = None) -> dict:
     """Observability indices of the measured ``poses (N, 3)`` (robot frame; mm, mm, rad) beside those of the
     choices :func:`plan_poses` compares, for the same N out of ``candidates`` (default
     :func:`candidate_poses`).
@@ -221,7 +221,17 @@ def pose_set_indices(pv: ParameterVector, poses: np.ndarray, candidates: np.ndar
     :attr:`Plan.index` as they are. Returns ``{"poses": {...}, "planned": {...}, "random": {...}, "grid": {...}}``,
     each ``{"O1", "O2", "O3", "O4", "condition"}`` (``random``: the mean of 20 draws); ``planned`` etc. are
     those of ``plan_poses(pv, N, candidates, seed=seed)``.
+
+    A serial arm (:class:`SerialParameterVector`): its pose does not say which configuration the arm was in,
+    so the set is given by its ``commands (N, n)`` (rad / mm; ``poses`` is then not used) and judged on the
+    scale of :func:`plan_poses` for the arm (candidates: :func:`candidate_commands`); :class:`ConfigError`
+    without ``commands``.
     """
+    if isinstance(pv, SerialParameterVector):   # a serial arm: judged by its commands, not its poses
+        if commands is None:
+            raise ConfigError("a serial arm's pose set is judged by its commands: give commands (N, n)",
+                              key="commands")
+        return _serial_pose_set_indices(pv, commands, candidates, seed=seed)
     check_orientations(poses, "poses", poses=True)
     poses = np.atleast_2d(np.asarray(poses, dtype=float))
     cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
@@ -237,4 +247,24 @@ def pose_set_indices(pv: ParameterVector, poses: np.ndarray, candidates: np.ndar
     scale = np.sqrt(np.mean(J[:rows, free] ** 2, axis=0) * 3)
     B = (J[rows:, free] / scale).reshape(len(poses), 3, -1)
     return {"poses": _indices(B, np.arange(len(poses))), "planned": dict(plan.index),
+            "random": dict(plan.random_index), "grid": dict(plan.grid_index)}
+
+
+def _serial_pose_set_indices(pv: SerialParameterVector, commands: np.ndarray, candidates=None, *, seed: int = 0) -> dict:
+    """:func:`pose_set_indices` of a serial arm at ``commands (N, n)`` (candidates: commands too)."""
+    commands = np.atleast_2d(np.asarray(commands, dtype=float))
+    cand = candidate_commands(pv, seed=seed) if candidates is None else np.asarray(candidates, dtype=float)
+    if commands.shape[1:] != (pv.robot.n,) or cand.ndim != 2 or cand.shape[1] != pv.robot.n:
+        raise ConfigError(f"commands of a serial arm have shape (N, {pv.robot.n})", key="commands")
+    plan = _plan_serial(pv, len(commands), cand, seed=seed)
+    allc = np.vstack([cand, commands])
+    sig = np.tile([DEFAULT_ACCURACY_MM, DEFAULT_ACCURACY_MM, np.radians(DEFAULT_ACCURACY_DEG)], (len(allc), 1))
+    data = CalibrationData(tuple(map(str, range(len(allc)))), allc, serial_poses(pv, pv.nominal, allc), sig,
+                           "<poses>")
+    J = serial_jacobian(pv, pv.nominal, data)           # rows of a point depend on that point only
+    rows = 3 * len(cand)
+    free = pv.index(analyse(pv, J[:rows]).identified)
+    scale = np.sqrt(np.mean(J[:rows, free] ** 2, axis=0) * 3)
+    B = (J[rows:, free] / scale).reshape(len(commands), 3, -1)
+    return {"poses": _indices(B, np.arange(len(commands))), "planned": dict(plan.index),
             "random": dict(plan.random_index), "grid": dict(plan.grid_index)}
