@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -40,6 +41,8 @@ def test_reproduce_any_robot(robot, clear, tmp_path, capsys):
     assert all(v < 0.05 for v in res["experiment"]["rmsd_width_consistent"].values())
     html = (out / "report.html").read_text()
     assert "Virtual experiment" in html and "nonlinear" in html
+    # a source that does not move a quantity reads 0 in the per-source tables, not a rounding residue
+    assert not re.search(r"<td>-?\d(\.\d+)?e-1\d</td>", html)
 
 
 def test_reproduce_other_architecture_needs_clearances(tmp_path, capsys):

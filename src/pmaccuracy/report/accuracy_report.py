@@ -192,12 +192,13 @@ def _sources_section(doc, robot, sources, phis, grid, results, out, renderer) ->
               for k, nm in enumerate(names) if regular[k]}
         js[name] = {"maxima": summ, "at": at}
         for nm, v in at.items():
-            at_rows.append([name, nm, f"{v['dp_max']:.4g}", f"{v['dphi_max_deg']:.4g}"])
+            at_rows.append([name, nm, _share(v['dp_max']), _share(v['dphi_max_deg'])])
         for phi, v in summ.items():
-            rows.append([name, phi, f"{v['dx_max'][1]:.4g}", f"{v['dy_max'][1]:.4g}", f"{v['dphi_max_deg'][1]:.4g}",
-                         f"{v['dp_max'][1]:.4g}"])
+            rows.append([name, phi, _share(v['dx_max'][1]), _share(v['dy_max'][1]), _share(v['dphi_max_deg'][1]),
+                         _share(v['dp_max'][1])])
         layer = ds.isel(phi=0)
-        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, f"{name} alone", "dp_max [mm]"))
+        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, f"{name} alone",
+                       figures.quantity_label("dp_max")))
     results["sources"] = js
     doc.paragraph("Each kind of source alone (the others set to zero). First at named poses, where a designer "
                   "reads the share of each kind (mm; deg):")
@@ -209,10 +210,17 @@ def _sources_section(doc, robot, sources, phis, grid, results, out, renderer) ->
                   "edge's value, not as the typical share. Contributions add up in each leg's half-width, so "
                   "dx, dy and dphi maxima are additive over the kinds and dp sub-additive.")
     doc.figure(renderer.submit(out / "sources_dp_max.png", figures.plot_panels, panels,
-                               suptitle=f"dp_max of each kind of source alone, phi = {np.degrees(phis[0]):g} deg"),
+                               suptitle=f"{figures.SYMBOLS['dp_max'][0]} of each kind of source alone, "
+                                        f"phi = {np.degrees(phis[0]):g} deg"),
                f"dp_max of each kind of error source alone at phi = {np.degrees(phis[0]):g} deg (mm).")
     doc.table(["sources", "phi [deg]", "max dx_max [mm]", "max dy_max [mm]", "max dphi_max [deg]",
                "max dp_max [mm]"], rows)
+
+
+def _share(value: float) -> str:
+    """A share in the per-source tables (mm or deg): 4 significant digits, and ``0`` for a rounding residue
+    (below 1e-12, e.g. a source that does not move that quantity) instead of ``1.2e-17``."""
+    return "0" if abs(value) < 1e-12 else f"{value:.4g}"
 
 
 def _nonlinear_section(doc, robot, sources, ds, results) -> None:
