@@ -100,12 +100,12 @@ def test_joint_reactions_by_virtual_work_on_the_exact_loop_closure(name, clear):
         for k, joint in enumerate(chain.joints):
             fx = work(_one_joint((2,), i, k, shift=h), _one_joint((2,), i, k, shift=-h))
             fy = work(_one_joint((2,), i, k, shift=1j * h), _one_joint((2,), i, k, shift=-1j * h))
-            np.testing.assert_allclose(fx + 1j * fy, st.force[:, i, k], rtol=1e-5, atol=1e-6 * scale)
+            np.testing.assert_allclose(fx + 1j * fy, st.force[:, i, k], rtol=1e-6, atol=1e-6 * scale)
             if joint.kind == "P":
                 n = work(_one_joint((2,), i, k, sigma=h), _one_joint((2,), i, k, sigma=-h))
                 m = work(_one_joint((2,), i, k, tilt=h), _one_joint((2,), i, k, tilt=-h))
-                np.testing.assert_allclose(n, st.normal[:, i, k], rtol=1e-5, atol=1e-6 * scale)
-                np.testing.assert_allclose(m, st.moment[:, i, k], rtol=1e-5, atol=1e-4 * scale)
+                np.testing.assert_allclose(n, st.normal[:, i, k], rtol=1e-6, atol=1e-6 * scale)
+                np.testing.assert_allclose(m, st.moment[:, i, k], rtol=1e-6, atol=1e-4 * scale)
 
 
 @pytest.mark.parametrize("name, clear", ROBOTS)

@@ -142,27 +142,47 @@ def joint_displaced_pose(robot: Manipulator, poses: np.ndarray, config, iteratio
     configuration (Jacobian by central differences, ``iterations`` steps);
     raises :class:`NoSolutionError` where the loops cannot be closed.
     """
+    z, _ = closure_state(robot, poses, config, iterations=iterations, with_jacobian=False)
+    out = z[..., :3].copy()
+    out[..., 2] = np.angle(np.exp(1j * out[..., 2]))
+    return out
+
+
+def closure_state(robot: Manipulator, poses: np.ndarray, config, start: np.ndarray | None = None,
+                  iterations: int = 8, with_jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """The closed perturbed loops of :func:`joint_displaced_pose` and their Jacobian there.
+
+    Returns ``z`` ``(..., 9)``: the unknowns ``[x mm, y mm, phi rad, passive joints of legs 1-3 (rad or mm)]``
+    (phi not wrapped) with the residual ``r(z) = 0`` of :func:`_closure_residual` (rows ``[x mm, y mm,
+    angle * L mm]`` per leg, ``L`` the robot's characteristic length), and ``J = dr/dz`` ``(..., 9, 9)`` at ``z``
+    (central differences; None without ``with_jacobian``). Newton's method starts at ``start`` ``(..., 9)`` (default: the commanded
+    configuration of ``poses`` ``(..., 3)``, whose actuator values are held either way); raises
+    :class:`NoSolutionError` where the loops cannot be closed.
+    """
     poses = as_poses(poses)
     ik = inverse_kinematics(robot, poses)
     if not np.all(ik.reachable):
         raise NoSolutionError("a commanded pose cannot be reached by every leg")
     q_act = ik.q
-    z = np.concatenate([poses, ik.passive.reshape(poses.shape[:-1] + (6,))], axis=-1)
-    h = 1e-7
-    for _ in range(iterations):
-        r = _closure_residual(robot, z, q_act, config)
+    z = np.concatenate([poses, ik.passive.reshape(poses.shape[:-1] + (6,))], axis=-1) if start is None \
+        else np.array(start, dtype=float)
+
+    def jacobian(z: np.ndarray) -> np.ndarray:   # (..., 9, 9)
+        h = 1e-7
         J = np.empty(z.shape[:-1] + (9, 9))
         for m in range(9):
             dz = np.zeros(9)
             dz[m] = h
             J[..., :, m] = (_closure_residual(robot, z + dz, q_act, config)
                             - _closure_residual(robot, z - dz, q_act, config)) / (2 * h)
+        return J
+
+    for _ in range(iterations):
+        r = _closure_residual(robot, z, q_act, config)
         with np.errstate(invalid="ignore"):
-            step = np.linalg.solve(J, r[..., None])[..., 0]
+            step = np.linalg.solve(jacobian(z), r[..., None])[..., 0]
         z = z - step
     r = _closure_residual(robot, z, q_act, config)
     if not np.all(np.abs(r) < 1e-8):
         raise NoSolutionError("the perturbed loops cannot be closed: the errors are too large for this pose")
-    out = z[..., :3].copy()
-    out[..., 2] = np.angle(np.exp(1j * out[..., 2]))
-    return out
+    return z, (jacobian(z) if with_jacobian else None)
