@@ -61,9 +61,10 @@ def test_cli_refuses_with_one_line_naming_the_option(argv, option, capsys, tmp_p
     (["load", *POSE, "--fx", "1", "--m", "1e9"], "--m"),               # 1e9 N mm over a 30 mm robot
     (["load", *POSE, "--mass", "1", "--gravity-deg", "-1.5708"], "--gravity-deg"),     # -90 deg in radians
     (["preload", *POSE, "--fx", "-5e4", "5e4"], "--fx"),
+    (["load", "--map", "--grid", "3", "--out", "{tmp}/m.nc", "--fx", "2e4"], "--fx"),   # run() and the map once
 ])
-def test_cli_warns_once_for_a_force_in_the_wrong_unit_and_still_answers(argv, option, capsys):
-    assert main(argv) == 0
+def test_cli_warns_once_for_a_force_in_the_wrong_unit_and_still_answers(argv, option, capsys, tmp_path):
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
     captured = capsys.readouterr()
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and "warning" in err[0] and option in err[0], err

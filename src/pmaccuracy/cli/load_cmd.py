@@ -33,7 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--unloaded-below", type=_common.finite_float, default=1e-6, metavar="N",
                    help="a leg whose wrench intensity is at most this (N) is unloaded: its state is undetermined")
     p.add_argument("--details", action="store_true",
-                   help="also every joint's reaction: force (R), normal force and moment about the block (P)")
+                   help="also every joint's reaction: force (R), normal force and moment about the block (P), and "
+                        "the contact state the load selects: pin shift (R), rhombus vertex sigma/tau and tilt (P), "
+                        "actuator backlash side")
     p.add_argument("--allow-outside", action="store_true", help=argparse.SUPPRESS)
     add_map_options(p, "instead of poses: the loaded error over the workspace grid at --phi-deg (NetCDF .nc or CSV "
                        ".csv): dx, dy, dp (mm), dphi (deg), the spread the unloaded legs leave, the legs' "
@@ -186,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
                     else:
                         rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
                         rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
+            rec.update(contact_states(robot, clearances, res.exact_configuration, k))
     if plot:
         from .._savefig import save_figure
         from ..report.load_figures import plot_load
@@ -196,6 +199,37 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def contact_states(robot, clearances, config, k: int) -> dict:
+    """Columns of ``load --details``: the state the load selects for every clearance of pose ``k`` at the exact
+    equilibrium (:attr:`pmaccuracy.accuracy.loads.LoadedError.exact_configuration`; 0 where the leg is unloaded):
+    an R joint's pin shift ``pin_dx_mm, pin_dy_mm`` and its direction ``pin_deg`` (opposite the force), a P
+    block's rhombus vertex ``sigma_mm`` (shift normal to the rail) and ``tau_rad`` (tilt) and its angular tilt
+    ``tilt_rad``, an actuator's backlash ``backlash_mm`` (P) or ``backlash_rad`` (R), taken up against the
+    actuator's effort."""
+    import math
+
+    from ..model.sources import ErrorSources
+
+    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
+        ErrorSources.from_clearance_set(clearances)
+    rec = {}
+    for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
+        for j, (joint, e) in enumerate(zip(chain.joints, leg)):
+            key = f"leg{i + 1}.joint{j + 1}"
+            if e.radial or e.position:
+                shift = complex(config.shift[k, i, j])
+                rec[f"{key}.pin_dx_mm"], rec[f"{key}.pin_dy_mm"] = shift.real, shift.imag
+                rec[f"{key}.pin_deg"] = math.degrees(math.atan2(shift.imag, shift.real)) if shift else float("nan")
+            if e.lateral:
+                rec[f"{key}.sigma_mm"] = float(config.sigma[k, i, j])
+                rec[f"{key}.tau_rad"] = float(config.tau[k, i, j])
+            if e.angular:
+                rec[f"{key}.tilt_rad"] = float(config.tilt[k, i, j])
+            if e.actuator:
+                rec[f"{key}.backlash_{'mm' if joint.kind == 'P' else 'rad'}"] = float(config.dq[k, i, j])
+    return rec
+
+
 def _load(args: argparse.Namespace):
     from ..accuracy.loads import Load
     from ..errors import ConfigError
@@ -204,8 +238,9 @@ def _load(args: argparse.Namespace):
         raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
     if args.unloaded_below < 0:
         raise ConfigError(f"must be >= 0 (N), got {args.unloaded_below:g}", key="--unloaded-below")
+    # no Load.check(): run() has warned once already (with the robot's size for the moment)
     return Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com),
-                gravity_deg=args.gravity_deg).check("--fx/--fy/--mass")
+                gravity_deg=args.gravity_deg)
 
 
 def run_map(args: argparse.Namespace, robot, clearances) -> int:

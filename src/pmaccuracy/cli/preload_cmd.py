@@ -85,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
                      "preload_fx_N": float(pre.wrench[0]) + 0.0, "preload_fy_N": float(pre.wrench[1]) + 0.0,
                      "preload_m_Nmm": float(pre.wrench[2]) + 0.0, "preload_size_N": pre.size,
                      "offset_dx": float(pre.offset[0]), "offset_dy": float(pre.offset[1]),
-                     "offset_dphi_deg": math.degrees(pre.offset[2])})
+                     "offset_dphi_deg": math.degrees(pre.offset[2]),
+                     "dx_max": float(pre.worst[0]), "dy_max": float(pre.worst[1]),
+                     "dphi_max_deg": math.degrees(pre.worst[2])})
     if plot:
         from .._savefig import save_figure
         from ..report.load_figures import plot_preload
