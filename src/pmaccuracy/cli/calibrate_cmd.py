@@ -42,6 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
                    help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
     s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
+    s.add_argument("--clearances", metavar="FILE",
+                   help="clearance preset or file: add each point's clearance pose covariance (first order, the "
+                        "clearance states uniform in their sets, independent from point to point) to its "
+                        "measurement covariance, so that the sigmas account for the clearances")
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     _common.add_format(s)
@@ -285,7 +289,8 @@ def run_identify(args: argparse.Namespace) -> int:
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
-    ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust)
+    ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust,
+                     clearances=args.clearances)
     if args.out:
         Path(args.out).write_text(json.dumps(identification_to_dict(ident), indent=2), encoding="utf-8")
     if args.robot_out:

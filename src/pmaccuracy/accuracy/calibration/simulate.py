@@ -5,9 +5,10 @@ The true robot is the nominal plus seeded parameter errors (``error_sigma``: 1-s
 gain, drawn normal). A command ``c`` puts it where its exact forward kinematics
 (:func:`pmaccuracy.kinematics.forward_kinematics`, the assembly mode nearest the nominal pose) says, for the
 joint values ``offset + gain * c``; the joint clearances displace that pose by a random state inside their
-sets (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`, first order); the camera reads it in
-the true measurement frame with normal noise ``noise`` (mm, mm, rad). Nothing of this goes through the
-inverse-kinematic residual of :mod:`.identify`.
+sets (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`, first order, each source uniform in its
+set and independent from pose to pose: the law :func:`.identify.identify` assumes when it is given the same
+clearances, as the experiment does); the camera reads it in the true measurement frame with normal noise
+``noise`` (mm, mm, rad). Nothing of this goes through the inverse-kinematic residual of :mod:`.identify`.
 """
 
 from __future__ import annotations
@@ -132,7 +133,7 @@ def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 
     cand = candidate_poses(pv)
     plan = plan_poses(pv, n_poses, cand, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
-    ident = identify(data, pv)
+    ident = identify(data, pv, clearances=clearances)
     rng = np.random.default_rng(seed + 2)
     lim = np.array([c.actuated.range for c in pv.robot.chains])
     ok = np.ones(len(cand), dtype=bool)
@@ -168,7 +169,7 @@ def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, 
                      n_targets, measure_with=None) -> Experiment:
     plan = plan_poses(pv, n_poses, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
-    ident = identify(data, pv)
+    ident = identify(data, pv, clearances=clearances)
     # targets: where the nominal arm goes at random commands inside the ranges with a margin (so that the
     # identified arm reaches them within the ranges too)
     lim = np.array([r for _, r in actuators(pv.robot)])
