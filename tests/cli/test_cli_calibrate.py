@@ -72,3 +72,29 @@ def test_unknown_parameter_named(capsys, tmp_path):
     status, _, err = run(["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", tmp_path / "m.csv",
                           "--fix", "leg4.base.x"], capsys)
     assert status == 2 and "leg4.base.x" in err and len(err.splitlines()) == 1
+
+
+def test_phi_in_radians_with_a_small_orientation_range_refused(tmp_path, capsys):
+    """A +-5 deg plan whose phi_deg column holds radians (0.09 at most: a plausible reading in degrees, near
+    the far-point checks' blind spot) is refused naming the file and the column; the same file in degrees
+    is identified."""
+    import math
+
+    from pmaccuracy.accuracy.calibration.data import write_calibration_csv
+    from pmaccuracy.accuracy.calibration.parameters import error_parameters
+    from pmaccuracy.accuracy.calibration.plan import candidate_poses, plan_poses
+    from pmaccuracy.accuracy.calibration.simulate import measure, true_parameters
+
+    pv = error_parameters(Manipulator.preset("symmetric_3rrr"))
+    plan = plan_poses(pv, 30, candidate_poses(pv, n=12, phi_range=(math.radians(-5), math.radians(5))))
+    m = measure(pv, true_parameters(pv, seed=1, fixed=("frame.x", "frame.y", "frame.phi")), plan.commands,
+                plan.poses, seed=2)
+    write_calibration_csv(pv.robot, plan.commands, m, tmp_path / "deg.csv")
+    rad = m.copy()
+    rad[:, 2] = np.radians(m[:, 2])          # the file then holds phi in radians under phi_deg
+    write_calibration_csv(pv.robot, plan.commands, rad, tmp_path / "rad.csv")
+    status, _, err = run(["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", tmp_path / "rad.csv"], capsys)
+    assert status == 2 and len(err.splitlines()) == 1
+    assert "rad.csv: column phi_deg: holds radians" in err
+    status, _, err = run(["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", tmp_path / "deg.csv"], capsys)
+    assert status == 0, err

@@ -228,6 +228,41 @@ def check_start(pv: ParameterVector, data: CalibrationData, frame: np.ndarray | 
             f"{len(data)} points): a measurement frame far from the robot's (give --frame X Y PHI_DEG), poses in "
             "radians or metres, or commands of other points", source=data.source,
             key=f"row {n + 1} (point {data.labels[n]})")
+    alt = data.poses.copy()
+    alt[:, 2] = np.degrees(data.poses[:, 2])           # the phi_deg column read as radians
+    r_alt = raw_residuals(pv, values, data.commands, alt)
+    G_alt = pose_sensitivity(pv, values, data.commands, alt)
+    with np.errstate(all="ignore"):
+        dphi_alt = np.linalg.solve(G_alt, r_alt[..., None])[:, 2, 0]
+    check_phi_units(dm[:, 2], dphi_alt, data)
+
+
+#: ``phi_deg`` is refused as radians when its orientation deviations, read as degrees, spread more than this
+#: (deg) and, read as radians, less than :data:`RADIANS_RATIO` times as much.
+RADIANS_MIN_SPREAD_DEG = 0.5
+RADIANS_RATIO = 0.25
+
+
+def check_phi_units(dphi: np.ndarray, dphi_alt: np.ndarray, data: CalibrationData) -> None:
+    """Refuse a ``phi_deg`` column that holds radians: ``dphi (N,)`` are the orientation deviations (rad) of
+    the measured poses from where the nominal model puts the commands, the column read as degrees, and
+    ``dphi_alt (N,)`` the same with the column read as radians (NaN where out of reach). The spread of each
+    is ``median |d - median d|`` (a constant offset is the frame's turn, not a unit); the radians reading
+    fitting :data:`RADIANS_RATIO` times better, with the degrees reading's spread above
+    :data:`RADIANS_MIN_SPREAD_DEG`, raises :class:`MeasurementFileError` naming the file and the column.
+    A small orientation range (a +-5 deg plan) written in radians stays within the far-point checks of
+    :func:`check_start` (0.09 read as deg is a plausible reading near 0) and is caught only here."""
+    if not np.all(np.isfinite(dphi_alt)):
+        return
+    def spread(d):
+        d = np.angle(np.exp(1j * d))
+        return float(np.degrees(np.median(np.abs(d - np.median(d)))))
+    as_deg, as_rad = spread(dphi), spread(dphi_alt)
+    if as_deg > RADIANS_MIN_SPREAD_DEG and as_rad < RADIANS_RATIO * as_deg:
+        raise MeasurementFileError(
+            f"holds radians, not degrees: read as degrees the measured orientations are {as_deg:.3g} deg (median) off "
+            f"the commanded ones, read as radians {as_rad:.3g} deg: write phi_deg (and sigma_phi_deg) in degrees",
+            source=data.source, key="column phi_deg")
 
 
 @dataclass(frozen=True)
@@ -381,6 +416,10 @@ def _check_start_serial(pv: SerialParameterVector, data: CalibrationData, values
             f"deg, as are {far.sum()} of {len(data)} points): a measurement frame far from the arm's base (give "
             "--frame X Y PHI_DEG), poses in radians or metres, or commands of other points", source=data.source,
             key=f"row {n + 1} (point {data.labels[n]})")
+    alt = data.poses.copy()
+    alt[:, 2] = np.degrees(data.poses[:, 2])           # the phi_deg column read as radians
+    check_phi_units(r[:, 2], serial_residuals(pv, values, CalibrationData(data.labels, data.commands, alt,
+                                                                          data.sigmas, data.source))[:, 2], data)
 
 
 def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None) -> Identification:
