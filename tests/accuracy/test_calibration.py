@@ -225,3 +225,31 @@ def test_sigmas_honest_over_seeds(name):
     z = np.concatenate(zs)
     assert abs(z.std() - 1.0) < 0.2, z.std()
     assert np.mean(np.abs(z) <= 3.0) >= 0.99 and np.max(np.abs(z)) < 4.5
+
+
+def test_true_robot_from_named_errors_and_tolerances(tmp_path):
+    """The virtual experiment's true robot: named errors added exactly, tolerances drawn uniformly within +-
+    (seeded), everything else nominal; files in mm / deg / gain fraction; unknown names refused by name."""
+    from pmaccuracy.accuracy.calibration.simulate import load_parameter_table
+
+    pv = error_parameters(Manipulator.preset("symmetric_3rrr"))
+    (tmp_path / "e.toml").write_text('"leg1.base.x" = 0.3\nleg2.actuator.offset = 0.2\nleg3.actuator.gain = 1e-3\n')
+    errors = load_parameter_table(tmp_path / "e.toml", pv, "errors")
+    assert errors == {"leg1.base.x": 0.3, "leg2.actuator.offset": pytest.approx(math.radians(0.2), abs=1e-15),
+                      "leg3.actuator.gain": 1e-3}
+    true = true_parameters(pv, seed=5, errors=errors)
+    d = true - pv.nominal
+    assert np.count_nonzero(d) == 3 and d[pv.index(["leg1.base.x"])[0]] == pytest.approx(0.3, abs=1e-12)
+    tol = {"leg1.proximal": 0.1, "leg2.platform.y": 0.05}
+    draws = np.array([true_parameters(pv, seed=s, tolerances=tol) - pv.nominal for s in range(200)])
+    k = pv.index(list(tol))
+    assert np.count_nonzero(np.delete(draws, k, axis=1)) == 0
+    assert np.all(np.abs(draws[:, k]) <= [0.1, 0.05]) and np.all(np.abs(draws[:, k]).max(axis=0) > [0.09, 0.045])
+    assert np.array_equal(true_parameters(pv, seed=3, tolerances=tol), true_parameters(pv, seed=3, tolerances=tol))
+    (tmp_path / "bad.toml").write_text("leg1.nothing = 1\n")
+    with pytest.raises(ConfigError, match=r"bad\.toml: leg1\.nothing: no parameter 'leg1\.nothing'"):
+        load_parameter_table(tmp_path / "bad.toml", pv)
+    with pytest.raises(ConfigError, match="leg4.base.x"):
+        true_parameters(pv, errors={"leg4.base.x": 0.1})
+    with pytest.raises(ConfigError, match=">= 0"):
+        true_parameters(pv, tolerances={"leg1.proximal": -0.1})

@@ -98,3 +98,25 @@ def test_phi_in_radians_with_a_small_orientation_range_refused(tmp_path, capsys)
     assert "rad.csv: column phi_deg: holds radians" in err
     status, _, err = run(["calibrate", "identify", "--robot", "symmetric_3rrr", "--data", tmp_path / "deg.csv"], capsys)
     assert status == 0, err
+
+
+def test_simulate_with_named_errors_and_bad_names(tmp_path, capsys):
+    """--errors FILE: the true robot is the nominal plus exactly those errors (the JSON's ``true`` column),
+    recovered within 4 sigma; an unknown name in --errors / --tolerances: exit 2 naming it."""
+    (tmp_path / "e.toml").write_text('"leg1.base.x" = 0.3\nleg2.actuator.offset = 0.2\n')
+    status, out, err = run(["calibrate", "simulate", "--robot", "symmetric_3rrr", "--poses", "20", "--errors",
+                            tmp_path / "e.toml", "--format", "json"], capsys)
+    assert status == 0, err
+    rows = {r["parameter"]: r for r in json.loads(out)["estimates"]}
+    moved = {n for n, r in rows.items() if r["true"] != r["nominal"]}
+    assert moved == {"leg1.base.x", "leg2.actuator.offset"}
+    assert rows["leg2.actuator.offset"]["true"] == pytest.approx(0.2, abs=1e-12)
+    for n in moved:
+        assert abs(rows[n]["estimate"] - rows[n]["true"]) < 4 * rows[n]["sigma"]
+    (tmp_path / "bad.toml").write_text("leg1.base.z = 0.1\n")
+    for opt in ("--errors", "--tolerances"):
+        status, _, err = run(["calibrate", "simulate", "--robot", "symmetric_3rrr", opt, tmp_path / "bad.toml"], capsys)
+        assert status == 2 and len(err.splitlines()) == 1 and "bad.toml: leg1.base.z: no parameter" in err
+    status, _, err = run(["calibrate", "simulate", "--robot", "symmetric_3rrr", "--errors", tmp_path / "e.toml",
+                          "--error-mm", "0.2"], capsys)
+    assert status == 2 and "--error-mm" in err

@@ -66,8 +66,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(s)
     s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
     s.add_argument("--seed", type=int, default=0, help="seed of the parameter errors, clearance states and noise")
-    s.add_argument("--error-mm", type=float, default=0.1, help="1-sigma of length and position errors, mm")
-    s.add_argument("--error-deg", type=float, default=0.1, help="1-sigma of angle errors, deg")
+    s.add_argument("--error-mm", type=float, default=None,
+                   help="1-sigma of length and position errors of the true robot, mm (default 0.1)")
+    s.add_argument("--error-deg", type=float, default=None,
+                   help="1-sigma of angle errors of the true robot, deg (default 0.1)")
+    s.add_argument("--errors", metavar="FILE.toml",
+                   help="the true robot's parameter errors by name instead of random ones: name = value (mm, deg, "
+                        "a gain's error as a fraction), e.g. \"leg1.base.x\" = 0.2; parameters not named stay "
+                        "nominal")
+    s.add_argument("--tolerances", metavar="FILE.toml",
+                   help="the true robot's parameter errors drawn uniformly (seeded) within +- the named "
+                        "tolerances: name = half-width (mm, deg, gain fraction); with --errors, added to them; "
+                        "parameters not named stay nominal")
     s.add_argument("--noise-mm", type=float, default=0.01, help="1-sigma of the camera in x and y, mm")
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
     s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
@@ -353,10 +363,17 @@ def run_simulate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.simulate import simulate_calibration
     from ..errors import ConfigError
 
+    from ..accuracy.calibration.simulate import load_parameter_table
+
     for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
         v = getattr(args, opt)
-        if not (np.isfinite(v) and v >= 0):
+        if v is not None and not (np.isfinite(v) and v >= 0):
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
+    named = args.errors is not None or args.tolerances is not None
+    for opt in ("error_mm", "error_deg"):
+        if named and getattr(args, opt) is not None:
+            raise ConfigError("not with --errors or --tolerances (they give the true robot's errors)",
+                              key="--" + opt.replace("_", "-"))
     if args.data_out:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
     if args.report:
@@ -373,10 +390,13 @@ def run_simulate(args: argparse.Namespace) -> int:
         folder = _common.prepare_output(args.photos, "--photos", folder=True)
         measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=args.clearances)
     pv = error_parameters(_robot(args))
+    errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+    tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+    sigma = None if named else {"mm": 0.1 if args.error_mm is None else args.error_mm,
+                                "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
-                              error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)},
-                              measure_with=measure_with)
+                              error_sigma=sigma, measure_with=measure_with, errors=errors, tolerances=tolerances)
     ident = ex.identification
     if args.data_out:
         d = ex.data
@@ -393,7 +413,10 @@ def run_simulate(args: argparse.Namespace) -> int:
     if ex.compensation.floor_dp_max is not None:
         summary["floor_dp_max_mm"] = float(ex.compensation.floor_dp_max.max())
     if args.format == "json":
-        _common.emit({"summary": summary, "estimates": _estimates(ident)}, "json")
+        rows = _estimates(ident)
+        for row, unit, true in zip(rows, pv.units, ex.true):   # the true robot beside the estimates
+            row["true"] = float(np.degrees(true)) if unit == "rad" else float(true)
+        _common.emit({"summary": summary, "estimates": rows}, "json")
     elif args.format == "csv":
         _common.emit([summary], "csv")
     else:
