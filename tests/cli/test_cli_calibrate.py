@@ -51,6 +51,9 @@ def test_plan_simulate_identify_compensate(tmp_path, capsys):
     assert status == 0
     row = json.loads(out)[0]
     assert row["floor_dp_max"] > 0 and np.isfinite(row["q1"]) and row["predicted_sigma_p"] > 0
+    # the fit's residual beside the floor: the inliers' RMS position residual of the identification record
+    assert row["fit_rms_position"] == fit["fit_rms_position"] and 0 < fit["fit_rms_position"] < 0.1
+    assert 0 < row["floor_dphi_rms_deg"] < row["floor_dphi_max_deg"]
 
 
 @pytest.mark.parametrize("argv, needle", [

@@ -57,7 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a target pose in the measurement frame (repeatable)")
     s.add_argument("--poses-csv", metavar="FILE", help="target poses from a CSV with columns x,y,phi_deg")
     s.add_argument("--clearances", metavar="FILE",
-                   help="clearance preset or file: the clearance floor (worst case and RMS) beside the prediction")
+                   help="clearance preset or file: the clearance floor (worst case and RMS of the position and the "
+                        "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position)")
     s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
@@ -346,10 +347,12 @@ def run_compensate(args: argparse.Namespace) -> int:
             row[f"{name}_nominal"] = f(comp.nominal_commands[n, k])
         row["predicted_sigma_p"] = float(np.hypot(*comp.predicted_sigma[n, :2]))
         row["predicted_sigma_phi_deg"] = float(np.degrees(comp.predicted_sigma[n, 2]))
+        row["fit_rms_position"] = comp.fit_rms_position
         if comp.floor_dp_max is not None:
             row["floor_dp_max"] = float(comp.floor_dp_max[n])
             row["floor_dp_rms"] = float(comp.floor_dp_rms[n])
             row["floor_dphi_max_deg"] = float(np.degrees(comp.floor_dphi_max[n]))
+            row["floor_dphi_rms_deg"] = float(np.degrees(comp.floor_dphi_rms[n]))
         rows.append(row)
     _common.emit(rows, args.format)
     return 0

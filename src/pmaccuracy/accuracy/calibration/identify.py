@@ -274,7 +274,9 @@ class Identification:
     ``rms_before`` / ``rms_after``: RMS of the whitened residuals at nominal and at the estimate (inliers),
     ``residuals_before`` / ``residuals_after`` ``(N, 3)``: pose residuals ``G^-1 r`` (mm, mm, rad),
     ``outliers``: labels of the points dropped, ``scale``: the residual scale ``s``, ``cost``, ``nfev``,
-    ``clearances``: the clearance model of the measurement covariance (None: camera noise only).
+    ``clearances``: the clearance model of the measurement covariance (None: camera noise only),
+    ``fit_rms_position``: RMS position residual ``sqrt(mean(dx^2 + dy^2))`` (mm) of the inliers at the
+    estimate: what the fitted model leaves at the measured points (clearances and noise, if the model is right).
     """
 
     parameters: ParameterVector
@@ -291,6 +293,7 @@ class Identification:
     nfev: int
     n_points: int
     clearances: ClearanceModel | None = None
+    fit_rms_position: float = float("nan")
 
     def __repr__(self) -> str:
         return (f"Identification({len(self.identifiability.identified)} parameters from {self.n_points} points, "
@@ -366,7 +369,7 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
                           residuals_before=before, residuals_after=after, rms_before=rms_before,
                           rms_after=float(np.sqrt(np.mean(res ** 2))),
                           outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
-                          nfev=int(nfev), n_points=len(data), clearances=model)
+                          nfev=int(nfev), n_points=len(data), clearances=model, fit_rms_position=_rms_mm(after[keep]))
 
 
 # ------------------------------------------------------------------ serial arms: the forward residual
@@ -457,12 +460,13 @@ def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None) -> Identi
 
     v, res, keep, nfev, Jf = fit(data, x0, free, problem, robust)
     cov, sigma, s2 = covariance(res, Jf, free, len(pv.names))
+    after = serial_residuals(pv, v, data)
     return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
-                          residuals_before=before, residuals_after=serial_residuals(pv, v, data),
+                          residuals_before=before, residuals_after=after,
                           rms_before=float(np.sqrt(np.mean(np.einsum("nij,nj->ni", W0, before) ** 2))),
                           rms_after=float(np.sqrt(np.mean(res ** 2))),
                           outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
-                          nfev=int(nfev), n_points=len(data), clearances=model)
+                          nfev=int(nfev), n_points=len(data), clearances=model, fit_rms_position=_rms_mm(after[keep]))
 
 
 def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust: bool = True):
@@ -523,6 +527,7 @@ def identification_to_dict(ident: Identification) -> dict:
                     "scale": ident.scale, "outliers": list(ident.outliers), "nfev": ident.nfev,
                     "rms_position_before_mm": _rms_mm(ident.residuals_before),
                     "rms_position_after_mm": _rms_mm(ident.residuals_after),
+                    "fit_rms_position": ident.fit_rms_position,
                     "clearances": _clearance_label(ident.clearances)}}
 
 
@@ -569,4 +574,5 @@ def identification_from_dict(record: dict, source: str = "<identification>") -> 
                           residuals_before=empty, residuals_after=empty, rms_before=float(fit["rms_before"]),
                           rms_after=float(fit["rms_after"]), outliers=tuple(fit["outliers"]),
                           scale=float(fit["scale"]), nfev=int(fit["nfev"]), n_points=int(fit["points"]),
-                          clearances=None if fit.get("clearances") is None else ClearanceModel(fit["clearances"]))
+                          clearances=None if fit.get("clearances") is None else ClearanceModel(fit["clearances"]),
+                          fit_rms_position=float(fit.get("fit_rms_position", fit.get("rms_position_after_mm", "nan"))))
