@@ -42,6 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
                    help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
     s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
+    s.add_argument("--clearances", metavar="FILE",
+                   help="clearance preset or file: add each point's clearance pose covariance (first order, the "
+                        "clearance states uniform in their sets, independent from point to point) to its "
+                        "measurement covariance, so that the sigmas account for the clearances")
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     _common.add_format(s)
@@ -53,7 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a target pose in the measurement frame (repeatable)")
     s.add_argument("--poses-csv", metavar="FILE", help="target poses from a CSV with columns x,y,phi_deg")
     s.add_argument("--clearances", metavar="FILE",
-                   help="clearance preset or file: the clearance floor (worst case and RMS) beside the prediction")
+                   help="clearance preset or file: the clearance floor (worst case and RMS of the position and the "
+                        "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position)")
     s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
@@ -62,8 +67,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(s)
     s.add_argument("--poses", type=_common.positive_int, default=30, metavar="N", help="poses to plan (default 30)")
     s.add_argument("--seed", type=int, default=0, help="seed of the parameter errors, clearance states and noise")
-    s.add_argument("--error-mm", type=float, default=0.1, help="1-sigma of length and position errors, mm")
-    s.add_argument("--error-deg", type=float, default=0.1, help="1-sigma of angle errors, deg")
+    s.add_argument("--error-mm", type=float, default=None,
+                   help="1-sigma of length and position errors of the true robot, mm (default 0.1)")
+    s.add_argument("--error-deg", type=float, default=None,
+                   help="1-sigma of angle errors of the true robot, deg (default 0.1)")
+    s.add_argument("--errors", metavar="FILE.toml",
+                   help="the true robot's parameter errors by name instead of random ones: name = value (mm, deg, "
+                        "a gain's error as a fraction), e.g. \"leg1.base.x\" = 0.2; parameters not named stay "
+                        "nominal")
+    s.add_argument("--tolerances", metavar="FILE.toml",
+                   help="the true robot's parameter errors drawn uniformly (seeded) within +- the named "
+                        "tolerances: name = half-width (mm, deg, gain fraction); with --errors, added to them; "
+                        "parameters not named stay nominal")
     s.add_argument("--noise-mm", type=float, default=0.01, help="1-sigma of the camera in x and y, mm")
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
     s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
@@ -285,7 +300,8 @@ def run_identify(args: argparse.Namespace) -> int:
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
-    ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust)
+    ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust,
+                     clearances=args.clearances)
     if args.out:
         Path(args.out).write_text(json.dumps(identification_to_dict(ident), indent=2), encoding="utf-8")
     if args.robot_out:
@@ -331,10 +347,12 @@ def run_compensate(args: argparse.Namespace) -> int:
             row[f"{name}_nominal"] = f(comp.nominal_commands[n, k])
         row["predicted_sigma_p"] = float(np.hypot(*comp.predicted_sigma[n, :2]))
         row["predicted_sigma_phi_deg"] = float(np.degrees(comp.predicted_sigma[n, 2]))
+        row["fit_rms_position"] = comp.fit_rms_position
         if comp.floor_dp_max is not None:
             row["floor_dp_max"] = float(comp.floor_dp_max[n])
             row["floor_dp_rms"] = float(comp.floor_dp_rms[n])
             row["floor_dphi_max_deg"] = float(np.degrees(comp.floor_dphi_max[n]))
+            row["floor_dphi_rms_deg"] = float(np.degrees(comp.floor_dphi_rms[n]))
         rows.append(row)
     _common.emit(rows, args.format)
     return 0
@@ -348,10 +366,17 @@ def run_simulate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.simulate import simulate_calibration
     from ..errors import ConfigError
 
+    from ..accuracy.calibration.simulate import load_parameter_table
+
     for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
         v = getattr(args, opt)
-        if not (np.isfinite(v) and v >= 0):
+        if v is not None and not (np.isfinite(v) and v >= 0):
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
+    named = args.errors is not None or args.tolerances is not None
+    for opt in ("error_mm", "error_deg"):
+        if named and getattr(args, opt) is not None:
+            raise ConfigError("not with --errors or --tolerances (they give the true robot's errors)",
+                              key="--" + opt.replace("_", "-"))
     if args.data_out:
         _common.prepare_output(args.data_out, "--data-out", (".csv",))
     if args.report:
@@ -368,10 +393,13 @@ def run_simulate(args: argparse.Namespace) -> int:
         folder = _common.prepare_output(args.photos, "--photos", folder=True)
         measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=args.clearances)
     pv = error_parameters(_robot(args))
+    errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+    tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+    sigma = None if named else {"mm": 0.1 if args.error_mm is None else args.error_mm,
+                                "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
-                              error_sigma={"mm": args.error_mm, "rad": np.radians(args.error_deg)},
-                              measure_with=measure_with)
+                              error_sigma=sigma, measure_with=measure_with, errors=errors, tolerances=tolerances)
     ident = ex.identification
     if args.data_out:
         d = ex.data
@@ -388,7 +416,10 @@ def run_simulate(args: argparse.Namespace) -> int:
     if ex.compensation.floor_dp_max is not None:
         summary["floor_dp_max_mm"] = float(ex.compensation.floor_dp_max.max())
     if args.format == "json":
-        _common.emit({"summary": summary, "estimates": _estimates(ident)}, "json")
+        rows = _estimates(ident)
+        for row, unit, true in zip(rows, pv.units, ex.true):   # the true robot beside the estimates
+            row["true"] = float(np.degrees(true)) if unit == "rad" else float(true)
+        _common.emit({"summary": summary, "estimates": rows}, "json")
     elif args.format == "csv":
         _common.emit([summary], "csv")
     else:

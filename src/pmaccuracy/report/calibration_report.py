@@ -37,7 +37,7 @@ from ..accuracy.bounds import max_pose_errors
 from ..accuracy.calibration.compensate import sample_serial_errors
 from ..accuracy.calibration.data import CalibrationData
 from ..accuracy.calibration.identifiability import RTOL
-from ..accuracy.calibration.identify import Identification, jacobian, serial_jacobian, whitening
+from ..accuracy.calibration.identify import Identification, jacobian, serial_jacobian, serial_whitening, whitening
 from ..accuracy.calibration.parameters import SerialParameterVector, frame_apply, serial_poses
 from ..accuracy.calibration.plan import candidate_commands, pose_set_indices
 from ..accuracy.calibration.simulate import Experiment, measure
@@ -501,9 +501,9 @@ def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationD
     s = np.asarray(idf.singular_values, dtype=float)
     pv = ident.parameters
     if isinstance(pv, SerialParameterVector):
-        J = serial_jacobian(pv, ident.values, data)
+        J = serial_jacobian(pv, ident.values, data, W=serial_whitening(pv, ident.values, data, ident.clearances))
     else:
-        J = jacobian(pv, ident.values, data, whitening(pv, ident.values, data))
+        J = jacobian(pv, ident.values, data, whitening(pv, ident.values, data, ident.clearances))
     norms = np.linalg.norm(J, axis=0)
     Js = J[:, norms > 0] / norms[norms > 0]
     full = np.linalg.svd(Js, compute_uv=False)

@@ -29,7 +29,9 @@ from ...model.plausibility import check_orientations
 @dataclass(frozen=True)
 class Compensation:
     """``targets (T, 3)``; ``commands`` / ``nominal_commands (T, 3)`` (mm / rad); ``predicted_sigma (T, 3)``
-    (mm, mm, rad) of the compensated pose from the parameter covariance; clearance floor ``floor_dp_max``,
+    (mm, mm, rad) of the compensated pose from the parameter covariance; ``fit_rms_position`` (mm) the
+    identification's RMS position residual at its measured points (:class:`~.identify.Identification`); clearance
+    floor ``floor_dp_max``,
     ``floor_dphi_max`` (worst case, mm / rad) and ``floor_dp_rms``, ``floor_dphi_rms`` (T,) or None."""
 
     targets: np.ndarray
@@ -87,9 +89,8 @@ def compensate(ident: Identification, targets: np.ndarray, *, clearances=None, s
     A = -np.linalg.solve(G, dr)                                    # pose change per parameter change
     cov = np.einsum("til,lk,tjk->tij", A, ident.covariance, A)
     sigma = np.sqrt(np.clip(np.einsum("tii->ti", cov), 0, None))
-    fit = ident.residuals_after
-    rms = float(np.sqrt(np.nanmean(np.sum(fit[:, :2] ** 2, axis=1)))) if len(fit) else float("nan")
-    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma, fit_rms_position=rms)
+    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma,
+               fit_rms_position=ident.fit_rms_position)
     if clearances is not None:
         robot = pv.split(ident.values)[0]
         poses = frame_apply(ident.values[-3:], targets)
@@ -188,9 +189,8 @@ def _compensate_serial(ident: Identification, targets: np.ndarray, *, start, cle
     A = np.stack(cols, axis=-1)                                    # (T, 3, L)
     cov = np.einsum("til,lk,tjk->tij", A, ident.covariance, A)
     sigma = np.sqrt(np.clip(np.einsum("tii->ti", cov), 0, None))
-    fit = ident.residuals_after
-    rms = float(np.sqrt(np.nanmean(np.sum(fit[:, :2] ** 2, axis=1)))) if len(fit) else float("nan")
-    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma, fit_rms_position=rms)
+    out = dict(targets=targets, commands=cmd, nominal_commands=nom, predicted_sigma=sigma,
+               fit_rms_position=ident.fit_rms_position)
     if clearances is not None:
         arm, off, gain, _ = pv.split(ident.values)
         q = off + gain * cmd

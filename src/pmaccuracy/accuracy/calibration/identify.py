@@ -10,6 +10,26 @@ residual: with ``G_n = dr_n/dm_n`` (3x3, the inverse-kinematic Jacobian at the m
 uncertainty ``Sigma_n = diag(sigma_n^2)``, the whitened residual is ``e_n = Sigma_n^(-1/2) G_n^-1 r_n``,
 to first order ``Sigma_n^(-1/2) (m_n - FK(theta; c_n))``: unit variance per component.
 
+Clearances: a joint clearance moves the platform off the pose the commands give by a state that changes from
+one measured point to the next, which no parameter can absorb. With ``clearances`` given, each point's
+measurement covariance is ``Sigma_n = diag(sigma_n^2) + C_n`` with the first-order clearance covariance
+``C_n = Q J_n V J_n^T Q^T`` (3x3, mm^2 / mm rad / rad^2): ``J_n (3, K)`` the pose error per unit value of
+every clearance variable at the point's robot-frame pose (:func:`pmaccuracy.accuracy.distributions.error_jacobian`
+on the current model robot), ``V = diag(var z_k)`` their variances
+(:func:`pmaccuracy.accuracy.distributions.variable_variances`) and ``Q = diag(R(-phi_F), 1)`` the rotation into
+the measurement frame. The assumed law: every clearance variable independent from point to point and
+between joints, **uniform in its set** by default (``distribution``: another law of
+:class:`~pmaccuracy.accuracy.distributions.Distribution`). Why uniform: the robot is driven to each point
+anew, and where a joint settles in its clearance depends on loads and the approach, unknown to the
+calibration; the uniform law is the maximum-entropy law on the set and the one the statistics
+(``pmaccuracy statistics``) and the virtual experiment (:func:`.simulate.measure`) draw from. A serial
+arm's covariance is that of :func:`.compensate.sample_serial_errors` (its segment coefficients uniform in
+``[-1, 1]``: ``G^T G / 3``; one uniform disk of the summed radius ``R``: ``R^2 / 4`` per axis). The
+whitening is then ``W_n = L_n^-1 G_n^-1`` with ``L_n`` the Cholesky factor of ``Sigma_n``. Without
+``clearances`` a clearance scatter is only absorbed, on average, by the residual scale ``s`` below, and
+the sigmas of the parameters are then too small where the clearance effect is large and too large where
+it is small (over 20 seeds with clearances: normalized-error spreads 0.65 to 1.2 instead of 1).
+
 Fit: :func:`scipy.optimize.least_squares` (trust-region reflective) on the identified parameters (the
 others fixed at nominal by :func:`~.identifiability.analyse`), first with the robust ``soft_l1`` loss
 (``f_scale = 3``); points whose whitened residual norm squared exceeds the chi-square(3) 99.9 % quantile
@@ -66,8 +86,53 @@ def pose_sensitivity(pv: ParameterVector, values: np.ndarray, commands: np.ndarr
     return np.stack(cols, axis=-1)
 
 
-def whitening(pv: ParameterVector, values: np.ndarray, data: CalibrationData) -> np.ndarray:
-    """``W (N, 3, 3) = Sigma^(-1/2) G^-1`` (module docstring)."""
+@dataclass(frozen=True)
+class ClearanceModel:
+    """The clearances of the identification's measurement model (module docstring): ``clearances`` (a preset
+    name, a file or a clearance object, as :func:`pmaccuracy.accuracy.distributions.as_sources` or, for a
+    serial arm, :func:`pmaccuracy.model.serial.load_serial_sources` reads) and the ``distribution`` of their
+    states (None: uniform in the sets)."""
+
+    clearances: object
+    distribution: object = None
+
+
+def clearance_covariance(pv, values: np.ndarray, data: CalibrationData, model: ClearanceModel) -> np.ndarray:
+    """``C (N, 3, 3)``: first-order covariance of the pose error the clearance states give at each measured
+    point, in the measurement frame (mm^2, mm rad, rad^2; module docstring), for the robot ``values (P,)``."""
+    values = np.asarray(values, dtype=float)
+    if isinstance(pv, SerialParameterVector):
+        from ...model.serial import error_generators, load_serial_sources
+
+        arm, off, gain, frame = pv.split(values)
+        G, layout = error_generators(arm, load_serial_sources(model.clearances, arm), off + gain * data.commands)
+        C = np.einsum("nmi,nmj->nij", G, G) / 3.0
+        C[:, :2, :2] += np.eye(2) * layout.disk_radius ** 2 / 4.0
+    else:
+        from ..distributions import as_sources, error_jacobian, variable_variances
+
+        robot, _, _, frame = pv.split(values)
+        sources = as_sources(robot, model.clearances)
+        J = error_jacobian(robot, sources, frame_apply(frame, data.poses))          # (N, 3, K)
+        C = np.einsum("nik,k,njk->nij", J, variable_variances(sources, model.distribution), J)
+    c, s = np.cos(frame[2]), np.sin(frame[2])
+    Q = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])                      # robot -> measurement frame
+    return Q @ C @ Q.T
+
+
+def measurement_covariance(pv, values: np.ndarray, data: CalibrationData,
+                           model: ClearanceModel | None = None) -> np.ndarray:
+    """``Sigma (N, 3, 3) = diag(sigma^2) + C`` (module docstring; ``C = 0`` without ``model``)."""
+    S = np.einsum("ni,ij->nij", data.sigmas ** 2, np.eye(3))
+    if model is None or model.clearances is None:
+        return S
+    C = clearance_covariance(pv, values, data, model)
+    return S + np.where(np.isfinite(C), C, 0.0)
+
+
+def whitening(pv: ParameterVector, values: np.ndarray, data: CalibrationData,
+              model: ClearanceModel | None = None) -> np.ndarray:
+    """``W (N, 3, 3) = L^-1 G^-1`` with ``L L^T = Sigma`` (:func:`measurement_covariance`; module docstring)."""
     G = pose_sensitivity(pv, values, data.commands, data.poses)
     bad = ~np.all(np.isfinite(G.reshape(len(G), -1)), axis=1)
     if np.any(bad):
@@ -76,7 +141,10 @@ def whitening(pv: ParameterVector, values: np.ndarray, data: CalibrationData) ->
                                    key=f"row {n + 1} (point {data.labels[n]})")
     with np.errstate(all="ignore"):
         Ginv = np.linalg.inv(G)
-    return Ginv / data.sigmas[:, :, None]
+    if model is None or model.clearances is None:
+        return Ginv / data.sigmas[:, :, None]
+    L = np.linalg.cholesky(measurement_covariance(pv, values, data, model))
+    return np.linalg.solve(L, Ginv)
 
 
 def whitened(pv, values, data, W) -> np.ndarray:
@@ -160,6 +228,41 @@ def check_start(pv: ParameterVector, data: CalibrationData, frame: np.ndarray | 
             f"{len(data)} points): a measurement frame far from the robot's (give --frame X Y PHI_DEG), poses in "
             "radians or metres, or commands of other points", source=data.source,
             key=f"row {n + 1} (point {data.labels[n]})")
+    alt = data.poses.copy()
+    alt[:, 2] = np.degrees(data.poses[:, 2])           # the phi_deg column read as radians
+    r_alt = raw_residuals(pv, values, data.commands, alt)
+    G_alt = pose_sensitivity(pv, values, data.commands, alt)
+    with np.errstate(all="ignore"):
+        dphi_alt = np.linalg.solve(G_alt, r_alt[..., None])[:, 2, 0]
+    check_phi_units(dm[:, 2], dphi_alt, data)
+
+
+#: ``phi_deg`` is refused as radians when its orientation deviations, read as degrees, spread more than this
+#: (deg) and, read as radians, less than :data:`RADIANS_RATIO` times as much.
+RADIANS_MIN_SPREAD_DEG = 0.5
+RADIANS_RATIO = 0.25
+
+
+def check_phi_units(dphi: np.ndarray, dphi_alt: np.ndarray, data: CalibrationData) -> None:
+    """Refuse a ``phi_deg`` column that holds radians: ``dphi (N,)`` are the orientation deviations (rad) of
+    the measured poses from where the nominal model puts the commands, the column read as degrees, and
+    ``dphi_alt (N,)`` the same with the column read as radians (NaN where out of reach). The spread of each
+    is ``median |d - median d|`` (a constant offset is the frame's turn, not a unit); the radians reading
+    fitting :data:`RADIANS_RATIO` times better, with the degrees reading's spread above
+    :data:`RADIANS_MIN_SPREAD_DEG`, raises :class:`MeasurementFileError` naming the file and the column.
+    A small orientation range (a +-5 deg plan) written in radians stays within the far-point checks of
+    :func:`check_start` (0.09 read as deg is a plausible reading near 0) and is caught only here."""
+    if not np.all(np.isfinite(dphi_alt)):
+        return
+    def spread(d):
+        d = np.angle(np.exp(1j * d))
+        return float(np.degrees(np.median(np.abs(d - np.median(d)))))
+    as_deg, as_rad = spread(dphi), spread(dphi_alt)
+    if as_deg > RADIANS_MIN_SPREAD_DEG and as_rad < RADIANS_RATIO * as_deg:
+        raise MeasurementFileError(
+            f"holds radians, not degrees: read as degrees the measured orientations are {as_deg:.3g} deg (median) off "
+            f"the commanded ones, read as radians {as_rad:.3g} deg: write phi_deg (and sigma_phi_deg) in degrees",
+            source=data.source, key="column phi_deg")
 
 
 @dataclass(frozen=True)
@@ -170,7 +273,10 @@ class Identification:
     ``covariance (L, L)`` of the identified ones (in the order of ``identifiability.identified``),
     ``rms_before`` / ``rms_after``: RMS of the whitened residuals at nominal and at the estimate (inliers),
     ``residuals_before`` / ``residuals_after`` ``(N, 3)``: pose residuals ``G^-1 r`` (mm, mm, rad),
-    ``outliers``: labels of the points dropped, ``scale``: the residual scale ``s``, ``cost``, ``nfev``.
+    ``outliers``: labels of the points dropped, ``scale``: the residual scale ``s``, ``cost``, ``nfev``,
+    ``clearances``: the clearance model of the measurement covariance (None: camera noise only),
+    ``fit_rms_position``: RMS position residual ``sqrt(mean(dx^2 + dy^2))`` (mm) of the inliers at the
+    estimate: what the fitted model leaves at the measured points (clearances and noise, if the model is right).
     """
 
     parameters: ParameterVector
@@ -186,6 +292,8 @@ class Identification:
     scale: float
     nfev: int
     n_points: int
+    clearances: ClearanceModel | None = None
+    fit_rms_position: float = float("nan")
 
     def __repr__(self) -> str:
         return (f"Identification({len(self.identifiability.identified)} parameters from {self.n_points} points, "
@@ -208,23 +316,26 @@ def _pose_residuals(pv, values, data) -> np.ndarray:
 
 def identify(data: CalibrationData, parameters: ParameterVector | None = None, *, robot=None,
              fixed: tuple[str, ...] = (), frame: np.ndarray | None = None, robust: bool = True,
-             rtol: float = RTOL) -> Identification:
+             rtol: float = RTOL, clearances=None, distribution=None) -> Identification:
     """Identify the error parameters from calibration ``data`` (module docstring for the method).
 
     ``parameters`` (or ``robot``): the nominal; ``fixed``: names kept at nominal; ``frame``: a starting
-    measurement frame ``(x mm, y mm, phi rad)`` when the camera's frame is far from the robot's.
+    measurement frame ``(x mm, y mm, phi rad)`` when the camera's frame is far from the robot's;
+    ``clearances`` (preset, file or object) and ``distribution`` (their states' law, default uniform): the
+    clearance covariance added to each point's measurement covariance (module docstring).
     Raises :class:`~pmaccuracy.errors.ConfigError` for an unknown parameter name or fewer residuals than
     parameters, :class:`~pmaccuracy.errors.MeasurementFileError` naming the row of an implausible point.
     """
     pv = parameters if parameters is not None else error_parameters(robot)
     pv.index(fixed)
+    model = None if clearances is None else ClearanceModel(clearances, distribution)
     if isinstance(pv, SerialParameterVector):
-        return _identify_serial(data, pv, tuple(fixed), frame, robust, rtol)
+        return _identify_serial(data, pv, tuple(fixed), frame, robust, rtol, model)
     x0 = pv.nominal.copy()
     if frame is not None:
         x0[-3:] = np.asarray(frame, dtype=float)
     check_start(pv, data, x0[-3:])
-    W = whitening(pv, x0, data)
+    W = whitening(pv, x0, data, model)
     J = jacobian(pv, x0, data, W)
     ident = analyse(pv, J, rtol=rtol, fixed=tuple(fixed))
     free = np.array(pv.index(ident.identified), dtype=int)
@@ -238,7 +349,7 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     rms_before = float(np.sqrt(np.mean(e0 ** 2)))
 
     def problem(d, v):
-        W = whitening(pv, v, d)
+        W = whitening(pv, v, d, model)
 
         def fun(z):
             u = x0.copy()
@@ -258,7 +369,7 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
                           residuals_before=before, residuals_after=after, rms_before=rms_before,
                           rms_after=float(np.sqrt(np.mean(res ** 2))),
                           outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
-                          nfev=int(nfev), n_points=len(data))
+                          nfev=int(nfev), n_points=len(data), clearances=model, fit_rms_position=_rms_mm(after[keep]))
 
 
 # ------------------------------------------------------------------ serial arms: the forward residual
@@ -271,8 +382,19 @@ def serial_residuals(pv: SerialParameterVector, values: np.ndarray, data: Calibr
     return r
 
 
-def serial_jacobian(pv: SerialParameterVector, values: np.ndarray, data: CalibrationData, cols=None) -> np.ndarray:
-    """``de/dtheta (3N, len(cols))`` of the whitened forward residual ``e = r / sigma`` by central differences."""
+def serial_whitening(pv: SerialParameterVector, values: np.ndarray, data: CalibrationData,
+                     model: ClearanceModel | None = None) -> np.ndarray:
+    """``W (N, 3, 3) = L^-1`` with ``L L^T = Sigma`` (:func:`measurement_covariance`): ``e = W r``."""
+    if model is None or model.clearances is None:
+        return np.einsum("ni,ij->nij", 1.0 / data.sigmas, np.eye(3))
+    return np.linalg.inv(np.linalg.cholesky(measurement_covariance(pv, values, data, model)))
+
+
+def serial_jacobian(pv: SerialParameterVector, values: np.ndarray, data: CalibrationData, cols=None,
+                    W: np.ndarray | None = None) -> np.ndarray:
+    """``de/dtheta (3N, len(cols))`` of the whitened forward residual ``e = W r`` (default ``W = diag(1 /
+    sigma)``) by central differences."""
+    W = serial_whitening(pv, values, data) if W is None else W
     cols = range(len(pv.names)) if cols is None else cols
     h = _steps(pv)
     out = []
@@ -282,7 +404,7 @@ def serial_jacobian(pv: SerialParameterVector, values: np.ndarray, data: Calibra
         vm[j] -= h[j]
         d = serial_residuals(pv, vp, data) - serial_residuals(pv, vm, data)
         d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
-        out.append((d / data.sigmas / (2 * h[j])).ravel())
+        out.append((np.einsum("nij,nj->ni", W, d) / (2 * h[j])).ravel())
     return np.stack(out, axis=-1)
 
 
@@ -297,9 +419,13 @@ def _check_start_serial(pv: SerialParameterVector, data: CalibrationData, values
             f"deg, as are {far.sum()} of {len(data)} points): a measurement frame far from the arm's base (give "
             "--frame X Y PHI_DEG), poses in radians or metres, or commands of other points", source=data.source,
             key=f"row {n + 1} (point {data.labels[n]})")
+    alt = data.poses.copy()
+    alt[:, 2] = np.degrees(data.poses[:, 2])           # the phi_deg column read as radians
+    check_phi_units(r[:, 2], serial_residuals(pv, values, CalibrationData(data.labels, data.commands, alt,
+                                                                          data.sigmas, data.source))[:, 2], data)
 
 
-def _identify_serial(data, pv, fixed, frame, robust, rtol) -> Identification:
+def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None) -> Identification:
     n = pv.robot.n
     if data.commands.shape[1] != n:
         raise MeasurementFileError(f"{data.commands.shape[1]} commands per point for an arm of {n} joints",
@@ -308,7 +434,8 @@ def _identify_serial(data, pv, fixed, frame, robust, rtol) -> Identification:
     if frame is not None:
         x0[-3:] = np.asarray(frame, dtype=float)
     _check_start_serial(pv, data, x0)
-    ident = analyse(pv, serial_jacobian(pv, x0, data), rtol=rtol, fixed=fixed)
+    W0 = serial_whitening(pv, x0, data, model)
+    ident = analyse(pv, serial_jacobian(pv, x0, data, W=W0), rtol=rtol, fixed=fixed)
     free = np.array(pv.index(ident.identified), dtype=int)
     L = len(free)
     if 3 * len(data) <= L:
@@ -318,25 +445,28 @@ def _identify_serial(data, pv, fixed, frame, robust, rtol) -> Identification:
     before = serial_residuals(pv, x0, data)
 
     def problem(d, v):
+        W = serial_whitening(pv, v, d, model)
+
         def fun(z):
             u = x0.copy()
             u[free] = z
-            return (serial_residuals(pv, u, d) / d.sigmas).ravel()
+            return np.einsum("nij,nj->ni", W, serial_residuals(pv, u, d)).ravel()
 
         def jac(z):
             u = x0.copy()
             u[free] = z
-            return serial_jacobian(pv, u, d, free)
+            return serial_jacobian(pv, u, d, free, W)
         return fun, jac
 
     v, res, keep, nfev, Jf = fit(data, x0, free, problem, robust)
     cov, sigma, s2 = covariance(res, Jf, free, len(pv.names))
+    after = serial_residuals(pv, v, data)
     return Identification(parameters=pv, values=v, sigma=sigma, covariance=cov, identifiability=ident,
-                          residuals_before=before, residuals_after=serial_residuals(pv, v, data),
-                          rms_before=float(np.sqrt(np.mean((before / data.sigmas) ** 2))),
+                          residuals_before=before, residuals_after=after,
+                          rms_before=float(np.sqrt(np.mean(np.einsum("nij,nj->ni", W0, before) ** 2))),
                           rms_after=float(np.sqrt(np.mean(res ** 2))),
                           outliers=tuple(np.asarray(data.labels, dtype=object)[~keep]), scale=float(np.sqrt(s2)),
-                          nfev=int(nfev), n_points=len(data))
+                          nfev=int(nfev), n_points=len(data), clearances=model, fit_rms_position=_rms_mm(after[keep]))
 
 
 def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust: bool = True):
@@ -396,7 +526,18 @@ def identification_to_dict(ident: Identification) -> dict:
             "fit": {"points": ident.n_points, "rms_before": ident.rms_before, "rms_after": ident.rms_after,
                     "scale": ident.scale, "outliers": list(ident.outliers), "nfev": ident.nfev,
                     "rms_position_before_mm": _rms_mm(ident.residuals_before),
-                    "rms_position_after_mm": _rms_mm(ident.residuals_after)}}
+                    "rms_position_after_mm": _rms_mm(ident.residuals_after),
+                    "fit_rms_position": ident.fit_rms_position,
+                    "clearances": _clearance_label(ident.clearances)}}
+
+
+def _clearance_label(model: ClearanceModel | None) -> str | None:
+    """The clearances of the measurement covariance as written in the record: the preset name or file path
+    (an object: its name), None without."""
+    if model is None or model.clearances is None:
+        return None
+    c = model.clearances
+    return str(c) if isinstance(c, (str, bytes)) or hasattr(c, "__fspath__") else str(getattr(c, "name", "<object>"))
 
 
 def _rms_mm(res: np.ndarray) -> float:
@@ -432,4 +573,6 @@ def identification_from_dict(record: dict, source: str = "<identification>") -> 
     return Identification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=ident,
                           residuals_before=empty, residuals_after=empty, rms_before=float(fit["rms_before"]),
                           rms_after=float(fit["rms_after"]), outliers=tuple(fit["outliers"]),
-                          scale=float(fit["scale"]), nfev=int(fit["nfev"]), n_points=int(fit["points"]))
+                          scale=float(fit["scale"]), nfev=int(fit["nfev"]), n_points=int(fit["points"]),
+                          clearances=None if fit.get("clearances") is None else ClearanceModel(fit["clearances"]),
+                          fit_rms_position=float(fit.get("fit_rms_position", fit.get("rms_position_after_mm", "nan"))))

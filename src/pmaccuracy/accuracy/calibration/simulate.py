@@ -5,9 +5,10 @@ The true robot is the nominal plus seeded parameter errors (``error_sigma``: 1-s
 gain, drawn normal). A command ``c`` puts it where its exact forward kinematics
 (:func:`pmaccuracy.kinematics.forward_kinematics`, the assembly mode nearest the nominal pose) says, for the
 joint values ``offset + gain * c``; the joint clearances displace that pose by a random state inside their
-sets (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`, first order); the camera reads it in
-the true measurement frame with normal noise ``noise`` (mm, mm, rad). Nothing of this goes through the
-inverse-kinematic residual of :mod:`.identify`.
+sets (:func:`pmaccuracy.accuracy.distributions.sample_pose_errors`, first order, each source uniform in its
+set and independent from pose to pose: the law :func:`.identify.identify` assumes when it is given the same
+clearances, as the experiment does); the camera reads it in the true measurement frame with normal noise
+``noise`` (mm, mm, rad). Nothing of this goes through the inverse-kinematic residual of :mod:`.identify`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from typing import Callable
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...kinematics import FKSolution, forward_kinematics
+from ...model import _tomlio
 from ..distributions import sample_pose_errors
 from .compensate import SERIAL_PHI_WEIGHT, Compensation, compensate, sample_serial_errors, serial_pose_jacobian
 from .data import CalibrationData
@@ -37,13 +40,79 @@ DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
 
 
 def true_parameters(pv: ParameterVector, seed: int = 0, error_sigma: dict | None = None,
-                    fixed: tuple[str, ...] = ()) -> np.ndarray:
-    """Nominal plus seeded normal errors ``(P,)`` (``error_sigma`` per unit); ``fixed`` names stay nominal."""
-    sig = {**DEFAULT_ERROR_SIGMA, **(error_sigma or {})}
-    rng = np.random.default_rng(seed)
-    v = pv.nominal + rng.standard_normal(len(pv.names)) * np.array([sig[u] for u in pv.units])
+                    fixed: tuple[str, ...] = (), *, errors: dict | None = None,
+                    tolerances: dict | None = None) -> np.ndarray:
+    """The true parameters ``(P,)``: the nominal plus seeded errors; ``fixed`` names stay nominal.
+
+    By default every parameter gets a normal error of 1-sigma ``error_sigma`` per unit (mm, rad, gain:
+    :data:`DEFAULT_ERROR_SIGMA`). Given ``errors {name: value}`` (mm / rad / gain, added as they are) and/or
+    ``tolerances {name: t}`` (a uniform draw in ``[-t, t]``, seeded, per named parameter), the true robot is
+    the nominal plus those, and the parameters they do not name stay nominal (``error_sigma`` is then not
+    used: :class:`~pmaccuracy.errors.ConfigError` if given). Raises ConfigError naming an unknown parameter
+    or a value that is not a finite number (a tolerance: >= 0)."""
+    if errors is None and tolerances is None:
+        sig = {**DEFAULT_ERROR_SIGMA, **(error_sigma or {})}
+        rng = np.random.default_rng(seed)
+        v = pv.nominal + rng.standard_normal(len(pv.names)) * np.array([sig[u] for u in pv.units])
+    else:
+        if error_sigma is not None:
+            raise ConfigError("not with named errors or tolerances (they say the true robot's errors)",
+                              key="error_sigma")
+        v = pv.nominal.copy()
+        for table, what in ((errors, "errors"), (tolerances, "tolerances")):
+            for name, value in (table or {}).items():
+                pv.index([name])
+                if not (isinstance(value, (int, float, np.floating, np.integer)) and np.isfinite(value)
+                        and (what == "errors" or value >= 0)):
+                    raise ConfigError(f"must be a finite number{'' if what == 'errors' else ' >= 0'}, got {value!r}",
+                                      key=name)
+        for name, value in (errors or {}).items():
+            v[pv.index([name])[0]] += float(value)
+        if tolerances:
+            names = list(tolerances)
+            half = np.array([float(tolerances[n]) for n in names])
+            v[pv.index(names)] += np.random.default_rng(seed).uniform(-1.0, 1.0, len(names)) * half
     v[pv.index(fixed)] = pv.nominal[pv.index(fixed)]
     return v
+
+
+def load_parameter_table(spec, pv: ParameterVector, kind: str = "errors") -> dict[str, float]:
+    """Read a TOML file of ``name = value`` per error parameter (``kind``: ``"errors"``, the parameter errors
+    of the true robot, or ``"tolerances"``, the half-widths of their uniform draws) into library units.
+
+    File format (mm, degrees, and a gain's error as a fraction; dotted names may be quoted or not)::
+
+        "leg1.base.x" = 0.2          # mm
+        leg2.actuator.offset = 0.05  # deg (a revolute actuator)
+        leg3.actuator.gain = 5e-4    # 1 + 5e-4 times the command
+
+    Raises :class:`~pmaccuracy.errors.ConfigError` naming the file and the parameter: an unknown name, a
+    value that is not a finite number (a tolerance: >= 0)."""
+    data, source = _tomlio.read_spec(spec, kind=f"parameter {kind}", folder=None)
+    flat: dict[str, object] = {}
+
+    def walk(table: dict, prefix: str) -> None:
+        for key, value in table.items():
+            if isinstance(value, dict):
+                walk(value, f"{prefix}{key}.")
+            else:
+                flat[f"{prefix}{key}"] = value
+    walk(data, "")
+    units = dict(zip(pv.names, pv.units))
+    out = {}
+    for name, value in flat.items():
+        if name not in units:
+            try:
+                pv.index([name])
+            except ConfigError as exc:
+                raise ConfigError(exc.message, source=source, key=name) from None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or \
+                (kind == "tolerances" and value < 0):
+            raise ConfigError(f"must be a finite number{' >= 0' if kind == 'tolerances' else ''} "
+                              f"({'deg' if units[name] == 'rad' else units[name]}), got {value!r}",
+                              source=source, key=name)
+        out[name] = float(np.radians(value)) if units[name] == "rad" else float(value)
+    return out
 
 
 def measure(pv: ParameterVector, true_values: np.ndarray, commands: np.ndarray, reference: np.ndarray, *,
@@ -117,22 +186,27 @@ class Experiment:
 
 def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 0, error_sigma: dict | None = None,
              noise=(0.01, 0.01, np.radians(0.01)), clearances=None, n_targets: int = 50,
-             true_fixed: tuple[str, ...] = (), measure_with: Callable | None = None) -> Experiment:
+             true_fixed: tuple[str, ...] = (), measure_with: Callable | None = None, errors: dict | None = None,
+             tolerances: dict | None = None) -> Experiment:
     """Run the virtual calibration experiment (module docstring): plan ``n_poses``, measure, identify,
     compensate at ``n_targets`` random candidate poses, measure again.
+
+    The true robot (:func:`true_parameters`): normal errors of 1-sigma ``error_sigma`` per unit on every
+    parameter, or the named ``errors {name: value}`` and/or ``tolerances {name: half-width}`` (a seeded
+    uniform draw), library units (mm, rad, gain); :func:`load_parameter_table` reads them from a file.
 
     ``measure_with(pv, true, commands, reference, seed) -> CalibrationData`` replaces the measurement of the
     planned poses (e.g. :func:`pmaccuracy.vision.calibration_photos.photo_measurer`: photos rendered and
     measured); ``noise`` then applies to the compensation's check only (there without noise).
     """
-    true = true_parameters(pv, seed, error_sigma, true_fixed)
+    true = true_parameters(pv, seed, error_sigma, true_fixed, errors=errors, tolerances=tolerances)
     if isinstance(pv, SerialParameterVector):
         return _simulate_serial(pv, true, n_poses, seed=seed, noise=noise, clearances=clearances, n_targets=n_targets,
                                 measure_with=measure_with)
     cand = candidate_poses(pv)
     plan = plan_poses(pv, n_poses, cand, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
-    ident = identify(data, pv)
+    ident = identify(data, pv, clearances=clearances)
     rng = np.random.default_rng(seed + 2)
     lim = np.array([c.actuated.range for c in pv.robot.chains])
     ok = np.ones(len(cand), dtype=bool)
@@ -168,7 +242,7 @@ def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, 
                      n_targets, measure_with=None) -> Experiment:
     plan = plan_poses(pv, n_poses, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
-    ident = identify(data, pv)
+    ident = identify(data, pv, clearances=clearances)
     # targets: where the nominal arm goes at random commands inside the ranges with a margin (so that the
     # identified arm reaches them within the ranges too)
     lim = np.array([r for _, r in actuators(pv.robot)])
