@@ -141,12 +141,14 @@ point, so equal on the whole piece (implicit function theorem: the set where the
 closed). Measured: no piece rejected on the paper robot or the random robots of the tests at 1x and 10x; a
 Newton solution moved to another branch (test) is rejected.
 
-Batched pipeline (:func:`certified_pose_errors`). All poses at once: the best feasible values first (12 exact
-closures a pose from the first-order vertices, ascent steps only for the rows still rising); then the box of
+Batched pipeline (:func:`certified_pose_errors`). All poses at once: feasible values first (12 exact closures a
+pose at the first-order worst vertices, their negatives and the refined ``|dp|`` directions: the chord method with
+one inverse of ``J_z`` a pose); then the box of
 (3) alone (the second bound of the box only where it does not close or contract), the bound (4) of every row
 and the dual bound (5) (batched, one row per pose and direction) only for the rows whose bound (4) is above
-``1 + REFINE_FRACTION * split_gap`` times the best feasible value, refined only while above it; the poses still
-above ``split_gap`` get the tightened box with refined multipliers and every row refined (one batch); only the
+``1 + REFINE_FRACTION * split_gap`` times the best feasible value, refined only while above it; the local
+ascent (gradient steps between vertices) only at the poses whose bound is still above that, whose targets it
+raises; the poses still above ``split_gap`` get the tightened box with refined multipliers and every row refined (one batch); only the
 poses still above it go on to the split and the branch and bound. Every value kept is one of the valid bounds
 above, so the guarantee is the same; the gap at the paper's clearances is up to 0.1 % (``REFINE_FRACTION``).
 
@@ -336,8 +338,9 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     first = {q: np.asarray(getattr(fo, f"{q}_max"), dtype=float).reshape(-1) for q in QUANTITIES}
     sets = error_set(robot, sources)
     model = _build_model(robot, sets, poses)
-    if search:  # the best feasible values first: they set the targets of the refinement below
-        lower, worst, _ = _nonlinear(model, _first_order_map(model), sets)
+    if search:  # feasible values first (the exact closure at the first-order worst vertices): they set the targets
+        M1 = _first_order_map(model)
+        lower, worst, _ = _nonlinear(model, M1, sets, ascend=False)
     else:
         lower = {q: np.full(poses.shape[0], np.nan) for q in QUANTITIES}
         worst = {}
@@ -349,6 +352,16 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     if model.n == 0:  # no error source: the pose does not move, exactly
         rb["upper"] = {q: np.zeros(poses.shape[0]) for q in QUANTITIES}
     rb.update(model=model, sets=sets)
+    if search and model.n:  # the local ascent only where the bound is not yet within the target of those values
+        asc = np.flatnonzero(np.any([~(_gap(rb["upper"][q], ref[q]) <= REFINE_FRACTION * split_gap)
+                                     for q in QUANTITIES], axis=0))
+        if asc.size:
+            lo2, w2, _ = _nonlinear(_take_many(model, asc), M1[asc], sets)
+            for q in QUANTITIES:
+                up = lo2[q] > lower[q][asc]
+                lower[q][asc[up]], worst[q][asc[up]] = lo2[q][up], w2[q][up]
+                ref[q] = np.where(np.isfinite(lower[q]), lower[q], first[q])
+                target[q] = ref[q] * (1 + REFINE_FRACTION * split_gap)
     # poses still above split_gap (or not certified): the whole set again with the tighter box and every row
     # refined (the full bound of equations (3)-(5)), batched over those poses only; the smaller valid bound is kept
     loose = (rb["reason"] != "") | np.any([_gap(rb["upper"][q], ref[q]) > split_gap for q in QUANTITIES], axis=0)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .closure import _Model, _objective, _take, _take_many, exact_change
+from .closure import _Model, _objective, _source_gradient, _take, _take_many, exact_change
 from .error_set import QUANTITIES, argsupport, project, support
 
 
@@ -67,7 +67,8 @@ def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     """First-order worst vertices ``(4, n_dp, N, n)``: of dx, dy, dphi (signs of the rows of ``M``, as
     :func:`pmaccuracy.model.sources.worst_configuration`; repeated) and of ``|dp|`` (the vertices maximizing ``u . p``
     for the ``n_dp`` best local maxima over 720 directions ``u`` of the support function: the nonlinear
-    maximum may belong to a direction that is not the first-order best)."""
+    maximum may belong to a direction that is not the first-order best), each direction refined by a ternary
+    search so that the best is the exact first-order maximizer)."""
     N = M.shape[0]
     starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
     ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
@@ -77,8 +78,26 @@ def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     peak = (h >= np.roll(h, 1, axis=-1)) & (h >= np.roll(h, -1, axis=-1))
     order = np.argsort(np.where(peak, -h, np.inf), axis=-1)[:, :n_dp]  # best local maxima first
     order = np.where(np.take_along_axis(peak, order, axis=-1), order, order[:, :1])  # fewer peaks: repeat the best
-    starts.append(np.stack([argsupport(sets, rowmap[np.arange(N), order[:, k]]) for k in range(n_dp)]))
+    dp_starts = []
+    for k in range(n_dp):  # each peak's direction refined by a ternary search (the support is smooth between
+        # vertex switches): the best one is then the exact first-order maximizer of |dp|
+        a = ang[order[:, k]]
+        lo, hi = a - np.pi / 720, a + np.pi / 720
+        for _ in range(40):
+            m1, m2 = lo + (hi - lo) / 3, hi - (hi - lo) / 3
+            up = _support_at(sets, M, m1) < _support_at(sets, M, m2)
+            lo, hi = np.where(up, m1, lo), np.where(up, hi, m2)
+        mid = (lo + hi) / 2
+        a = np.where(_support_at(sets, M, mid) >= h[np.arange(N), order[:, k]], mid, a)
+        dp_starts.append(argsupport(sets, np.cos(a)[:, None] * M[:, 0, :] + np.sin(a)[:, None] * M[:, 1, :]))
+    starts.append(np.stack(dp_starts))
     return np.stack(starts)
+
+
+def _support_at(sets, M: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``h_S(u . M_p)`` ``(N,)`` for the unit directions ``u = (cos angle, sin angle)`` ``(N,)`` of the position rows
+    of ``M`` ``(N, 9, n)``."""
+    return support(sets, np.cos(angle)[:, None] * M[:, 0, :] + np.sin(angle)[:, None] * M[:, 1, :])
 
 
 def _objective_gradient(dz: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,27 +132,35 @@ def _row_objective(q: np.ndarray, dz: np.ndarray, G: np.ndarray) -> tuple[np.nda
     return np.where(is_p, norm, np.abs(row)), np.where(is_p[..., None], gp, sgn[..., None] * grow)
 
 
-def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish: int = 0
-               ) -> tuple[dict, dict, dict]:
+def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish: int = 0,
+               ascend: bool | np.ndarray = True) -> tuple[dict, dict, dict]:
     """Best feasible exact values ``{q: (N,)}``, their ``delta`` ``{q: (N, n)}`` and the exact values at the
     first-order worst vertices ``{q: (N,)}`` (:func:`nonlinear_pose_errors`).
 
     The starts (each first-order worst vertex of dx, dy, dphi and the three of ``|dp|``, both signs: 12 rows per
-    pose) are solved exactly in one batch; then each row steps to the vertex maximizing its exact gradient's
-    linear form while that increases its value, only the rows still increasing being solved again."""
+    pose) are solved exactly in one batch; then, at the poses ``ascend`` (``(N,)`` mask or all/none), each row
+    steps to the vertex maximizing its exact gradient's linear form while that increases its value, only the
+    rows still increasing being solved again. Without the ascent the values are those of the best start (a
+    feasible configuration too: still a lower bound of the maximum)."""
     N, n = M.shape[0], model.n
     if n == 0:
         z = {q: np.zeros(N) for q in QUANTITIES}
         return z, {q: np.zeros((N, 0)) for q in QUANTITIES}, dict(z)
+    ascend = np.broadcast_to(np.asarray(ascend, dtype=bool), (N,))
     d0 = _first_order_starts(sets, M)  # (4, 3, N, n); the rows of dx, dy, dphi are repeated
     qidx = np.array([0, 0, 1, 1, 2, 2] + [3] * 6)
     cur = np.stack([sg * d0[q, 0] for q in range(3) for sg in (1, -1)]
                    + [sg * d0[3, k] for k in range(d0.shape[1]) for sg in (1, -1)])  # (12, N, n)
-    dz, G = exact_change(model, M, cur, gradient=True)
-    val, grad = _row_objective(qidx[:, None], dz, G)
+    dz = exact_change(model, M, cur)
+    val = _row_objective(qidx[:, None], dz, np.zeros(dz.shape + (0,)))[0]
     val = np.where(np.isfinite(val), val, -np.inf)
     at_start = val.copy()
-    active = np.isfinite(val)
+    grad = np.zeros(cur.shape)
+    active = np.isfinite(val) & ascend[None, :]
+    if np.any(active):  # the exact gradients at the starts of the poses that ascend
+        rr, kk = np.nonzero(active)
+        grad[rr, kk] = _row_objective(qidx[rr], dz[rr, kk], _source_gradient(_take_many(model, kk), dz[rr, kk],
+                                                                             cur[rr, kk]))[1]
     for _ in range(iterations):
         # successive linearization: the vertex maximizing the exact gradient's linear form over S
         rr, kk = np.nonzero(active)

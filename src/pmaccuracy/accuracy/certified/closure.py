@@ -5,6 +5,7 @@ for given source values."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -55,31 +56,61 @@ class _Model:
 
     def residual(self, D: np.ndarray) -> np.ndarray:
         """The nine real residuals ``(..., N, 9)`` (Re F_i, Im F_i, G_i per leg) at ``Delta`` ``(..., N, nv)``."""
-        r = self.r0 + np.einsum("nmv,...nv->...nm", self.rg, D)
-        t = self.t0 + np.einsum("nmv,...nv->...nm", self.tg, D)
+        m = self.r0.shape[-1]
+        lin = _apply(self._coefficients, D)  # (..., N, 3m + 9): Re dr, Im dr, dt, Re dF, Im dF, dG
+        r = self.r0 + (lin[..., :m] + 1j * lin[..., m:2 * m])
+        t = self.t0 + lin[..., 2 * m:3 * m]
         terms = r * np.exp(1j * t)
-        F = self.aff0 + np.einsum("niv,...nv->...ni", self.affg, D)
-        F = F + terms @ self.onehot
-        G = self.ang0 + np.einsum("niv,...nv->...ni", self.angg, D)
+        F = self.aff0 + (lin[..., 3 * m:3 * m + 3] + 1j * lin[..., 3 * m + 3:3 * m + 6]) + terms @ self.onehot
+        G = self.ang0 + lin[..., 3 * m + 6:]
         return np.stack([F.real, F.imag, G], axis=-1).reshape(F.shape[:-1] + (9,))
 
-    @property
+    @cached_property
     def onehot(self) -> np.ndarray:
         """``(m, 3)``: 1 where term ``m`` belongs to leg ``i``."""
         return (self.leg_of[:, None] == np.arange(3)[None, :]).astype(float)
 
+    @cached_property
+    def _coefficients(self) -> np.ndarray:
+        """The affine coefficients as one real array ``(N, nv, 3m + 9)``: columns ``Re rg, Im rg, tg`` of the terms,
+        then ``Re affg, Im affg, angg`` of the legs (one real product evaluates them all: complex einsum over the
+        batch is about 10x slower)."""
+        parts = [self.rg.real, self.rg.imag, self.tg, self.affg.real, self.affg.imag, self.angg]
+        return np.ascontiguousarray(np.concatenate(parts, axis=1).transpose(0, 2, 1))
+
+    @cached_property
+    def _term_coefficients(self) -> np.ndarray:
+        """``(N, 3m, nv)``: ``Re rg, Im rg, tg`` stacked (:meth:`jacobian`)."""
+        return np.ascontiguousarray(np.concatenate([self.rg.real, self.rg.imag, self.tg], axis=1))
+
     def jacobian(self, D: np.ndarray, z_only: bool = False) -> np.ndarray:
-        """``d residual / d Delta`` ``(..., N, 9, nv)`` (only the 9 columns of ``z`` with ``z_only``)."""
-        r = self.r0 + np.einsum("nmv,...nv->...nm", self.rg, D)
-        t = self.t0 + np.einsum("nmv,...nv->...nm", self.tg, D)
-        e = np.exp(1j * t)
+        """``d residual / d Delta`` ``(..., N, 9, nv)`` (only the 9 columns of ``z`` with ``z_only``).
+
+        With ``e = exp(i t)`` the derivative of a term ``r e`` is ``e (rg + i r tg)``: its real and imaginary parts
+        are ``(Re e, -Im e, -Im(e r))`` and ``(Im e, Re e, Re(e r))`` times ``(Re rg, Im rg, tg)``, summed per leg."""
+        m = self.r0.shape[-1]
+        lin = _apply(self._coefficients[..., :3 * m], D)
+        r = self.r0 + (lin[..., :m] + 1j * lin[..., m:2 * m])
+        e = np.exp(1j * (self.t0 + lin[..., 2 * m:]))
+        er = e * r
+        cre = np.concatenate([e.real, -e.imag, -er.imag], axis=-1)  # (..., N, 3m)
+        cim = np.concatenate([e.imag, e.real, er.real], axis=-1)
+        oh = np.tile(self.onehot.T, 3)  # (3, 3m)
+        W = self._term_coefficients if not z_only else self._term_coefficients[..., :9]
+        # (..., N, 3 legs, 3m) @ (N, 3m, nv')
+        dre = (cre[..., None, :] * oh) @ W
+        dim = (cim[..., None, :] * oh) @ W
         cols = slice(0, 9) if z_only else slice(None)
-        rg, tg, affg, angg = self.rg[..., cols], self.tg[..., cols], self.affg[..., cols], self.angg[..., cols]
-        dterm = e[..., None] * (rg + 1j * r[..., None] * tg)  # (..., N, m, nv)
-        dF = affg + np.stack([dterm[..., self.leg_of == i, :].sum(axis=-2) for i in range(3)], axis=-2)
-        dG = np.broadcast_to(angg, dF.shape)
-        out = np.stack([dF.real, dF.imag, dG], axis=-2)  # (..., N, 3, 3, nv)
+        dre = dre + self.affg.real[..., cols]
+        dim = dim + self.affg.imag[..., cols]
+        dG = np.broadcast_to(self.angg[..., cols], dre.shape)
+        out = np.stack([dre, dim, dG], axis=-2)  # (..., N, 3, 3, nv)
         return out.reshape(out.shape[:-3] + (9, out.shape[-1]))
+
+
+def _apply(W: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """``W^T D`` per pose: ``W`` ``(N, nv, k)``, ``D`` ``(..., N, nv)`` -> ``(..., N, k)`` (real)."""
+    return np.einsum("nvk,...nv->...nk", W, D, optimize=True)
 
 
 def _build_model(robot, sets: tuple[SourceSet, ...], poses: np.ndarray) -> _Model:
@@ -195,17 +226,26 @@ def _merge_terms(terms: list) -> list:
 # ============================================================================ exact model and local ascent
 def _take(model: _Model, k: int) -> _Model:
     """The model of pose ``k`` alone (``N = 1``)."""
-    sl = slice(k, k + 1)
-    return _Model(r0=model.r0[sl], t0=model.t0[sl], rg=model.rg[sl], tg=model.tg[sl], leg_of=model.leg_of,
-                  aff0=model.aff0[sl], affg=model.affg[sl], ang0=model.ang0[sl], angg=model.angg[sl], n=model.n,
-                  z0=model.z0[sl])
+    return _take_many(model, slice(k, k + 1))
 
 
-def _take_many(model: _Model, idx: np.ndarray) -> _Model:
-    """The model of the poses ``idx`` (indices)."""
-    return _Model(r0=model.r0[idx], t0=model.t0[idx], rg=model.rg[idx], tg=model.tg[idx], leg_of=model.leg_of,
-                  aff0=model.aff0[idx], affg=model.affg[idx], ang0=model.ang0[idx], angg=model.angg[idx],
-                  n=model.n, z0=model.z0[idx])
+def _take_many(model: _Model, idx) -> _Model:
+    """The model of the poses ``idx`` (indices or a slice); the real coefficient arrays already built are taken
+    along."""
+    out = _Model(r0=model.r0[idx], t0=model.t0[idx], rg=model.rg[idx], tg=model.tg[idx], leg_of=model.leg_of,
+                 aff0=model.aff0[idx], affg=model.affg[idx], ang0=model.ang0[idx], angg=model.angg[idx],
+                 n=model.n, z0=model.z0[idx])
+    _share_coefficients(model, out, idx)
+    return out
+
+
+def _share_coefficients(model: _Model, out: _Model, idx=slice(None)) -> None:
+    """Give ``out`` the cached coefficient arrays of ``model`` (rows ``idx``) when their affine parts agree (a
+    selection of poses, or the same model expanded about another point: :func:`_recentre` keeps them)."""
+    for name in ("_coefficients", "_term_coefficients", "onehot"):
+        if name in model.__dict__:
+            val = model.__dict__[name]
+            out.__dict__[name] = val if name == "onehot" else val[idx]
 
 
 #: Chord steps of :func:`exact_change` before Newton's method takes over (where they have not converged).
@@ -260,13 +300,18 @@ def exact_change(model: _Model, M: np.ndarray, delta: np.ndarray, iterations: in
     dz = np.where(good[..., None], dz, np.nan)
     if not gradient:
         return dz
-    J = model.jacobian(D)
+    return dz, _source_gradient(model, dz, delta)
+
+
+def _source_gradient(model: _Model, dz: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """``dDz / ddelta = -J_z^-1 J_delta`` ``(..., N, 9, n)`` at the exact solution ``dz`` ``(..., N, 9)`` of
+    ``delta`` ``(..., N, n)`` (implicit function theorem; NaN where ``J_z`` is singular)."""
+    J = model.jacobian(np.concatenate([dz, delta], axis=-1))
     with np.errstate(all="ignore"):
         try:
-            G = -np.linalg.solve(J[..., :9], J[..., 9:])
+            return -np.linalg.solve(J[..., :9], J[..., 9:])
         except np.linalg.LinAlgError:
-            G = np.full(dz.shape + (model.n,), np.nan)
-    return dz, G
+            return np.full(dz.shape + (model.n,), np.nan)
 
 
 def _objective(q: str, dz: np.ndarray) -> np.ndarray:

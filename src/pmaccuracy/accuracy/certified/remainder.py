@@ -10,7 +10,7 @@ import numpy as np
 
 from ...io.resolve import robot_arg
 from ...kinematics import as_poses
-from .closure import _build_model, _Model
+from .closure import _build_model, _Model, _share_coefficients
 from .dual import dual_bound
 from .error_set import ROUND_ABS, ROUND_REL
 from .error_set import (
@@ -373,11 +373,13 @@ def _continues(dz: np.ndarray, bc: np.ndarray, centre: np.ndarray, anchor: dict,
 
 def _recentre(model: _Model, D: np.ndarray) -> _Model:
     """The model expanded about ``v0 + D`` (``D`` ``(N, 9 + n)``): the same affine coefficients, constants moved."""
-    return _Model(r0=model.r0 + np.einsum("nmv,nv->nm", model.rg, D),
-                  t0=model.t0 + np.einsum("nmv,nv->nm", model.tg, D), rg=model.rg, tg=model.tg,
-                  leg_of=model.leg_of, aff0=model.aff0 + np.einsum("niv,nv->ni", model.affg, D), affg=model.affg,
-                  ang0=model.ang0 + np.einsum("niv,nv->ni", model.angg, D), angg=model.angg, n=model.n,
-                  z0=model.z0 + D[:, :9])
+    out = _Model(r0=model.r0 + np.einsum("nmv,nv->nm", model.rg, D),
+                 t0=model.t0 + np.einsum("nmv,nv->nm", model.tg, D), rg=model.rg, tg=model.tg,
+                 leg_of=model.leg_of, aff0=model.aff0 + np.einsum("niv,nv->ni", model.affg, D), affg=model.affg,
+                 ang0=model.ang0 + np.einsum("niv,nv->ni", model.angg, D), angg=model.angg, n=model.n,
+                 z0=model.z0 + D[:, :9])
+    _share_coefficients(model, out)
+    return out
 
 
 def _first_order_dp(sets, Mp: np.ndarray) -> np.ndarray:
