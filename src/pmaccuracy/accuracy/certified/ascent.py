@@ -72,8 +72,7 @@ def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     N = M.shape[0]
     starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
     ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
-    u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-    rowmap = np.einsum("kr,nrd->nkd", u, M[:, :2, :])
+    rowmap = np.cos(ang)[:, None] * M[:, None, 0, :] + np.sin(ang)[:, None] * M[:, None, 1, :]  # (N, 720, n)
     h = support(sets, rowmap)  # (N, 720)
     peak = (h >= np.roll(h, 1, axis=-1)) & (h >= np.roll(h, -1, axis=-1))
     order = np.argsort(np.where(peak, -h, np.inf), axis=-1)[:, :n_dp]  # best local maxima first

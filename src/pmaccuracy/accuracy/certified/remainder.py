@@ -255,16 +255,25 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
                                        ci[kk], stop=t_rows[kk, rr][:, None])[:, 0]
         for j, q in enumerate(("dx", "dy", "dphi")):
             upper[q][ci] = np.maximum(ub[:, j], ub[:, 3 + j])
-        # |dp| <= max_k u_k . p / cos(pi / K) through K directions: the cheap bound of every direction, then the
-        # refined one for the directions (8 at a time) whose bound exceeds the best refined one
+        # |dp| <= max_k u_k . p / cos(pi / K) through K directions: the cheap bound of every direction (bounded
+        # directly or combined from its coarse neighbours, _direction_bounds), then the refined one for the
+        # directions (8 at a time) whose bound exceeds the best refined one
         ang = 2 * np.pi * (np.arange(N_DIRECTIONS) + 0.5) / N_DIRECTIONS
         u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)  # (K, 2)
-        kap_u = np.einsum("kr,nri->nki", u, kappa[ci, :2, :])
-        g_u = np.einsum("kr,nrd->nkd", u, M[ci, :2, :])
-        f_u = np.einsum("kr,nr->nk", u, JinvF0[ci, :2] - offset[ci, :2])
+        kap_p, M_p, f_p = kappa[ci, :2, :], M[ci, :2, :], JinvF0[ci, :2] - offset[ci, :2]
+
+        def direction_rows(kk: np.ndarray, dd: np.ndarray):
+            """``kappa``, ``g`` and ``J_z^-1 F0`` of ``u_dd . p`` at the poses ``kk`` (flat pairs), one row each."""
+            c, s_ = u[dd, 0], u[dd, 1]
+            return ((c[:, None] * kap_p[kk, 0] + s_[:, None] * kap_p[kk, 1])[:, None],
+                    (c[:, None] * M_p[kk, 0] + s_[:, None] * M_p[kk, 1])[:, None],
+                    (c * f_p[kk, 0] + s_ * f_p[kk, 1])[:, None])
+
         floor = (np.full(ci.size, -np.inf) if target is None
                  else tgt["dp"][ci] * math.cos(math.pi / N_DIRECTIONS) / (1 + 1e-6))  # (N',)
-        ub = row_bound(kap_u, g_u, f_u, ci, refine=False, skip=None if target is None else floor[:, None])
+        ub = _direction_bounds(lambda kk, dd: row_bound(*direction_rows(kk, dd), ci[kk], refine=False,
+                                                        skip=None if target is None else floor[kk][:, None])[:, 0],
+                               ci.size)
         done = np.zeros((ci.size, N_DIRECTIONS), dtype=bool)
         active = np.ones(ci.size, dtype=bool)
         while True:  # rounds: per pose the (up to) 8 worst directions not yet refined, all poses in one batch
@@ -282,8 +291,8 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
             sel = fresh & go[:, None]
             kk = np.broadcast_to(ak[:, None], todo.shape)[sel]
             dd = todo[sel]
-            ub[kk, dd] = row_bound(kap_u[kk, dd][:, None], g_u[kk, dd][:, None], f_u[kk, dd][:, None], ci[kk],
-                                   stop=None if target is None else floor[kk][:, None])[:, 0]
+            ub[kk, dd] = np.fmin(ub[kk, dd], row_bound(*direction_rows(kk, dd), ci[kk],
+                                                       stop=None if target is None else floor[kk][:, None])[:, 0])
             done[kk, dd] = True
         upper["dp"][ci] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS)
     # first-order |dp|: the largest vertex norm of the zonotope (max over directions of the support, exactly)
@@ -300,6 +309,41 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
         bc = np.where(certified[:, None], bc * (1 + 1e-6) + 1e-15 * scale, np.nan)
     return {"upper": upper, "first_order": first, "M": M, "b": b, "b_centre": bc, "reason": reason,
             "certified": certified}
+
+
+#: Every COARSE_STEP-th of the :data:`N_DIRECTIONS` directions of ``|dp|`` is bounded first (:func:`_direction_bounds`).
+COARSE_STEP = 8
+
+
+def _direction_bounds(bound, P: int) -> np.ndarray:
+    """Upper bounds ``(P, K)`` of ``u_k . p`` for the ``K = N_DIRECTIONS`` directions ``u_k`` at angles ``2 pi (k + 1/2)
+    / K``, from ``bound(kk, dd)`` (the bounds of the (pose, direction) pairs ``kk``, ``dd`` (flat indices), valid
+    upper bounds of ``u_dd . p`` at pose ``kk``), computed for few directions.
+
+    Every :data:`COARSE_STEP`-th direction is bounded first. A direction ``u`` between two of them, ``u_a`` and
+    ``u_b`` (``Delta`` apart, ``u`` at ``theta`` from ``u_a``), is their combination with non-negative weights,
+    ``u = (sin(Delta - theta) u_a + sin(theta) u_b) / sin(Delta)``, so the same combination of their bounds bounds
+    ``u . p`` (at most ``1 / cos(Delta / 2)`` times the larger). Only the directions whose combined bound exceeds
+    the largest coarse bound (the result is at least that) are bounded themselves, and keep the smaller value.
+    """
+    K, step = N_DIRECTIONS, COARSE_STEP
+    coarse = np.arange(0, K, step)
+    ub = np.empty((P, K))
+    kk, dd = np.repeat(np.arange(P), coarse.size), np.tile(coarse, P)
+    ub[:, coarse] = bound(kk, dd).reshape(P, coarse.size)
+    j = np.arange(K)
+    a_idx, b_idx = (j // step) * step, ((j // step + 1) * step) % K
+    delta = 2 * np.pi * step / K
+    theta = 2 * np.pi * (j - a_idx) / K
+    wa, wb = np.sin(delta - theta) / np.sin(delta), np.sin(theta) / np.sin(delta)
+    with np.errstate(invalid="ignore"):  # inf - inf: a direction without a bound stays inf
+        comb = ub[:, a_idx] * wa + ub[:, b_idx] * wb
+    comb[:, coarse] = ub[:, coarse]
+    comb = np.where(np.isnan(comb), np.inf, comb)
+    kk, dd = np.nonzero(~(comb <= np.max(ub[:, coarse], axis=-1, keepdims=True)))
+    if kk.size:
+        comb[kk, dd] = np.fmin(comb[kk, dd], bound(kk, dd))
+    return comb
 
 
 def _point_box(model: _Model, scale: float, iterations: int = 30) -> np.ndarray:
