@@ -81,3 +81,46 @@ def test_cli_certified_refuses_csv(tmp_path):
     out = _cli("--phi-deg", "0", "--grid", "5", "--certified", "--out", str(tmp_path / "m.csv"))
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "--out" in out.stderr
     assert not (tmp_path / "m.csv").exists()
+
+
+def test_gap_target_at_10x_holds_and_stays_above_the_dense_search(tmp_path):
+    """``split_gap`` / ``--gap-pct``: a looser target (5 %, at 10x the paper's clearances) returns bounds whose stated
+    gap is within it and which lie between the independent dense search and 5 % above it; the default (0.5 %)
+    too; the CLI passes the percentage on and refuses it without --certified or outside (0, 100)."""
+    data = Manipulator.preset("aalborg_3ppr").to_dict()
+    spec10 = nsr.scaled_spec(_paper_spec("case2"), 10)
+    from pmaccuracy.accuracy.certified import certified_pose_errors
+    from pmaccuracy.model.sources import ErrorSources
+
+    robot = Manipulator.preset("aalborg_3ppr")
+    poses = np.array([[0.0, 0.0, 0.0], [15.0, -10.0, np.radians(4.0)]])
+    loose = certified_pose_errors(robot, ErrorSources.from_dict(spec10), poses, split_gap=0.05)
+    tight = certified_pose_errors(robot, ErrorSources.from_dict(spec10), poses)
+    for k, pose in enumerate(poses):
+        ref = nsr.dense_search(data, pose, spec10, n_random=200, dense=6)
+        for q in ("dx", "dy", "dphi", "dp"):
+            assert loose.gap[q][k] <= 0.05 and tight.gap[q][k] <= 0.005, (q, k)
+            assert loose.upper[q][k] >= ref[q] and tight.upper[q][k] >= ref[q], (q, k)
+            assert ref[q] <= loose.upper[q][k] <= ref[q] * 1.05, (q, k)
+    # the CLI passes the target on (percent) and checks it before computing
+    clear = tmp_path / "c10.toml"
+    lines = []
+    for leg in spec10["legs"]:
+        lines.append("[[legs]]")
+        for joint in leg["joints"]:
+            lines.append("[[legs.joints]]")
+            lines += [f"{key} = {value!r}" for key, value in joint.items()]
+    clear.write_text("\n".join(lines) + "\n")
+    out = subprocess.run([sys.executable, "-m", "pmaccuracy.cli", "bounds", "--certified", "--gap-pct", "5",
+                          "--clearances", str(clear), "--pose", "0", "0", "0", "--format", "json"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    rec = json.loads(out.stdout)[0]
+    assert rec["dp_max"] == pytest.approx(loose.upper["dp"][0], rel=1e-12)
+    for argv in (["bounds", "--certified", "--gap-pct", "0", "--pose", "0", "0", "0"],
+                 ["bounds", "--gap-pct", "5", "--pose", "0", "0", "0"],
+                 ["map", "--phi-deg", "0", "--gap-pct", "5", "--out", str(tmp_path / "m.nc")],
+                 ["map", "--phi-deg", "0", "--certified", "--gap-pct", "100", "--out", str(tmp_path / "m.nc")]):
+        bad = subprocess.run([sys.executable, "-m", "pmaccuracy.cli", *argv], capture_output=True, text=True)
+        assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--gap-pct" in bad.stderr, argv
+    assert not (tmp_path / "m.nc").exists()

@@ -122,6 +122,12 @@ def finite_float(text: str) -> float:
     return value
 
 
+def check_gap_pct(value: float | None, option: str = "--gap-pct") -> None:
+    """Refuse (ConfigError naming ``option``) a gap target outside (0, 100) percent; ``None`` (the default) passes."""
+    if value is not None and not 0 < value < 100:
+        raise ConfigError(f"must be in (0, 100) percent, got {value:g}", key=option)
+
+
 def _whole_number(text: str, minimum: int) -> int:
     """A whole number ``>= minimum`` (argparse.ArgumentTypeError otherwise)."""
     try:

@@ -55,6 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --certified or --nonlinear: how many pieces of the error set the branch and bound may "
                         "certify per pose (default 256; more is tighter and slower, and may certify a pose whose "
                         "whole error set has no certificate; 1: no cutting beyond the first four pieces)")
+    p.add_argument("--gap-pct", type=_common.finite_float, default=None, metavar="PCT",
+                   help="with --certified: the gap to the best feasible configuration at which a bound is refined no "
+                        "further (default 0.5; larger is faster and looser, e.g. 5 at large clearances)")
     p.add_argument("--allow-outside", action="store_true", help="also evaluate poses outside the joint ranges")
     p.add_argument("--details", action="store_true",
                    help="add the worst-case configuration of each quantity: the clearance displacements (3-PPR "
@@ -154,6 +157,8 @@ def run(args: argparse.Namespace) -> int:
         return _certified_run(args, robot, clearances, poses, tolerances)
     if args.max_pieces is not None:
         raise PmAccuracyError("--max-pieces needs --certified or --nonlinear")
+    if args.gap_pct is not None:
+        raise PmAccuracyError("--gap-pct needs --certified")
     if args.method == "slsqp":
         if args.details or tolerances:
             raise PmAccuracyError("--details and --tolerances need --method exact")
@@ -266,7 +271,13 @@ def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarra
         raise PmAccuracyError(f"{flag} takes per-joint sources: give tolerances per joint (position, direction, "
                               "length) with a per-joint clearance file")
     pieces = {} if args.max_pieces is None else {"max_pieces": args.max_pieces}
-    result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside, **pieces)
+    if args.gap_pct is not None:
+        if args.nonlinear:
+            raise PmAccuracyError("--gap-pct needs --certified (--nonlinear always runs the local ascent)")
+        _common.check_gap_pct(args.gap_pct)
+        pieces["split_gap"] = args.gap_pct / 100
+    result = certified_pose_errors(robot, clearances, poses, allow_outside=args.allow_outside,
+                                   ascent=bool(args.nonlinear), **pieces)
     records = result.records("upper" if args.certified else "lower")
     for rec, shown in zip(records, _common.degrees_as_given(poses[:, 2])):
         rec["phi_deg"] = float(shown)

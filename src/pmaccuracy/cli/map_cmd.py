@@ -58,6 +58,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "maxima, with the gap to the best feasible configuration per quantity (dx_gap, dy_gap, "
                         "dphi_gap, dp_gap); NaN where not certified; computed in memory (bands of --chunk-size "
                         "points, default 2048; Dask tasks with --dask), .zarr written chunked like map")
+    p.add_argument("--gap-pct", type=_common.finite_float, default=None, metavar="PCT",
+                   help="with --certified: the gap to the best feasible configuration at which a point's bound is "
+                        "refined no further (default 0.5; e.g. 5 for a fast map at large clearances)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="estimate and progress bar on stderr (default: when stderr is a terminal)")
     _common.add_format(p)
@@ -105,7 +108,10 @@ def run(args: argparse.Namespace) -> int:
     # a region's map is cut to its bounding box and computed in memory (write_map takes the whole workspace)
     streamed = (suffix != ".zarr" and not args.dask and not args.scheduler and not (suffix == ".csv" and args.plot)
                 and shape is None and not args.certified)
+    if args.gap_pct is not None and not args.certified:
+        raise ConfigError("needs --certified", key="--gap-pct")
     if args.certified:
+        _common.check_gap_pct(args.gap_pct)
         if suffix == ".csv":
             raise ConfigError("a certified map is written as .nc or .zarr (it has eight variables)", key="--out")
         if args.workers:
@@ -184,15 +190,16 @@ def _certified(maps, robot, clearances, phis, args, out: Path, show: bool) -> in
     from ..model.plausibility import warn
 
     chunk = args.chunk_size or maps.CERTIFIED_CHUNK
+    gap = (0.5 if args.gap_pct is None else args.gap_pct) / 100
     try:
         if args.scheduler:
             Client = require("distributed").Client
             with Client(args.scheduler):
                 ds = maps.certified_error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=True,
-                                              progress=show, region=args.shape)
+                                              progress=show, region=args.shape, split_gap=gap)
         else:
             ds = maps.certified_error_map(robot, clearances, phis, args.grid, chunk_size=chunk, use_dask=args.dask,
-                                          progress=show, region=args.shape)
+                                          progress=show, region=args.shape, split_gap=gap)
     except EmptyWorkspaceError as exc:
         if args.shape is None:
             raise

@@ -61,6 +61,8 @@ SCALES = (1.0, 10.0)
 PHI_RANGE_DEG = (-30.0, 30.0)
 #: Certified relative gap of the global worst cases and of the synthesis' certificates (coarse: run time).
 GLOBAL_GAP = 5e-3
+#: Largest grid of the certified map of (a) (the report's map grid, at most this).
+CERT_GRID = 101
 #: Targets of the synthesis: dp in mm, dphi in deg.
 TARGETS = {"dp": 0.3, "dphi_deg": 0.3}
 #: Threshold of P(|dp| > threshold) in the statistics (mm).
@@ -142,7 +144,8 @@ def certified_rows(robot: Manipulator, case: str, poses: np.ndarray, labels: lis
     cs = load_clearances(case if clearances is None else clearances, robot)
     rows = []
     for scale in scales:
-        r = certified_pose_errors(robot, cs.scaled(scale), poses, allow_outside=True, on_failure="nan")
+        r = certified_pose_errors(robot, cs.scaled(scale), poses, allow_outside=True, on_failure="nan",
+                                  ascent=True)
         for k, (pose, label) in enumerate(zip(poses, labels)):
             qs = {}
             for q in QUANTITIES:
@@ -200,6 +203,54 @@ def statistics_job(robot: Manipulator, case, pose: np.ndarray, grid: int | None,
                                         thresholds={"dp": threshold_dp}).to_dict(), "threshold_dp": threshold_dp}
     return statistics_section(robot, case, 0.0, grid=grid, samples=MAP_SAMPLES, pose_samples=POSE_SAMPLES,
                               seed=seed, pose=pose, threshold_dp=threshold_dp, figure=figure)
+
+
+def certified_map_job(robot: Manipulator, case, phis_deg: list[float], grid: int,
+                      figure: str | Path | None) -> dict:
+    """(a') The certified map of the whole workspace at the report's map orientations ``phis_deg`` (deg) for the
+    clearances ``case``: :func:`pmaccuracy.accuracy.maps.certified_error_map` on the ``grid x grid`` grid of the
+    report's maps (the default gap target, 0.5 %) beside :func:`pmaccuracy.accuracy.maps.error_map` on the same
+    grid. Per orientation: the certified ranges (mm, deg), the largest excess of the certified bound over the
+    first-order maximum and the largest gap (relative), the grid points certified and inside the workspace, and
+    the time taken (s); with ``figure`` the certified |dp| and its excess over first order are drawn there."""
+    from ..accuracy.maps import certified_error_map, error_map
+    from .figures import plot_panels, render
+
+    t = time.perf_counter()
+    phis = np.radians(np.asarray(phis_deg, dtype=float))
+    cert = certified_error_map(robot, case, phis, n=grid)
+    seconds = time.perf_counter() - t
+    first = error_map(robot, case, phis, n=grid)
+    out = {"grid": int(grid), "seconds": seconds, "clearances": getattr(first, "attrs", {}).get("clearances", ""),
+           "layers": {}}
+    panels = []
+    for k, phi_deg in enumerate(phis_deg):
+        layer = {}
+        inside = np.isfinite(first["dx_max"].values[k])
+        certified = np.isfinite(cert["dx_max"].values[k]) & inside
+        for q, var in (("dx", "dx_max"), ("dy", "dy_max"), ("dphi", "dphi_max"), ("dp", "dp_max")):
+            c, f = cert[var].values[k], first[var].values[k]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                excess = np.where(certified, c / f - 1.0, np.nan)
+            key = "dphi_deg" if q == "dphi" else q   # the maps hold dphi in degrees
+            layer[key] = {"certified": [float(np.nanmin(c[certified])), float(np.nanmax(c[certified]))]
+                          if certified.any() else None,
+                          "excess": float(np.nanmax(excess)) if certified.any() else None,
+                          "gap": float(np.nanmax(cert[f"{q}_gap"].values[k][certified])) if certified.any() else None}
+        layer["points"], layer["certified_points"] = int(inside.sum()), int(certified.sum())
+        out["layers"][f"{phi_deg:g}"] = layer
+        x, y = cert.x.values, cert.y.values
+        with np.errstate(invalid="ignore", divide="ignore"):
+            excess_pct = 100 * (cert["dp_max"].values[k] / first["dp_max"].values[k] - 1.0)
+        panels += [(x, y, cert["dp_max"].values[k], f"$\\phi$ = {phi_deg:g} deg: certified $\\delta p_{{max}}$",
+                    "mm"),
+                   (x, y, excess_pct, f"$\\phi$ = {phi_deg:g} deg: certified above first order", "%")]
+    if figure is not None:
+        render(figure, plot_panels, panels, ncols=2,
+               suptitle=f"{robot.name}, clearances {out['clearances']}: certified worst case of the exact model "
+                        f"({grid} x {grid} grid)")
+        out["figure"] = True
+    return out
 
 
 def iso_job(robot: Manipulator, seed: int) -> dict:
@@ -275,6 +326,11 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
         jobs[("iso", ISO_CASE)] = renderer.compute(iso_job, robot, seed)
     jobs.update({("statistics", c): renderer.compute(statistics_job, robot, cases[c], home, None, seed, None,
                                                      threshold) for c in labels[:-1]})
+    map_phis = sorted({float(k) for c in results.get("cases", {}).values() for k in c}) or [0.0]
+    cert_figure = out / "design_certified_map.png"
+    jobs[("certified_map", labels[-1])] = renderer.compute(certified_map_job, robot, cases[labels[-1]], map_phis,
+                                                           int(min(results.get("grid", CERT_GRID), CERT_GRID)),
+                                                           cert_figure)
     rows = []
     for label in labels:
         poses, pose_labels = check_poses(robot, cases[label], phi_range)
@@ -284,7 +340,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
         try:
             got[key] = job.result()
         except PmAccuracyError as exc:   # e.g. a region that reaches a singularity: said in the text, not hidden
-            if key[0] == "statistics":
+            if key[0] in ("statistics", "certified_map"):
                 raise
             got[key] = {"error": str(exc)}
     data = {"settings": {"cases": labels, "scales": list(scales), "phi_range_deg": list(phi_range),
@@ -300,6 +356,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
             "global_worst": {c: got[("global", c)] for c in labels},
             "synthesis": ({m: got[("synthesis", m)] for m in ("uniform", "min-cost")} if targets else None),
             "statistics": {c: got[("statistics", c)] for c in labels},
+            "certified_map": {"case": labels[-1], **got[("certified_map", labels[-1])]},
             "iso9283": got[("iso", ISO_CASE)] if iso else None}
     for c, gw in data["global_worst"].items():
         if "error" in gw:
@@ -313,7 +370,7 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     data["seconds"] = time.perf_counter() - t0
     data = _ready(data)
     results["design_decisions"] = data
-    _write(doc, robot, data, figure)
+    _write(doc, robot, data, figure, cert_figure)
     return data
 
 
@@ -371,7 +428,7 @@ def _verdict(d: dict) -> str:
     return line1 + line2 + line3
 
 
-def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
+def _write(doc: Document, robot: Manipulator, d: dict, figure: Path, cert_figure: Path | None = None) -> None:
     s = d["settings"]
     lo, hi = s["phi_range_deg"]
     doc.heading("Design decisions: certified worst cases, global maxima, tolerance synthesis, statistics")
@@ -417,6 +474,26 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path) -> None:
         f"can be used as they are. At {sc1:g}x the clearances the excess reaches {100 * ex[sc1]:.2f} % (the "
         f"remainder grows with the square of the clearances) and the gap {100 * gaps[sc1]:.2f} %: add that "
         "margin to a first-order budget for loose joints, or use the certified value.")
+    cm = d.get("certified_map")
+    if cm:
+        layers = cm["layers"]
+        parts = []
+        for phi, L in layers.items():
+            if L["dp"]["certified"] is None:
+                parts.append(f"at phi = {phi} deg no grid point is certified")
+                continue
+            parts.append(f"at phi = {phi} deg dp up to {_fmt(L['dp']['certified'][1])} mm and dphi up to "
+                         f"{_fmt(L['dphi_deg']['certified'][1])} deg, at most {_pct(L['dp']['excess'])} % "
+                         f"(dp) above the first-order maximum, largest gap "
+                         f"{_pct(max(L[q]['gap'] for q in ('dx', 'dy', 'dphi_deg', 'dp')))} %, "
+                         f"{L['certified_points']} of {L['points']} grid points certified")
+        doc.paragraph(
+            f"**Certified maps.** The same bounds over the whole workspace ({cm['case']}, the "
+            f"{cm['grid']} x {cm['grid']} grid of the maps, `pmaccuracy map --certified`, {cm['seconds']:.1f} s): "
+            + "; ".join(parts) + ". A grid point not certified is left blank (NaN), never filled with a guess.")
+        if cm.get("figure") and cert_figure is not None:
+            doc.figure(cert_figure, f"{cm['case']}: certified upper bound of the exact worst-case |dp| over the "
+                                    "workspace (left) and how far it lies above the first-order maximum (right, %).")
     # (b) -----------------------------------------------------------------------------------------------------
     ok = {c: gw for c, gw in d["global_worst"].items() if "error" not in gw}
     for c, gw in d["global_worst"].items():

@@ -295,7 +295,7 @@ class CertifiedPoseErrors:
 
 def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allow_outside: bool = False,
                           on_failure: str = "raise", split: int = 2, split_gap: float = 0.005,
-                          max_pieces: int = 256) -> CertifiedPoseErrors:
+                          max_pieces: int = 256, ascent: bool = False) -> CertifiedPoseErrors:
     """Certified upper bounds of the exact worst-case ``|dx|, |dy|, |dphi|, |dp|`` and the best feasible values.
 
     Parameters
@@ -313,6 +313,9 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     split, split_gap : where the bound is not certified or its gap to the best feasible value (to the
         first-order value without ``search``) exceeds ``split_gap``, it is computed again over ``2^split``
         pieces of the error set (:func:`_split_bounds`; 0: never) and the smaller valid bound is kept
+    ascent : run the local ascent of the best feasible values at every pose (as :func:`nonlinear_pose_errors`);
+        by default it runs only where the bound is not yet within ``REFINE_FRACTION * split_gap`` of the values at
+        the first-order worst vertices (those are feasible too: ``lower`` is a lower bound either way)
     max_pieces : where the gap still exceeds ``split_gap`` (or there is no certificate), the set is cut
         adaptively (:func:`_branch_and_bound`) until the gap is below ``split_gap`` or ``max_pieces`` pieces
         (:data:`REFUSED_BUDGET` times as many for a pose with no certificate yet) have been bounded (0 or 1:
@@ -340,7 +343,7 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     model = _build_model(robot, sets, poses)
     if search:  # feasible values first (the exact closure at the first-order worst vertices): they set the targets
         M1 = _first_order_map(model)
-        lower, worst, _ = _nonlinear(model, M1, sets, ascend=False)
+        lower, worst, _ = _nonlinear(model, M1, sets, ascend=ascent)
     else:
         lower = {q: np.full(poses.shape[0], np.nan) for q in QUANTITIES}
         worst = {}
@@ -352,7 +355,7 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     if model.n == 0:  # no error source: the pose does not move, exactly
         rb["upper"] = {q: np.zeros(poses.shape[0]) for q in QUANTITIES}
     rb.update(model=model, sets=sets)
-    if search and model.n:  # the local ascent only where the bound is not yet within the target of those values
+    if search and model.n and not ascent:  # the local ascent only where the bound is not yet within the target of those values
         asc = np.flatnonzero(np.any([~(_gap(rb["upper"][q], ref[q]) <= REFINE_FRACTION * split_gap)
                                      for q in QUANTITIES], axis=0))
         if asc.size:
