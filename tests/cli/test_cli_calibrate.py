@@ -123,3 +123,33 @@ def test_simulate_with_named_errors_and_bad_names(tmp_path, capsys):
     status, _, err = run(["calibrate", "simulate", "--robot", "symmetric_3rrr", "--errors", tmp_path / "e.toml",
                           "--error-mm", "0.2"], capsys)
     assert status == 2 and "--error-mm" in err
+
+
+def test_report_simulation_takes_named_errors_and_tolerances(tmp_path, capsys, monkeypatch):
+    """``calibrate report`` simulating passes --errors / --tolerances on as ``calibrate simulate`` does (library
+    units: deg -> rad), refuses them with --data or with --error-mm, and names an unknown parameter."""
+    import math
+
+    import pmaccuracy.accuracy.calibration.simulate as simulate
+
+    seen = {}
+
+    def spy(pv, n_poses, **kw):
+        seen.update(kw)
+        raise RuntimeError("spied")
+    monkeypatch.setattr(simulate, "simulate_calibration", spy)
+    (tmp_path / "e.toml").write_text('"leg1.base.x" = 0.3\nleg2.actuator.offset = 0.2\n')
+    (tmp_path / "t.toml").write_text('leg3.proximal = 0.05\n')
+    status, _, err = run(["calibrate", "report", "--robot", "symmetric_3rrr", "--out", tmp_path / "r.html",
+                          "--errors", tmp_path / "e.toml", "--tolerances", tmp_path / "t.toml", "--seed", "4"], capsys)
+    assert status != 0 and "spied" in err       # reached the simulation: what did it get?
+    assert seen["errors"] == {"leg1.base.x": 0.3, "leg2.actuator.offset": pytest.approx(math.radians(0.2))}
+    assert seen["tolerances"] == {"leg3.proximal": 0.05} and seen["error_sigma"] is None and seen["seed"] == 4
+    (tmp_path / "m.csv").write_text("x,y,phi_deg,q1_deg,q2_deg,q3_deg\n")
+    (tmp_path / "bad.toml").write_text("leg1.base.z = 0.1\n")
+    for extra, needle in ((["--data", tmp_path / "m.csv", "--identification", tmp_path / "id.json", "--errors",
+                            tmp_path / "e.toml"], "--errors"),
+                          (["--tolerances", tmp_path / "t.toml", "--error-mm", "0.2"], "--error-mm"),
+                          (["--errors", tmp_path / "bad.toml"], "bad.toml: leg1.base.z: no parameter")):
+        status, _, err = run(["calibrate", "report", "--out", tmp_path / "r.html"] + extra, capsys)
+        assert status == 2 and len(err.splitlines()) == 1 and needle in err, err

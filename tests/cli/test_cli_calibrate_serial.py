@@ -74,3 +74,31 @@ def test_bad_input_serial(tmp_path, capsys):
     status, _, err = run(["calibrate", "identify", "--robot", "planar_3r_arm", "--data", path, "--fix", "leg1.base.x"],
                          capsys)
     assert status == 2 and "leg1.base.x" in err
+
+
+def test_phi_in_radians_with_a_small_orientation_range_refused_serial(tmp_path, capsys):
+    """A serial arm's calibration CSV whose phi_deg column holds radians, the configurations keeping the
+    orientation within +-5 deg (0.09 at most: within the far-point checks) is refused naming the file and
+    the column; the same file in degrees is identified."""
+    from pmaccuracy.accuracy.calibration.data import write_calibration_csv
+    from pmaccuracy.accuracy.calibration.parameters import error_parameters
+    from pmaccuracy.accuracy.calibration.simulate import measure_serial, true_parameters
+    from pmaccuracy.model.serial import SerialArm
+
+    arm = SerialArm.preset("planar_3r_arm")
+    pv = error_parameters(arm)
+    rng = np.random.default_rng(3)
+    q12 = rng.uniform(np.radians([-150.0, -130.0]), np.radians([150.0, 130.0]), size=(30, 2))
+    q12 = q12[np.abs(q12.sum(axis=1)) < np.radians(170.0)][:20]
+    q = np.column_stack([q12, -q12.sum(axis=1) + rng.uniform(-np.radians(5.0), np.radians(5.0), len(q12))])
+    m = measure_serial(pv, true_parameters(pv, seed=1, fixed=("frame.x", "frame.y", "frame.phi")), q, seed=2)
+    assert len(q) == 20 and np.degrees(np.abs(m[:, 2])).max() < 5.1
+    write_calibration_csv(arm, q, m, tmp_path / "deg.csv")
+    rad = m.copy()
+    rad[:, 2] = np.radians(m[:, 2])          # the file then holds phi in radians under phi_deg
+    write_calibration_csv(arm, q, rad, tmp_path / "rad.csv")
+    status, _, err = run(["calibrate", "identify", "--robot", "planar_3r_arm", "--data", tmp_path / "rad.csv"], capsys)
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert "rad.csv: column phi_deg: holds radians" in err
+    status, _, err = run(["calibrate", "identify", "--robot", "planar_3r_arm", "--data", tmp_path / "deg.csv"], capsys)
+    assert status == 0, err

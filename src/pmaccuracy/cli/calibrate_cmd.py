@@ -111,8 +111,8 @@ def _register_report(steps) -> None:
                                      "with 1-sigma error bars, the singular value spectrum and what cannot be "
                                      "identified, observability against random and grid choices, and the accuracy "
                                      "before and after beside the clearance floor. From a virtual experiment "
-                                     "(--robot, --poses, --seed, --error-*, --noise-*, --clearances, as calibrate "
-                                     "simulate) or from measurements: --data FILE.csv with --identification "
+                                     "(--robot, --poses, --seed, --error-* or --errors / --tolerances, --noise-*, "
+                                     "--clearances, as calibrate simulate) or from measurements: --data FILE.csv with --identification "
                                      "FILE.json (written by calibrate identify from the same data).")
     s.add_argument("--out", required=True, metavar="FILE.html",
                    help="the report (self-contained HTML); missing parent folders are created")
@@ -131,6 +131,12 @@ def _register_report(steps) -> None:
                        ("--noise-mm", "simulation: 1-sigma of the camera in x and y, mm (default 0.01)"),
                        ("--noise-deg", "simulation: 1-sigma of the camera in phi, deg (default 0.01)")):
         s.add_argument(name, type=float, help=what)
+    s.add_argument("--errors", metavar="FILE.toml",
+                   help="simulation: the true robot's parameter errors by name (as calibrate simulate --errors: "
+                        "name = value in mm, deg or gain fraction); parameters not named stay nominal")
+    s.add_argument("--tolerances", metavar="FILE.toml",
+                   help="simulation: the true robot's errors drawn uniformly (seeded) within +- the named "
+                        "tolerances (as calibrate simulate --tolerances); parameters not named stay nominal")
     s.set_defaults(func=run_report)
 
 
@@ -149,7 +155,7 @@ def run_report(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.data import read_calibration_csv
     from ..accuracy.calibration.identify import identification_from_dict
     from ..accuracy.calibration.parameters import error_parameters
-    from ..accuracy.calibration.simulate import simulate_calibration
+    from ..accuracy.calibration.simulate import load_parameter_table, simulate_calibration
     from ..errors import ConfigError
 
     _common.prepare_output(args.out, "--out", (".html",))
@@ -161,10 +167,16 @@ def run_report(args: argparse.Namespace) -> int:
                               key=missing)
         if args.robot != "aalborg_3ppr":
             raise ConfigError("not with --data: the robot is the one of --identification", key="--robot")
-        given = [k for k in _SIMULATION_DEFAULTS if k != "seed" and getattr(args, k) is not None]
+        given = [k for k in (*_SIMULATION_DEFAULTS, "errors", "tolerances")
+                 if k != "seed" and getattr(args, k) is not None]
         if given:
             raise ConfigError("describes a simulation: not with --data (the robot and its identification come "
                               "from --identification)", key="--" + given[0].replace("_", "-"))
+    named = args.errors is not None or args.tolerances is not None
+    for opt in ("error_mm", "error_deg"):
+        if named and getattr(args, opt) is not None:
+            raise ConfigError("not with --errors or --tolerances (they give the true robot's errors)",
+                              key="--" + opt.replace("_", "-"))
     values = {k: (v if getattr(args, k) is None else getattr(args, k)) for k, v in _SIMULATION_DEFAULTS.items()}
     for opt in ("error_mm", "error_deg", "noise_mm", "noise_deg"):
         v = values[opt]
@@ -184,9 +196,12 @@ def run_report(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
     pv = error_parameters(_robot(args))
+    errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+    tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+    sigma = None if named else {"mm": values["error_mm"], "rad": np.radians(values["error_deg"])}
     noise = (max(values["noise_mm"], 1e-9), max(values["noise_mm"], 1e-9), max(np.radians(values["noise_deg"]), 1e-11))
     ex = simulate_calibration(pv, values["poses"], seed=values["seed"], noise=noise, clearances=args.clearances,
-                              error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])})
+                              error_sigma=sigma, errors=errors, tolerances=tolerances)
     _write_report(args.out, ex.identification, ex.data, experiment=ex, seed=values["seed"], args=args)
     print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} points)")
     return 0

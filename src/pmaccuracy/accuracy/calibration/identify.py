@@ -34,7 +34,13 @@ Fit: :func:`scipy.optimize.least_squares` (trust-region reflective) on the ident
 others fixed at nominal by :func:`~.identifiability.analyse`), first with the robust ``soft_l1`` loss
 (``f_scale = 3``); points whose whitened residual norm squared exceeds the chi-square(3) 99.9 % quantile
 times the robust scale are reported as outliers and dropped; a second, plain least-squares fit on the
-inliers gives the estimate and its covariance ``s^2 (J^T J)^-1`` with ``s^2 = |e|^2 / (m - L)``.
+inliers gives the estimate and its covariance ``s^2 (J^T J)^-1`` with ``s^2 = |e|^2 / (m - L)``, the
+inverse taken through the SVD of the column-scaled Jacobian
+(:func:`~.identifiability.inverse_normal_matrix`: every direction kept, so a weakly determined parameter
+gets its large sigma, not the tiny one a pseudo-inverse of the unscaled ``J^T J`` gives). Parameters the
+data determine too weakly (predicted sigma above :data:`~.identifiability.PRACTICAL_MAX_SIGMA` typical
+changes) are fixed at nominal before the fit and reported like the unidentifiable ones
+(:mod:`.identifiability`).
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from scipy import optimize, stats
 from ...errors import ConfigError, GeometryError, MeasurementFileError
 from ...model.manipulator import Manipulator
 from .data import CalibrationData
-from .identifiability import Identifiability, RTOL, analyse
+from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse, inverse_normal_matrix
 from ...model.serial import SerialArm
 from .parameters import (ParameterVector, SerialParameterVector, error_parameters, frame_apply, joint_values,
                          leg_joint_value, serial_poses)
@@ -316,13 +322,16 @@ def _pose_residuals(pv, values, data) -> np.ndarray:
 
 def identify(data: CalibrationData, parameters: ParameterVector | None = None, *, robot=None,
              fixed: tuple[str, ...] = (), frame: np.ndarray | None = None, robust: bool = True,
-             rtol: float = RTOL, clearances=None, distribution=None) -> Identification:
+             rtol: float = RTOL, clearances=None, distribution=None,
+             max_sigma: float | None = PRACTICAL_MAX_SIGMA) -> Identification:
     """Identify the error parameters from calibration ``data`` (module docstring for the method).
 
     ``parameters`` (or ``robot``): the nominal; ``fixed``: names kept at nominal; ``frame``: a starting
     measurement frame ``(x mm, y mm, phi rad)`` when the camera's frame is far from the robot's;
     ``clearances`` (preset, file or object) and ``distribution`` (their states' law, default uniform): the
-    clearance covariance added to each point's measurement covariance (module docstring).
+    clearance covariance added to each point's measurement covariance (module docstring); ``max_sigma``:
+    the bound of the practically unidentifiable parameters in typical changes (None: only the exactly
+    unidentifiable ones are fixed; :mod:`.identifiability`).
     Raises :class:`~pmaccuracy.errors.ConfigError` for an unknown parameter name or fewer residuals than
     parameters, :class:`~pmaccuracy.errors.MeasurementFileError` naming the row of an implausible point.
     """
@@ -330,14 +339,14 @@ def identify(data: CalibrationData, parameters: ParameterVector | None = None, *
     pv.index(fixed)
     model = None if clearances is None else ClearanceModel(clearances, distribution)
     if isinstance(pv, SerialParameterVector):
-        return _identify_serial(data, pv, tuple(fixed), frame, robust, rtol, model)
+        return _identify_serial(data, pv, tuple(fixed), frame, robust, rtol, model, max_sigma)
     x0 = pv.nominal.copy()
     if frame is not None:
         x0[-3:] = np.asarray(frame, dtype=float)
     check_start(pv, data, x0[-3:])
     W = whitening(pv, x0, data, model)
     J = jacobian(pv, x0, data, W)
-    ident = analyse(pv, J, rtol=rtol, fixed=tuple(fixed))
+    ident = analyse(pv, J, rtol=rtol, fixed=tuple(fixed), max_sigma=max_sigma)
     free = np.array(pv.index(ident.identified), dtype=int)
     L = len(free)
     if 3 * len(data) <= L:
@@ -425,7 +434,8 @@ def _check_start_serial(pv: SerialParameterVector, data: CalibrationData, values
                                                                           data.sigmas, data.source))[:, 2], data)
 
 
-def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None) -> Identification:
+def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None,
+                     max_sigma=PRACTICAL_MAX_SIGMA) -> Identification:
     n = pv.robot.n
     if data.commands.shape[1] != n:
         raise MeasurementFileError(f"{data.commands.shape[1]} commands per point for an arm of {n} joints",
@@ -435,7 +445,7 @@ def _identify_serial(data, pv, fixed, frame, robust, rtol, model=None) -> Identi
         x0[-3:] = np.asarray(frame, dtype=float)
     _check_start_serial(pv, data, x0)
     W0 = serial_whitening(pv, x0, data, model)
-    ident = analyse(pv, serial_jacobian(pv, x0, data, W=W0), rtol=rtol, fixed=fixed)
+    ident = analyse(pv, serial_jacobian(pv, x0, data, W=W0), rtol=rtol, fixed=fixed, max_sigma=max_sigma)
     free = np.array(pv.index(ident.identified), dtype=int)
     L = len(free)
     if 3 * len(data) <= L:
@@ -503,10 +513,12 @@ def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust
 
 
 def covariance(res: np.ndarray, Jf: np.ndarray, free, P: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(s^2 (J^T J)^-1 (L, L), sigma (P,) (0 where not free), s^2)`` with ``s^2 = |e|^2 / (m - L)``."""
+    """``(s^2 (J^T J)^-1 (L, L), sigma (P,) (0 where not free), s^2)`` with ``s^2 = |e|^2 / (m - L)``; the
+    inverse through the column-scaled SVD (:func:`~.identifiability.inverse_normal_matrix`), so a weakly
+    determined direction keeps its large variance."""
     m, L = Jf.shape
     s2 = float(np.sum(res ** 2) / (m - L))
-    cov = s2 * np.linalg.pinv(Jf.T @ Jf)
+    cov = s2 * inverse_normal_matrix(Jf)
     sigma = np.zeros(P)
     sigma[free] = np.sqrt(np.clip(np.diag(cov), 0.0, None))   # exact data: s = 0 up to rounding
     return cov, sigma, s2
@@ -521,6 +533,7 @@ def identification_to_dict(ident: Identification) -> dict:
             "covariance": ident.covariance.tolist(),
             "identifiability": {"identified": list(idf.identified), "fixed": list(idf.fixed),
                                 "combinations": list(idf.combinations),
+                                "practical": list(idf.practical), "predicted_sigma": list(idf.predicted_sigma),
                                 "singular_values": idf.singular_values.tolist(), "condition": idf.condition,
                                 "O1": idf.O1, "O2": idf.O2, "O3": idf.O3, "O4": idf.O4},
             "fit": {"points": ident.n_points, "rms_before": ident.rms_before, "rms_after": ident.rms_after,
@@ -563,7 +576,9 @@ def identification_from_dict(record: dict, source: str = "<identification>") -> 
                                 null_directions=np.zeros((len(idf["fixed"]), len(pv.names))),
                                 singular_values=np.array(idf["singular_values"], dtype=float),
                                 condition=float(idf["condition"]), O1=float(idf["O1"]), O2=float(idf["O2"]),
-                                O3=float(idf["O3"]), O4=float(idf["O4"]))
+                                O3=float(idf["O3"]), O4=float(idf["O4"]),
+                                practical=tuple(idf.get("practical", ())),
+                                predicted_sigma=tuple(float(x) for x in idf.get("predicted_sigma", ())))
         pv.index(ident.identified)
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, ConfigError):
