@@ -493,7 +493,9 @@ def _write(doc: Document, robot: Manipulator, d: dict, figure: Path, cert_figure
             + "; ".join(parts) + ". A grid point not certified is left blank (NaN), never filled with a guess.")
         if cm.get("figure") and cert_figure is not None:
             doc.figure(cert_figure, f"{cm['case']}: certified upper bound of the exact worst-case |dp| over the "
-                                    "workspace (left) and how far it lies above the first-order maximum (right, %).")
+                                    "workspace (left) and how far it lies above the first-order maximum (right, %): "
+                                    "the exact model's excess plus the bound's own gap (refined only to 0.1 %, "
+                                    "hence the bands).")
     # (b) -----------------------------------------------------------------------------------------------------
     ok = {c: gw for c, gw in d["global_worst"].items() if "error" not in gw}
     for c, gw in d["global_worst"].items():
