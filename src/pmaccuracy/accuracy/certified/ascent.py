@@ -63,17 +63,21 @@ def _ascent(model: _Model, M: np.ndarray, sets, q: str, start: np.ndarray, maxit
     return best_val, best
 
 
+#: Directions sampled for the local maxima of the first-order ``|dp|`` (each then refined by a ternary search).
+DP_DIRECTIONS = 240
+
+
 def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     """First-order worst vertices ``(4, n_dp, N, n)``: of dx, dy, dphi (signs of the rows of ``M``, as
     :func:`pmaccuracy.model.sources.worst_configuration`; repeated) and of ``|dp|`` (the vertices maximizing ``u . p``
-    for the ``n_dp`` best local maxima over 720 directions ``u`` of the support function: the nonlinear
+    for the ``n_dp`` best local maxima over :data:`DP_DIRECTIONS` directions ``u`` of the support function: the nonlinear
     maximum may belong to a direction that is not the first-order best), each direction refined by a ternary
     search so that the best is the exact first-order maximizer)."""
     N = M.shape[0]
     starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
-    ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
-    rowmap = np.cos(ang)[:, None] * M[:, None, 0, :] + np.sin(ang)[:, None] * M[:, None, 1, :]  # (N, 720, n)
-    h = support(sets, rowmap)  # (N, 720)
+    ang = np.linspace(0, 2 * np.pi, DP_DIRECTIONS, endpoint=False)
+    rowmap = np.cos(ang)[:, None] * M[:, None, 0, :] + np.sin(ang)[:, None] * M[:, None, 1, :]  # (N, DP_DIRECTIONS, n)
+    h = support(sets, rowmap)  # (N, DP_DIRECTIONS)
     peak = (h >= np.roll(h, 1, axis=-1)) & (h >= np.roll(h, -1, axis=-1))
     order = np.argsort(np.where(peak, -h, np.inf), axis=-1)[:, :n_dp]  # best local maxima first
     order = np.where(np.take_along_axis(peak, order, axis=-1), order, order[:, :1])  # fewer peaks: repeat the best
@@ -81,8 +85,8 @@ def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     for k in range(n_dp):  # each peak's direction refined by a ternary search (the support is smooth between
         # vertex switches): the best one is then the exact first-order maximizer of |dp|
         a = ang[order[:, k]]
-        lo, hi = a - np.pi / 720, a + np.pi / 720
-        for _ in range(40):
+        lo, hi = a - 2 * np.pi / DP_DIRECTIONS, a + 2 * np.pi / DP_DIRECTIONS
+        for _ in range(32):
             m1, m2 = lo + (hi - lo) / 3, hi - (hi - lo) / 3
             up = _support_at(sets, M, m1) < _support_at(sets, M, m2)
             lo, hi = np.where(up, m1, lo), np.where(up, hi, m2)
