@@ -78,7 +78,8 @@ def test_results_json_has_the_section(report):
     out, results, d = report
     data = json.loads((out / "results.json").read_text())
     assert data["design_decisions"] == json.loads(json.dumps(d, allow_nan=False))
-    assert set(d) == {"settings", "certified", "global_worst", "synthesis", "statistics", "iso9283", "seconds"}
+    assert set(d) == {"settings", "certified", "global_worst", "synthesis", "statistics", "iso9283", "certified_map",
+                      "seconds"}
     assert set(d["global_worst"]) == set(d["statistics"]) == {"case1", "case2"}
     assert set(d["synthesis"]) == {"uniform", "min-cost"}
     assert len(d["certified"]) == 2 * 2 * 3  # cases x scales x poses
@@ -105,6 +106,41 @@ def test_report_text_and_figure(report):
 
 
 # ----------------------------------------------------------------------------- (a) certified
+def test_certified_map_of_the_workspace(report):
+    """The certified map of (a): the maps' orientations and grid, its numbers those of a direct one-pass
+    ``certified_error_map`` beside the first-order ``error_map`` (never below it), checked at the grid point of
+    largest |dp| against the independent dense nonlinear search, and its figure drawn and cited."""
+    from pmaccuracy.accuracy.maps import certified_error_map, error_map
+
+    out, results, d = report
+    cm = d["certified_map"]
+    phis = sorted(float(k) for k in results["cases"]["case1"])
+    assert cm["case"] == "case2" and cm["grid"] == GRID and [float(k) for k in cm["layers"]] == phis
+    cert = certified_error_map(ROBOT, "case2", np.radians(phis), n=GRID, split=0, max_pieces=1, refine=False)
+    first = error_map(ROBOT, "case2", np.radians(phis), n=GRID)
+    data = ROBOT.to_dict()
+    cs = ClearanceSet.load("case2")  # the paper's Case 2 per joint: guide lateral, bearing angular, revolute radial
+    spec = {"legs": [{"joints": [{"lateral": float(cs.guide_lateral[i]), "block_length": float(cs.guide_block_length[i])}
+                                 if cs.guide_lateral[i] > 0 else {}, {"angular": float(cs.bearing_angle[i])},
+                                 {"radial": float(cs.revolute_radial[i])}]} for i in range(3)]}
+    for k, phi in enumerate(phis):
+        layer = cm["layers"][f"{phi:g}"]
+        inside = np.isfinite(first.dp_max.values[k])
+        assert layer["points"] == int(inside.sum()) == layer["certified_points"]  # the paper's clearances: all
+        c, f = cert.dp_max.values[k][inside], first.dp_max.values[k][inside]
+        assert np.all(c >= f)
+        assert layer["dp"]["certified"] == pytest.approx([c.min(), c.max()], rel=1e-12)
+        assert layer["dp"]["excess"] == pytest.approx(np.max(c / f - 1), rel=1e-9)
+        assert 0 <= layer["dp"]["gap"] <= 0.005
+        iy, ix = np.unravel_index(np.nanargmax(np.where(inside, cert.dp_max.values[k], np.nan)), inside.shape)
+        pose = [float(cert.x[ix]), float(cert.y[iy]), np.radians(phi)]
+        ref = nsr.dense_search(data, pose, spec, n_random=200, dense=6)
+        assert ref["dp"] <= cert.dp_max.values[k][iy, ix] <= ref["dp"] * 1.005
+    md = (out / "report.md").read_text()
+    assert "**Certified maps.**" in md and "design_certified_map.png" in md
+    assert (out / "design_certified_map.png").read_bytes()[:8] == PNG
+
+
 def test_certified_rows_agree_with_direct_calls_and_invariants(report):
     _, _, d = report
     for case in ("case1", "case2"):
@@ -112,7 +148,7 @@ def test_certified_rows_agree_with_direct_calls_and_invariants(report):
             rows = [r for r in d["certified"] if r["case"] == case and r["scale"] == scale]
             poses = np.array([[r["pose"]["x"], r["pose"]["y"], math.radians(r["pose"]["phi_deg"])] for r in rows])
             cs = ClearanceSet.load(case).scaled(scale)
-            direct = C.certified_pose_errors(ROBOT, cs, poses, allow_outside=True)
+            direct = C.certified_pose_errors(ROBOT, cs, poses, allow_outside=True, ascent=True)
             fo = _maxima(cs, poses)
             for k, r in enumerate(rows):
                 assert r["reason"] == ""

@@ -297,8 +297,8 @@ class _CertifiedKernel:
     ``[dx mm, dy mm, dphi deg, dp mm]`` and their gaps, NaN outside the joint ranges, near a singularity (as
     :func:`_rows_block`) or where the bound is not certified."""
 
-    def __init__(self, split_gap: float, max_pieces: int):
-        self.split_gap, self.max_pieces = split_gap, max_pieces
+    def __init__(self, split_gap: float, max_pieces: int, split: int = 2, refine: bool = True):
+        self.split_gap, self.max_pieces, self.split, self.refine = split_gap, max_pieces, split, refine
 
     def __call__(self, robot, clearances, x, y_rows, phi, max_condition):
         X, Y = np.meshgrid(x, y_rows)
@@ -309,7 +309,7 @@ class _CertifiedKernel:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", PlausibilityWarning)
                 res = certified_pose_errors(robot, clearances, poses[ok], on_failure="nan", split_gap=self.split_gap,
-                                            max_pieces=self.max_pieces)
+                                            max_pieces=self.max_pieces, split=self.split, refine=self.refine)
             for v, q in enumerate(QUANTITIES):
                 out[ok, v] = np.degrees(res.upper[q]) if q == "dphi" else res.upper[q]
                 out[ok, 4 + v] = np.where(np.isfinite(res.upper[q]), res.gap[q], np.nan)
@@ -319,7 +319,8 @@ class _CertifiedKernel:
 def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: float | np.ndarray,
                         n: int = 101, *, chunk_size: int = CERTIFIED_CHUNK, use_dask: bool = False,
                         progress: bool | None = None, max_condition: float = DEFAULT_MAX_CONDITION,
-                        region: Shape | None = None, split_gap: float = 0.005, max_pieces: int = 256) -> xr.Dataset:
+                        region: Shape | None = None, split_gap: float = 0.005, max_pieces: int = 256,
+                        split: int = 2, refine: bool = True) -> xr.Dataset:
     """Certified upper bounds of the exact (nonlinear) worst-case pose errors on the grid of :func:`error_map`.
 
     The same dims ``(phi, y, x)``, coordinates and attributes as :func:`error_map` (``method`` says certified);
@@ -328,7 +329,9 @@ def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str
     set) and ``dx_gap`` ... ``dp_gap`` their relative gaps to the best feasible configuration. NaN outside the
     workspace, near a singularity, and where the continuation of the commanded assembly is not certified.
     Computed in bands of about ``chunk_size`` grid points (each one batch; Dask tasks with ``use_dask``);
-    ``split_gap``, ``max_pieces`` as in ``certified_pose_errors``. Other arguments as :func:`error_map`.
+    ``split_gap``, ``max_pieces``, ``split``, ``refine`` as in ``certified_pose_errors`` (``split=0, max_pieces=1,
+    refine=False``: one batched pass, the error set not cut: fast near singular edges, looser there). Other
+    arguments as :func:`error_map`.
 
     >>> ds = certified_error_map("aalborg_3ppr", "case2", 0.0, n=5)
     >>> bool((ds.dx_max >= error_map("aalborg_3ppr", "case2", 0.0, n=5).dx_max).sum() > 0)
@@ -351,7 +354,7 @@ def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str
         attrs["region"] = f"{region.describe()}: grid cut to its bounding box, NaN outside it"
     values = {name: np.empty((len(phis), len(y), len(x))) for name in CERTIFIED_VARIABLES}
     _evaluate(robot, clearances, x, y, phis, chunk_size, use_dask, progress, max_condition, values,
-              kernel=_CertifiedKernel(split_gap, max_pieces), rows=max(1, chunk_size // len(x)))
+              kernel=_CertifiedKernel(split_gap, max_pieces, split, refine), rows=max(1, chunk_size // len(x)))
     if region is not None:
         outside = ~region.contains(*np.meshgrid(x, y))
         for name in CERTIFIED_VARIABLES:

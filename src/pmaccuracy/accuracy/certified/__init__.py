@@ -158,9 +158,10 @@ Tightness (README, tests): within 0.01 % of the best configuration at the paper'
 10x on the Aalborg 3-PPR; on 25 random robots within 0.5 % of the dense search at 1x (24 certified, one
 65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
 that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
-budget). Speed (batches of 200 poses, shared 2-core machine, ``benchmarks/bench_certified.py``): 1.5-3.5 ms a pose at
-the presets' clearances, 8-45 ms a pose at 10x (the tight dual bound and the cut set for more poses); a pose
-cut up to the budget takes seconds, up to tens of seconds with no whole-set certificate.
+budget). Speed (batches of 200 poses, shared 2-core machine, ``benchmarks/bench_certified.py``): 0.4-1.3 ms a pose at
+the presets' clearances, at 10x 0.6-1.0 ms with ``split_gap=0.05`` and 6-40 ms with the default 0.005 (the tight
+dual bound and the cut set for more poses); a pose cut up to the budget takes seconds, up to tens of seconds with
+no whole-set certificate.
 """
 
 from __future__ import annotations
@@ -295,7 +296,7 @@ class CertifiedPoseErrors:
 
 def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allow_outside: bool = False,
                           on_failure: str = "raise", split: int = 2, split_gap: float = 0.005,
-                          max_pieces: int = 256, ascent: bool = False) -> CertifiedPoseErrors:
+                          max_pieces: int = 256, ascent: bool = False, refine: bool = True) -> CertifiedPoseErrors:
     """Certified upper bounds of the exact worst-case ``|dx|, |dy|, |dphi|, |dp|`` and the best feasible values.
 
     Parameters
@@ -313,6 +314,9 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     split, split_gap : where the bound is not certified or its gap to the best feasible value (to the
         first-order value without ``search``) exceeds ``split_gap``, it is computed again over ``2^split``
         pieces of the error set (:func:`_split_bounds`; 0: never) and the smaller valid bound is kept
+    refine : bound the poses still above ``split_gap`` again with the tighter box and every row refined (default);
+        ``False`` keeps the first batched bound there (valid, looser; with ``split=0, max_pieces=1`` one pass over
+        the batch: a map's quick overview)
     ascent : run the local ascent of the best feasible values at every pose (as :func:`nonlinear_pose_errors`);
         by default it runs only where the bound is not yet within ``REFINE_FRACTION * split_gap`` of the values at
         the first-order worst vertices (those are feasible too: ``lower`` is a lower bound either way)
@@ -369,7 +373,7 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     # refined (the full bound of equations (3)-(5)), batched over those poses only; the smaller valid bound is kept
     loose = (rb["reason"] != "") | np.any([_gap(rb["upper"][q], ref[q]) > split_gap for q in QUANTITIES], axis=0)
     idx = np.flatnonzero(loose & (rb["reason"] != "singular loop-closure Jacobian at the commanded pose"))
-    if idx.size and model.n:
+    if idx.size and model.n and refine:
         full = _certify(_take_many(model, idx), sets, robot.characteristic_length,
                         target={q: target[q][idx] for q in QUANTITIES}, refine_box=True)
         for q in QUANTITIES:
