@@ -45,11 +45,13 @@ from ..accuracy.bounds import max_pose_errors
 from ..accuracy.certified import QUANTITIES, certified_pose_errors
 from ..accuracy.distributions import pose_statistics
 from ..accuracy.global_worst import global_worst, make_region
+from ..accuracy.maps import certified_error_map, error_map
 from ..accuracy.synthesis import default_template, parse_targets, synthesize
 from ..experiment import iso9283
 from ..experiment.virtual_rig import grid_poses
 from ..kinematics import inverse_kinematics, regular_mask
 from ..kinematics.workspace import constant_orientation_workspace
+from .figures import plot_panels, render
 from .statistics_report import statistics_section
 
 #: Condition number (of A, and inverse transmission) above which a corner is left out of table (a).
@@ -217,9 +219,6 @@ def certified_map_job(robot: Manipulator, case, phis_deg: list[float], grid: int
     grid. Per orientation: the certified ranges (mm, deg), the largest excess of the certified bound over the
     first-order maximum and the largest gap (relative), the grid points certified and inside the workspace, and
     the time taken (s); with ``figure`` the certified |dp| and its excess over first order are drawn there."""
-    from ..accuracy.maps import certified_error_map, error_map
-    from .figures import plot_panels, render
-
     t = time.perf_counter()
     phis = np.radians(np.asarray(phis_deg, dtype=float))
     cert = certified_error_map(robot, case, phis, n=grid, max_pieces=CERT_MAP_PIECES, split=0, refine=False)

@@ -54,7 +54,8 @@ from ...errors import ConfigError, GeometryError, MeasurementFileError
 from ...model.manipulator import Manipulator
 from .data import CalibrationData
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse, inverse_normal_matrix
-from ...model.serial import SerialArm
+from ...model.serial import SerialArm, error_generators, load_serial_sources
+from ..distributions import as_sources, error_jacobian, variable_variances
 from .parameters import (ParameterVector, SerialParameterVector, error_parameters, frame_apply, joint_values,
                          leg_joint_value, serial_poses)
 
@@ -108,15 +109,11 @@ def clearance_covariance(pv, values: np.ndarray, data: CalibrationData, model: C
     point, in the measurement frame (mm^2, mm rad, rad^2; module docstring), for the robot ``values (P,)``."""
     values = np.asarray(values, dtype=float)
     if isinstance(pv, SerialParameterVector):
-        from ...model.serial import error_generators, load_serial_sources
-
         arm, off, gain, frame = pv.split(values)
         G, layout = error_generators(arm, load_serial_sources(model.clearances, arm), off + gain * data.commands)
         C = np.einsum("nmi,nmj->nij", G, G) / 3.0
         C[:, :2, :2] += np.eye(2) * layout.disk_radius ** 2 / 4.0
     else:
-        from ..distributions import as_sources, error_jacobian, variable_variances
-
         robot, _, _, frame = pv.split(values)
         sources = as_sources(robot, model.clearances)
         J = error_jacobian(robot, sources, frame_apply(frame, data.poses))          # (N, 3, K)
