@@ -125,7 +125,8 @@ def test_too_large_errors_are_refused():
                          dense=4)
     with pytest.raises(CertificationError, match="pose 0"):
         C.certified_pose_errors(robot, big, [0.0, 0.0, 0.0])
-    res = C.certified_pose_errors(robot, big, [[0.0, 0.0, 0.0]], on_failure="nan", search=False)
+    # the NaN path (a smaller budget of pieces: the refusal above already used the default one)
+    res = C.certified_pose_errors(robot, big, [[0.0, 0.0, 0.0]], on_failure="nan", search=False, max_pieces=16)
     assert all(np.isnan(res.upper[q][0]) for q in C.QUANTITIES)
     assert res.reason[0]
 
@@ -257,7 +258,7 @@ def test_cli_max_pieces(tmp_path):
 
 def test_cli_uncertifiable_pose_exits_2(tmp_path):
     path = _scaled_file(tmp_path, 300.0)  # cannot be closed everywhere (test above)
-    out = _cli("--certified", "--clearances", str(path), "--pose", "0", "0", "0")
+    out = _cli("--certified", "--clearances", str(path), "--pose", "0", "0", "0", "--max-pieces", "16")
     assert out.returncode == 2
     errors = [line for line in out.stderr.strip().splitlines() if ": warning: " not in line]  # plausibility
     assert len(errors) == 1 and "pose 0" in errors[0] and "Traceback" not in out.stderr
