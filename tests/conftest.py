@@ -278,3 +278,15 @@ def write_bad_robot(case: BadRobotCase, folder: Path) -> Path:
 def bad_robot(request: pytest.FixtureRequest, tmp_path: Path) -> BadRobotFile:
     """Each malformed robot file of :data:`BAD_ROBOT_CASES`, written to ``tmp_path``."""
     return BadRobotFile(request.param, write_bad_robot(request.param, tmp_path))
+
+
+#: Tests that run longest alone (each over a minute on one core: the README's 57 console examples): they start
+#: first, so that under ``pytest -n`` the other workers share the rest meanwhile instead of waiting for them at the end.
+LONGEST_FIRST = ("tests/test_readme.py::test_readme_examples_run_verbatim",)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Move :data:`LONGEST_FIRST` to the front of the run (the order of the other tests is kept)."""
+    first = [it for it in items if any(it.nodeid.endswith(name.split("tests/", 1)[1]) for name in LONGEST_FIRST)]
+    if first:
+        items[:] = first + [it for it in items if it not in first]

@@ -148,8 +148,8 @@ one inverse of ``J_z`` a pose); then the box of
 and the dual bound (5) (batched, one row per pose and direction) only for the rows whose bound (4) is above
 ``1 + REFINE_FRACTION * split_gap`` times the best feasible value, refined only while above it; the local
 ascent (gradient steps between vertices) only at the poses whose bound is still above that, whose targets it
-raises; the poses still above ``split_gap`` get the tightened box with refined multipliers and every row refined (one batch); only the
-poses still above it go on to the split and the branch and bound. Every value kept is one of the valid bounds
+raises; the poses still above ``split_gap`` get the tightened box with refined multipliers and every row
+refined (one batch, unless ``refine=False``); only the poses still above it go on to the split and the branch and bound. Every value kept is one of the valid bounds
 above, so the guarantee is the same; the gap at the paper's clearances is up to 0.1 % (``REFINE_FRACTION``).
 
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
@@ -359,13 +359,14 @@ def certified_pose_errors(robot, clearances, poses, *, search: bool = True, allo
     if model.n == 0:  # no error source: the pose does not move, exactly
         rb["upper"] = {q: np.zeros(poses.shape[0]) for q in QUANTITIES}
     rb.update(model=model, sets=sets)
-    if search and model.n and not ascent:  # the local ascent only where the bound is not yet within the target of those values
+    if search and model.n and not ascent:
+        # the local ascent only where the bound is not yet within REFINE_FRACTION * split_gap of those values
         asc = np.flatnonzero(np.any([~(_gap(rb["upper"][q], ref[q]) <= REFINE_FRACTION * split_gap)
                                      for q in QUANTITIES], axis=0))
         if asc.size:
             lo2, w2, _ = _nonlinear(_take_many(model, asc), M1[asc], sets)
             for q in QUANTITIES:
-                up = lo2[q] > lower[q][asc]
+                up = np.isfinite(lo2[q]) & ~(lo2[q] <= lower[q][asc])
                 lower[q][asc[up]], worst[q][asc[up]] = lo2[q][up], w2[q][up]
                 ref[q] = np.where(np.isfinite(lower[q]), lower[q], first[q])
                 target[q] = ref[q] * (1 + REFINE_FRACTION * split_gap)
