@@ -115,6 +115,7 @@ def test_first_order_part_equals_bounds():
         assert np.all(rb["upper"][q] >= rb["first_order"][q])
 
 
+@pytest.mark.slow  # 8-11 s; make test-all (the refusal path is also checked by the CLI test below, fast)
 def test_too_large_errors_are_refused():
     """At 300x the paper's case2 some configurations cannot be closed (the independent search's own Newton
     fails on them): no finite bound is returned."""
@@ -131,6 +132,7 @@ def test_too_large_errors_are_refused():
     assert res.reason[0]
 
 
+@pytest.mark.slow  # about 8 s; make test-all
 def test_whole_set_refused_but_pieces_certified_at_100x():
     """At 100x case2 (dx 7.5 % above first order) the whole error set has no certificate, but every configuration
     can be closed: the cut pieces certify it, never below the independent dense search (1.5 % above it at most

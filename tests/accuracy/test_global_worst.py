@@ -102,6 +102,7 @@ def test_every_architecture_on_a_small_region(rname, cname, half_mm, half_deg):
     check_certificate(robot, cl, res, 1e-3)
 
 
+@pytest.mark.slow  # about 8 s; make test-all
 def test_3prr_whole_workspace_certified_at_the_default_gap():
     # its maxima sit where a distal link is normal to its guide (the leg's serial singularity on the workspace
     # boundary); before the enclosures were split in the leg's turning angle there, this search spent its
