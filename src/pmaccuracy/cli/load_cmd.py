@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 import numpy as np
 
@@ -100,7 +101,6 @@ def check_map_options(args: argparse.Namespace, *, region_design: bool = False) 
 def write_map(ds, out: str) -> list[dict]:
     """Write a load map (.nc: NetCDF through scipy; .csv: one row per grid point inside, phi in degrees) and
     return the ranges of its variables (one record per variable, min and max over the grid)."""
-    import math
     from pathlib import Path
 
     path = Path(out)
@@ -175,7 +175,10 @@ def run(args: argparse.Namespace) -> int:
     res = loaded_pose_error(robot, clearances, poses, load, threshold=args.unloaded_below)
     records = res.records()
     if args.details:
+        from ..model.sources import ErrorSources
+
         st = res.statics
+        sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
         for k, rec in enumerate(records):
             for i, chain in enumerate(robot.chains):
                 unit = "N" if chain.actuated.kind == "P" else "Nmm"
@@ -188,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
                     else:
                         rec[f"{key}.normal_N"] = float(st.normal[k, i, j])
                         rec[f"{key}.moment_Nmm"] = float(st.moment[k, i, j])
-            rec.update(contact_states(robot, clearances, res.exact_configuration, k))
+            rec.update(contact_states(robot, sources, res.exact_configuration, k))
     if plot:
         from .._savefig import save_figure
         from ..report.load_figures import plot_load
@@ -199,19 +202,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def contact_states(robot, clearances, config, k: int) -> dict:
+def contact_states(robot, sources, config, k: int) -> dict:
     """Columns of ``load --details``: the state the load selects for every clearance of pose ``k`` at the exact
     equilibrium (:attr:`pmaccuracy.accuracy.loads.LoadedError.exact_configuration`; 0 where the leg is unloaded):
     an R joint's pin shift ``pin_dx_mm, pin_dy_mm`` and its direction ``pin_deg`` (opposite the force), a P
     block's rhombus vertex ``sigma_mm`` (shift normal to the rail) and ``tau_rad`` (tilt) and its angular tilt
     ``tilt_rad``, an actuator's backlash ``backlash_mm`` (P) or ``backlash_rad`` (R), taken up against the
-    actuator's effort."""
-    import math
-
-    from ..model.sources import ErrorSources
-
-    sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
-        ErrorSources.from_clearance_set(clearances)
+    actuator's effort. ``sources``: the per-joint :class:`~pmaccuracy.model.sources.ErrorSources` of the run."""
     rec = {}
     for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs)):
         for j, (joint, e) in enumerate(zip(chain.joints, leg)):

@@ -83,8 +83,7 @@ def parse_region(robot, args: argparse.Namespace):
     from ..errors import ConfigError
     from ..accuracy.global_worst import make_region
 
-    if not 0 < args.gap_pct < 100:
-        raise ConfigError(f"must be in (0, 100) percent, got {args.gap_pct:g}", key="--gap-pct")
+    _common.check_gap_pct(args.gap_pct)
     return make_region(robot, tuple(np.radians(args.phi_deg)), parse_shape(args))
 
 
@@ -168,8 +167,7 @@ def run_largest_disc(args: argparse.Namespace) -> int:
         raise ConfigError("give at least one --target NAME=VALUE", key="--largest-disc")
     if not args.tol_mm > 0:
         raise ConfigError(f"must be > 0 mm, got {args.tol_mm:g}", key="--tol-mm")
-    if not 0 < args.gap_pct < 100:
-        raise ConfigError(f"must be in (0, 100) percent, got {args.gap_pct:g}", key="--gap-pct")
+    _common.check_gap_pct(args.gap_pct)
     targets = parse_targets(args.target)
     robot = _common.load_robot(args)
     clearances = load_clearances(args.clearances or default_template(robot), robot)

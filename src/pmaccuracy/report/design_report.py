@@ -224,7 +224,7 @@ def certified_map_job(robot: Manipulator, case, phis_deg: list[float], grid: int
     cert = certified_error_map(robot, case, phis, n=grid, max_pieces=CERT_MAP_PIECES, split=0, refine=False)
     seconds = time.perf_counter() - t
     first = error_map(robot, case, phis, n=grid)
-    out = {"grid": int(grid), "seconds": seconds, "clearances": getattr(first, "attrs", {}).get("clearances", ""),
+    out = {"grid": int(grid), "seconds": seconds, "clearances": first.attrs.get("clearances", ""),
            "layers": {}}
     panels = []
     for k, phi_deg in enumerate(phis_deg):

@@ -71,7 +71,7 @@ def _first_order_starts(sets, M: np.ndarray, n_dp: int = 3) -> np.ndarray:
     """First-order worst vertices ``(4, n_dp, N, n)``: of dx, dy, dphi (signs of the rows of ``M``, as
     :func:`pmaccuracy.model.sources.worst_configuration`; repeated) and of ``|dp|`` (the vertices maximizing ``u . p``
     for the ``n_dp`` best local maxima over :data:`DP_DIRECTIONS` directions ``u`` of the support function: the nonlinear
-    maximum may belong to a direction that is not the first-order best), each direction refined by a ternary
+    maximum may belong to a direction that is not the first-order best; each direction refined by a ternary
     search so that the best is the exact first-order maximizer)."""
     N = M.shape[0]
     starts = [np.repeat(argsupport(sets, M[:, j, :])[None], n_dp, axis=0) for j in range(3)]
@@ -155,7 +155,7 @@ def _nonlinear(model: _Model, M: np.ndarray, sets, iterations: int = 30, polish:
     cur = np.stack([sg * d0[q, 0] for q in range(3) for sg in (1, -1)]
                    + [sg * d0[3, k] for k in range(d0.shape[1]) for sg in (1, -1)])  # (12, N, n)
     dz = exact_change(model, M, cur)
-    val = _row_objective(qidx[:, None], dz, np.zeros(dz.shape + (0,)))[0]
+    val = _row_objective(qidx[:, None], dz, np.zeros(dz.shape + (0,)))[0]  # values only: no gradient columns
     val = np.where(np.isfinite(val), val, -np.inf)
     at_start = val.copy()
     grad = np.zeros(cur.shape)
