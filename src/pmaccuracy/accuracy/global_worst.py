@@ -48,6 +48,8 @@ from .._display import html_table
 from ..errors import ConfigError, EmptyWorkspaceError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator
 from ..model.plausibility import check_orientations
+from .certified.error_set import error_set
+from .certified.region import box_remainder, exact_lower
 from .interval import Iv, box_bounds, leg_box_state
 from .regions import OUTSIDE, Disc, Polygon, Rect, Shape
 from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, singularity
@@ -68,6 +70,12 @@ ATOL = 1e-12
 PHI_SCALE = 1.0
 #: Below this many boxes a round of the branch and bound splits each open box in four (two bisections).
 SMALL_BATCH = 512
+#: Default relative gap of the exact model's worst case (``exact=True``): its remainder bound over a box
+#: overestimates the nonlinear part by a factor of a few (:mod:`pmaccuracy.accuracy.certified.region`).
+DEFAULT_EXACT_GAP = 1e-2
+#: With ``exact=True``, the best feasible exact values are computed at this many poses per quantity and round
+#: (those of largest first-order value).
+EXACT_CANDIDATES = 8
 
 
 class SingularRegionError(SingularPoseError):
@@ -133,6 +141,7 @@ class GlobalWorst:
     seconds: float
     target_gap: float
     region: Region = field(repr=False)
+    exact: bool = False
 
     def __getitem__(self, name: str) -> QuantityWorst:
         return self.quantities[name]
@@ -266,8 +275,13 @@ def leg_branches(robot: Manipulator, pose: np.ndarray) -> tuple[float, float, fl
     return tuple(out)
 
 
-def _exact(robot, clearances, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Exact maxima ``(m, 4)`` at the poses of the workspace (NaN elsewhere) and the in-workspace mask."""
+def _exact(robot, clearances, poses: np.ndarray, sources: ErrorSources | None = None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Exact maxima ``(m, 4)`` at the poses of the workspace (NaN elsewhere) and the in-workspace mask.
+
+    With ``sources`` (the exact model's worst case): the best feasible values of the exact model
+    (:func:`~pmaccuracy.accuracy.certified.region.exact_lower`, attained, so lower bounds) at the
+    :data:`EXACT_CANDIDATES` poses of largest first-order value per quantity, NaN at the others."""
     values = np.full((poses.shape[0], 4), np.nan)
     if poses.shape[0] == 0:
         return values, np.zeros(0, dtype=bool)
@@ -275,6 +289,13 @@ def _exact(robot, clearances, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if np.any(inside):
         b = max_pose_errors(robot, clearances, poses[inside], singular="nan", max_condition=np.inf)
         values[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max])
+    if sources is not None and np.any(inside):
+        order = np.argsort(np.where(np.isnan(values), -np.inf, -values), axis=0)[:EXACT_CANDIDATES]
+        pick = np.unique(order.ravel())
+        pick = pick[inside[pick]]
+        exact = np.full_like(values, np.nan)
+        exact[pick] = exact_lower(robot, sources, poses[pick])
+        values = exact
     return values, inside
 
 
@@ -310,10 +331,10 @@ def _vertices(robot: Manipulator, region: Region, phis, seen: set) -> np.ndarray
     return np.vstack(out)
 
 
-def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float = DEFAULT_GAP,
-                 max_condition: float = DEFAULT_MAX_CONDITION, max_boxes: int = 2_000_000,
-                 min_size: float | None = None, grid: int = 21, candidates: np.ndarray | None = None
-                 ) -> GlobalWorst:
+def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float | None = None,
+                 max_condition: float = DEFAULT_MAX_CONDITION, max_boxes: int | None = None,
+                 min_size: float | None = None, grid: int = 21, candidates: np.ndarray | None = None,
+                 exact: bool = False) -> GlobalWorst:
     """Certified maxima of ``dx, dy, dphi, dp`` over ``region`` (module docstring), within relative ``gap``.
 
     Parameters
@@ -321,14 +342,21 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     clearances : a :class:`~pmaccuracy.model.clearances.ClearanceSet` (3-PPR) or
         :class:`~pmaccuracy.model.sources.ErrorSources` (any architecture)
     region : :func:`make_region`
-    gap : requested ``(upper - lower) / lower`` (> 0), default 0.1 %
-    max_boxes : budget of evaluated boxes; when spent, the bounds so far are
-        returned with ``converged = False`` (still valid, wider gap)
+    gap : requested ``(upper - lower) / lower`` (> 0), default 0.1 % (1 % with ``exact``)
+    max_boxes : budget of evaluated boxes (default 2,000,000; 100,000 with ``exact``); when spent, the bounds
+        so far are returned with ``converged = False`` (still valid, wider gap)
     min_size : mm, boxes are not split below it (default ``1e-7`` of the
         characteristic length); a singular box that small raises
     grid : ``grid x grid x (grid or 1)`` initial samples for the lower bounds and the singularity check
     candidates : optional poses ``(k, 3)`` of the region also tried for the lower bounds (e.g. the best
         poses of a grid, :func:`grid_best`)
+    exact : certify the worst case of the exact (nonlinear) loop closure instead of the first-order model:
+        every box's upper bound adds a remainder bound that holds at every pose of the box
+        (:func:`~pmaccuracy.accuracy.certified.region.box_remainder`; ``inf`` until the box is small enough for
+        it, so such boxes are split) and the lower bounds are best feasible configurations of the exact model
+        (:func:`~pmaccuracy.accuracy.certified.region.exact_lower`) at the sampled poses of largest first-order
+        value. The result's values are then the exact model's: ``lower`` attained by a configuration of the
+        error set at ``pose``, ``upper`` never below the exact maximum over the region.
 
     Notes
     -----
@@ -345,10 +373,18 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
     if candidates is not None:
         check_orientations(candidates, "candidates", poses=True)
     robot = robot_arg(robot)
+    if gap is None:
+        gap = DEFAULT_EXACT_GAP if exact else DEFAULT_GAP
+    if max_boxes is None:
+        max_boxes = 100_000 if exact else 2_000_000
     if not (gap > 0 and np.isfinite(gap)):
         raise ConfigError(f"must be > 0, got {gap}", key="gap")
     t0 = time.perf_counter()
     sources = as_sources(robot, clearances)
+    if exact:
+        refuse_first_order_only(sources, "the exact worst case")
+        sets = error_set(robot, sources)
+    exact_sources = sources if exact else None
     L = robot.characteristic_length
     min_size = 1e-7 * L if min_size is None else float(min_size)
     scale = np.array([1.0, 1.0, L * PHI_SCALE])
@@ -371,18 +407,19 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         hi = np.array([region.x[1], region.y[1], region.phi[1]])
         c = c[np.all((c >= lo) & (c <= hi), axis=1)]
         samples = np.vstack([samples, c[region.contains(c[:, 0], c[:, 1])]])
-    values, inside = _exact(robot, clearances, samples)
+    values, inside = _exact(robot, clearances, samples, exact_sources)
     _check_regular(robot, samples[inside], region, max_condition)
     seen: set[float] = set()
     extra = _vertices(robot, region, gp, seen)
-    ev, ei = _exact(robot, clearances, extra)
+    ev, ei = _exact(robot, clearances, extra, exact_sources)
     samples, values, inside = np.vstack([samples, extra]), np.vstack([values, ev]), np.concatenate([inside, ei])
     lower = np.zeros(4)
     lower_pose = np.full((4, 3), np.nan)
+    if np.any(np.isfinite(values)):
+        k = np.argmax(np.where(np.isnan(values), -np.inf, values), axis=0)
+        lower = np.where(np.isfinite(values[k, range(4)]), values[k, range(4)], 0.0)
+        lower_pose = np.where(np.isfinite(values[k, range(4)])[:, None], samples[k], np.nan)
     if np.any(inside):
-        k = np.nanargmax(values, axis=0)
-        lower = values[k, range(4)]
-        lower_pose = samples[k]
         sigmas = leg_branches(robot, samples[np.flatnonzero(inside)[0]])
     else:
         sigmas = leg_branches(robot, np.array([region.x[0], region.y[0], region.phi[0]]))
@@ -401,8 +438,9 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
                 break
         n_boxes += boxes.shape[0]
         threshold = np.where(active, lower * (1 + gap) + atol, np.inf) / (1 + ROUNDING)
-        upper, infeasible, det_zero, share = box_bounds(robot, sources, boxes, sigmas, threshold=threshold)
-        upper = upper * (1 + ROUNDING)
+        rem = box_remainder(robot, sets, boxes, sigmas) if exact else 0.0
+        upper, infeasible, det_zero, share = box_bounds(robot, sources, boxes, sigmas, threshold=threshold - rem)
+        upper = (upper + rem) * (1 + ROUNDING)
         keep = ~infeasible
         boxes, active, upper, det_zero, share = boxes[keep], active[keep], upper[keep], det_zero[keep], share[keep]
         if not boxes.shape[0]:
@@ -411,8 +449,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         if region.shape is not None:   # a centre outside the shape moves to the nearest point of the shape
             pts[:, :2] = region.shape.nearest(pts[:, 0], pts[:, 1])
         pts = np.vstack([pts, _vertices(robot, region, lower_pose[:, 2], seen)])
-        vals, ins = _exact(robot, clearances, pts)
-        if np.any(ins):
+        vals, ins = _exact(robot, clearances, pts, exact_sources)
+        if np.any(np.isfinite(vals)):
             k = np.nanargmax(np.where(np.isnan(vals), -np.inf, vals), axis=0)
             better = vals[k, range(4)] > lower
             lower = np.where(better, vals[k, range(4)], lower)
@@ -468,7 +506,7 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float =
         out[q] = QuantityWorst(name=q, lower=lo, upper=up, pose=lower_pose[i].copy(), gap=g,
                                converged=bool(converged[i] and within))
     return GlobalWorst(quantities=out, boxes=n_boxes, iterations=iterations, seconds=time.perf_counter() - t0,
-                       target_gap=gap, region=region)
+                       target_gap=gap, region=region, exact=exact)
 
 
 def grid_best(robot: Manipulator, clearances, region: Region, n: int = 101, n_phi: int = 7

@@ -100,8 +100,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearance preset or file (default: case1 for a 3-PPR, the architecture's *_typical preset "
                         "otherwise)")
     add_region(p, phi_required=True)
+    p.add_argument("--certified", action="store_true",
+                   help="the worst case of the exact (nonlinear) loop closure instead of the first-order model: "
+                        "lower = a configuration of the error set attains it, upper = a rigorous bound at every "
+                        "pose of the region (default --gap-pct 1 with it)")
     p.add_argument("--grid", nargs=2, type=_common.positive_int, default=[101, 7], metavar=("GRID", "NPHI"),
-                   help="comparison grid: GRID x GRID positions at NPHI orientations (default: 101 7)")
+                   help="comparison grid (first-order model): GRID x GRID positions at NPHI orientations "
+                        "(default: 101 7)")
+    p.set_defaults(gap_pct=None)
     p.add_argument("--largest-disc", nargs=2, type=_common.finite_float, metavar=("X", "Y"),
                    help="instead: the largest disc around X, Y (mm) where every --target holds (bisection on "
                         "the radius with the certified worst case over the disc at the --phi-deg interval)")
@@ -122,7 +128,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import ConfigError, EmptyWorkspaceError
 
+    if args.gap_pct is None:
+        args.gap_pct = 1.0 if args.certified else 0.1
     if args.largest_disc is not None:
+        if args.certified:
+            raise ConfigError("--largest-disc certifies the first-order model only", key="--certified")
         return run_largest_disc(args)
     if args.target:
         raise ConfigError("targets need --largest-disc X Y (or use the synthesize command)", key="--target")
@@ -132,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
     region = parse_region(robot, args)
     try:
         grid, grid_poses = grid_best(robot, clearances, region, *args.grid)
-        res = global_worst(robot, clearances, region, gap=args.gap_pct / 100, candidates=grid_poses)
+        res = global_worst(robot, clearances, region, gap=args.gap_pct / 100, candidates=grid_poses,
+                           exact=args.certified)
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     records = []
@@ -145,9 +156,17 @@ def run(args: argparse.Namespace) -> int:
 
     warn(linearity_messages([r["upper"] for r in records if r["quantity"] == "dphi_deg"],
                             what="the region's worst dphi"))
+    if args.certified and not all(r["certified"] for r in records):
+        worst_gap = max(r["gap_pct"] for r in records)
+        warn([f"the exact worst case is not certified within --gap-pct {args.gap_pct:g} (budget spent): the "
+              f"bounds hold, {worst_gap:.3g} % apart"])
     data = {"robot": robot.name, "clearances": getattr(clearances, "name", str(args.clearances)),
+            "model": "exact" if args.certified else "first-order",
             "region": region.describe(), "target_gap_pct": args.gap_pct, "boxes": res.boxes,
             "iterations": res.iterations, "seconds": res.seconds, "quantities": records}
+    if args.certified and args.format == "table":
+        print(f"exact loop closure over {region.describe()}: lower attained by a configuration of the error set, "
+              "upper a rigorous bound at every pose")
     _common.emit(data, args.format, records=records)
     return 0
 

@@ -1,0 +1,256 @@
+"""The exact model's worst case over a region of poses: a bound of the Taylor remainder that holds at every pose
+of a box of poses, and the best feasible values at sampled poses (used by
+:func:`pmaccuracy.accuracy.global_worst.global_worst` with ``exact=True``).
+
+Bound over a box
+----------------
+At a pose ``P`` the exact change of the pose row ``j`` is ``Dz_j = M_j(P) delta + w_j(P, delta)`` (package
+docstring, equation (2)), so over a box ``B`` of poses::
+
+    max_{P in B} max_S |Dz_j|  <=  max_{P in B} h_S(+-M_j(P))  +  max_{P in B} b_j(P)
+
+The first term is the first-order maximum over the box (:func:`pmaccuracy.accuracy.interval.box_bounds`); the
+second is a bound ``b`` of the remainder box (3) that holds at *every* pose of ``B``, built here. The closure of
+pose ``P`` is the model of an *anchor* pose ``a`` of ``B`` (its centre, else a corner or a face centre that can
+be reached) moved by ``Delta_P = v0(P) - v0(a)``: the pose, the passive joints and the actuated joints (each
+actuated joint is a column of the model, a zero-width ``dq`` source where the error set has none). Every term
+angle and radius is affine in ``v``, so with ``|Delta_P| <= d`` componentwise (pose: the box; joints: the
+legs' interval inverse kinematics :func:`pmaccuracy.accuracy.interval.leg_box_state` over ``B``, about the
+anchor's values)::
+
+    |theta_m(P) - theta_m(a)| <= T_m = |t'_m| . d,      |r_m(P) - r_m(a)| <= R_m = |r'_m| . d
+
+and every Jacobian column ``e^{i theta} (r'_j + i r t'_j)`` of a term moves by at most ``min(T_m, 2) |r'_j + i
+r_a t'_j| + |t'_j| R_m``: ``|J(P) - J(a)| <= dJ`` elementwise (summed over each leg's terms; the angle rows
+are affine, ``dJ = 0``). With ``E = |J_z(a)^-1| dJ_z`` of spectral radius below 1 the Neumann series gives,
+for every ``P`` of the box::
+
+    |J_z(P)^-1|  <=  K = (I - E)^-1 |J_z(a)^-1|,        |M(P) - M(a)|  <=  dM = K (dJ_delta + dJ_z |M(a)|)
+
+and the ingredients of (3) are bounded over the box: ``|kappa_ji| <= hypot(K_j,Re_i, K_j,Im_i)``,
+``h_S(alpha_m) <= h_S(alpha_m(a)) + h_S(|t'_m,z| dM)`` (the support functions of the sets are monotone in
+the absolute values of the coefficients), likewise ``beta``, and ``|r_m0| <= |r_m(a)| + R_m``. The map
+``Phi`` of (3) with these bounds dominates every pose's own, so its inflated fixed point ``b`` (checked
+``Phi(b) <= b``, contraction below :data:`~pmaccuracy.accuracy.certified.error_set.CONTRACTION`) is a
+remainder box at every pose of ``B``, with ``J_z`` invertible and the solution the commanded assembly's
+continuation there (as at one pose). ``dp``: ``|dp| <= h_S(M_xy) + hypot(b_x, b_y)``.
+
+The bound of ``b`` takes every term's own maximum over ``S`` (bound (3), not the second-order model (5) of one
+pose): it overestimates the remainder by a factor of a few, a second-order quantity (0.04-0.3 % of the error
+at the paper's clearances), and the first-order part converges like the box's width squared (mean-value form),
+so the worst case over a region is certified to a gap of a few times the nonlinear share of the error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...kinematics import inverse_kinematics
+from ..interval import leg_box_state
+from ...numerics.interval import Iv
+from . import _first_order_map
+from .ascent import _nonlinear
+from .closure import _build_model
+from .error_set import CONTRACTION, QUANTITIES, SourceSet, error_set, support
+
+#: Relative widening of every remainder bound (rounding), as the per-pose certificate's ``ROUND_REL``.
+ROUND_REL = 1e-9
+#: Boxes bounded in one batch (memory: a few kB a box).
+CHUNK = 2048
+#: Largest spectral radius of ``E`` accepted for the Neumann bound of ``J_z(P)^-1`` over a box.
+NEUMANN = 0.5
+
+
+def _augmented(robot, sets: tuple[SourceSet, ...]) -> tuple[tuple[SourceSet, ...], list]:
+    """``sets`` with a zero-width ``dq`` source appended for every actuated joint that has none, and each
+    actuated joint's ``(leg, joint, column of delta)``."""
+    n = sum(len(s.cols) for s in sets)
+    have = {(s.leg, s.joint): s.cols[0] for s in sets if s.field == "dq"}
+    extra, act = [], []
+    for i, chain in enumerate(robot.chains):
+        for k, joint in enumerate(chain.joints):
+            if not joint.actuated:
+                continue
+            if (i, k) not in have:
+                extra.append(SourceSet("interval", i, k, "dq", 0.0, (n,)))
+                have[(i, k)] = n
+                n += 1
+            act.append((i, k, have[(i, k)]))
+    return tuple(sets) + tuple(extra), act
+
+
+def _anchors(robot, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A reachable pose of each box ``(k, 6)``: its centre, else the first reachable corner or face centre;
+    ``(k, 3)`` poses and ``(k,)`` found."""
+    lo, hi = boxes[:, 0::2], boxes[:, 1::2]
+    mid = 0.5 * (lo + hi)
+    picks = [np.zeros(3)]
+    picks += [np.array(c) for c in np.array(np.meshgrid(*[[-1.0, 1.0]] * 3, indexing="ij")).reshape(3, -1).T]
+    picks += [s * e for e in np.eye(3) for s in (-1.0, 1.0)]
+    pose = np.full(mid.shape, np.nan)
+    found = np.zeros(boxes.shape[0], dtype=bool)
+    for p in picks:
+        todo = np.flatnonzero(~found)
+        if not todo.size:
+            break
+        cand = mid[todo] + p * 0.5 * (hi[todo] - lo[todo])
+        ok = inverse_kinematics(robot, cand).reachable
+        pose[todo[ok]] = cand[ok]
+        found[todo[ok]] = True
+    return pose, found
+
+
+def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas) -> np.ndarray:
+    """Bounds ``(k, 4)`` of the remainder of ``dx, dy, dphi, |dp|`` (mm, rad) that hold at every pose of each box.
+
+    ``boxes`` ``(k, 6)`` ``[x0, x1, y0, y1, phi0, phi1]`` (mm, rad); ``sigmas`` the legs' working-mode branches
+    (:func:`pmaccuracy.accuracy.global_worst.leg_branches`). The math is the module docstring's: the exact
+    maximum of a quantity over the box is at most the first-order maximum over the box plus this. ``inf``
+    where the box is too large for the bound (the Neumann series or the fixed point fails: split it) or holds
+    no reachable anchor; 0 for boxes with no feasible pose.
+    """
+    boxes = np.asarray(boxes, dtype=float).reshape(-1, 6)
+    if boxes.shape[0] > CHUNK:
+        return np.vstack([box_remainder(robot, sets, boxes[i:i + CHUNK], sigmas)
+                          for i in range(0, boxes.shape[0], CHUNK)])
+    k = boxes.shape[0]
+    out = np.full((k, 4), np.inf)
+    n_real = sum(len(s.cols) for s in sets)
+    if k == 0:
+        return out
+    if n_real == 0:
+        return np.zeros((k, 4))
+    anchor, found = _anchors(robot, boxes)
+    x, y, ph = (Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5]))
+    legs = [leg_box_state(chain, x, y, ph, s) for chain, s in zip(robot.chains, sigmas)]
+    infeasible = np.any([lb.infeasible for lb in legs], axis=0)
+    out[infeasible] = 0.0
+    idx = np.flatnonzero(found & ~infeasible)
+    if not idx.size:
+        return out
+    aug, act = _augmented(robot, sets)
+    model = _build_model(robot, aug, anchor[idx])
+    N, nv = idx.size, 9 + model.n
+    ik = inverse_kinematics(robot, anchor[idx])
+    # d: the largest change of every column of v between the anchor and a feasible pose of the box
+    d = np.zeros((N, nv))
+    bx = boxes[idx]
+    for c in range(3):
+        d[:, c] = np.maximum(bx[:, 2 * c + 1] - anchor[idx, c], anchor[idx, c] - bx[:, 2 * c])
+    col = {}
+    for i, chain in enumerate(robot.chains):
+        for kk, c in zip(chain.passive_indices, (3 + 2 * i, 4 + 2 * i)):
+            col[(i, kk)] = c
+    for i, kk, c in act:
+        col[(i, kk)] = 9 + c
+    for (i, kk), c in col.items():
+        q = legs[i].q[kk]
+        lo, hi, a = q.lo[idx], q.hi[idx], ik.joints[:, i, kk]
+        if robot.chains[i].joints[kk].kind == "R":  # the enclosure moved by whole turns onto the anchor's value
+            turns = np.round((a - 0.5 * (lo + hi)) / (2 * np.pi))
+            lo, hi = lo + 2 * np.pi * turns, hi + 2 * np.pi * turns
+        with np.errstate(invalid="ignore"):
+            dd = np.maximum(hi - a, a - lo)
+        d[:, c] = np.where(np.isfinite(dd), np.maximum(dd, 0.0), np.inf)
+    with np.errstate(all="ignore"):
+        rem = _remainder(model, sets, n_real, d, robot.characteristic_length)
+    out[idx] = rem
+    return out
+
+
+def _remainder(model, sets, n_real: int, d: np.ndarray, scale: float) -> np.ndarray:
+    """The box bound ``(N, 4)`` (module docstring) for the anchor model and the column changes ``d`` ``(N, nv)``."""
+    N = model.z0.shape[0]
+    nv = 9 + model.n
+    zeros = np.zeros((N, nv))
+    J = model.jacobian(zeros)
+    Jz, Jd = J[..., :9], J[..., 9:9 + n_real]
+    F0 = model.residual(zeros)
+    cond = np.linalg.cond(Jz)
+    ok = np.isfinite(cond) & (cond < 1e12) & np.all(np.isfinite(d), axis=1)
+    Jinv = np.linalg.inv(np.where(ok[:, None, None], Jz, np.eye(9)))
+    aJinv = np.abs(Jinv)
+    tg, rg = model.tg, model.rg                              # (N, m, nv) real, complex
+    atg, arg = np.abs(tg), np.abs(rg)
+    dfin = np.where(np.isfinite(d), d, 0.0)
+    T = np.einsum("nmv,nv->nm", atg, dfin)
+    R = np.einsum("nmv,nv->nm", arg, dfin)
+    G = np.abs(rg + 1j * model.r0[..., None] * tg)           # (N, m, nv)
+    V = np.minimum(T, 2.0)[..., None] * G + atg * R[..., None]
+    onehot = (model.leg_of[:, None] == np.arange(3)[None, :]).astype(float)
+    leg = np.einsum("nmv,mi->niv", V, onehot)                # (N, 3, nv)
+    dJ = np.zeros((N, 9, nv))
+    dJ[:, 0::3], dJ[:, 1::3] = leg, leg
+    dJz, dJd = dJ[..., :9], dJ[..., 9:9 + n_real]
+    E = aJinv @ dJz
+    rho = np.max(np.abs(np.linalg.eigvals(np.where(ok[:, None, None], E, 0.0))), axis=-1)
+    ok &= rho < NEUMANN
+    NE = np.linalg.inv(np.eye(9) - np.where(ok[:, None, None], E, 0.0))
+    ok &= np.all(NE >= -1e-12, axis=(1, 2))
+    K = np.maximum(NE, 0.0) @ aJinv * (1 + ROUND_REL)
+    M = -Jinv @ Jd
+    dM = K @ (dJd + dJz @ np.abs(M))
+    akap = np.hypot(K[:, :, 0::3], K[:, :, 1::3])            # (N, 9, 3)
+    tz, td = tg[..., :9], tg[..., 9:9 + n_real]
+    rz, rd = rg[..., :9], rg[..., 9:9 + n_real]
+    atz, arz = np.abs(tz), np.abs(rz)
+    alpha = np.einsum("nmj,njk->nmk", tz, M) + td
+    beta = np.einsum("nmj,njk->nmk", rz, M) + rd
+    s_t = support(sets, np.einsum("nmj,njk->nmk", atz, dM))
+    s_r = support(sets, np.einsum("nmj,njk->nmk", arz, dM))
+    hX = support(sets, alpha) + s_t
+    hD = np.hypot(support(sets, beta.real) + s_r, support(sets, beta.imag) + s_r)
+    ar0 = np.abs(model.r0) + R
+    JF0 = K @ np.abs(F0)[..., None]
+    JF0 = JF0[..., 0]
+
+    def terms(b):
+        return hX + np.einsum("nmj,nj->nm", atz, b), hD + np.einsum("nmj,nj->nm", arz, b)
+
+    def phi(b):
+        X, D = terms(b)
+        rho_leg = (ar0 * X ** 2 / 2 + D * X) @ onehot
+        return JF0 + np.einsum("nji,ni->nj", akap, rho_leg)
+
+    b = np.zeros((N, 9))
+    for _ in range(60):
+        nb = phi(b)
+        if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
+            b = nb
+            break
+        b = nb
+    b = b * (1 + 1e-6) + 1e-15 * scale
+    fixed = np.all(phi(b) <= b, axis=-1) & np.all(np.isfinite(b), axis=-1)
+    X, D = terms(b)
+    lip_leg = np.einsum("nmj,nm,mi->nij", arz, X, onehot) + np.einsum("nmj,nm,mi->nij", atz, D + ar0 * X, onehot)
+    L = np.max(np.einsum("nji,nil,nl->nj", akap, lip_leg, b) / b, axis=-1)
+    ok &= fixed & (L < CONTRACTION)
+    # the term-by-term bound (4) of the rows x, y, phi, both signs: the Dt^2 terms keep the sign of Re c_m at the
+    # anchor, widened by the largest change of c_m = conj(kappa_ji) exp(i theta_m) r_m over the box
+    kap_a = Jinv[:, :3, 0::3] + 1j * Jinv[:, :3, 1::3]                        # (N, 3 rows, 3 legs)
+    Kd = np.maximum(NE - np.eye(9), 0.0) @ aJinv * (1 + ROUND_REL)            # >= |J_z(P)^-1 - J_z(a)^-1|
+    dkap = np.hypot(Kd[:, :3, 0::3], Kd[:, :3, 1::3])
+    lg = model.leg_of
+    c_a = np.conj(kap_a[..., lg]) * (np.exp(1j * model.t0) * model.r0)[:, None, :]   # (N, 3, m)
+    dc = dkap[..., lg] * ar0[:, None, :] + np.abs(kap_a[..., lg]) * (
+        np.minimum(T, 2.0) * np.abs(model.r0) + R)[:, None, :]
+    csup = akap[:, :3][..., lg] * ar0[:, None, :]
+    rest = np.einsum("nrm,nm->nr", csup, X ** 3 / 6) + np.einsum("nrm,nm->nr", akap[:, :3][..., lg], D * X)
+    rows = [JF0[:, :3] + rest + np.einsum("nrm,nm->nr", np.maximum(s * c_a.real, 0.0) + dc, X ** 2 / 2)
+            for s in (1.0, -1.0)]
+    w = np.minimum(np.maximum(*rows), b[:, :3])
+    rem = np.column_stack([w[:, 0], w[:, 1], w[:, 2], np.hypot(w[:, 0], w[:, 1])]) * (1 + ROUND_REL)
+    return np.where(ok[:, None], rem, np.inf)
+
+
+def exact_lower(robot, sources, poses: np.ndarray) -> np.ndarray:
+    """Best feasible exact maxima ``(m, 4)`` of ``dx, dy, dphi, |dp|`` (mm, rad) at reachable ``poses``
+    ``(m, 3)`` (attained by configurations of the error set: lower bounds of the true maxima; NaN where the
+    closure fails), as :func:`pmaccuracy.accuracy.certified.nonlinear_pose_errors`."""
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    if poses.shape[0] == 0:
+        return np.zeros((0, 4))
+    sets = error_set(robot, sources)
+    model = _build_model(robot, sets, poses)
+    lower, _, _ = _nonlinear(model, _first_order_map(model), sets)
+    return np.column_stack([np.asarray(lower[q], dtype=float) for q in QUANTITIES])
