@@ -130,3 +130,47 @@ def test_cli_worst_certified_bad_options(capsys, extra, key):
     status, out, err = _cli(["worst", "--phi-deg", "0", "0", "--certified"] + extra, capsys)
     assert status == 2 and not out
     assert len(err.strip().splitlines()) == 1 and key in err and "Traceback" not in err
+
+
+def _small_box(kind, factor, h=0.05, dphi_deg=0.02):
+    from pmaccuracy.accuracy.certified.error_set import error_set
+    from pmaccuracy.accuracy.certified.region import box_remainder
+    from pmaccuracy.accuracy.global_worst import leg_branches
+    from pmaccuracy.accuracy.interval import box_bounds
+
+    data, robot, nominal, spec = _case(kind, factor)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sources = ErrorSources.from_dict(spec)
+    dphi = np.radians(dphi_deg)
+    box = np.array([[nominal[0] - h, nominal[0] + h, nominal[1] - h, nominal[1] + h,
+                     nominal[2] - dphi, nominal[2] + dphi]])
+    sigmas = leg_branches(robot, nominal)
+    rem, total = box_remainder(robot, error_set(robot, sources), box, sigmas, tight=True)
+    first = box_bounds(robot, sources, box, sigmas)[0]
+    assert np.all(np.isfinite(total)) and np.all(np.isfinite(rem))
+    return data, robot, sources, spec, nominal, h, dphi, first[0] + rem[0], total[0]
+
+
+@pytest.mark.parametrize("kind", ["3-RPR", "3-RRR", "3-PRR"])
+def test_box_bounds_never_below_the_dense_search_at_10x(kind):
+    """Over a small box (0.1 mm x 0.04 deg) at 10x the clearances (up to 15 % nonlinear) both bounds of the exact
+    maxima (first order + remainder; second-order model, ``box_remainder(..., tight=True)``) are never below
+    the dense search at the box's centre and a corner."""
+    data, robot, sources, spec, nominal, h, dphi, plain, second = _small_box(kind, 10)
+    for pose in (nominal, nominal + np.array([h, -h, dphi])):
+        ref = nsr.dense_search(data, pose, spec, n_random=100, dense=4)
+        for i, q in enumerate(C.QUANTITIES):
+            assert second[i] >= ref[q], (kind, q, second[i], ref[q])
+            assert plain[i] >= ref[q], (kind, q, plain[i], ref[q])
+
+
+@pytest.mark.parametrize("kind", ["3-RPR", "3-RRR", "3-PRR"])
+def test_second_order_box_bound_is_tight_at_1x(kind):
+    """At 1x the second-order bound over a box of 0.01 mm x 0.004 deg is within 0.5 % of the per-pose certificate
+    of the whole error set at its centre (so the region's gap can close), and above the best feasible value there
+    (the part proportional to the box's size is 0.7-0.9 % at ten times that box)."""
+    data, robot, sources, spec, nominal, h, dphi, plain, second = _small_box(kind, 1, 0.005, 0.002)
+    at = C.certified_pose_errors(robot, sources, nominal, split=0, max_pieces=1)
+    for i, q in enumerate(C.QUANTITIES):
+        assert at.lower[q][0] <= second[i] <= at.upper[q][0] * 1.005, (kind, q, second[i], at.upper[q][0])

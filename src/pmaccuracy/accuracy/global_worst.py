@@ -76,6 +76,9 @@ DEFAULT_EXACT_GAP = 1e-2
 #: With ``exact=True``, the best feasible exact values are computed at this many poses per quantity and round
 #: (those of largest first-order value).
 EXACT_CANDIDATES = 8
+#: With ``exact=True`` a box gets the second-order bound only where its first-order bound plus this many times
+#: that bound's first-order change over the box stays within the gap (elsewhere it could not close the box).
+TIGHT_SLACK = 2.0
 
 
 class SingularRegionError(SingularPoseError):
@@ -438,9 +441,19 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
                 break
         n_boxes += boxes.shape[0]
         threshold = np.where(active, lower * (1 + gap) + atol, np.inf) / (1 + ROUNDING)
-        rem = box_remainder(robot, sets, boxes, sigmas) if exact else 0.0
+        rem, slack = box_remainder(robot, sets, boxes, sigmas) if exact else (0.0, None)
         upper, infeasible, det_zero, share = box_bounds(robot, sources, boxes, sigmas, threshold=threshold - rem)
+        fo_upper = upper * (1 + ROUNDING)
         upper = (upper + rem) * (1 + ROUNDING)
+        if exact:   # the second-order bound where the first-order part leaves room but its sum does not close
+            limit = lower * (1 + gap) + atol
+            slack4 = np.column_stack([slack, np.hypot(slack[:, 0], slack[:, 1])])
+            room = (active & (upper > limit) & (fo_upper + TIGHT_SLACK * slack4 * (1 + ROUNDING) <= limit)
+                    & ~infeasible[:, None])
+            tight = np.flatnonzero(np.any(room, axis=1))
+            if tight.size:
+                _, total = box_remainder(robot, sets, boxes[tight], sigmas, tight=room[tight])
+                upper[tight] = np.minimum(upper[tight], total * (1 + ROUNDING))
         keep = ~infeasible
         boxes, active, upper, det_zero, share = boxes[keep], active[keep], upper[keep], det_zero[keep], share[keep]
         if not boxes.shape[0]:

@@ -35,13 +35,35 @@ the absolute values of the coefficients), likewise ``beta``, and ``|r_m0| <= |r_
 remainder box at every pose of ``B``, with ``J_z`` invertible and the solution the commanded assembly's
 continuation there (as at one pose). ``dp``: ``|dp| <= h_S(M_xy) + hypot(b_x, b_y)``.
 
-The bound of ``b`` takes every term's own maximum over ``S`` (bound (3), not the second-order model (5) of one
-pose): it overestimates the remainder by a factor of a few, a second-order quantity (0.04-0.3 % of the error
-at the paper's clearances), and the first-order part converges like the box's width squared (mean-value form),
-so the worst case over a region is certified to a gap of a few times the nonlinear share of the error.
+The bound of ``b`` takes every term's own maximum over ``S`` (bound (3) and the term-by-term bound (4), not the
+second-order model (5) of one pose): it overestimates the remainder by a factor of 2-5, a second-order quantity
+(0.04-0.3 % of the error at the paper's clearances), and the first-order part converges like the box's width
+squared (mean-value form), so this bound alone certifies a region to a few times the nonlinear share.
+
+Second-order bound
+------------------
+Where that is not enough, a box also gets the second-order model (5) of the package docstring. For a row
+combination ``kappa`` (``+-`` a pose row, or ``u . (x, y)`` for the ``K`` directions of ``|dp|``) at pose ``P``::
+
+    s Dz_j(P) <= max_S [g_P . delta + delta^T H_P delta] + |J_z^-1 F0| + E_P(b)
+
+and ``max_S [g_P . delta + delta^T H_P delta] <= dual bound of (g_a, H_a) + h_S(|g_P - g_a|) + max_S |delta^T
+(H_P - H_a) delta|``. With ``t_m = alpha_m . delta``, ``rho_m = beta_m . delta`` the quadratic form is ``sum_m
+Re(c_m) t_m^2 / 2 + Im(c'_m rho_m) t_m``, so its change is at most ``sum_m |Dc_m| Xb^2 / 2 + |c_m(a)| dX (2 X_a +
+dX) / 2 + (|Dc'_m| Db + |c'_m(a)| dD) Xb + |c'_m(a)| D_a dX`` (``X_a = h_S(alpha_m(a))``, ``dX = h_S(|t'_m,z| dM)``,
+``Xb = X_a + dX``; ``D`` likewise for ``beta``, ``dD = sqrt(2) h_S(|r'_m,z| dM)``; ``|Dc'_m| <= |Dkappa| +
+|kappa(a)| min(T_m, 2)``, ``|Dc_m| <= |Dkappa| (|r_m(a)| + R_m) + |kappa(a)| (min(T_m, 2) |r_m(a)| + R_m)``,
+``|Dkappa|`` from ``((I - E)^-1 - I) |J_z(a)^-1|``); ``h_S(|g_P - g_a|) <= h_S(dM_j)``; ``E_P(b)`` is the rest of
+(5) with the box's ``b`` and ingredients. The dual bound takes the first feasible multipliers (refining them
+moved the bounds by less than 0.01 % on the presets and cost 4-10x). The added terms shrink like the box's
+width (0.2-2 % per 0.1 mm on the presets, the per-pose certificate's value as the box shrinks to a point), so
+the branch and bound evaluates it only where the first-order bound leaves room for it
+(:data:`~pmaccuracy.accuracy.global_worst.TIGHT_SLACK`).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -51,7 +73,9 @@ from ...numerics.interval import Iv
 from . import _first_order_map
 from .ascent import _nonlinear
 from .closure import _build_model
-from .error_set import CONTRACTION, QUANTITIES, SourceSet, error_set, support
+from .dual import dual_bound
+from .error_set import CONTRACTION, N_DIRECTIONS, QUANTITIES, SourceSet, error_set, support
+from .remainder import _direction_bounds
 
 #: Relative widening of every remainder bound (rounding), as the per-pose certificate's ``ROUND_REL``.
 ROUND_REL = 1e-9
@@ -59,6 +83,8 @@ ROUND_REL = 1e-9
 CHUNK = 2048
 #: Largest spectral radius of ``E`` accepted for the Neumann bound of ``J_z(P)^-1`` over a box.
 NEUMANN = 0.5
+#: Refine the multipliers of the second-order bound over a box (interior point) or keep the first feasible ones.
+REFINE = False
 
 
 def _augmented(robot, sets: tuple[SourceSet, ...]) -> tuple[tuple[SourceSet, ...], list]:
@@ -100,7 +126,7 @@ def _anchors(robot, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pose, found
 
 
-def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas) -> np.ndarray:
+def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas, tight=False):
     """Bounds ``(k, 4)`` of the remainder of ``dx, dy, dphi, |dp|`` (mm, rad) that hold at every pose of each box.
 
     ``boxes`` ``(k, 6)`` ``[x0, x1, y0, y1, phi0, phi1]`` (mm, rad); ``sigmas`` the legs' working-mode branches
@@ -108,26 +134,38 @@ def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas)
     maximum of a quantity over the box is at most the first-order maximum over the box plus this. ``inf``
     where the box is too large for the bound (the Neumann series or the fixed point fails: split it) or holds
     no reachable anchor; 0 for boxes with no feasible pose.
+
+    With ``tight`` (True, or ``(k, 4)`` booleans: the quantities wanted per box) also returns ``(k, 4)`` bounds of the exact maxima themselves over each box by the second-order
+    model (module docstring, "Second-order bound"; ``inf`` where not certified); without it,
+    ``(k, 3)`` the change of the first-order maxima of ``dx, dy, dphi`` over the box that bound adds (a
+    cheap estimate of how far it stays above the first-order maximum: where that alone does not close, the
+    second-order bound is not worth its cost).
     """
     boxes = np.asarray(boxes, dtype=float).reshape(-1, 6)
+    mode = np.ndim(tight) > 0 or bool(tight)
     if boxes.shape[0] > CHUNK:
-        return np.vstack([box_remainder(robot, sets, boxes[i:i + CHUNK], sigmas)
-                          for i in range(0, boxes.shape[0], CHUNK)])
+        parts = [box_remainder(robot, sets, boxes[i:i + CHUNK], sigmas,
+                               tight if np.ndim(tight) == 0 else tight[i:i + CHUNK])
+                 for i in range(0, boxes.shape[0], CHUNK)]
+        return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
     k = boxes.shape[0]
     out = np.full((k, 4), np.inf)
+    total = np.full((k, 4), np.inf)
+    slack = np.full((k, 3), np.inf)
     n_real = sum(len(s.cols) for s in sets)
-    if k == 0:
-        return out
-    if n_real == 0:
-        return np.zeros((k, 4))
+    if k == 0 or n_real == 0:
+        out[:] = 0.0
+        return (out, total) if mode else (out, np.zeros((k, 3)))
     anchor, found = _anchors(robot, boxes)
     x, y, ph = (Iv(boxes[:, 0], boxes[:, 1]), Iv(boxes[:, 2], boxes[:, 3]), Iv(boxes[:, 4], boxes[:, 5]))
     legs = [leg_box_state(chain, x, y, ph, s) for chain, s in zip(robot.chains, sigmas)]
     infeasible = np.any([lb.infeasible for lb in legs], axis=0)
     out[infeasible] = 0.0
+    total[infeasible] = 0.0
+    slack[infeasible] = 0.0
     idx = np.flatnonzero(found & ~infeasible)
     if not idx.size:
-        return out
+        return (out, total) if mode else (out, slack)
     aug, act = _augmented(robot, sets)
     model = _build_model(robot, aug, anchor[idx])
     N, nv = idx.size, 9 + model.n
@@ -152,13 +190,16 @@ def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas)
         with np.errstate(invalid="ignore"):
             dd = np.maximum(hi - a, a - lo)
         d[:, c] = np.where(np.isfinite(dd), np.maximum(dd, 0.0), np.inf)
+    want = np.broadcast_to(np.asarray(tight, dtype=bool), (k, 4))[idx]
     with np.errstate(all="ignore"):
-        rem = _remainder(model, sets, n_real, d, robot.characteristic_length)
+        rem, tot, var = _remainder(model, sets, n_real, d, robot.characteristic_length, want)
     out[idx] = rem
-    return out
+    total[idx] = tot
+    slack[idx] = var
+    return (out, total) if mode else (out, slack)
 
 
-def _remainder(model, sets, n_real: int, d: np.ndarray, scale: float) -> np.ndarray:
+def _remainder(model, sets, n_real: int, d: np.ndarray, scale: float, want: np.ndarray):
     """The box bound ``(N, 4)`` (module docstring) for the anchor model and the column changes ``d`` ``(N, nv)``."""
     N = model.z0.shape[0]
     nv = 9 + model.n
@@ -240,7 +281,66 @@ def _remainder(model, sets, n_real: int, d: np.ndarray, scale: float) -> np.ndar
             for s in (1.0, -1.0)]
     w = np.minimum(np.maximum(*rows), b[:, :3])
     rem = np.column_stack([w[:, 0], w[:, 1], w[:, 2], np.hypot(w[:, 0], w[:, 1])]) * (1 + ROUND_REL)
-    return np.where(ok[:, None], rem, np.inf)
+    total = np.full((N, 4), np.inf)
+    var_first = np.where(ok[:, None], support(sets, dM[:, :3]), np.inf)
+    sel = np.flatnonzero(ok & np.any(want[:, :3], axis=1))
+
+    def second(rows, kap, dk, ak, g, dMr, f0):
+        """The second-order bound (module docstring) of the row combinations ``kap`` ``(S, R, 3)`` (at the
+        anchor; ``dk`` bounds their change over the box, ``ak`` their size), first-order maps ``g`` ``(S, R, n)``
+        (``dMr`` their change), ``|J_z^-1 F0|`` part ``f0`` ``(S, R)``, at the boxes ``rows`` ``(S,)``: ``(S, R)``."""
+        cp = np.conj(kap[..., lg]) * np.exp(1j * model.t0[rows])[:, None, :]       # (S, R, m)
+        c = cp * model.r0[rows][:, None, :]
+        al, be = alpha[rows], beta[rows]
+        v = np.imag(cp[..., None] * be[:, None, :, :])                            # (S, R, m, n)
+        H = (np.einsum("nrm,nmk,nml->nrkl", c.real / 2, al, al)
+             + 0.5 * (np.einsum("nrmk,nml->nrkl", v, al) + np.einsum("nml,nrmk->nrlk", al, v)))
+        quad = dual_bound(sets, g, H, refine=REFINE, sdp=False)
+        Xa = support(sets, al)
+        Da = np.hypot(support(sets, be.real), support(sets, be.imag))
+        dX, dD = s_t[rows], np.sqrt(2.0) * s_r[rows]
+        Xb, Db = Xa + dX, Da + dD
+        turn = np.minimum(T[rows], 2.0)[:, None, :]
+        dcp = dk[..., lg] + np.abs(kap[..., lg]) * turn
+        dcr = dk[..., lg] * ar0[rows][:, None, :] + np.abs(kap[..., lg]) * (
+            turn * np.abs(model.r0[rows])[:, None, :] + R[rows][:, None, :])
+        var_h = (np.einsum("nrm,nm->nr", dcr, Xb ** 2 / 2)
+                 + np.einsum("nrm,nm->nr", np.abs(c), dX * (2 * Xa + dX) / 2)
+                 + np.einsum("nrm,nm->nr", dcp, Db * Xb) + np.einsum("nrm,nm->nr", np.abs(cp), dD * Xb + Da * dX))
+        bb = b[rows]
+        wt, wr = np.einsum("nmj,nj->nm", atz[rows], bb), np.einsum("nmj,nj->nm", arz[rows], bb)
+        hXs, hDs = hX[rows], hD[rows]
+        Xs, Ds = hXs + wt, hDs + wr
+        aks = ak[..., lg]
+        rest = (np.einsum("nrm,nm->nr", aks * ar0[rows][:, None, :], wt * (2 * hXs + wt) / 2 + Xs ** 3 / 6)
+                + np.einsum("nrm,nm->nr", aks, wr * Xs + hDs * wt + Ds * Xs ** 2 / 2))
+        return quad + support(sets, dMr) + var_h + f0 + rest
+
+    if sel.size:
+        two = lambda a: np.concatenate([a, a], axis=1)  # noqa: E731 (rows x, y, phi for s = +1 then -1)
+        B = second(sel, np.concatenate([kap_a[sel], -kap_a[sel]], axis=1), two(dkap[sel]), two(akap[sel, :3]),
+                   np.concatenate([M[sel, :3], -M[sel, :3]], axis=1), two(dM[sel, :3]), two(JF0[sel, :3]))
+        total[sel, :3] = np.maximum(B[:, :3], B[:, 3:]) * (1 + ROUND_REL)
+    sel = np.flatnonzero(ok & want[:, 3])
+    if sel.size:
+        # |dp| <= max_k u_k . p / cos(pi / K) over the K directions of the per-pose certificate
+        ang = 2 * np.pi * (np.arange(N_DIRECTIONS) + 0.5) / N_DIRECTIONS
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+
+        def direction(kk, dd):
+            rows, ux, uy = sel[kk], u[dd, 0][:, None], u[dd, 1][:, None]
+            ax, ay = np.abs(ux), np.abs(uy)
+            kap = (ux * kap_a[rows, 0] + uy * kap_a[rows, 1])[:, None]
+            dk = (ax * dkap[rows, 0] + ay * dkap[rows, 1])[:, None]
+            ak = (ax * akap[rows, 0] + ay * akap[rows, 1])[:, None]
+            g = (ux * M[rows, 0] + uy * M[rows, 1])[:, None]
+            dMr = (ax * dM[rows, 0] + ay * dM[rows, 1])[:, None]
+            f0 = (ax[:, 0] * JF0[rows, 0] + ay[:, 0] * JF0[rows, 1])[:, None]
+            return second(rows, kap, dk, ak, g, dMr, f0)[:, 0]
+
+        ub = _direction_bounds(direction, sel.size)
+        total[sel, 3] = np.max(ub, axis=-1) / math.cos(math.pi / N_DIRECTIONS) * (1 + ROUND_REL)
+    return np.where(ok[:, None], rem, np.inf), total, var_first
 
 
 def exact_lower(robot, sources, poses: np.ndarray) -> np.ndarray:
