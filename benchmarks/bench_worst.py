@@ -3,9 +3,11 @@
 Well-conditioned random 3-RPR and 3-RRR robots (the test suite's generators, ``tests/reference``) over boxes
 of +-6 mm and a few degrees about their nominal pose, with random clearances of every joint; and the
 presets' regions quoted in the README. Prints, per region, the wall time, the boxes evaluated and the gaps
-reached at the default 0.1 % (issue 27: certified in under 10 s).
+reached at the default 0.1 % (issue 27: certified in under 10 s). With ``--exact GAP_PCT`` each region is also
+certified for the exact loop closure (``worst --certified``, ``global_worst(..., exact=True)``) at that gap,
+with its time as a ratio to the first-order run measured just before.
 
-    .venv/bin/python benchmarks/bench_worst.py [--seeds 8] [--max-boxes 2000000]
+    .venv/bin/python benchmarks/bench_worst.py [--seeds 8] [--max-boxes 2000000] [--exact 1]
 """
 
 from __future__ import annotations
@@ -40,7 +42,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=8)
     ap.add_argument("--max-boxes", type=int, default=2_000_000)
+    ap.add_argument("--exact", type=float, default=None, metavar="GAP_PCT",
+                    help="also the exact model's worst case at this gap (percent)")
     args = ap.parse_args()
+
+    def exact(robot, clearances, region, first):
+        if args.exact is None:
+            return
+        res = global_worst(robot, clearances, region, exact=True, gap=args.exact / 100)
+        line("  exact model", res, f"  ({res.seconds / first.seconds:.3g}x the first-order run)")
+
     warnings.simplefilter("ignore")
     for kind, gen, half_mm, half_deg in (("3-RPR", pref.random_rpr, 6, 3), ("3-RRR", pref.random_rrr, 6, 2)):
         for seed in range(args.seeds):
@@ -57,13 +68,16 @@ def main() -> None:
             cond = float(np.max(singularity(robot, pts).condition))
             res = global_worst(robot, ErrorSources.from_dict(clear), region, max_boxes=args.max_boxes)
             line(f"{kind} seed {seed} +-{half_mm} mm +-{half_deg} deg", res, f"  (condition <= {cond:.3g})")
+            exact(robot, ErrorSources.from_dict(clear), region, res)
     for rname, cname, lo, hi in (("aalborg_3ppr", "case1", -30, 30), ("aalborg_3ppr", "case1", 0, 0),
                                  ("aalborg_3ppr", "case1", -10, 10), ("symmetric_3rpr", "rpr_typical", -5, 5),
                                  ("symmetric_3ppr", "all", -5, 5), ("symmetric_3prr", "prr_typical", -5, 5)):
         robot = Manipulator.preset(rname)
-        res = global_worst(robot, load_clearances(cname, robot),
-                           make_region(robot, (np.radians(lo), np.radians(hi)), None), max_boxes=args.max_boxes)
+        clearances = load_clearances(cname, robot)
+        region = make_region(robot, (np.radians(lo), np.radians(hi)), None)
+        res = global_worst(robot, clearances, region, max_boxes=args.max_boxes)
         line(f"{rname} {cname} workspace [{lo}, {hi}] deg", res)
+        exact(robot, clearances, region, res)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,9 @@ def _case(kind: str, factor: float, seed: int = 1):
     return data, robot, np.asarray(nominal, dtype=float), spec
 
 
-@pytest.mark.parametrize("kind,factor", [("3-RPR", 1), ("3-RRR", 1), ("3-RRR", 10),
+#: Each case takes 2-7 s (the dense search at five to seven poses): one in ``make test``, all in ``make test-all``.
+@pytest.mark.parametrize("kind,factor", [pytest.param("3-RPR", 1, marks=pytest.mark.slow),
+                                         pytest.param("3-RRR", 1, marks=pytest.mark.slow), ("3-RRR", 10),
                                          pytest.param("3-PRR", 10, marks=pytest.mark.slow)])
 def test_region_bound_never_below_the_dense_search(kind, factor):
     data, robot, nominal, spec = _case(kind, factor)
@@ -152,7 +154,8 @@ def _small_box(kind, factor, h=0.05, dphi_deg=0.02):
     return data, robot, sources, spec, nominal, h, dphi, first[0] + rem[0], total[0]
 
 
-@pytest.mark.parametrize("kind", ["3-RPR", "3-RRR", "3-PRR"])
+@pytest.mark.parametrize("kind", [pytest.param("3-RPR", marks=pytest.mark.slow), "3-RRR",
+                                  pytest.param("3-PRR", marks=pytest.mark.slow)])
 def test_box_bounds_never_below_the_dense_search_at_10x(kind):
     """Over a small box (0.1 mm x 0.04 deg) at 10x the clearances (up to 15 % nonlinear) both bounds of the exact
     maxima (first order + remainder; second-order model, ``box_remainder(..., tight=True)``) are never below

@@ -12,7 +12,10 @@ from pmaccuracy.cli import main
 from pmaccuracy.accuracy.maps import error_map, summarize
 from pmaccuracy.io.resolve import load_clearances
 
-CASES = [("symmetric_3rpr", "rpr_typical"), ("symmetric_3rrr", "rrr_typical"), ("symmetric_3prr", "prr_typical"),
+# The 3-RRR's report takes 12 s (its design section's certified map reaches the near-singular edge of its
+# workspace): ``make test-all``; the other three architectures run in ``make test``.
+CASES = [("symmetric_3rpr", "rpr_typical"),
+         pytest.param("symmetric_3rrr", "rrr_typical", marks=pytest.mark.slow), ("symmetric_3prr", "prr_typical"),
          ("aalborg_3ppr", "all")]
 
 
