@@ -293,7 +293,7 @@ def _exact(robot, clearances, poses: np.ndarray, sources: ErrorSources | None = 
         b = max_pose_errors(robot, clearances, poses[inside], singular="nan", max_condition=np.inf)
         values[inside] = np.column_stack([b.dx_max, b.dy_max, b.dphi_max, b.dp_max])
     if sources is not None and np.any(inside):
-        order = np.argsort(np.where(np.isnan(values), -np.inf, -values), axis=0)[:EXACT_CANDIDATES]
+        order = np.argsort(np.where(np.isnan(values), np.inf, -values), axis=0)[:EXACT_CANDIDATES]
         pick = np.unique(order.ravel())
         pick = pick[inside[pick]]
         exact = np.full_like(values, np.nan)
@@ -353,7 +353,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
     grid : ``grid x grid x (grid or 1)`` initial samples for the lower bounds and the singularity check
     candidates : optional poses ``(k, 3)`` of the region also tried for the lower bounds (e.g. the best
         poses of a grid, :func:`grid_best`)
-    exact : certify the worst case of the exact (nonlinear) loop closure instead of the first-order model:
+    exact : certify the worst case of the exact (nonlinear) loop closure instead of the first-order model
+        (after a first-order run to half the gap, whose worst poses seed the lower bounds):
         every box's upper bound adds a remainder bound that holds at every pose of the box
         (:func:`~pmaccuracy.accuracy.certified.region.box_remainder`; ``inf`` until the box is small enough for
         it, so such boxes are split) and the lower bounds are best feasible configurations of the exact model
@@ -387,6 +388,13 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
     if exact:
         refuse_first_order_only(sources, "the exact worst case")
         sets = error_set(robot, sources)
+        # the first-order worst poses (to half the gap) seed the exact model's lower bounds: its maxima are
+        # near them, and a good lower bound from the start closes most boxes in the first rounds
+        seed = global_worst(robot, clearances, region, gap=gap / 2, max_condition=max_condition,
+                            max_boxes=max_boxes, min_size=min_size, grid=grid, candidates=candidates)
+        best = np.array([w.pose for w in seed.quantities.values()])
+        seed_boxes = seed.boxes
+        candidates = best if candidates is None else np.vstack([np.asarray(candidates, float).reshape(-1, 3), best])
     exact_sources = sources if exact else None
     L = robot.characteristic_length
     min_size = 1e-7 * L if min_size is None else float(min_size)
@@ -518,6 +526,8 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
         within = up <= lo * (1 + gap) + atol[i]
         out[q] = QuantityWorst(name=q, lower=lo, upper=up, pose=lower_pose[i].copy(), gap=g,
                                converged=bool(converged[i] and within))
+    if exact:   # the seeding first-order run's boxes count too
+        n_boxes += seed_boxes
     return GlobalWorst(quantities=out, boxes=n_boxes, iterations=iterations, seconds=time.perf_counter() - t0,
                        target_gap=gap, region=region, exact=exact)
 
