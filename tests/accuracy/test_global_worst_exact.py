@@ -177,3 +177,23 @@ def test_second_order_box_bound_is_tight_at_1x(kind):
     at = C.certified_pose_errors(robot, sources, nominal, split=0, max_pieces=1)
     for i, q in enumerate(C.QUANTITIES):
         assert at.lower[q][0] <= second[i] <= at.upper[q][0] * 1.005, (kind, q, second[i], at.upper[q][0])
+
+
+def test_exact_values_at_the_best_poses_inside_the_workspace():
+    """The exact values go to the poses of largest first-order value *inside* the workspace, however many poses
+    of the batch lie outside it (once, the outside ones were taken first and the lower bounds missed the
+    maxima); they are the best feasible values there."""
+    from pmaccuracy.accuracy.global_worst import EXACT_CANDIDATES, _exact, as_sources
+    from pmaccuracy.model.clearances import ClearanceSet
+
+    robot = Manipulator.preset("aalborg_3ppr")
+    case = ClearanceSet.preset("case2")
+    inside = np.array([[0.0, 0.0, 0.0], [25.0, -25.0, 0.0], [0.0, 20.0, 0.0]])
+    outside = np.tile([[100.0, 100.0, 0.0]], (2 * EXACT_CANDIDATES, 1))
+    poses = np.vstack([outside, inside])
+    values, ins = _exact(robot, case, poses, as_sources(robot, case))
+    assert not np.any(ins[:-3]) and np.all(ins[-3:])
+    assert np.all(np.isnan(values[:-3])) and np.all(np.isfinite(values[-3:]))
+    ref = C.nonlinear_pose_errors(robot, case, inside)
+    for i, q in enumerate(C.QUANTITIES):
+        np.testing.assert_allclose(values[-3:, i], ref.lower[q], rtol=1e-12)
