@@ -136,7 +136,8 @@ class QuantityWorst:
 @dataclass(frozen=True)
 class GlobalWorst:
     """Result of :func:`global_worst`: one :class:`QuantityWorst` per quantity (``dx, dy, dphi, dp``),
-    boxes evaluated, iterations, wall time (s), the requested gap and the region."""
+    boxes evaluated, iterations, wall time (s), the requested gap, the region and whether the values are the
+    exact loop closure's (``exact``) or the first-order model's."""
 
     quantities: dict[str, QuantityWorst]
     boxes: int
@@ -162,10 +163,12 @@ class GlobalWorst:
     def __repr__(self) -> str:
         parts = [f"{r['quantity']} {r['attained']:.6g} {r['unit']} (upper {r['upper']:.6g}, gap {r['gap_percent']:.2g} %, "
                  f"at {r['x']:.4g}, {r['y']:.4g} mm, {r['phi_deg']:.4g} deg)" for r in self.records()]
-        return f"GlobalWorst({', '.join(parts)}; {self.boxes} boxes, {self.seconds:.2g} s)"
+        model = "exact model: " if self.exact else ""
+        return f"GlobalWorst({model}{', '.join(parts)}; {self.boxes} boxes, {self.seconds:.2g} s)"
 
     def _repr_html_(self) -> str:
-        return html_table("Certified worst case over the region", self.records())
+        title = "Certified worst case over the region" + (" (exact loop closure)" if self.exact else "")
+        return html_table(title, self.records())
 
 
 def as_sources(robot: Manipulator, clearances) -> ErrorSources:

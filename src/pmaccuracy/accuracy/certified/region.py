@@ -135,11 +135,12 @@ def box_remainder(robot, sets: tuple[SourceSet, ...], boxes: np.ndarray, sigmas,
     where the box is too large for the bound (the Neumann series or the fixed point fails: split it) or holds
     no reachable anchor; 0 for boxes with no feasible pose.
 
-    With ``tight`` (True, or ``(k, 4)`` booleans: the quantities wanted per box) also returns ``(k, 4)`` bounds of the exact maxima themselves over each box by the second-order
-    model (module docstring, "Second-order bound"; ``inf`` where not certified); without it,
-    ``(k, 3)`` the change of the first-order maxima of ``dx, dy, dphi`` over the box that bound adds (a
-    cheap estimate of how far it stays above the first-order maximum: where that alone does not close, the
-    second-order bound is not worth its cost).
+    Returns two arrays: the bounds above and, with ``tight`` (True, or ``(k, 4)`` booleans: the quantities
+    wanted per box), ``(k, 4)`` bounds of the exact maxima themselves over each box by the second-order model
+    (module docstring, "Second-order bound"; ``inf`` where not computed or not certified); without it, ``(k, 3)``
+    the change of the first-order maxima of ``dx, dy, dphi`` over the box that bound adds (a cheap estimate of
+    how far it stays above the first-order maximum: where that alone does not close, the second-order bound is
+    not worth its cost).
     """
     boxes = np.asarray(boxes, dtype=float).reshape(-1, 6)
     mode = np.ndim(tight) > 0 or bool(tight)
