@@ -13,6 +13,7 @@ import pytest
 import error_reference as eref
 import nonlinear_search_reference as nsr
 import planar_reference as pref
+from test_global_worst import run  # the CLI in-process: (status, stdout, stderr)
 from pmaccuracy.accuracy import certified as C
 from pmaccuracy.accuracy.global_worst import global_worst, make_region
 from pmaccuracy.accuracy.regions import Rect
@@ -93,28 +94,17 @@ def test_default_robot_exact_worst_case_of_the_workspace():
     assert res.exact and not fo.exact
 
 
-def _cli(argv, capsys):
-    from pmaccuracy.cli import main
-
-    try:
-        status = main(argv)
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
 def test_cli_worst_certified(capsys):
     """``worst --certified`` prints the exact model's certified worst case: every upper bound at least the
     per-pose certified bound at the first-order worst pose the plain ``worst`` reports (an independent path)."""
     import json
 
     argv = ["worst", "--phi-deg", "0", "0", "--clearances", "case2", "--grid", "21", "3", "--format", "json"]
-    status, out, err = _cli(argv + ["--certified"], capsys)
+    status, out, err = run(argv + ["--certified"], capsys)
     assert status == 0, err
     data = json.loads(out)
     assert data["model"] == "exact" and data["target_gap_pct"] == 1.0
-    status, out, _ = _cli(argv, capsys)
+    status, out, _ = run(argv, capsys)
     first = json.loads(out)
     assert first["model"] == "first-order" and first["target_gap_pct"] == 0.1
     poses = np.array([[r["x"], r["y"], np.radians(r["phi_deg"])] for r in first["quantities"]])
@@ -129,7 +119,7 @@ def test_cli_worst_certified(capsys):
 @pytest.mark.parametrize("extra,key", [(["--gap-pct", "0"], "--gap-pct"),
                                        (["--largest-disc", "0", "0", "--target", "dp=0.3"], "--certified")])
 def test_cli_worst_certified_bad_options(capsys, extra, key):
-    status, out, err = _cli(["worst", "--phi-deg", "0", "0", "--certified"] + extra, capsys)
+    status, out, err = run(["worst", "--phi-deg", "0", "0", "--certified"] + extra, capsys)
     assert status == 2 and not out
     assert len(err.strip().splitlines()) == 1 and key in err and "Traceback" not in err
 

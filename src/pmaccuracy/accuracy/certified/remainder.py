@@ -169,23 +169,8 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
 
     def close():
         """The box ``b`` ``(N, 9)`` (fixed point of Phi from 0, inflated), whether ``Phi(b) <= b`` and the
-        contraction constant of (2) over it."""
-        b = np.zeros((N, 9))
-        with np.errstate(all="ignore"):
-            for _ in range(max_iterations):
-                nb = phi2(b)
-                if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
-                    b = nb
-                    break
-                b = nb
-            b = b * (1 + 1e-6) + 1e-15 * scale
-            fixed = np.all(phi2(b) <= b, axis=-1) & np.all(np.isfinite(b), axis=-1)
-            X, D = terms(b)
-            # Lipschitz constant of (2) in w over the box, in the norm max_j |w_j| / b_j
-            lip_leg = np.einsum("nmj,nm,mi->nij", arz, X, onehot) + np.einsum(
-                "nmj,nm,mi->nij", atz, D + ar0 * X, onehot)  # (N, 3 legs, 9)
-            L = np.einsum("nji,nil,nl->nj", akap, lip_leg, b) / b
-        return b, fixed, np.max(L, axis=-1)
+        contraction constant of (2) over it (:func:`close_box`)."""
+        return close_box(phi2, terms, arz, atz, ar0, akap, onehot, scale, max_iterations)
 
     b, fixed, contraction = close()
     if lazy_box:  # the box of (3) alone where it closes and contracts; the second bound where it does not
@@ -313,6 +298,34 @@ def _certify(model: _Model, sets, scale: float, offset: np.ndarray | None = None
 
 #: Every COARSE_STEP-th of the :data:`N_DIRECTIONS` directions of ``|dp|`` is bounded first (:func:`_direction_bounds`).
 COARSE_STEP = 8
+
+
+def close_box(phi, terms, arz: np.ndarray, atz: np.ndarray, ar0: np.ndarray, akap: np.ndarray,
+              onehot: np.ndarray, scale: float, max_iterations: int = 60) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The remainder box of equation (3): ``b`` ``(N, 9)`` iterated ``b <- phi(b)`` from 0 (monotone) to its fixed
+    point and inflated (``1e-6`` relative, ``1e-15 * scale``), whether ``phi(b) <= b`` (the map (2) sends the box
+    into itself) and the Lipschitz constant ``(N,)`` of (2) in ``w`` over it in the norm ``max_j |w_j| / b_j``
+    (from ``|d R_m / d w| <= |r'_z| X_m + |theta'_z| (D_m + |r_m0| X_m)``, package docstring).
+
+    ``terms(b)`` gives ``X_m, D_m`` ``(N, m)``; ``arz, atz`` ``(N, m, 9)`` are ``|r'_m,z|, |theta'_m,z|``, ``ar0``
+    ``(N, m)`` ``|r_m0|``, ``akap`` ``(N, 9, 3)`` ``|kappa_ji|``, ``onehot`` ``(m, 3)`` the legs of the terms (at a
+    pose, or bounds of them over a box of poses: :mod:`pmaccuracy.accuracy.certified.region`)."""
+    N = akap.shape[0]
+    b = np.zeros((N, 9))
+    with np.errstate(all="ignore"):
+        for _ in range(max_iterations):
+            nb = phi(b)
+            if np.all(np.abs(nb - b) <= 1e-12 * np.maximum(nb, 1e-300)):
+                b = nb
+                break
+            b = nb
+        b = b * (1 + 1e-6) + 1e-15 * scale
+        fixed = np.all(phi(b) <= b, axis=-1) & np.all(np.isfinite(b), axis=-1)
+        X, D = terms(b)
+        lip_leg = np.einsum("nmj,nm,mi->nij", arz, X, onehot) + np.einsum(
+            "nmj,nm,mi->nij", atz, D + ar0 * X, onehot)  # (N, 3 legs, 9)
+        L = np.einsum("nji,nil,nl->nj", akap, lip_leg, b) / b
+    return b, fixed, np.max(L, axis=-1)
 
 
 def _direction_bounds(bound, P: int) -> np.ndarray:
