@@ -78,7 +78,8 @@ def test_results_json_has_the_section(report):
     out, results, d = report
     data = json.loads((out / "results.json").read_text())
     assert data["design_decisions"] == json.loads(json.dumps(d, allow_nan=False))
-    assert set(d) == {"settings", "certified", "global_worst", "synthesis", "statistics", "iso9283", "certified_map",
+    assert set(d) == {"settings", "certified", "certified_errors", "global_worst", "synthesis", "statistics", "iso9283",
+                      "certified_map",
                       "seconds"}
     assert set(d["global_worst"]) == set(d["statistics"]) == {"case1", "case2"}
     assert set(d["synthesis"]) == {"uniform", "min-cost"}
@@ -137,7 +138,7 @@ def test_certified_map_of_the_workspace(report):
         ref = nsr.dense_search(data, pose, spec, n_random=200, dense=6)
         assert ref["dp"] <= cert.dp_max.values[k][iy, ix] <= ref["dp"] * 1.005
     md = (out / "report.md").read_text()
-    assert "**Certified maps.**" in md and "design_certified_map.png" in md
+    assert "**(a') Certified maps.**" in md and "design_certified_map.png" in md
     assert (out / "design_certified_map.png").read_bytes()[:8] == PNG
 
 

@@ -183,6 +183,22 @@ def closure_state(robot: Manipulator, poses: np.ndarray, config, start: np.ndarr
             step = np.linalg.solve(jacobian(z), r[..., None])[..., 0]
         z = z - step
     r = _closure_residual(robot, z, q_act, config)
-    if not np.all(np.abs(r) < 1e-8):
-        raise NoSolutionError("the perturbed loops cannot be closed: the errors are too large for this pose")
+    closed = np.all(np.abs(r) < 1e-8, axis=-1)
+    if not np.all(closed):
+        raise NoSolutionError("the perturbed loops cannot be closed at " + _poses_text(poses, ~closed)
+                              + ": the errors are too large there (or the pose is near a singularity)")
     return z, (jacobian(z) if with_jacobian else None)
+
+
+def _poses_text(poses: np.ndarray, bad: np.ndarray, shown: int = 3) -> str:
+    """``"pose (x, y, phi_deg)"`` of the first ``shown`` poses ``(..., 3)`` [mm, mm, rad] where ``bad``, and how
+    many more: the poses an error message names.
+
+    >>> _poses_text(np.array([[1.0, 2.0, 0.0], [3.0, 4.0, 0.5]]), np.array([False, True]))
+    'pose (3, 4, 28.65 deg)'
+    """
+    pts = np.asarray(poses, dtype=float).reshape(-1, 3)[np.asarray(bad).reshape(-1)]
+    text = ", ".join(f"({x:.4g}, {y:.4g}, {np.degrees(phi):.4g} deg)" for x, y, phi in pts[:shown])
+    more = f" and {len(pts) - shown} more" if len(pts) > shown else ""
+    return ("pose " if len(pts) == 1 else "poses ") + text + more
+

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from . import _common
@@ -33,6 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
     p.add_argument("--no-design", action="store_true", help="skip the design section of the accuracy report")
     add_shape(p)   # the design section's region: --workspace (default), --box, --disc, --polygon
+    p.add_argument("--strict", action="store_true",
+                   help="a section that cannot be computed is an error (exit 2) instead of a box in the report "
+                        "and a warning")
     p.set_defaults(func=run)
 
 
@@ -68,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,
                                   experiment=not args.no_experiment, design=not args.no_design, targets=targets,
-                                  phi_range_deg=phi_range, command=_common.command_line(args), region=shape)
+                                  phi_range_deg=phi_range, command=_common.command_line(args), region=shape,
+                                  strict=args.strict, stream=sys.stderr)
         print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s): {robot.name} with "
               f"{results['clearances']}")
         return 0
@@ -81,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--no-design applies to the accuracy report (with --clearances)", key="--no-design")
     results = reproduce(Path(args.out), robot, args.grid, seed=args.seed,
                         experiment=not args.no_experiment, command=_common.command_line(args), targets=targets,
-                        phi_range_deg=phi_range, region=shape)
+                        phi_range_deg=phi_range, region=shape, strict=args.strict, stream=sys.stderr)
     ok = sum(c["pass"] for c in results["paper_check"])
     print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s); paper check: {ok} of "
           f"{len(results['paper_check'])} values within 1 %")

@@ -28,6 +28,7 @@ from ..accuracy.bounds import max_pose_errors
 from ..model.clearances import ClearanceSet
 from .design_report import PHI_RANGE_DEG as DESIGN_PHI_RANGE, TARGETS as DESIGN_TARGETS, design_section
 from .document import Document, provenance
+from .sections import Section, SectionRunner
 from .load_report import load_section
 from ..accuracy.error_model import assembly_errors, pose_error
 from ..model.manipulator import Manipulator
@@ -78,7 +79,8 @@ _FIGURES, _EXPERIMENT_FIGURES = 9, 10
 def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", grid: int = 101, *,
               seed: int = 0, experiment: bool = True, workers: int = 2, progress: bool | None = None,
               command: str | None = None, targets: dict | None = None,
-              phi_range_deg: tuple[float, float] | None = None, region=None) -> dict:
+              phi_range_deg: tuple[float, float] | None = None, region=None, strict: bool = False,
+              stream=None) -> dict:
     """Build the whole reproduction report in ``out_dir`` and return ``results.json``'s content.
 
     Figures are built and saved by ``workers`` processes (:class:`pmaccuracy.report.figures.Renderer`;
@@ -87,7 +89,10 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
     that asked for it, is printed in the footer with the version. ``targets`` (``{"dp": mm, "dphi_deg": deg}``)
     and ``phi_range_deg`` set the design section's synthesis and orientation interval (default
     :data:`pmaccuracy.report.design_report.TARGETS` and ``PHI_RANGE_DEG``) and ``region`` its positions (a
-    shape of :mod:`pmaccuracy.accuracy.regions` or a box; default the whole workspace).
+    shape of :mod:`pmaccuracy.accuracy.regions` or a box; default the whole workspace). A section that cannot
+    be computed is replaced by a box naming it and the reason (:class:`pmaccuracy.report.sections.SectionRunner`;
+    ``strict=True`` raises instead); ``stream`` (e.g. ``sys.stderr``) receives each section's estimated time
+    before they run.
     """
     import sys
 
@@ -123,21 +128,38 @@ def reproduce(out_dir: str | Path, robot: str | Manipulator = "aalborg_3ppr", gr
         bar.update()
 
         _summary(doc, robot, cases, check)
-        for section in (lambda: _robot_section(doc, robot, out, results, renderer),
-                        lambda: _maps_section(doc, maps, out, renderer),
-                        lambda: _paper_section(doc, check, robot),
-                        lambda: _sources_section(doc, source_jobs, results),
-                        lambda: _assembly_section(doc, robot, phis, grid, out, results, renderer),
-                        lambda: _design_section(doc, robot, design_jobs, out, results, renderer),
-                        lambda: design_section(doc, robot, out, results, renderer, seed=seed,
-                                               targets=targets or DESIGN_TARGETS,
-                                               phi_range_deg=phi_range_deg or DESIGN_PHI_RANGE,
-                                               region=region),
-                        lambda: load_section(doc, robot, out, results, renderer, paper=PAPER_SIMULATED)):
-            section()
-            bar.update()
+        runner = SectionRunner(doc, results, progress=False, strict=strict)
+        sections = [
+            Section("The manipulator and its workspace",
+                    lambda: _robot_section(doc, robot, out, results, renderer), 1.0, short="workspace"),
+            Section("Maximum pose errors over the workspace (paper Figs. 9-12)",
+                    lambda: _maps_section(doc, maps, out, renderer), 0.5, short="maps"),
+            Section("Comparison with the values the paper reports", lambda: _paper_section(doc, check, robot), 0.1,
+                    short="paper check"),
+            Section("Which clearance matters", lambda: _sources_section(doc, source_jobs, results), 1.0,
+                    short="sources"),
+            Section("Pose offset caused by the measured assembly errors (Table 2)",
+                    lambda: _assembly_section(doc, robot, phis, grid, out, results, renderer), 1.0,
+                    short="assembly errors"),
+            Section("Design comparison", lambda: _design_section(doc, robot, design_jobs, out, results, renderer),
+                    1.0, short="design comparison"),
+            Section("Design decisions: certified worst cases, global maxima, tolerance synthesis, statistics",
+                    lambda: design_section(doc, robot, out, results, renderer, seed=seed,
+                                           targets=targets or DESIGN_TARGETS,
+                                           phi_range_deg=phi_range_deg or DESIGN_PHI_RANGE, region=region), 8.0,
+                    short="design decisions"),
+            Section("Clearances under load: the paper's pushes from physics, and a preload",
+                    lambda: load_section(doc, robot, out, results, renderer, paper=PAPER_SIMULATED), 2.0,
+                    short="loads")]
         if experiment:
-            _experiment_section(doc, robot, out, results, seed, renderer)
+            sections.append(Section("Virtual experiment: simulated measurements and comparison statistics "
+                                    "(paper Sec. 5-6)",
+                                    lambda: _experiment_section(doc, robot, out, results, seed, renderer), 3.0,
+                                    short="virtual experiment"))
+        if stream is not None:
+            print(runner.plan_text(sections), file=stream, flush=True)
+        for section in sections:
+            runner.run_one(section)
             bar.update()
     results["elapsed_s"] = round(time.perf_counter() - t0, 2)
     _method_section(doc, results)

@@ -22,8 +22,9 @@ import numpy as np
 from .. import __version__
 from . import figures
 from ..accuracy.bounds import max_pose_errors
-from .design_report import design_section, home_pose
+from .design_report import as_shape, describe_region, design_section, home_pose
 from .document import Document, provenance
+from .sections import ReportDependencyError, Section, SectionRunner
 from ..model.manipulator import Manipulator
 from ..kinematics import inverse_kinematics, regular_mask
 from ..accuracy.maps import MAP_VARIABLES, error_map, save_map, summarize
@@ -54,21 +55,41 @@ def only(sources: ErrorSources, keys: tuple[str, ...]) -> ErrorSources:
     return ErrorSources(legs=tuple(tuple(keep(j) for j in leg) for leg in sources.legs), name=sources.name)
 
 
+#: The report's section headings (a failed section keeps its heading above the box that replaces it).
+TITLES = {"summary": "Summary", "robot": "The manipulator and its workspace",
+          "maps": "Maximum pose errors over the workspace", "sources": "What each kind of error source contributes",
+          "nonlinear": "Exact nonlinear check of the worst cases",
+          "experiment": "Virtual experiment: simulated pushes (the paper's protocol)",
+          "design": "Design decisions: certified worst cases, global maxima, tolerance synthesis, statistics"}
+#: Seconds per grid point of a first-order map and fixed seconds of each section, measured on the project's
+#: 2-core machine (cold process): the estimates printed before the report runs (never used for a decision).
+MAP_SECONDS_PER_POINT = 1.5e-6
+FIXED_SECONDS = {"summary": 1.0, "robot": 1.5, "maps": 1.0, "sources": 2.0, "nonlinear": 0.5, "experiment": 4.0,
+                 "design": 12.0, "synthesis": 10.0}
+
+
 def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, grid: int = 101, *,
                     phis_deg: tuple[float, ...] = REPORT_PHIS_DEG, seed: int = 0, experiment: bool = True,
                     workers: int = 2, design: bool = True, targets: dict | None = None,
                     phi_range_deg: tuple[float, float] | None = None, command: str | None = None,
-                    region=None) -> dict:
+                    region=None, strict: bool = False, stream=None, progress: bool | None = None) -> dict:
     """Write the accuracy report of ``robot`` with ``clearances`` in ``out_dir``; returns ``results.json``'s content.
 
     ``clearances`` is a per-joint clearance file or preset, or the 3-PPR format
     for a 3-PPR (converted to per-joint sources). With ``design`` the report ends with the design decisions
     (:func:`pmaccuracy.report.design_report.design_section` on these clearances): certified worst cases at
-    named poses, the certified worst case over the workspace for phi in ``phi_range_deg`` (deg; default the
+    named poses, the certified worst case over ``region`` for phi in ``phi_range_deg`` (deg; default the
     range of ``phis_deg``), tolerance synthesis for ``targets`` (``{"dp": mm, "dphi_deg": deg, ...}``; none:
-    skipped, and the verdict says so) and statistics, over ``region`` (a shape of
-    :mod:`pmaccuracy.accuracy.regions` or a box; default the workspace). ``command`` (the command line) goes to
-    the footer.
+    skipped, and the verdict says so) and statistics; ``region`` (a shape of :mod:`pmaccuracy.accuracy.regions`
+    or a box; default the workspace) also sets the summary's headline values. ``command`` (the command line) goes
+    to the footer.
+
+    The sections run one after the other through :class:`pmaccuracy.report.sections.SectionRunner`: a section
+    that fails (a pose where the loops cannot close, a singular region) is replaced by a box naming it and the
+    reason, listed in ``results["failed_sections"]`` and announced by a
+    :class:`~pmaccuracy.report.sections.SectionFailedWarning`; ``strict=True`` raises instead. ``stream`` (e.g.
+    ``sys.stderr``) receives the estimate of each section before they run and, on a terminal or with
+    ``progress=True``, a progress bar.
     """
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -78,26 +99,52 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
     if not isinstance(sources, ErrorSources):
         sources = ErrorSources.from_clearance_set(sources)
     phis = np.radians(np.asarray(phis_deg, dtype=float))
+    shape = as_shape(region)
     doc = Document(f"pmaccuracy: accuracy of {robot.name} ({robot.architecture}) with clearances {sources.name}",
                    footer=provenance(command, __version__))
     phi_range = tuple(phi_range_deg) if phi_range_deg is not None else (min(phis_deg), max(phis_deg))
     results: dict = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
-                     "version": __version__, "grid": grid}
-    with figures.Renderer(workers) as renderer:
+                     "version": __version__, "grid": grid, "region": describe_region(shape)}
+    runner = SectionRunner(doc, results, stream=stream, progress=progress, strict=strict)
+    state: dict = {}
+
+    def needs_maps():
+        if "ds" not in state:
+            raise ReportDependencyError("needs the maps of section 'Maximum pose errors over the workspace', "
+                                        "which could not be computed")
+        return state["ds"]
+
+    def maps():
         ds = error_map(robot, sources, phis, grid, progress=False)
         save_map(ds, out / "map.nc")
-        summary = summarize(ds)
-        results["cases"] = {sources.name: summary}
-        _summary(doc, robot, sources, summary)
-        _robot_section(doc, robot, phis_deg, out, results, renderer)
-        _maps_section(doc, ds, sources, out, renderer)
-        _sources_section(doc, robot, sources, phis, grid, results, out, renderer)
-        _nonlinear_section(doc, robot, sources, ds, results)
+        state["ds"] = ds
+        results["cases"] = {sources.name: summarize(ds)}
+        _summary(doc, robot, sources, phis, grid, shape, results)
+
+    map_s = MAP_SECONDS_PER_POINT * grid * grid * len(phis)
+    with figures.Renderer(workers) as renderer:
+        sections = [
+            Section(TITLES["summary"], maps, FIXED_SECONDS["summary"] + map_s, heading=False,
+                    short="maps"),
+            Section(TITLES["robot"], lambda: _robot_section(doc, robot, phis_deg, out, results, renderer),
+                    FIXED_SECONDS["robot"], short="workspace"),
+            Section(TITLES["maps"], lambda: _maps_section(doc, needs_maps(), sources, out, renderer),
+                    FIXED_SECONDS["maps"], short="map figures"),
+            Section(TITLES["sources"], lambda: _sources_section(doc, robot, sources, phis, grid, results, out,
+                                                                renderer),
+                    FIXED_SECONDS["sources"] + 5 * map_s / 9, short="sources"),
+            Section(TITLES["nonlinear"], lambda: _nonlinear_section(doc, robot, sources, needs_maps(), results),
+                    FIXED_SECONDS["nonlinear"], short="nonlinear check")]
         if experiment:
-            _experiment_section(doc, robot, sources, float(phis[0]), seed, out, results, renderer)
+            sections.append(Section(TITLES["experiment"], lambda: _experiment_section(
+                doc, robot, sources, float(phis[0]), seed, out, results, renderer), FIXED_SECONDS["experiment"],
+                short="virtual experiment"))
         if design:
-            design_section(doc, robot, out, results, renderer, seed=seed, cases={sources.name: sources},
-                           targets=targets, phi_range_deg=phi_range, region=region)
+            sections.append(Section(TITLES["design"], lambda: design_section(
+                doc, robot, out, results, renderer, seed=seed, cases={sources.name: sources}, targets=targets,
+                phi_range_deg=phi_range, region=region),
+                FIXED_SECONDS["design"] + (FIXED_SECONDS["synthesis"] if targets else 0.0), short="design"))
+        runner.run(sections)
     results["elapsed_s"] = round(time.perf_counter() - t0, 2)
     _method_section(doc)
     (out / "results.json").write_text(json.dumps(results, indent=2, default=float))
@@ -107,16 +154,24 @@ def accuracy_report(out_dir: str | Path, robot: str | Manipulator, clearances, g
 
 
 def _range(pair, digits: int = 4) -> str:
-    lo, hi = pair
-    return f"{lo:.{digits}g} - {hi:.{digits}g}" if abs(hi - lo) > 1e-12 * max(abs(hi), 1) else f"{hi:.{digits}g}"
+    """``"lo - hi"`` at ``digits`` significant digits, or one value when both ends print the same."""
+    lo, hi = (f"{v:.{digits}g}" for v in pair)
+    return hi if lo == hi else f"{lo} - {hi}"
 
 
-def _summary(doc: Document, robot: Manipulator, sources: ErrorSources, summary: dict) -> None:
+def _summary(doc: Document, robot: Manipulator, sources: ErrorSources, phis: np.ndarray, grid: int, shape,
+             results: dict) -> None:
+    """The report's opening: what was analysed and the headline ranges over the region the user gave (the
+    workspace by default), kept in ``results["headline"]``."""
     doc.paragraph(f"Exact worst-case pose errors of `{robot.name}`, a {robot.architecture} "
                   f"({', '.join(c.label for c in robot.chains)}; an underscore marks the actuated joint), with the "
                   f"error sources `{sources.name}`. Lengths in mm, angles in degrees.")
+    where = describe_region(shape)
+    summary = results["cases"][sources.name] if shape is None else \
+        summarize(error_map(robot, sources, phis, grid, progress=False, region=shape))
+    results["headline"] = {"over": where, "orientations": summary}
     doc.bullets([f"phi = {phi} deg: dp_max {_range(v['dp_max'])} mm, dphi_max {_range(v['dphi_max_deg'])} deg over "
-                 "the workspace" for phi, v in summary.items()])
+                 f"{where}" for phi, v in summary.items()])
 
 
 def _robot_section(doc, robot, phis_deg, out, results, renderer) -> None:
@@ -131,9 +186,9 @@ def _robot_section(doc, robot, phis_deg, out, results, renderer) -> None:
     doc.table(["leg", "joints", "base [mm]", "base angle [deg]", "platform point [mm]", "actuated range",
                "working mode"], rows)
     path = renderer.submit(out / "workspace.png", save_workspace_figure, robot, out / "workspace.png",
-                           phis_deg=tuple(phis_deg) + (-30.0,))
+                           phis_deg=tuple(phis_deg))
     ws_rows, ws_json = [], {}
-    for phi_deg in tuple(phis_deg) + (-30.0,):
+    for phi_deg in tuple(phis_deg):
         ws = constant_orientation_workspace(robot, np.radians(phi_deg))
         (x0, x1), (y0, y1) = ws.bounds
         ws_rows.append([f"{phi_deg:g}", ws.area, f"[{x0:.2f}, {x1:.2f}]", f"[{y0:.2f}, {y1:.2f}]"])

@@ -30,6 +30,7 @@ nav.toc { background: #f7f7f7; border: 1px solid #ddd; padding: .4em 1em; margin
 nav.toc ul { margin: .3em 0; padding-left: 0; list-style: none; }
 footer { margin-top: 3em; padding-top: .5em; border-top: 1px solid #bbb; font-size: 0.9em; color: #444; }
 .ok { color: #1a7f37; font-weight: bold; } .bad { color: #b42318; font-weight: bold; }
+.failed { border: 2px solid #b42318; background: #fef3f2; padding: .6em 1em; margin: 1em 0; }
 code { background: #f4f4f4; padding: 0 .2em; }
 @media (max-width: 600px) { body { margin: 1em auto; padding: 0 .6em; } h1 { font-size: 1.4em; } }
 """
@@ -87,6 +88,11 @@ class Document:
         self.blocks.append(("figure", (Path(path), f"Figure {self._figures}. {caption}")))
         return self._figures
 
+    def failure(self, section: str, reason: str, *, seconds: float | None = None) -> None:
+        """A box in place of a section (or part) that could not be computed: its name and the reason."""
+        took = "" if seconds is None else f" (after {seconds:.1f} s)"
+        self.blocks.append(("failure", (f"{section}: not computed{took}.", reason)))
+
     def _headings(self) -> list[tuple[str, str]]:
         """``(anchor, text)`` of every level-2 heading, in order."""
         out = []
@@ -113,6 +119,9 @@ class Document:
                 out.append("|" + "|".join("---" for _ in header) + "|")
                 out += ["| " + " | ".join(_cell(c).replace("|", "\\|") for c in row) + " |" for row in rows]
                 out.append("")
+            elif kind == "failure":
+                head, reason = payload
+                out += [f"> **{head}** {reason}", ""]
             elif kind == "figure":
                 path, caption = payload
                 shown = path.relative_to(relative_to) if relative_to and path.is_relative_to(relative_to) else path
@@ -151,6 +160,9 @@ class Document:
                              + "".join(f"<th>{_inline(h)}</th>" for h in header) + "</tr></thead><tbody>")
                 parts += ["<tr>" + "".join(f"<td>{_inline(_cell(c))}</td>" for c in row) + "</tr>" for row in rows]
                 parts.append("</tbody></table></div>")
+            elif kind == "failure":
+                head, reason = payload
+                parts.append(f"<div class='failed' role='note'><b>{html.escape(head)}</b> {_inline(reason)}</div>")
             elif kind == "figure":
                 path, caption = payload
                 data = base64.b64encode(Path(path).read_bytes()).decode("ascii")

@@ -70,14 +70,15 @@ def _stated_error(ds, name: str) -> float | None:
 def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, samples: int = 10_000,
                        pose_samples: int = 100_000, seed: int | None = 0, pose=None,
                        distribution: Distribution | str | None = None, threshold_dp: float | None = None,
-                       figure: str | Path | None = None) -> dict[str, Any]:
+                       figure: str | Path | None = None, region=None) -> dict[str, Any]:
     """Everything a report section on the error statistics needs, JSON-ready.
 
     At ``pose`` ``(3,)`` [mm, mm, rad] (default: the commanded pose ``(0, 0, phi)``) the
     :func:`pose_statistics` with ``pose_samples`` samples; over the workspace at ``phi`` (rad) the
     :func:`summarize_region` of an ``grid x grid`` percentile map (95th percentile) with ``samples``
     samples; ``threshold_dp`` (mm, default: the worst case of dp at the pose, halved) for the exceedance
-    probabilities; with ``figure`` the :func:`save_percentile_map_figure` written there.
+    probabilities; with ``figure`` the :func:`save_percentile_map_figure` written there. ``region`` (a shape of
+    :mod:`pmaccuracy.accuracy.regions`, mm) limits the map to that shape (default: the whole workspace).
     Returns ``{"pose": ..., "region": ..., "figure": path or None}``.
     """
     pose = np.array([0.0, 0.0, phi]) if pose is None else np.asarray(pose, dtype=float)
@@ -88,7 +89,7 @@ def statistics_section(robot, clearances, phi: float = 0.0, *, grid: int = 21, s
     at_pose = pose_statistics(robot, clearances, pose, samples=pose_samples, seed=seed, distribution=distribution,
                               thresholds={"dp": threshold_dp}).to_dict()
     ds = region_statistics(robot, clearances, [phi], grid, samples=samples, seed=seed, distribution=distribution,
-                           percentiles=(95.0,), thresholds={"dp": threshold_dp})
+                           percentiles=(95.0,), thresholds={"dp": threshold_dp}, region=region)
     path = save_percentile_map_figure(ds, figure) if figure is not None else None
     return {"pose": at_pose, "region": summarize_region(ds), "threshold_dp": threshold_dp,
             "figure": None if path is None else str(path)}
