@@ -1,7 +1,7 @@
 """The package's layers: every import points down, and no modules import each other in a cycle.
 
 Read from the source (``ast``), so imports inside functions count as much as those at the top of a module.
-Layers, lowest first (README, "Layout"); a module may import from its own layer and the layers below:
+Layers, lowest first (docs/guide/layout.md); a module may import from its own layer and the layers below:
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ from ..errors import PmAccuracyError
 
 #: Commands in help order: name -> (module of ``pmaccuracy.cli`` registering it, one-line help).
 #: The help lines let ``pmaccuracy --help`` list every command without importing any command module;
-#: ``tests/test_cli_lazy.py`` checks that they equal what each module registers.
+#: ``tests/io/test_csvio.py`` checks that they equal what each module registers.
 COMMANDS = {
     "ik": ("kinematics_cmd", "inverse kinematics: actuated and passive joint values of poses (any architecture)"),
     "fk": ("kinematics_cmd", "forward kinematics: every assembly mode for actuator values (any architecture)"),
