@@ -25,6 +25,7 @@ napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 napoleon_use_rtype = False
 myst_heading_anchors = 3
+myst_enable_extensions = ["dollarmath"]   # $\delta x_{max}$ in the guide, as GitHub renders it
 # Console blocks are plain text (no lexer).
 suppress_warnings = ["misc.highlighting_failure"]
 
