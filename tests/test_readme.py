@@ -19,8 +19,10 @@ The documents: ``README.md``, then the guide's pages (``docs/guide/*.md``) in th
 * Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in the same folder
   after the console blocks of every document (so ``map.nc`` etc. may be overwritten freely).
 
-The whole module costs about 55 s of CPU (about 45 commands, each a fresh interpreter; the vision examples
-about 22 s of it), 90-100 s of wall time on a loaded 2-core machine.
+The whole module costs about 75 s of CPU (71 commands run, each a fresh interpreter; the vision examples
+about 22 s of it; the README alone had 67 s before the guide pages were added, with the same examples but
+the ten of the walk-through and of one example per architecture), 90 s of wall time on a quiet 2-core
+machine and up to 4 minutes when the cores are shared with several other jobs (load average 10).
 """
 
 from __future__ import annotations
