@@ -19,10 +19,10 @@ The documents: ``README.md``, then the guide's pages (``docs/guide/*.md``) in th
 * Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in the same folder
   after the console blocks of every document (so ``map.nc`` etc. may be overwritten freely).
 
-The whole module costs about 75 s of CPU (71 commands run, each a fresh interpreter; the vision examples
-about 22 s of it; the README alone had 67 s before the guide pages were added, with the same examples but
-the ten of the walk-through and of one example per architecture), 90 s of wall time on a quiet 2-core
-machine and up to 4 minutes when the cores are shared with several other jobs (load average 10).
+The whole module costs about 77 s of CPU (71 commands run, each a fresh interpreter; the vision examples
+about 22 s of it). Measured with the 2 cores shared by other jobs (load average about 10): 241 s of wall
+time, where the README's examples alone, before they were split between the README and the guide and the
+walk-through and the per-architecture examples added, took 67 s of CPU and 168 s of wall time.
 """
 
 from __future__ import annotations
