@@ -23,7 +23,7 @@ demo: $(VENV)/.installed
 	$(BIN)/pmaccuracy reproduce --out $(OUT)
 
 # The CI suite on every core (at most 4 workers), without the tests marked slow (longer sweeps of claims that
-# faster tests also check); `make test-all` runs every test. Times: README "Tests".
+# faster tests also check); `make test-all` runs every test.
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q -n auto --maxprocesses=4 -m "not slow"
 
@@ -34,7 +34,7 @@ $(VENV)/.installed-docs: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[all,docs]"
 	touch $@
 
-# The documentation site (API pages from the docstrings, the README as the guide), offline, warnings as errors.
+# The documentation site (the guide pages of docs/guide/ and API pages from the docstrings), offline, warnings as errors.
 docs: $(VENV)/.installed-docs
 	rm -rf docs/generated docs/_build
 	$(BIN)/python -m sphinx -W --keep-going -q -b html docs docs/_build/html

@@ -2,7 +2,7 @@
 
 Well-conditioned random 3-RPR and 3-RRR robots (the test suite's generators, ``tests/reference``) over boxes
 of +-6 mm and a few degrees about their nominal pose, with random clearances of every joint; and the
-presets' regions quoted in the README. Prints, per region, the wall time, the boxes evaluated and the gaps
+presets' regions quoted in the guide (docs/guide/commands.md, docs/guide/methods.md). Prints, per region, the wall time, the boxes evaluated and the gaps
 reached at the default 0.1 % (issue 27: certified in under 10 s). With ``--exact GAP_PCT`` each region is also
 certified for the exact loop closure (``worst --certified``, ``global_worst(..., exact=True)``) at that gap,
 with its time as a ratio to the first-order run measured just before.

@@ -25,8 +25,9 @@ napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 napoleon_use_rtype = False
 myst_heading_anchors = 3
-# The README's headings start at level 1 and its console blocks are plain text.
-suppress_warnings = ["myst.header", "myst.xref_missing", "misc.highlighting_failure"]
+myst_enable_extensions = ["dollarmath"]   # $\delta x_{max}$ in the guide, as GitHub renders it
+# Console blocks are plain text (no lexer).
+suppress_warnings = ["misc.highlighting_failure"]
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"pmaccuracy {release}"

@@ -280,9 +280,9 @@ def bad_robot(request: pytest.FixtureRequest, tmp_path: Path) -> BadRobotFile:
     return BadRobotFile(request.param, write_bad_robot(request.param, tmp_path))
 
 
-#: Tests that run longest alone (each over a minute on one core: the README's 57 console examples): they start
+#: Tests that run longest alone (each over a minute on one core: the console examples of the README and the guide): they start
 #: first, so that under ``pytest -n`` the other workers share the rest meanwhile instead of waiting for them at the end.
-LONGEST_FIRST = ("tests/test_readme.py::test_readme_examples_run_verbatim",)
+LONGEST_FIRST = ("tests/test_readme.py::test_documented_examples_run_verbatim",)
 
 
 def pytest_collection_modifyitems(config, items):

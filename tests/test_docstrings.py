@@ -10,11 +10,9 @@ import pkgutil
 import pytest
 
 import pmaccuracy
-from pmaccuracy._aliases import ALIASES
 
-# every module once: the deprecated aliases of the flat layout are the same module objects
 MODULES = sorted(m.name for m in pkgutil.walk_packages(pmaccuracy.__path__, "pmaccuracy.")
-                 if not m.name.endswith("__main__") and m.name.removeprefix("pmaccuracy.") not in ALIASES)
+                 if not m.name.endswith("__main__"))
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -43,6 +43,30 @@ def test_every_public_name_resolves_and_is_listed():
         pm.no_such_name  # noqa: B018
 
 
+def test_dir_lists_only_public_names():
+    """``dir(pm)`` shows what a user may call, not the package's helpers, even after submodules were imported."""
+    import pmaccuracy.accuracy.global_worst  # noqa: F401 - a submodule named like a public function
+
+    names = dir(pm)
+    assert set(pm.__all__) <= set(names)
+    assert not {"sys", "types", "importlib", "annotations"} & set(names)
+    assert all(n == "__version__" or not n.startswith("_") for n in names), names
+    for name in names:          # every listed name resolves; submodules are the package's own modules
+        value = getattr(pm, name)
+        assert value is not None and (not hasattr(value, "__path__") or value.__name__ == f"pmaccuracy.{name}")
+    assert callable(pm.global_worst)   # the function, not the module of the same name
+
+
+def test_flat_module_names_are_gone():
+    """The deprecated flat aliases (``pmaccuracy.bounds`` ...) were removed: their new homes import."""
+    import importlib
+
+    for old, new in (("bounds", "accuracy.bounds"), ("geometry", "model.manipulator"), ("maps", "accuracy.maps")):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(f"pmaccuracy.{old}")
+        importlib.import_module(f"pmaccuracy.{new}")
+
+
 def test_front_door_numbers_are_the_modules_numbers():
     a = pm.max_pose_errors("aalborg_3ppr", "case2", POSES)
     b = max_pose_errors(pm.Manipulator.preset("aalborg_3ppr"), pm.ClearanceSet.preset("case2"), POSES)

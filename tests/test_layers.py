@@ -1,7 +1,7 @@
 """The package's layers: every import points down, and no modules import each other in a cycle.
 
 Read from the source (``ast``), so imports inside functions count as much as those at the top of a module.
-Layers, lowest first (README, "Layout"); a module may import from its own layer and the layers below:
+Layers, lowest first (docs/guide/layout.md); a module may import from its own layer and the layers below:
 """
 
 from __future__ import annotations
@@ -12,12 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from pmaccuracy._aliases import ALIASES
-
 SRC = Path(__file__).resolve().parents[1] / "src" / "pmaccuracy"
 
 LAYERS = [
-    ("errors", "_optional", "_display", "_aliases", "_savefig"),
+    ("errors", "_optional", "_display", "_savefig"),
     ("numerics",),
     ("model",),
     ("kinematics",),
@@ -43,9 +41,9 @@ def module_name(path: Path) -> str:
 
 
 def layer_of(module: str) -> int | None:
-    """Index of the layer of ``pmaccuracy.<top>...`` (None for the package root and the deprecated aliases)."""
+    """Index of the layer of ``pmaccuracy.<top>...`` (None for the package root)."""
     parts = module.split(".")
-    if len(parts) < 2 or (len(parts) == 2 and parts[1] in ALIASES):
+    if len(parts) < 2:
         return None
     for k, names in enumerate(LAYERS):
         if parts[1] in names:
@@ -99,7 +97,7 @@ def test_imports_point_down():
 
 
 def _cycle_edges() -> set[tuple[str, str]]:
-    """Edges inside strongly connected components (Tarjan) of the module graph, aliases left out."""
+    """Edges inside strongly connected components (Tarjan) of the module graph."""
     graph = {m: {t for t in ts if layer_of(t) is not None} for m, ts in imports().items() if layer_of(m) is not None}
     index, low, stack, on, comps, counter = {}, {}, [], set(), [], [0]
 
@@ -155,17 +153,3 @@ def test_imports_inside_functions_only_where_lazy_loading_is_the_point():
                     if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith("pmaccuracy")):
                         found.append(f"{mod}:{node.lineno}")
     assert not found, "imports of the package inside functions: " + ", ".join(sorted(found))
-
-
-@pytest.mark.parametrize("name", sorted(ALIASES))
-def test_old_module_names_are_deprecated_aliases(name):
-    import importlib
-    import sys
-    import warnings
-
-    sys.modules.pop(f"pmaccuracy.{name}", None)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        module = importlib.import_module(f"pmaccuracy.{name}")
-    assert module is importlib.import_module(f"pmaccuracy.{ALIASES[name]}")
-    assert any(issubclass(w.category, DeprecationWarning) and ALIASES[name] in str(w.message) for w in caught)

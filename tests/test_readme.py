@@ -1,6 +1,7 @@
-"""The README's examples run verbatim and print what the README shows.
+"""The examples of the README and of the guide's pages run verbatim and print what the documents show.
 
-Rules (also stated in the README's "Command line" section):
+The documents: ``README.md``, then the guide's pages (``docs/guide/*.md``) in the order of the toctree of
+``docs/guide.md``. Rules (also stated in the guide, "How the examples are checked"):
 
 * Every ```` ```console ```` block is a sequence of ``$ COMMAND`` lines, each followed by the
   exact output it prints (stdout and stderr together, as a terminal shows them), up to the next
@@ -10,16 +11,18 @@ Rules (also stated in the README's "Command line" section):
   (OpenCV) varies in the seventh significant digit from run to run, everything else is exact.
 * Every command runs through ``bash`` exactly as written (``# ...`` comments included), with the
   test environment's ``pmaccuracy`` first on ``PATH``, in ONE temporary working folder shared by
-  all blocks, in README order: a later example may read a file an earlier one wrote (``m.csv``,
-  ``cal.toml``, ...). The exit status is not checked, the printed text is.
+  all blocks of all the documents, in document order: a later example may read a file an earlier one
+  wrote (``m.csv``, ``cal.toml``, ...). The exit status is not checked, the printed text is.
 * A command whose comment contains ``not run by tests`` (with the reason: minutes of run time,
   50 GB of disk) is skipped; the test counts the skipped lines and checks that they are exactly
   the marked ones.
 * Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in the same folder
-  after the console blocks (so ``map.nc`` etc. may be overwritten freely).
+  after the console blocks of every document (so ``map.nc`` etc. may be overwritten freely).
 
-The whole module costs about 50 s of CPU (35 commands, each a fresh interpreter; the vision examples
-about 22 s of it), 90 s of wall time on a loaded 2-core machine.
+The whole module costs about 77 s of CPU (71 commands run, each a fresh interpreter; the vision examples
+about 22 s of it). Measured with the 2 cores shared by other jobs (load average about 10): 241 s of wall
+time, where the README's examples alone, before they were split between the README and the guide and the
+walk-through and the per-architecture examples added, took 67 s of CPU and 168 s of wall time.
 """
 
 from __future__ import annotations
@@ -34,15 +37,27 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+GUIDE = ROOT / "docs" / "guide.md"
+COMMANDS_PAGE = ROOT / "docs" / "guide" / "commands.md"
 SKIP_MARK = "not run by tests"
+
+
+def documents() -> list[Path]:
+    """The README, then the guide's pages in the order of ``docs/guide.md``'s toctree."""
+    text = GUIDE.read_text(encoding="utf-8")
+    block = re.search(r"```\{toctree\}\n(.*?)```", text, flags=re.S)
+    assert block, "docs/guide.md has no toctree"
+    pages = [line.strip() for line in block.group(1).splitlines() if line.strip() and not line.startswith(":")]
+    return [README] + [ROOT / "docs" / f"{page}.md" for page in pages]
 
 
 @dataclass(frozen=True)
 class Example:
     """One ``$`` command of a console block and the output lines the README shows after it."""
 
-    line: int          # README line of the ``$``
+    line: int          # document line of the ``$``
     command: str       # continuation lines joined with newlines (bash understands ``\\`` + newline)
     expected: tuple[str, ...]
 
@@ -67,7 +82,7 @@ def _blocks(text: str, lang: str) -> list[tuple[int, list[str]]]:
     return out
 
 
-def console_examples(text: str) -> list[Example]:
+def console_examples(text: str, name: str = "README.md") -> list[Example]:
     """Parse every ```` ```console ```` block of ``text`` into :class:`Example` s, in order."""
     examples: list[Example] = []
     for first, lines in _blocks(text, "console"):
@@ -75,7 +90,7 @@ def console_examples(text: str) -> list[Example]:
         while k < len(lines):
             if not lines[k].startswith("$ "):
                 if lines[k].strip():
-                    raise AssertionError(f"README line {first + k}: output before any '$' command: {lines[k]!r}")
+                    raise AssertionError(f"{name} line {first + k}: output before any '$' command: {lines[k]!r}")
                 k += 1
                 continue
             start = k
@@ -165,31 +180,43 @@ def test_same_output_tolerates_only_last_digits():
     assert not same_output(["a 1"], ["b 1"]) and not same_output(["1"], ["1", ""])
 
 
-def test_readme_examples_run_verbatim(tmp_path):
-    text = README.read_text(encoding="utf-8")
-    examples = console_examples(text)
-    assert len(examples) > 20
-    skipped = [e for e in examples if e.skipped]
+def test_guide_pages_are_all_in_the_toctree():
+    """A page left out of ``docs/guide.md`` would have its examples silently skipped (and warn in sphinx)."""
+    pages = sorted(p.name for p in (ROOT / "docs" / "guide").glob("*.md"))
+    assert sorted(p.name for p in documents()[1:]) == pages
+
+
+def _label(path: Path) -> str:
+    return path.relative_to(ROOT).as_posix()
+
+
+def test_documented_examples_run_verbatim(tmp_path):
+    docs = [(path, path.read_text(encoding="utf-8")) for path in documents()]
+    examples = [(path, ex) for path, text in docs for ex in console_examples(text, _label(path))]
+    assert len(examples) > 40
+    assert len(console_examples(docs[0][1])) >= 5          # the README has its own examples
+    skipped = [ex for _, ex in examples if ex.skipped]
     # the only examples left out: the 50 GB map and the full reports (each minutes or gigabytes)
     assert len(skipped) <= 4, [e.command for e in skipped]
     assert all(re.search(r"#.*not run by tests: \S", e.command) for e in skipped)
     failures = []
-    for ex in examples:
+    for path, ex in examples:
         if ex.skipped:
             continue
         got = _run(ex, tmp_path)
         if not same_output(got, ex.expected):
-            failures.append(f"README line {ex.line}: $ {ex.command}\n--- README\n" + "\n".join(ex.expected)
-                            + "\n--- printed\n" + "\n".join(got))
+            failures.append(f"{_label(path)} line {ex.line}: $ {ex.command}\n--- document\n"
+                            + "\n".join(ex.expected) + "\n--- printed\n" + "\n".join(got))
     assert not failures, "\n\n".join(failures)
 
-    for first, code in python_blocks(text):
-        cwd = os.getcwd()
-        os.chdir(tmp_path)
-        try:
-            exec(compile(code, f"README.md (python block at line {first})", "exec"), {"__name__": "readme"})
-        finally:
-            os.chdir(cwd)
+    for path, text in docs:
+        for first, code in python_blocks(text):
+            cwd = os.getcwd()
+            os.chdir(tmp_path)
+            try:
+                exec(compile(code, f"{_label(path)} (python block at line {first})", "exec"), {"__name__": "docs"})
+            finally:
+                os.chdir(cwd)
 
 
 def _leaf_parsers() -> dict[str, argparse.ArgumentParser]:
@@ -220,11 +247,11 @@ def _names(fragment: str) -> set[str]:
 
 
 def test_readme_statement_of_common_options_is_exact():
-    """The "Command line" section names the commands with --robot and those without --format: check both lists."""
-    text = " ".join(README.read_text(encoding="utf-8").split())
+    """The guide's common options name the commands with --robot and those without --format: check both lists."""
+    text = " ".join(COMMANDS_PAGE.read_text(encoding="utf-8").split())
     robot = re.search(r"The commands about a robot \((.*?)\) take `--robot`", text)
     no_format = re.search(r"`--format table\|json\|csv` \(default `table`\): all but (.*?)\.", text)
-    assert robot and no_format, "the README's sentences on --robot and --format changed: update this test"
+    assert robot and no_format, "the guide's sentences on --robot and --format changed: update this test"
     parsers = _leaf_parsers()
 
     def has(parser: argparse.ArgumentParser, option: str) -> bool:
@@ -236,20 +263,21 @@ def test_readme_statement_of_common_options_is_exact():
 
 
 def _update(folder: Path) -> None:
-    """Re-generate the README's outputs by running every example (``python tests/test_readme.py --update DIR``)."""
-    lines = README.read_text(encoding="utf-8").split("\n")
-    replacements = []
-    for ex in console_examples("\n".join(lines)):
-        if ex.skipped:
-            continue
-        got = _run(ex, folder)
-        if not same_output(got, ex.expected):
-            start = ex.line - 1 + ex.command.count("\n") + 1     # first line after the command
-            replacements.append((start, start + len(ex.expected), got))
-            print(f"README line {ex.line}: $ {ex.command}: output updated")
-    for start, stop, got in reversed(replacements):
-        lines[start:stop] = got
-    README.write_text("\n".join(lines), encoding="utf-8")
+    """Re-generate the documents' outputs by running every example (``python tests/test_readme.py --update DIR``)."""
+    for path in documents():
+        lines = path.read_text(encoding="utf-8").split("\n")
+        replacements = []
+        for ex in console_examples("\n".join(lines), _label(path)):
+            if ex.skipped:
+                continue
+            got = _run(ex, folder)
+            if not same_output(got, ex.expected):
+                start = ex.line - 1 + ex.command.count("\n") + 1     # first line after the command
+                replacements.append((start, start + len(ex.expected), got))
+                print(f"{_label(path)} line {ex.line}: $ {ex.command}: output updated")
+        for start, stop, got in reversed(replacements):
+            lines[start:stop] = got
+        path.write_text("\n".join(lines), encoding="utf-8")
 
 
 if __name__ == "__main__":  # python tests/test_readme.py [--update] DIR: show (or write back) every example's output
@@ -259,11 +287,12 @@ if __name__ == "__main__":  # python tests/test_readme.py [--update] DIR: show (
     if update:
         _update(folder)
         sys.exit(0)
-    for ex in console_examples(README.read_text(encoding="utf-8")):
-        print(f"### line {ex.line}: $ {ex.command}")
-        if ex.skipped:
-            print("(skipped)")
-            continue
-        got = _run(ex, folder)
-        print("\n".join(got))
-        print("### " + ("SAME" if same_output(got, ex.expected) else "DIFFERENT"))
+    for path in documents():
+        for ex in console_examples(path.read_text(encoding="utf-8"), _label(path)):
+            print(f"### {_label(path)} line {ex.line}: $ {ex.command}")
+            if ex.skipped:
+                print("(skipped)")
+                continue
+            got = _run(ex, folder)
+            print("\n".join(got))
+            print("### " + ("SAME" if same_output(got, ex.expected) else "DIFFERENT"))

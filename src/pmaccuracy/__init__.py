@@ -11,7 +11,7 @@ Start here (``import pmaccuracy as pm``); every function takes a robot and its c
 preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files:
 
 * your robot and clearances: ``robot = pm.load_robot("my_robot.toml")``,
-  ``cl = pm.load_clearances("my_clearances.toml", robot)`` (README: "Robot files", "Clearances");
+  ``cl = pm.load_clearances("my_clearances.toml", robot)`` (guide: "File formats");
 * exact first-order worst cases at poses ``(N, 3)`` [x mm, y mm, phi rad]:
   ``b = pm.max_pose_errors(robot, cl, poses)`` -> ``b.dx_max, b.dy_max, b.dphi_max, b.dp_max``;
 * maps over the workspace: ``ds = pm.error_map(robot, cl, phis=[0.0, 0.5], n=101)`` (an xarray Dataset);
@@ -27,11 +27,7 @@ Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming t
 The names are loaded lazily: ``import pmaccuracy`` itself imports nothing heavy.
 """
 
-from __future__ import annotations
-
-import importlib
-import sys
-import types
+import importlib as _importlib
 
 __version__ = "0.1.0"
 
@@ -90,34 +86,27 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS) + ["__version__"]
 
 
+#: The package's public subpackages and modules (attributes once imported, ``pm.accuracy.bounds``).
+_SUBMODULES = ("accuracy", "api", "cli", "errors", "experiment", "io", "kinematics", "model", "numerics", "report",
+               "vision")
+
+
 def __getattr__(name: str):
-    """Load a public name (or a submodule, ``pmaccuracy.bounds``) on first use."""
+    """Load a public name (or a submodule, ``pm.accuracy``) on first use."""
     module = _EXPORTS.get(name)
     if module is not None:
-        value = getattr(importlib.import_module(f".{module}", __name__), name)
+        value = getattr(_importlib.import_module(f".{module}", __name__), name)
         globals()[name] = value
         return value
-    try:
-        return importlib.import_module(f".{name}", __name__)
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
+    if not name.startswith("_"):
+        try:
+            return _importlib.import_module(f".{name}", __name__)
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """The package's module type: a (deprecated alias) submodule named like a public function
-    (``pmaccuracy.global_worst``) does not replace the function when it is imported (``pm.global_worst`` stays
-    the function; the module is :mod:`pmaccuracy.accuracy.global_worst`)."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if name in _EXPORTS and isinstance(value, types.ModuleType) and value.__name__ != f"{__name__}.{name}":
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
+    """The public names only: ``__all__`` and the subpackages (no helpers such as ``_importlib``)."""
+    return sorted(set(__all__) | set(_SUBMODULES))

@@ -1,7 +1,7 @@
 """Kinematic calibration of robots whose legs are written in the general chain form ([[legs.joints]]).
 
 Reference: tests/reference/chain_calibration_reference.py, a simulation of the chain convention written
-from the README (its own end-frame formula, Newton on the closure equations, its own measurement frame
+from the guide, docs/guide/formats.md (its own end-frame formula, Newton on the closure equations, its own measurement frame
 and its own measurement Jacobian): nothing of pmaccuracy's inverse kinematics or identification residual.
 """
 
@@ -62,7 +62,7 @@ class Setup:
 
 
 def test_names_follow_the_convention_of_the_readme():
-    """The parameter names are the README's; the reference's end frame at the package's joint values (its
+    """The parameter names are the guide's (docs/guide/calibration.md); the reference's end frame at the package's joint values (its
     inverse kinematics) is the platform frame: both read the chain the same way."""
     s = Setup("symmetric_3rrr", 0, n=12)
     assert len(s.pv.names) == 3 * 17 + 3 and all(NAME.match(n) for n in s.pv.names)

@@ -1,7 +1,7 @@
 """Kinematic calibration of planar serial arms (issue 23): parameters, identification by the forward residual,
 identifiability, planning, compensation and the virtual experiment.
 
-Reference: tests/reference/serial_calibration_reference.py, the arm's pose from the README's convention with
+Reference: tests/reference/serial_calibration_reference.py, the arm's pose from the guide's convention (docs/guide/formats.md) with
 2x2 rotation matrices per configuration and its own finite-difference Jacobian (nothing of pmaccuracy).
 """
 

@@ -6,7 +6,7 @@ Expected values come from outside the code under test:
   evaluated here at the same pose (its own correctness is established in
   ``test_bounds.py``);
 * the NaN mask is recomputed with :func:`pmaccuracy.kinematics.inverse_kinematics`;
-* the grid extent comes from the reference data (``shared/reference/aalborg_3ppr.md``:
+* the grid extent comes from the reference data (``docs/guide/default-robot.md``:
   phi = 0 workspace x, y in [-25, 25] mm; phi = 30 deg x in [-10, 40], y in [-14.02, 10]);
 * the acceptance values are the paper's (Sec. 6.1, Case 1, phi = 0: dx_max 0.196-0.256 mm,
   constant along x and decreasing with y; dy_max 0.100 mm and dphi_max 0.221 deg, constant;

@@ -1,7 +1,7 @@
 """Command line: ``pmaccuracy ik``, ``fk`` and ``workspace`` outputs, and bad input -> exit 2, one line.
 
 Expected numbers are derived by hand from the reference geometry
-(shared/reference/aalborg_3ppr.md); see test_kinematics.py for the derivations.
+(docs/guide/default-robot.md); see test_kinematics.py for the derivations.
 """
 
 from __future__ import annotations

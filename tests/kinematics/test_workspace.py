@@ -1,6 +1,6 @@
 """Constant-orientation workspace (paper Sec. 3, Fig. 3).
 
-Expected figures come from the reference file (shared/reference/aalborg_3ppr.md)
+Expected figures come from the reference file (docs/guide/default-robot.md)
 or are derived by hand from the leg geometry; the general checks compare the
 polygon with the inverse kinematics (Eq. 2a, 2b) point by point.
 """

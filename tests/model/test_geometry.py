@@ -12,7 +12,7 @@ from conftest import BAD_ROBOT_CASES, manipulators, random_manipulator
 from pmaccuracy.errors import ConfigError, GeometryError
 from pmaccuracy.model.manipulator import LINK_PARAMETERS, Leg, Manipulator, perp, unit
 
-# Reference geometry, shared/reference/aalborg_3ppr.md (lengths mm, angles deg).
+# Reference geometry, docs/guide/default-robot.md (lengths mm, angles deg).
 AALBORG_TABLE = {
     "a": [192.34, 192.34, 192.34], "alpha": [180, 0, 90], "beta": [-90, 90, 90], "gamma": [-90, 90, 90],
     "theta": [0, 0, 0], "d": [83.15, 83.15, 70.0], "r": [30, 30, 30], "psi": [30, 150, -90],

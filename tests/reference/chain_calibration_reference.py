@@ -4,7 +4,7 @@
   preset's chain and with every number of it moved at random (seeded): base point and angle, each joint's
   offset and link vector, platform point and angle. Robots nobody tuned, with generic (non-zero) links.
 * :func:`chain_end_frame`: the end frame of one chain leg at joint values ``q``, from the convention of the
-  README ("File formats": R turns by ``offset + q`` then moves by the link; P turns by ``offset``, slides
+  guide (docs/guide/formats.md: R turns by ``offset + q`` then moves by the link; P turns by ``offset``, slides
   ``q`` along its x-axis, then moves by the link), written here from that text.
 * :func:`measure_chain_robot`: the poses a robot with the parameters ``{name: value}`` reaches at commands,
   by Newton's method on the 9 closure equations ``end frame of leg i = Tr(p) Rot(phi) Tr(platform_i)

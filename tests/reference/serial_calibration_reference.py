@@ -1,8 +1,8 @@
 """Independent reference for calibrating planar serial arms (written apart from pmaccuracy).
 
 * :func:`random_arm_dict`: a serial robot file with random joint types, lengths, offsets and ranges (seeded).
-* :func:`arm_pose`: the end pose of an arm with the parameters ``{name: value}`` at commands, from the README's
-  convention ("Planar serial chains": joint k turns the frame by its offset, an R joint also by its value;
+* :func:`arm_pose`: the end pose of an arm with the parameters ``{name: value}`` at commands, from the guide's
+  convention (docs/guide/formats.md, "Planar serial arms": joint k turns the frame by its offset, an R joint also by its value;
   the frame's origin then moves along the new x-axis by the link length, plus the value for a P joint), each
   joint value ``offset + gain * command``, read in the measurement frame ``F``: ``m = F^-1 p``. A plain
   loop over the joints with 2x2 rotation matrices, per configuration.

@@ -2,7 +2,7 @@
 
 Everything here uses 3x3 homogeneous matrices and plain loops over one configuration at a time.
 
-* :func:`frames`: the nominal joint geometry from the joint table (README "Planar serial chains": joint k turns
+* :func:`frames`: the nominal joint geometry from the joint table (guide, docs/guide/formats.md "Planar serial arms": joint k turns
   the frame by its offset, an R joint also by its value; the origin then moves along the new x-axis by the
   link length, plus the value for a P joint). Returns per joint the centre ``c_k``, the direction ``d_k``,
   the block centre ``b_k`` (carriage: ``c_k + q_k d_k``; bushing: ``c_k``) and the end frame matrix.

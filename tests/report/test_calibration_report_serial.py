@@ -1,6 +1,6 @@
 """The calibration report of a serial arm (issue 23): it used to crash on an arm (the parallel robot's
 candidate grid, workspace outline and inverse-kinematic residual). Checked here: the residual maps' numbers
-against the reference arm pose (tests/reference/serial_calibration_reference.py, the README's convention written
+against the reference arm pose (tests/reference/serial_calibration_reference.py, the guide's convention (docs/guide/formats.md) written
 apart), the clearance floor against :func:`pmaccuracy.model.serial.max_serial_errors` called directly at the
 joint values ``offset + gain * command`` computed here from the parameter names, the indices against
 :func:`plan_poses` of the arm, and the command line (``calibrate simulate --report``, ``calibrate report``).

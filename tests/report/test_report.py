@@ -215,6 +215,22 @@ def test_markdown_references_existing_files(report):
     assert not any(r.startswith("experiment/") for r in refs)  # experiment=False
 
 
+def test_every_local_link_and_named_file_of_the_report_exists(report):
+    """Links of report.md / report.html resolve beside the report; files it names are in the repository
+    (the reconstruction of the default robot is described in docs/guide/default-robot.md, not in a file
+    outside the repository)."""
+    from test_docs_links import ROOT, local_targets, repository_paths
+
+    out, _ = report
+    for name in ("report.md", "report.html"):
+        text = (out / name).read_text(encoding="utf-8")
+        targets = [t.partition("#")[0] for t in local_targets(text) if not t.startswith("data:")]
+        assert all((out / t).exists() for t in targets if t), [t for t in targets if t and not (out / t).exists()]
+        named = repository_paths(re.sub(r"</?code>", "`", text))     # HTML writes backticks as <code>
+        assert all((ROOT / p).exists() for p in named), [p for p in named if not (ROOT / p).exists()]
+        assert "docs/guide/default-robot.md" in named       # the default robot's page is named, and exists
+
+
 def test_with_experiment_relative_folder(tmp_path, monkeypatch):
     """Experiment section on (grid 5; ~12 s, mostly the fixed 7 x 7 virtual experiment) in a relative folder."""
     monkeypatch.chdir(tmp_path)

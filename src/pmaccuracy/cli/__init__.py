@@ -25,7 +25,7 @@ from ..errors import PmAccuracyError
 
 #: Commands in help order: name -> (module of ``pmaccuracy.cli`` registering it, one-line help).
 #: The help lines let ``pmaccuracy --help`` list every command without importing any command module;
-#: ``tests/test_cli_lazy.py`` checks that they equal what each module registers.
+#: ``tests/io/test_csvio.py`` checks that they equal what each module registers.
 COMMANDS = {
     "ik": ("kinematics_cmd", "inverse kinematics: actuated and passive joint values of poses (any architecture)"),
     "fk": ("kinematics_cmd", "forward kinematics: every assembly mode for actuator values (any architecture)"),
@@ -49,6 +49,8 @@ COMMANDS = {
     "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
     "load": ("load_cmd", "pose error under a known platform load: statics, reactions, clearances taken up (any architecture)"),
     "preload": ("preload_cmd", "smallest preload keeping every contact fixed over a box of process wrenches (any architecture)"),
+    "template": ("template_cmd", "print a commented template robot file (or, with --clearances, clearance file) of an "
+                                 "architecture"),
 }
 #: Modules of ``pmaccuracy.cli`` that register commands, in help order.
 COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))

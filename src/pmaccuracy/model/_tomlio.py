@@ -158,7 +158,7 @@ class TomlPresets:
 
     @classmethod
     def from_toml(cls, path: str | Path):
-        """Read a TOML file (format in the README and the module docstring)."""
+        """Read a TOML file (format in the guide, docs/guide/formats.md, and the module docstring)."""
         data, source = read_spec(path, kind=cls.KIND, folder=None)
         return cls.from_dict(data, source=source)
 

@@ -211,7 +211,8 @@ def _robot_section(doc: Document, robot: Manipulator, out: Path, results: dict,
     doc.paragraph(
         "Geometry in the paper's notation (Eq. 1). The paper's Table 1 is missing from the available text: "
         "the preset `aalborg_3ppr` is a **reconstruction** that makes the paper's error model reproduce every "
-        "simulated value the paper reports (see `shared/reference/aalborg_3ppr.md`)."
+        "simulated value the paper reports (how, and what it rests on: the guide's page *The default robot*, "
+        "`docs/guide/default-robot.md` in the repository)."
         if robot.name == "aalborg_3ppr" else f"Geometry of `{robot.name}` in the paper's notation (Eq. 1).")
     rows = [[i + 1, leg.a, np.degrees(leg.alpha), np.degrees(leg.beta), np.degrees(leg.gamma),
              np.degrees(leg.theta), leg.d, leg.r, np.degrees(leg.psi), f"[{leg.s_range[0]:g}, {leg.s_range[1]:g}]",

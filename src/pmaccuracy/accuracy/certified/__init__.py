@@ -154,7 +154,7 @@ above, so the guarantee is the same; the gap at the paper's clearances is up to 
 
 Guarantee: for every configuration in ``S`` the exact pose error (continued from the commanded assembly)
 satisfies ``|dx| <= dx_upper`` etc. Joint ranges are not imposed on the perturbed passive joints.
-Tightness (README, tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
+Tightness (guide: docs/guide/methods.md; tests): within 0.01 % of the best configuration at the paper's clearances and 0.33 % at
 10x on the Aalborg 3-PPR; on 25 random robots within 0.5 % of the dense search at 1x (24 certified, one
 65 % nonlinear among them) and within 3.9 % at 10x (19 certified, up to 44 % nonlinear). Refused: robots
 that cannot be closed over their whole error set, and a 3-RRR 75 % nonlinear at 10x (within the default
