@@ -41,10 +41,10 @@ others fixed at nominal by :func:`~.identifiability.analyse`), in three steps (:
    ``m_n - F^-1 FK(theta; offset + gain * c_n)`` (the exact forward kinematics of its commands, the assembly
    mode nearest the reading: :func:`point_test`), normalized by its predicted covariance ``Sigma_n``:
    ``chi2_n = r^T Sigma_n^-1 r``, the three components jointly. A point is flagged when ``chi2_n`` exceeds
-   the chi-square(3) quantile :data:`OUTLIER_QUANTILE` (99.9 %: 16.3, a normalized residual of 4.03),
-   times ``max(1, median(chi2) / median(chi2(3)))``: that factor is 1 when the data are as noisy as stated
-   and only widens the test when most points scatter more than stated (clearances not given); a median
-   moves little with a few gross readings. The forward residual catches a wrong reading and a wrong command
+   the chi-square(3) quantile :data:`OUTLIER_QUANTILE` (99.9 %: 16.3, a normalized residual of 4.03). Only
+   when the median point scatters more than :data:`UNDERSTATED` times (in ``chi2``) what the stated sigmas
+   predict (the sigmas are understated: clearances not given) is the bound multiplied by that ratio; a few
+   gross readings move the median little and never widen the test. The forward residual catches a wrong reading and a wrong command
    alike, and a point whose commands the model cannot assemble, or whose reading it cannot reach, is
    flagged (normalized residual ``inf``). A reading the *nominal* robot could not reach is kept when the
    fitted one reaches it and explains it;
@@ -87,6 +87,9 @@ from .parameters import (ParameterVector, SerialParameterVector, error_parameter
 OUTLIER_QUANTILE = 0.999
 #: Scale of the robust pass's soft_l1 loss, in stated sigmas (the residuals are whitened by them).
 ROBUST_F_SCALE = 3.0
+#: The outlier test keeps the stated sigmas unless the median point's chi-square exceeds this many times that
+#: of chi-square(3): the sigmas are then understated (clearances not given) and the test widens by that ratio.
+UNDERSTATED = 2.0
 #: Most fits on the kept points, each followed by the outlier test at its estimate (module docstring).
 MAX_ROUNDS = 4
 #: A measured pose further than this (mm, or deg) from where the nominal robot puts the commands is refused.
@@ -672,10 +675,11 @@ def point_test(pv, values: np.ndarray, data: CalibrationData, model: ClearanceMo
 
 
 def outlier_threshold(chi2: np.ndarray) -> float:
-    """The flagging bound of ``chi2`` (module docstring): the chi-square(3) :data:`OUTLIER_QUANTILE` quantile
-    times ``max(1, median(chi2) / median(chi2(3)))`` (``inf`` when most points have no forward residual)."""
-    med = float(np.median(chi2))
-    return float(stats.chi2.ppf(OUTLIER_QUANTILE, 3) * max(1.0, med / stats.chi2.median(3)))
+    """The flagging bound of ``chi2`` (module docstring): the chi-square(3) :data:`OUTLIER_QUANTILE` quantile,
+    times ``k = median(chi2) / median(chi2(3))`` when ``k`` exceeds :data:`UNDERSTATED` (``inf`` when most
+    points have no forward residual)."""
+    k = float(np.median(chi2)) / stats.chi2.median(3)
+    return float(stats.chi2.ppf(OUTLIER_QUANTILE, 3) * (k if k > UNDERSTATED else 1.0))
 
 
 @dataclass(frozen=True)
