@@ -220,3 +220,30 @@ def test_combination_names_every_tied_term():
     assert "t8" not in shown and more == " (+1 smaller term)"
     shown, more, _ = _terms(names[:3], np.array([1.0, 1.0, 1.0]))
     assert more == "" and all(n in shown for n in names[:3])
+
+
+def test_cli_prints_the_flagged_rows(tmp_path, capsys):
+    """``calibrate identify`` names the flagged point by its data row with its normalized residual (table),
+    and the JSON record keeps it (fit.outlier_points)."""
+    import csv
+    import json
+
+    from pmaccuracy.cli import main
+
+    pv, _, data, _ = calibration_case("symmetric_3rpr", 2, n=30)
+    poses = data.poses.copy()
+    poses[6, 1] -= 3.0
+    path = tmp_path / "cal.csv"
+    write_calibration_csv(pv.robot, data.commands, poses, path)
+    robot = tmp_path / "robot.toml"
+    import tomli_w
+    robot.write_text(tomli_w.dumps(pv.robot.to_dict()))
+    assert main(["calibrate", "identify", "--robot", str(robot), "--data", str(path), "--out",
+                 str(tmp_path / "id.json")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("outlier:")]
+    assert len(lines) == 1 and lines[0].startswith("outlier: row 7 (point 7): ") and "sigma" in lines[0]
+    said = float(lines[0].split(": ")[2].split(" sigma")[0])
+    rec = json.loads((tmp_path / "id.json").read_text())["fit"]["outlier_points"]
+    assert [r["row"] for r in rec] == [7] and rec[0]["dy_mm"] == pytest.approx(-3.0, abs=0.05)
+    assert said == pytest.approx(rec[0]["normalized_residual"], rel=2e-3) and said > 200
+    assert list(csv.reader(path.open()))[7][0] == "7"

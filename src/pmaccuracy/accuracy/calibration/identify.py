@@ -74,14 +74,14 @@ import numpy as np
 from scipy import optimize, stats
 
 from ...errors import ConfigError, GeometryError, MeasurementFileError, PoseError
-from ...kinematics import forward_kinematics
+from ...kinematics import FKSolution, forward_kinematics
 from ...model.manipulator import Manipulator
 from .data import CalibrationData
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse, inverse_normal_matrix
 from ...model.serial import SerialArm, error_generators, load_serial_sources
 from ..distributions import as_sources, error_jacobian, variable_variances
-from .parameters import (ParameterVector, SerialParameterVector, error_parameters, frame_apply, frame_inverse,
-                         joint_values, leg_joint_value, serial_poses)
+from .parameters import (ParameterVector, SerialParameterVector, commands_for, error_parameters, frame_apply,
+                         frame_inverse, joint_values, leg_joint_value, serial_poses)
 
 #: Outlier threshold: the chi-square(3) quantile of a point's normalized forward residual squared.
 OUTLIER_QUANTILE = 0.999
@@ -488,26 +488,40 @@ def distinct_poses(data: CalibrationData) -> int:
 
 
 def identifiable_count(pv, frame: np.ndarray, fixed: tuple[str, ...] = (), rtol: float = RTOL) -> int:
-    """The number of parameters of this robot that poses *can* identify (exact rank, fixed ones left out): the
-    identifiability (:func:`~.identifiability.analyse`) of 60 seeded candidate poses of the plan
-    (:func:`~.plan.candidate_poses`, a serial arm's :func:`~.plan.candidate_commands`), whatever the data."""
-    from .plan import candidate_commands, candidate_poses   # plan imports this module
-
+    """The number of parameters of this robot that poses *can* identify (exact rank, fixed ones left out),
+    whatever the data: the identifiability (:func:`~.identifiability.analyse`) of 60 seeded random poses the
+    nominal robot reaches, in a box around its base points (a serial arm: 60 seeded random commands, a
+    revolute joint's in a full turn, a prismatic one's in its range or 0 to 100 mm)."""
     rng = np.random.default_rng(0)
     sig = np.tile([0.01, 0.01, np.radians(0.01)], (60, 1))
     if isinstance(pv, SerialParameterVector):
-        cmd = candidate_commands(pv, n=60, seed=0)
+        cols = []
+        for j in pv.robot.joints:
+            lo, hi = j.range
+            if j.kind == "R" or not (np.isfinite(lo) and np.isfinite(hi)):
+                lo, hi = (-np.pi, np.pi) if j.kind == "R" else (0.0, 100.0)
+            cols.append(rng.uniform(lo, hi, 60))
+        cmd = np.stack(cols, axis=-1)
         probe = CalibrationData(tuple(map(str, range(60))), cmd, serial_poses(pv, pv.nominal, cmd), sig, "<probe>")
         J = serial_jacobian(pv, pv.nominal, probe)
     else:
-        from .parameters import commands_for
-
-        cand = candidate_poses(pv)
-        poses = frame_inverse(frame, cand[rng.choice(len(cand), min(60, len(cand)), replace=False)])
+        pts = np.asarray(pv.robot.base_points, dtype=float)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
         values = pv.nominal.copy()
         values[-3:] = frame
+        found = np.zeros((0, 3))
+        for _ in range(20):
+            robot_poses = np.column_stack([rng.uniform(lo[0], hi[0], 400), rng.uniform(lo[1], hi[1], 400),
+                                           rng.uniform(-0.35, 0.35, 400)])
+            poses = frame_inverse(frame, robot_poses)
+            ok = np.all(np.isfinite(commands_for(pv, values, poses)), axis=1)
+            found = np.vstack([found, poses[ok]])
+            if len(found) >= 60:
+                break
+        poses = found[:60]
         n = len(poses)
         probe = CalibrationData(tuple(map(str, range(n))), commands_for(pv, values, poses), poses, sig[:n], "<probe>")
+        probe = probe.subset(reachable(pv, values, probe))
         J = jacobian(pv, values, probe, whitening(pv, values, probe))
     return len(analyse(pv, J, rtol=rtol, fixed=fixed).identified)
 
@@ -649,8 +663,6 @@ def forward_residuals(pv, values: np.ndarray, data: CalibrationData) -> np.ndarr
         return out
     has = np.any(fk.valid, axis=-1)
     if np.any(has):
-        from ...kinematics import FKSolution
-
         sub = FKSolution(fk.poses[has], fk.valid[has], fk.joints[has], fk.within_limits[has])
         out[has] = data.poses[has] - frame_inverse(frame, sub.nearest(frame_apply(frame, data.poses[has])))
     out[:, 2] = np.angle(np.exp(1j * out[:, 2]))
