@@ -255,6 +255,14 @@ def _print_identification(ident, fmt: str) -> None:
         _common.emit([_summary(ident)], "table")
         for sentence in ident.identifiability.combinations:
             print(f"note: {sentence}")
+    if ident.flagged and fmt != "json":   # the JSON record lists them (fit.outlier_points)
+        import sys
+
+        out = sys.stdout if fmt == "table" else sys.stderr
+        print(f"note: {len(ident.flagged)} of {ident.n_points} points left out as outliers (forward residual above "
+              f"{ident.outlier_threshold:.3g} predicted sigmas):", file=out)
+        for o in ident.flagged:
+            print(f"outlier: {o.describe()}", file=out)
 
 
 def run_plan(args: argparse.Namespace) -> int:

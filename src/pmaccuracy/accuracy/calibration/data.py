@@ -98,7 +98,8 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
 
     Raises :class:`~pmaccuracy.errors.MeasurementFileError` naming the file and the line: missing columns,
     a command column in the wrong unit (``q1`` for a revolute actuator), non-numeric or non-finite values,
-    commands outside the actuators' ranges, non-positive sigmas.
+    commands outside the actuators' ranges (a revolute command is compared modulo whole turns, and refused
+    beyond [-360, 360] deg), non-positive sigmas.
     """
     robot = pv.robot
     src = str(path)
@@ -177,6 +178,15 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
             raise MeasurementFileError("the nominal pose x_nom,y_nom,phi_nom_deg is out of the nominal robot's "
                                        "reach", source=src, key=f"row {bad[0] + 1}")
     rng = np.array([r for _, r in actuators(robot)])
+    if use_cmd:   # a revolute command beyond a full turn either way is a slip (a sum of turns, or not degrees)
+        beyond = np.argwhere(kinds_r & (np.abs(commands) > 2 * math.pi + 1e-12))
+        if beyond.size:
+            r, k = beyond[0]
+            raise MeasurementFileError(
+                f"{want[k]} = {math.degrees(commands[r, k]):.6g} deg is beyond a full turn (commands of a revolute "
+                f"actuator lie within [-360, 360] deg, inside {_who(robot, k + 1)} range "
+                f"[{math.degrees(rng[k, 0]):.6g}, {math.degrees(rng[k, 1]):.6g}] deg up to whole turns)",
+                source=src, key=f"row {r + 1} (point {labels[r]})")
     in_turn = wrap_commands(robot, commands)  # a revolute command is checked modulo whole turns
     for k in range(len(want)):
         c = in_turn[:, k]

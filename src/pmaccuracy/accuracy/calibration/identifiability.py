@@ -135,22 +135,34 @@ def observability_indices(s: np.ndarray, m: int) -> tuple[float, float, float, f
     return o1, float(s[-1] / s[0]), float(s[-1]), float(s[-1] ** 2 / s[0])
 
 
-def _words(names, f, coef) -> str:
-    terms = [(c, n) for c, n in zip(coef, names) if abs(c) > 1e-6]
+#: Terms of a combination written out in words before "(+k smaller terms)"; more when they tie with the last.
+SHOWN_TERMS = 6
+
+
+def _terms(names, coef) -> tuple[str, str, int]:
+    """``(shown, more, count)``: the terms ``c_k name_k`` of a combination (``|c| > 1e-6``) by decreasing
+    ``|c|`` in words, the first :data:`SHOWN_TERMS` and every later one equal to the last shown (to 1e-3
+    relative: they would print alike), and ``" (+k smaller terms)"`` for the rest, which are all smaller."""
+    terms = [(float(c), n) for c, n in zip(coef, names) if abs(c) > 1e-6]
     terms.sort(key=lambda t: -abs(t[0]))
-    shown = " ".join(f"{'+' if c > 0 else '-'} {abs(c):.3g} {n}" for c, n in terms[:6])
-    more = f" (+{len(terms) - 6} smaller terms)" if len(terms) > 6 else ""
-    if not terms:
+    k = min(SHOWN_TERMS, len(terms))
+    while 0 < k < len(terms) and abs(terms[k][0]) >= abs(terms[k - 1][0]) * (1.0 - 1e-3):
+        k += 1
+    shown = " ".join(f"{'+' if c > 0 else '-'} {abs(c):.3g} {n}" for c, n in terms[:k])
+    more = f" (+{len(terms) - k} smaller term{'s' if len(terms) - k > 1 else ''})" if len(terms) > k else ""
+    return shown, more, len(terms)
+
+
+def _words(names, f, coef) -> str:
+    shown, more, count = _terms(names, coef)
+    if not count:
         return f"{f} does not change any residual: fixed at nominal"
     return (f"{f} cannot be separated from the others: the change {f} {shown}{more} leaves every residual "
             f"unchanged; {f} fixed at nominal")
 
 
 def _practical_words(names, f, coef, sigma: float, unit: str, bound: float) -> str:
-    terms = [(c, n) for c, n in zip(coef, names) if abs(c) > 1e-6]
-    terms.sort(key=lambda t: -abs(t[0]))
-    shown = " ".join(f"{'+' if c > 0 else '-'} {abs(c):.3g} {n}" for c, n in terms[:6])
-    more = f" (+{len(terms) - 6} smaller terms)" if len(terms) > 6 else ""
+    shown, more, _ = _terms(names, coef)
     if unit == "rad":
         said, lim = f"{np.degrees(sigma):.3g} deg", f"{np.degrees(bound):.3g} deg"
     else:
