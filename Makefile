@@ -12,10 +12,12 @@ $(BIN)/python:
 
 # Stamp files so that the install re-runs when pyproject.toml changes.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
+	@echo "make: installing pmaccuracy and its dependencies into $(VENV) (first run: a minute or two)"
 	$(BIN)/python -m pip install --quiet -e ".[all]"
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
+	@echo "make: installing pmaccuracy, its dependencies and the test tools into $(VENV) (first run: a minute or two)"
 	$(BIN)/python -m pip install --quiet -e ".[all,test]"
 	touch $@ $(VENV)/.installed
 
