@@ -17,7 +17,7 @@ from pmaccuracy._aliases import ALIASES
 SRC = Path(__file__).resolve().parents[1] / "src" / "pmaccuracy"
 
 LAYERS = [
-    ("errors", "_optional", "_display", "_aliases", "_savefig"),
+    ("errors", "_optional", "_display", "_aliases", "_savefig", "_textfile"),
     ("numerics",),
     ("model",),
     ("kinematics",),

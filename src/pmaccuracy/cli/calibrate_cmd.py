@@ -148,12 +148,10 @@ def _write_report(path, ident, data, *, experiment=None, clearances=None, seed=0
 
 
 def run_report(args: argparse.Namespace) -> int:
-    import json
-
     import numpy as np
 
     from ..accuracy.calibration.data import read_calibration_csv
-    from ..accuracy.calibration.identify import identification_from_dict
+    from ..accuracy.calibration.records import read_identification
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.simulate import load_parameter_table, simulate_calibration
     from ..errors import ConfigError
@@ -183,14 +181,7 @@ def run_report(args: argparse.Namespace) -> int:
         if not (np.isfinite(v) and v >= 0):
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if measured:
-        try:
-            with open(args.identification, encoding="utf-8") as fh:
-                record = json.load(fh)
-        except OSError as exc:
-            raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
-        except json.JSONDecodeError as exc:
-            raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
-        ident = identification_from_dict(record, source=args.identification)
+        ident = read_identification(args.identification)
         data = read_calibration_csv(args.data, ident.parameters)
         _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
@@ -326,27 +317,17 @@ def run_identify(args: argparse.Namespace) -> int:
 
 
 def run_compensate(args: argparse.Namespace) -> int:
-    import json
-
     import numpy as np
 
     from ..accuracy.calibration.compensate import compensate
     from ..accuracy.calibration.data import write_calibration_csv
-    from ..accuracy.calibration.identify import identification_from_dict
     from ..accuracy.calibration.parameters import actuators
-    from ..errors import ConfigError
+    from ..accuracy.calibration.records import read_identification
 
     targets = _common.poses_from_args(args.pose, args.poses_csv)
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
-    try:
-        with open(args.identification, encoding="utf-8") as fh:
-            record = json.load(fh)
-    except OSError as exc:
-        raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
-    ident = identification_from_dict(record, source=args.identification)
+    ident = read_identification(args.identification)
     comp = compensate(ident, targets, clearances=args.clearances)
     pv = ident.parameters
     if args.out:
