@@ -23,6 +23,8 @@ mechanisms are micrometres and milliradians):
   or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
   0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
   to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
+  a *direction* (``--gravity-deg``), whose usual values are whole eighths of a turn, also
+  matches a multiple of pi/4 typed with two decimals (:data:`DIRECTION_MATCH`: 1.57, 3.14, 6.28);
 * (command line only) measurement noise or accuracy options above 1 mm or 1 deg, error targets and
   thresholds above 1 mm or 1 deg (``pmaccuracy.cli._size_messages``);
 * (Python API) an **orientation in radians that looks like degrees**: ``|phi| > 2 pi`` (more than a
@@ -65,6 +67,9 @@ MAX_ANGLE_RAD = 0.01
 BLOCK_LENGTH_RANGE_MM = (1.0, 1000.0)
 #: Distance (in the value's unit) to k pi/12, k pi/8 or k pi/18 below which a degree value looks like radians.
 RADIAN_MATCH = 5e-4
+#: Distance (deg) to a multiple of pi/4 below which a *direction* in degrees (gravity) looks like radians: half
+#: a unit of the second decimal, so pi/2 typed as 1.57 and 2 pi as 6.28 match; 1.5 or 2 deg do not.
+DIRECTION_MATCH = 5e-3
 #: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
 MAX_LINEAR_DPHI_DEG = 1.0
 #: Largest |orientation| (rad) the API takes without a warning: a full turn (module docstring).
@@ -235,21 +240,29 @@ def check_orientations(phi_rad, where: str, what: str = "orientations", *, poses
         warnings.warn(message, PlausibilityWarning, stacklevel=3)
 
 
-def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:
-    """True where a value given in degrees looks like an angle in radians (module docstring), same shape."""
+def looks_like_radians(phi_deg: np.ndarray | float, *, direction: bool = False) -> np.ndarray:
+    """True where a value given in degrees looks like an angle in radians (module docstring), same shape.
+
+    ``direction``: the value is a direction in the plane (gravity), whose usual values are whole eighths of a
+    turn (0, 45, -90, 180 deg): then also a multiple of pi/4 rounded to two decimals (:data:`DIRECTION_MATCH`:
+    0.79, 1.57, 3.14, 4.71, 6.28) looks like radians.
+    """
     v = np.abs(np.asarray(phi_deg, dtype=float))
     hit = np.zeros(v.shape, dtype=bool)
-    for step in (math.pi / 12, math.pi / 8, math.pi / 18):
+    for step, match in ((math.pi / 12, RADIAN_MATCH), (math.pi / 8, RADIAN_MATCH), (math.pi / 18, RADIAN_MATCH),
+                        *(((math.pi / 4, DIRECTION_MATCH),) if direction else ())):
         k = np.rint(v / step)
-        hit |= (k >= 1) & (np.abs(v - k * step) <= RADIAN_MATCH)
-    return hit & (v > 0) & (v <= 2 * math.pi + RADIAN_MATCH) & np.isfinite(v)
+        hit |= (k >= 1) & (np.abs(v - k * step) <= match)
+    limit = 2 * math.pi + (DIRECTION_MATCH if direction else RADIAN_MATCH)
+    return hit & (v > 0) & (v <= limit) & np.isfinite(v)
 
 
-def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations") -> list[str]:
+def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations", *,
+                         direction: bool = False) -> list[str]:
     """One message if some of the angles (deg) look like radians; ``where`` names the option or file, ``what``
-    the kind of angle."""
+    the kind of angle; ``direction``: directions in the plane (:func:`looks_like_radians`)."""
     values = np.asarray(phi_deg, dtype=float).reshape(-1)
-    hits = values[looks_like_radians(values)]
+    hits = values[looks_like_radians(values, direction=direction)]
     if hits.size == 0:
         return []
     first = float(hits[0])
@@ -312,6 +325,19 @@ def error_sources_messages(sources, source: str | None = None, what: str = "clea
                     continue  # the default block length is only used with a lateral clearance
                 if value:
                     values[f"legs[{i}].joints[{k}].{key}"] = (value, unit)
+    return _prefixed(source, clearance_messages(values, what))
+
+
+def actuator_messages(actuators: Iterable[tuple[str, float, bool]], source: str | None = None,
+                      what: str = "clearances") -> list[str]:
+    """Messages for ``actuator`` half-widths ``(name, value, revolute)`` once the joint types are known: a
+    revolute actuator's error is in rad and held to :data:`MAX_ANGLE_RAD` (``actuator = 0.05`` on a motor is
+    almost surely degrees); a prismatic one's, in mm, is checked by :func:`error_sources_messages` already.
+
+    >>> actuator_messages([("legs[1].joints[1].actuator", 0.05, True)])
+    ['legs[1].joints[1].actuator = 0.05 rad (2.86479 deg) is above 0.01 rad: clearances are usually milliradians (is it in degrees?)']
+    """
+    values = {name: (float(value), "rad") for name, value, revolute in actuators if revolute and value}
     return _prefixed(source, clearance_messages(values, what))
 
 
