@@ -360,6 +360,7 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     spread = np.einsum("...ij,...j->...i", np.abs(b.generators), unloaded.astype(float))
     if exact:
         ex, exact_config = _equilibrium(robot, sources, poses, load, config, st, signs)
+        plausibility.warn(plausibility.loaded_error_messages(first, ex, poses, robot.characteristic_length))
     else:
         ex, exact_config = np.full(first.shape, np.nan), None
     return LoadedError(statics=st, first_order=first, exact=ex, signs=signs, unloaded=unloaded, spread=spread,

@@ -40,7 +40,10 @@ mechanisms are micrometres and milliradians):
   (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
   term is about ``dphi / 2`` (``1 - cos dphi`` against ``dphi``), 0.9 % at
   1 deg, and the loop closures bend further near a singularity, which is where
-  such values appear.
+  such values appear;
+* a **first-order loaded error** (:mod:`pmaccuracy.accuracy.loads`) that the exact loop closure moves by
+  more than :data:`MAX_LOADED_DIFFERENCE` = 5 % of its size (position or orientation,
+  :func:`loaded_error_messages`): large clearances bend the loops well before ``dphi`` reaches 1 deg.
 
 Example
 -------
@@ -70,6 +73,8 @@ RADIAN_MATCH = 5e-4
 #: Distance (deg) to a multiple of pi/4 below which a *direction* in degrees (gravity) looks like radians: half
 #: a unit of the second decimal, so pi/2 typed as 1.57 and 2 pi as 6.28 match; 1.5 or 2 deg do not.
 DIRECTION_MATCH = 5e-3
+#: Largest relative difference between a first-order loaded error and the exact one without a warning.
+MAX_LOADED_DIFFERENCE = 0.05
 #: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
 MAX_LINEAR_DPHI_DEG = 1.0
 #: Largest |orientation| (rad) the API takes without a warning: a full turn (module docstring).
@@ -291,6 +296,38 @@ def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None
     return [f"{what} = {_g(d[k])} deg{at}{many} is beyond the first-order model's validity (about "
             f"{_g(MAX_LINEAR_DPHI_DEG)} deg; relative second-order error ~ dphi/2): the worst case is only "
             f"indicative there (near a singularity or clearances too large)"]
+
+
+def loaded_error_messages(first_order: np.ndarray, exact: np.ndarray, poses: np.ndarray,
+                          length_mm: float) -> list[str]:
+    """One message if a first-order loaded error differs from the exact one by more than
+    :data:`MAX_LOADED_DIFFERENCE` (relative), at any of the poses.
+
+    ``first_order``, ``exact``, ``poses`` ``(..., 3)`` [mm, mm, rad]. The position part ``(dx, dy)`` and the
+    orientation part ``dphi`` are compared separately, each relative to its exact size; a part smaller than a
+    tenth of the whole error (``|(dx, dy, L dphi)|``, ``L = length_mm`` the robot's size) is not judged (its
+    relative difference says nothing about the figures a user reads). Poses without an exact value are skipped.
+    """
+    f = np.asarray(first_order, dtype=float).reshape(-1, 3)
+    e = np.asarray(exact, dtype=float).reshape(-1, 3)
+    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pos, rot = np.hypot(e[:, 0], e[:, 1]), np.abs(e[:, 2])
+        size = np.hypot(pos, length_mm * rot)
+        rel_pos = np.where(pos >= 0.1 * size, np.hypot(f[:, 0] - e[:, 0], f[:, 1] - e[:, 1]) / pos, 0.0)
+        rel_rot = np.where(length_mm * rot >= 0.1 * size, np.abs(f[:, 2] - e[:, 2]) / rot, 0.0)
+    ok = np.isfinite(size) & (size > 0) & np.all(np.isfinite(f), axis=1)
+    rel = np.where(ok, np.maximum(np.nan_to_num(rel_pos), np.nan_to_num(rel_rot)), 0.0)
+    bad = rel > MAX_LOADED_DIFFERENCE
+    if not np.any(bad):
+        return []
+    k = int(np.argmax(rel))
+    part = "position" if rel_pos[k] >= rel_rot[k] else "orientation"
+    many = f" ({int(bad.sum())} of {rel.size} poses)" if rel.size > 1 else ""
+    return [f"the first-order loaded error differs from the exact one by {_g(100 * rel[k])} % ({part}) at x = "
+            f"{_g(p[k, 0])} mm, y = {_g(p[k, 1])} mm, phi = {_g(math.degrees(p[k, 2]))} deg{many}, above "
+            f"{_g(100 * MAX_LOADED_DIFFERENCE)} %: the first-order figures are only indicative there (use the exact "
+            f"ones)"]
 
 
 def _prefixed(source: str | None, messages: list[str]) -> list[str]:
