@@ -184,7 +184,7 @@ class Polygon:
     def __post_init__(self):
         try:
             v = np.asarray(self.vertices, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):   # OverflowError: an integer beyond 1e308
             raise ConfigError("the polygon's vertices must be numbers x, y (mm)", key="--polygon") from None
         if v.ndim != 2 or v.shape[1] != 2:
             raise ConfigError(f"the polygon's vertices must be pairs x, y (mm), got shape {v.shape}",

@@ -133,6 +133,10 @@ def _fail(src: str, message: str, line: int | None = None) -> MeasurementFileErr
     return MeasurementFileError(message, source=src, key=None if line is None else f"line {line}")
 
 
+#: Largest cycle number of a repeated-pose file (a robot's life is far fewer cycles; beyond, a mistyped cell).
+MAX_CYCLE = 10 ** 9
+
+
 def load_repeats(path: str | Path) -> RepeatedPoses:
     """Read and check a repeated-pose CSV file (format in the module docstring); points in order of first
     appearance, cycles in increasing order.
@@ -169,8 +173,8 @@ def load_repeats(path: str | Path) -> RepeatedPoses:
             cycle = int(cells[4])
         except ValueError:
             cycle = 0
-        if cycle < 1:
-            raise _fail(src, f"column cycle: must be a whole number >= 1, got {cells[4]!r}", line)
+        if not 1 <= cycle <= MAX_CYCLE:
+            raise _fail(src, f"column cycle: must be a whole number from 1 to {MAX_CYCLE}, got {cells[4]!r}", line)
         rows.append((line, cells[0], values[:3], cycle, values[3:]))
     if not rows:
         raise _fail(src, "no readings: the file has a header but no data rows")

@@ -79,7 +79,10 @@ def number(table: dict[str, Any], key: str, *, source: str, where: str, default:
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"must be a number, got {value!r}", source=source, key=name)
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:   # an integer beyond the largest double
+        raise ConfigError("must be finite, got an integer beyond 1e308", source=source, key=name) from None
     if not math.isfinite(value):
         raise ConfigError(f"must be finite, got {value}", source=source, key=name)
     if positive and value <= 0:

@@ -13,6 +13,7 @@ clearances, as the experiment does); the camera reads it in the true measurement
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -76,6 +77,14 @@ def true_parameters(pv: ParameterVector, seed: int = 0, error_sigma: dict | None
     return v
 
 
+def _finite(value: int | float) -> bool:
+    """Whether a number read from TOML is a finite double (an integer beyond 1e308 is not)."""
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
 def load_parameter_table(spec, pv: ParameterVector, kind: str = "errors") -> dict[str, float]:
     """Read a TOML file of ``name = value`` per error parameter (``kind``: ``"errors"``, the parameter errors
     of the true robot, or ``"tolerances"``, the half-widths of their uniform draws) into library units.
@@ -106,7 +115,7 @@ def load_parameter_table(spec, pv: ParameterVector, kind: str = "errors") -> dic
                 pv.index([name])
             except ConfigError as exc:
                 raise ConfigError(exc.message, source=source, key=name) from None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or \
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value) or \
                 (kind == "tolerances" and value < 0):
             raise ConfigError(f"must be a finite number{' >= 0' if kind == 'tolerances' else ''} "
                               f"({'deg' if units[name] == 'rad' else units[name]}), got {value!r}",
