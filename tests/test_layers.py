@@ -15,7 +15,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "pmaccuracy"
 
 LAYERS = [
-    ("errors", "_optional", "_display", "_savefig"),
+    ("errors", "_optional", "_display", "_savefig", "_textfile"),
     ("numerics",),
     ("model",),
     ("kinematics",),

@@ -96,7 +96,7 @@ def test_polygon_files(tmp_path):
     (tmp_path / "p.toml").write_text("vertices = [" + ", ".join(f"[{x}, {y}]" for x, y in PENTAGON) + "]\n")
     assert load_polygon(tmp_path / "p.csv") == Polygon(PENTAGON) == load_polygon(tmp_path / "p.toml")
     (tmp_path / "bad.csv").write_text("x,y\n0,0\n1,a\n2,0\n")
-    with pytest.raises(ConfigError, match="row 3"):
+    with pytest.raises(ConfigError, match="line 3"):
         load_polygon(tmp_path / "bad.csv")
 
 

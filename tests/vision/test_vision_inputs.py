@@ -177,7 +177,7 @@ def test_calibration_file_errors(env, tmp_path) -> None:
                  "none.toml", "no such calibration file")
     binary = tmp_path / "binary.toml"
     binary.write_bytes(b"\xff\xfe\x00 junk")
-    assert_error(["vision", "pose", str(env["photo"]), "--calibration", str(binary)], "binary.toml", "cannot read")
+    assert_error(["vision", "pose", str(env["photo"]), "--calibration", str(binary)], "binary.toml", "binary file")
     broken = tmp_path / "broken.toml"
     broken.write_text("[calibration\nmodel = ")
     assert_error(["vision", "pose", str(env["photo"]), "--calibration", str(broken)], "broken.toml", "malformed")

@@ -230,7 +230,8 @@ def max_pose_errors(robot: Manipulator, clearances: ClearanceSet, poses: np.ndar
         ``+dzeta_max`` in its quantity, its negative by ``-dzeta_max``) and, with
         ``tolerances``, the maximizing parameter variations ``.worst_variations``.
         Without it only the four result arrays are built (memory: 32 bytes a pose)
-    singular : ``"raise"`` (default) or ``"nan"``: NaN at poses near a singularity instead of an error
+    singular : ``"raise"`` (default) or ``"nan"``: NaN at poses near a singularity instead of an error (with
+        ``allow_outside``, also at poses some leg cannot reach at all, where the model is undefined)
 
     Notes
     -----
@@ -432,11 +433,12 @@ def _regular(block: _Block, max_condition: float) -> np.ndarray:
 def _refuse(robot: Manipulator, poses: np.ndarray, block: _Block, allow_outside: bool, max_condition: float,
             singular: str) -> np.ndarray:
     """Raise for the first pose outside the ranges (unless allowed) or singular (``singular="raise"``);
-    returns the mask of regular poses."""
+    returns the mask of regular poses (a pose some leg cannot reach at all is not regular: NaN, with
+    ``allow_outside`` and ``singular="nan"``)."""
 
-    if not np.all(block.reachable):  # a leg that cannot reach a pose: no model at all
-        check_within_limits(robot, poses, ik_from_states(robot, block.states))
-    regular = _regular(block, max_condition)
+    if not np.all(block.reachable) and not (allow_outside and singular == "nan"):
+        check_within_limits(robot, poses, ik_from_states(robot, block.states))   # no model at all there
+    regular = _regular(block, max_condition) & np.broadcast_to(block.reachable, block.condition.shape)
     if singular == "raise" and not np.all(regular):
         ok = block.condition <= max_condition
         if not np.all(ok):

@@ -360,6 +360,7 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     spread = np.einsum("...ij,...j->...i", np.abs(b.generators), unloaded.astype(float))
     if exact:
         ex, exact_config = _equilibrium(robot, sources, poses, load, config, st, signs)
+        plausibility.warn(plausibility.loaded_error_messages(first, ex, poses, robot.characteristic_length))
     else:
         ex, exact_config = np.full(first.shape, np.nan), None
     return LoadedError(statics=st, first_order=first, exact=ex, signs=signs, unloaded=unloaded, spread=spread,
@@ -436,8 +437,12 @@ def _intensity_map(robot: Manipulator, poses: np.ndarray) -> np.ndarray:
 
 
 def _box(center, half) -> tuple[np.ndarray, np.ndarray]:
-    c = np.asarray(center, dtype=float).reshape(3)
-    h = np.asarray(half, dtype=float).reshape(3)
+    try:
+        c = np.asarray(center, dtype=float).reshape(3)
+        h = np.asarray(half, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise ConfigError(f"a wrench box needs a centre and half-widths of three numbers each [N, N, N mm], got "
+                          f"{center!r}, {half!r}", key="wrench_set") from None
     if not (np.all(np.isfinite(c)) and np.all(np.isfinite(h)) and np.all(h >= 0)):
         raise ConfigError(f"a wrench box needs a finite centre and half-widths >= 0 [N, N, N mm], got {c}, {h}",
                           key="wrench_set")

@@ -28,13 +28,13 @@ within :data:`EDGE_TOL` mm of an edge.
 
 from __future__ import annotations
 
-import csv
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .._textfile import read_csv, read_text
 from ..errors import ConfigError
 
 #: Box classes of ``classify``.
@@ -184,7 +184,7 @@ class Polygon:
     def __post_init__(self):
         try:
             v = np.asarray(self.vertices, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):   # OverflowError: an integer beyond 1e308
             raise ConfigError("the polygon's vertices must be numbers x, y (mm)", key="--polygon") from None
         if v.ndim != 2 or v.shape[1] != 2:
             raise ConfigError(f"the polygon's vertices must be pairs x, y (mm), got shape {v.shape}",
@@ -328,11 +328,15 @@ def load_polygon(path: str | Path) -> Polygon:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such file", key="--polygon")
+
+    def fail(message: str, line: int | None = None) -> ConfigError:
+        return ConfigError(f"{path}: {'' if line is None else f'line {line}: '}{message}", key="--polygon")
+
     if path.suffix.lower() == ".toml":
         try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"{path}: not valid TOML ({exc})", key="--polygon") from None
+            data = tomllib.loads(read_text(path, fail))
+        except (tomllib.TOMLDecodeError, RecursionError) as exc:
+            raise ConfigError(f"{path}: not valid TOML ({exc or 'nested too deeply'})", key="--polygon") from None
         if "vertices" not in data:
             raise ConfigError(f"{path}: missing key 'vertices' (a list of [x, y] pairs in mm)", key="--polygon")
         v = data["vertices"]
@@ -346,8 +350,8 @@ def load_polygon(path: str | Path) -> Polygon:
             raise ConfigError(exc.message, source=str(path), key="--polygon") from None
     if path.suffix.lower() != ".csv":
         raise ConfigError(f"{path}: expected a .csv or .toml file", key="--polygon")
-    with path.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.reader(fh))
+    lines = read_csv(path, fail)
+    rows = [row for _, row in lines]
     if not rows:
         raise ConfigError(f"{path}: empty file", key="--polygon")
     header = [h.strip().lower() for h in rows[0]]
@@ -356,13 +360,13 @@ def load_polygon(path: str | Path) -> Polygon:
     if cols is None:
         raise ConfigError(f"{path}: the header must name columns x,y (mm), got {rows[0]}", key="--polygon")
     verts = []
-    for k, row in enumerate(rows[1:], start=2):
+    for k, row in lines[1:]:
         if not any(c.strip() for c in row):
             continue
         try:
             verts.append((float(row[cols[0]]), float(row[cols[1]])))
         except (ValueError, IndexError):
-            raise ConfigError(f"{path}: row {k}: expected numbers x, y (mm), got {row}", key="--polygon") from None
+            raise fail(f"expected numbers x, y (mm), got {row}", k) from None
     try:
         return Polygon(tuple(verts))
     except ConfigError as exc:

@@ -156,7 +156,8 @@ def _show_warning(command: str, pending: list[str]):
 
 
 def _option_warnings(args: argparse.Namespace) -> None:
-    """Plausibility of the orientations given as options (``--phi-deg``, ``--pose X Y PHI_DEG``)."""
+    """Plausibility of the orientations given as options (``--phi-deg``, ``--pose X Y PHI_DEG``, ``--phi-range-deg``,
+    ``--frame X Y PHI_DEG``)."""
     from ..model.plausibility import orientation_messages, warn
 
     phi = getattr(args, "phi_deg", None)
@@ -168,6 +169,12 @@ def _option_warnings(args: argparse.Namespace) -> None:
     if isinstance(pose, list) and pose:
         rows = pose if isinstance(pose[0], list) else [pose]
         warn(orientation_messages([r[2] for r in rows if len(r) == 3], "--pose phi"))
+    phi_range = getattr(args, "phi_range_deg", None)   # calibrate plan --phi-range-deg LO HI
+    if isinstance(phi_range, (list, tuple)) and all(isinstance(v, (int, float)) for v in phi_range):
+        warn(orientation_messages([v for v in phi_range if v], "--phi-range-deg"))
+    frame = getattr(args, "frame", None)   # calibrate identify --frame X Y PHI_DEG
+    if isinstance(frame, (list, tuple)) and len(frame) == 3 and isinstance(frame[2], (int, float)):
+        warn(orientation_messages([frame[2]] if frame[2] else [], "--frame PHI_DEG"))
     warn(_size_messages(args))
 
 

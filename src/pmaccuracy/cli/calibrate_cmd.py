@@ -148,12 +148,10 @@ def _write_report(path, ident, data, *, experiment=None, clearances=None, seed=0
 
 
 def run_report(args: argparse.Namespace) -> int:
-    import json
-
     import numpy as np
 
     from ..accuracy.calibration.data import read_calibration_csv
-    from ..accuracy.calibration.identify import identification_from_dict
+    from ..accuracy.calibration.records import read_identification
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.simulate import load_parameter_table, simulate_calibration
     from ..errors import ConfigError
@@ -183,16 +181,14 @@ def run_report(args: argparse.Namespace) -> int:
         if not (np.isfinite(v) and v >= 0):
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if measured:
-        try:
-            with open(args.identification, encoding="utf-8") as fh:
-                record = json.load(fh)
-        except OSError as exc:
-            raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
-        except json.JSONDecodeError as exc:
-            raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
-        ident = identification_from_dict(record, source=args.identification)
+        ident = read_identification(args.identification)
         data = read_calibration_csv(args.data, ident.parameters)
-        _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
+        try:
+            _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
+        except ConfigError as exc:
+            if exc.key != "poses" or exc.source is not None:
+                raise
+            raise ConfigError(exc.message, source=args.data, key="--data") from None
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
     pv = error_parameters(_robot(args))
@@ -200,11 +196,29 @@ def run_report(args: argparse.Namespace) -> int:
     tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
     sigma = None if named else {"mm": values["error_mm"], "rad": np.radians(values["error_deg"])}
     noise = (max(values["noise_mm"], 1e-9), max(values["noise_mm"], 1e-9), max(np.radians(values["noise_deg"]), 1e-11))
-    ex = simulate_calibration(pv, values["poses"], seed=values["seed"], noise=noise, clearances=args.clearances,
-                              error_sigma=sigma, errors=errors, tolerances=tolerances)
+    ex = _simulated(args, simulate_calibration, pv, values["poses"], seed=values["seed"], noise=noise,
+                    clearances=args.clearances, error_sigma=sigma, errors=errors, tolerances=tolerances)
     _write_report(args.out, ex.identification, ex.data, experiment=ex, seed=values["seed"], args=args)
     print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} points)")
     return 0
+
+
+def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
+    """``simulate(*posargs, **kwargs)`` (:func:`~pmaccuracy.accuracy.calibration.simulate.simulate_calibration`);
+    a true robot whose errors are too large to be calibrated is blamed on the file or options that gave them."""
+    from ..errors import ConfigError
+
+    try:
+        return simulate(*posargs, **kwargs)
+    except ConfigError as exc:
+        blamed = {"errors": args.errors, "tolerances": args.tolerances,
+                  "errors and tolerances": f"{args.errors} with {args.tolerances}"}
+        if exc.source is None and exc.key in blamed:
+            raise ConfigError(exc.message, source=blamed[exc.key]) from None
+        if exc.source is None and exc.key == "error_sigma":
+            given = [f"--{k.replace('_', '-')}" for k in ("error_mm", "error_deg") if getattr(args, k) is not None]
+            raise ConfigError(exc.message, key=" and ".join(given) or "--error-mm/--error-deg (defaults)") from None
+        raise
 
 
 def _robot(args: argparse.Namespace):
@@ -271,7 +285,7 @@ def run_plan(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.data import write_calibration_csv
     from ..accuracy.calibration.parameters import error_parameters
     from ..accuracy.calibration.plan import candidate_poses, plan_poses
-    from ..errors import ConfigError
+    from ..errors import ConfigError, EmptyWorkspaceError
     from ..model.serial import SerialArm
 
     lo, hi = args.phi_range_deg or (-20.0, 20.0)
@@ -288,7 +302,12 @@ def run_plan(args: argparse.Namespace) -> int:
                                   "option is for parallel robots", key=opt)
         cand = None
     else:
-        cand = candidate_poses(pv, n=args.grid or 22, phi_range=(np.radians(lo), np.radians(hi)))
+        try:
+            cand = candidate_poses(pv, n=args.grid or 22, phi_range=(np.radians(lo), np.radians(hi)))
+        except EmptyWorkspaceError as exc:
+            given = [o for o, v in (("--phi-range-deg", args.phi_range_deg), ("--grid", args.grid)) if v is not None]
+            raise ConfigError(f"{exc} at orientations {lo:g} to {hi:g} deg on a {args.grid or 22} x "
+                              f"{args.grid or 22} grid", key=" and ".join(given) or "--robot") from None
     plan = plan_poses(pv, args.poses, cand, seed=args.seed)
     if args.out:
         write_calibration_csv(pv.robot, plan.commands, None, args.out)
@@ -334,27 +353,17 @@ def run_identify(args: argparse.Namespace) -> int:
 
 
 def run_compensate(args: argparse.Namespace) -> int:
-    import json
-
     import numpy as np
 
     from ..accuracy.calibration.compensate import compensate
     from ..accuracy.calibration.data import write_calibration_csv
-    from ..accuracy.calibration.identify import identification_from_dict
     from ..accuracy.calibration.parameters import actuators
-    from ..errors import ConfigError
+    from ..accuracy.calibration.records import read_identification
 
     targets = _common.poses_from_args(args.pose, args.poses_csv)
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
-    try:
-        with open(args.identification, encoding="utf-8") as fh:
-            record = json.load(fh)
-    except OSError as exc:
-        raise ConfigError(f"cannot read: {exc.strerror or exc}", source=args.identification) from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"not JSON: {exc.msg} (line {exc.lineno})", source=args.identification) from None
-    ident = identification_from_dict(record, source=args.identification)
+    ident = read_identification(args.identification)
     comp = compensate(ident, targets, clearances=args.clearances)
     pv = ident.parameters
     if args.out:
@@ -421,8 +430,9 @@ def run_simulate(args: argparse.Namespace) -> int:
     sigma = None if named else {"mm": 0.1 if args.error_mm is None else args.error_mm,
                                 "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
-    ex = simulate_calibration(pv, args.poses, seed=args.seed, noise=noise, clearances=args.clearances,
-                              error_sigma=sigma, measure_with=measure_with, errors=errors, tolerances=tolerances)
+    ex = _simulated(args, simulate_calibration, pv, args.poses, seed=args.seed, noise=noise,
+                    clearances=args.clearances, error_sigma=sigma, measure_with=measure_with, errors=errors,
+                    tolerances=tolerances)
     ident = ex.identification
     if args.data_out:
         d = ex.data

@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         robot.characteristic_length))
     if args.mass:
-        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions"))
+        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions", direction=True))
     if args.map:
         return run_map(args, robot, clearances)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
@@ -304,7 +304,7 @@ def run_serial(args: argparse.Namespace) -> int:
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         sum(j.length for j in arm.joints) or None))
     if args.mass:
-        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions"))
+        warn(orientation_messages([args.gravity_deg], "--gravity-deg", "directions", direction=True))
     load = Load(fx=args.fx, fy=args.fy, m=args.m, mass=args.mass, com=tuple(args.com), gravity_deg=args.gravity_deg)
     if not (load.fx or load.fy or load.m or load.mass):
         raise ConfigError("the load is zero: give --fx, --fy, --m or --mass (every clearance state is then "

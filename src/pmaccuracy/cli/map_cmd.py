@@ -119,11 +119,12 @@ def run(args: argparse.Namespace) -> int:
                               key="--workers")
     if suffix == ".nc":
         maps.check_netcdf_size(n_phi, args.grid)
-    if suffix == ".zarr" or streamed:   # before anything is computed or created
+    # the output path first (a folder that cannot be created is the path's fault, not the grid's), then its disk
+    _common.prepare_output(out, "--out", OUT_TYPES)
+    if suffix == ".zarr" or streamed:   # before anything is computed
         _check_disk(maps, out, n_phi * (2 if args.certified else 1), args.grid)
     if not streamed and (suffix != ".zarr" or args.certified):
         maps.check_fits_in_memory(n_phi * (2 if args.certified else 1), args.grid)
-    _common.prepare_output(out, "--out", OUT_TYPES)
     _common.check_plot(args)
     chunk = args.chunk_size or maps.DEFAULT_CHUNK
     show = sys.stderr.isatty() if args.progress is None else args.progress

@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from .._textfile import read_csv
 from ..errors import ConfigError, MeasurementFileError, SingularPoseError
 from ..io.resolve import robot_arg
 from ..accuracy.bounds import max_pose_errors
@@ -132,6 +133,10 @@ def _fail(src: str, message: str, line: int | None = None) -> MeasurementFileErr
     return MeasurementFileError(message, source=src, key=None if line is None else f"line {line}")
 
 
+#: Largest cycle number of a repeated-pose file (a robot's life is far fewer cycles; beyond, a mistyped cell).
+MAX_CYCLE = 10 ** 9
+
+
 def load_repeats(path: str | Path) -> RepeatedPoses:
     """Read and check a repeated-pose CSV file (format in the module docstring); points in order of first
     appearance, cycles in increasing order.
@@ -139,49 +144,38 @@ def load_repeats(path: str | Path) -> RepeatedPoses:
     Raises :class:`~pmaccuracy.errors.MeasurementFileError` naming the file and the line of the first problem.
     """
     src = str(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header = next(reader, None)
-            if header is None:
-                raise _fail(src, f"empty file: expected the header {','.join(REPEAT_COLUMNS)}", 1)
-            if [h.strip() for h in header] != list(REPEAT_COLUMNS):
-                raise _fail(src, f"header must be {','.join(REPEAT_COLUMNS)!r}, got {','.join(header)!r}", 1)
-            rows = []
-            for row in reader:
-                line = reader.line_num
-                if not row or all(not c.strip() for c in row):
-                    continue
-                if len(row) != len(REPEAT_COLUMNS):
-                    raise _fail(src, f"expected {len(REPEAT_COLUMNS)} values ({','.join(REPEAT_COLUMNS)}), got "
-                                     f"{len(row)}", line)
-                cells = [c.strip() for c in row]
-                if not cells[0]:
-                    raise _fail(src, "empty point label", line)
-                values = []
-                for i in (1, 2, 3, 5, 6, 7):
-                    try:
-                        v = float(cells[i])
-                    except ValueError:
-                        raise _fail(src, f"column {REPEAT_COLUMNS[i]}: not a number: {cells[i]!r}", line) from None
-                    if not math.isfinite(v):
-                        raise _fail(src, f"column {REPEAT_COLUMNS[i]}: not finite: {cells[i]!r}", line)
-                    values.append(v)
-                try:
-                    cycle = int(cells[4])
-                except ValueError:
-                    cycle = 0
-                if cycle < 1:
-                    raise _fail(src, f"column cycle: must be a whole number >= 1, got {cells[4]!r}", line)
-                rows.append((line, cells[0], values[:3], cycle, values[3:]))
-    except FileNotFoundError:
-        raise _fail(src, "no such file") from None
-    except IsADirectoryError:
-        raise _fail(src, "is a directory, not a CSV file") from None
-    except UnicodeDecodeError:
-        raise _fail(src, "not a UTF-8 text file") from None
-    except csv.Error as exc:
-        raise _fail(src, f"malformed CSV: {exc}") from None
+    lines = read_csv(path, MeasurementFileError)
+    header = lines[0][1] if lines else None
+    if header is None:
+        raise _fail(src, f"empty file: expected the header {','.join(REPEAT_COLUMNS)}", 1)
+    if [h.strip() for h in header] != list(REPEAT_COLUMNS):
+        raise _fail(src, f"header must be {','.join(REPEAT_COLUMNS)!r}, got {','.join(header)!r}", 1)
+    rows = []
+    for line, row in lines[1:]:
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(REPEAT_COLUMNS):
+            raise _fail(src, f"expected {len(REPEAT_COLUMNS)} values ({','.join(REPEAT_COLUMNS)}), got "
+                             f"{len(row)}", line)
+        cells = [c.strip() for c in row]
+        if not cells[0]:
+            raise _fail(src, "empty point label", line)
+        values = []
+        for i in (1, 2, 3, 5, 6, 7):
+            try:
+                v = float(cells[i])
+            except ValueError:
+                raise _fail(src, f"column {REPEAT_COLUMNS[i]}: not a number: {cells[i]!r}", line) from None
+            if not math.isfinite(v):
+                raise _fail(src, f"column {REPEAT_COLUMNS[i]}: not finite: {cells[i]!r}", line)
+            values.append(v)
+        try:
+            cycle = int(cells[4])
+        except ValueError:
+            cycle = 0
+        if not 1 <= cycle <= MAX_CYCLE:
+            raise _fail(src, f"column cycle: must be a whole number from 1 to {MAX_CYCLE}, got {cells[4]!r}", line)
+        rows.append((line, cells[0], values[:3], cycle, values[3:]))
     if not rows:
         raise _fail(src, "no readings: the file has a header but no data rows")
 

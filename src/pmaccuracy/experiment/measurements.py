@@ -36,10 +36,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from .._textfile import read_csv
 from ..errors import ConfigError, MeasurementFileError
 from ..model import plausibility
 
@@ -176,19 +176,7 @@ def load_measurements(path: str | Path, *, max_deviation_mm: float = MAX_DEVIATI
     MeasurementFileError : naming the file and the line (or the point) of the first problem.
     """
     src = str(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(_read_rows(csv.reader(fh), src))
-    except FileNotFoundError:
-        raise _fail(src, "no such file") from None
-    except IsADirectoryError:
-        raise _fail(src, "is a directory, not a CSV file") from None
-    except UnicodeDecodeError:
-        raise _fail(src, "not a UTF-8 text file") from None
-    except csv.Error as exc:
-        raise _fail(src, f"malformed CSV: {exc}") from None
-    except OSError as exc:
-        raise _fail(src, exc.strerror or str(exc)) from None
+    rows = list(_read_rows(read_csv(path, MeasurementFileError), src))
     if not rows:
         raise _fail(src, "no readings: the file has a header but no data rows")
 
@@ -251,15 +239,15 @@ def load_measurements(path: str | Path, *, max_deviation_mm: float = MAX_DEVIATI
                         source=src, lines=lines)
 
 
-def _read_rows(reader: Any, src: str):
-    """Yield ``(line, label, [x_nom, y_nom, phi_nom_deg], push, [x, y, phi_deg])`` for every non-blank row."""
-    header = next(reader, None)
-    if header is None:
+def _read_rows(lines: list[tuple[int, list[str]]], src: str):
+    """Yield ``(line, label, [x_nom, y_nom, phi_nom_deg], push, [x, y, phi_deg])`` for every non-blank row of
+    the file's rows ``(line, cells)`` (:func:`pmaccuracy._textfile.read_csv`)."""
+    if not lines:
         raise _fail(src, f"empty file: expected the header {','.join(CSV_COLUMNS)}", 1)
+    header = lines[0][1]
     if [h.strip() for h in header] != list(CSV_COLUMNS):
         raise _fail(src, f"header must be {','.join(CSV_COLUMNS)!r}, got {','.join(header)!r}", 1)
-    for row in reader:
-        line = reader.line_num
+    for line, row in lines[1:]:
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(CSV_COLUMNS):

@@ -19,10 +19,11 @@ import io
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import IO
+from typing import IO, NoReturn
 
 import numpy as np
 
+from .._textfile import read_text
 from ..errors import ConfigError
 
 #: Columns a poses CSV must name (mm, mm, deg); other columns are ignored.
@@ -39,9 +40,16 @@ def _header(path: str) -> list[str]:
     except IsADirectoryError:
         raise ConfigError("is a folder, not a CSV file", source=path) from None
     except UnicodeDecodeError:
-        raise ConfigError("not a text CSV file", source=path) from None
+        _not_text(path)
     except csv.Error as exc:
         raise ConfigError(f"malformed CSV header ({exc})", source=path, key="line 1") from None
+
+
+def _not_text(path: str) -> NoReturn:
+    """Refuse a file that is not UTF-8 text, naming the line of its first foreign byte (it is decoded again,
+    whole, by :func:`pmaccuracy._textfile.read_text`, which raises)."""
+    read_text(path, what="CSV file")
+    raise ConfigError("not a UTF-8 text CSV file", source=path)
 
 
 def read_poses_csv(path: str | Path) -> np.ndarray:
@@ -128,7 +136,7 @@ def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
                     values.append(v)
                 rows.append(values)
     except UnicodeDecodeError:
-        raise ConfigError("not a text CSV file", source=path) from None
+        _not_text(path)
     except csv.Error as exc:  # e.g. a field longer than csv.field_size_limit() (131072 characters)
         where = f"line {reader.line_num}" if reader is not None and reader.line_num else None
         raise ConfigError(f"malformed CSV ({exc})", source=path, key=where) from None

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ClearanceError, ConfigError
 from ..kinematics import resolve_robot
-from ..model import _tomlio
+from ..model import _tomlio, plausibility
 from ..model.clearances import ClearanceSet
 from ..model.sources import ErrorSources, is_per_joint
 
@@ -79,9 +79,14 @@ def load_clearances(spec, robot):
     if is_per_joint(data):
         sources = ErrorSources.from_dict(data, source=source)
         try:
-            return sources.check(robot)
+            sources.check(robot)
         except ClearanceError as exc:
             raise ClearanceError(exc.message, source=source, key=exc.key) from None
+        plausibility.warn(plausibility.actuator_messages(
+            ((f"legs[{i}].joints[{k}].actuator", errs.actuator, joint.actuated and joint.kind == "R")
+             for i, (chain, leg) in enumerate(zip(robot.chains, sources.legs), start=1)
+             for k, (joint, errs) in enumerate(zip(chain.joints, leg), start=1)), source))
+        return sources
     if not robot.is_3ppr:
         raise ClearanceError(
             f"this file uses the 3-PPR clearance format (bearing_angle, guide_lateral, revolute_radial per leg) but "

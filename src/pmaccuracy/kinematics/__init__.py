@@ -600,6 +600,9 @@ def resolve_robot(robot, name: str = "robot") -> Manipulator:
             check_reachable(loaded)
         except GeometryError as exc:
             raise GeometryError(exc.message, source=os.fspath(robot), key=exc.key) from None
+        except PoseError as exc:   # e.g. an actuated range of 1e25 mm: its samples are no usable joint values
+            raise GeometryError(f"the actuated joint ranges give no usable joint values ({exc})",
+                                source=os.fspath(robot), key="legs") from None
         return loaded
     if not hasattr(robot, "chains"):
         raise ConfigError(f"expected a Manipulator, a preset name or a robot TOML path, got {type(robot).__name__}",

@@ -16,6 +16,7 @@ from typing import Any, ClassVar
 
 import tomli_w
 
+from .._textfile import read_text
 from ..errors import ConfigError
 from . import plausibility
 
@@ -48,10 +49,7 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         if not path.is_file():
             known = f" (presets: {', '.join(presets)})" if presets else ""
             raise ConfigError(f"no {kind} preset or file of that name{known}", source=text_spec)
-        try:
-            data = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"cannot read file ({exc})", source=text_spec) from None
+        data = read_text(text_spec, what=f"{kind} TOML file")
         source = text_spec
     parsed = parse_text(data, source)
     if kind == "robot" and source == text_spec:  # a user's robot file: angles typed in radians? (a warning)
@@ -66,6 +64,8 @@ def parse_text(text: str, source: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"malformed TOML ({exc})", source=source) from None
+    except RecursionError:  # tables or arrays nested thousands deep
+        raise ConfigError("malformed TOML (nested too deeply)", source=source) from None
 
 
 def number(table: dict[str, Any], key: str, *, source: str, where: str, default: float | None = None,
@@ -79,7 +79,10 @@ def number(table: dict[str, Any], key: str, *, source: str, where: str, default:
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"must be a number, got {value!r}", source=source, key=name)
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:   # an integer beyond the largest double
+        raise ConfigError("must be finite, got an integer beyond 1e308", source=source, key=name) from None
     if not math.isfinite(value):
         raise ConfigError(f"must be finite, got {value}", source=source, key=name)
     if positive and value <= 0:

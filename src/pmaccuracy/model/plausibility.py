@@ -23,6 +23,8 @@ mechanisms are micrometres and milliradians):
   or pi/18 (angles of 15, 22.5 or 10 deg written in radians: 0.2618, 0.5236,
   0.7854, 1.0472, 1.5708, 3.1416, ...). A degree value that short and that close
   to such a multiple is rare on purpose: 0.5, 1, 1.5, 2, 3 deg do not match;
+  a *direction* (``--gravity-deg``), whose usual values are whole eighths of a turn, also
+  matches a multiple of pi/4 typed with two decimals (:data:`DIRECTION_MATCH`: 1.57, 3.14, 6.28);
 * (command line only) measurement noise or accuracy options above 1 mm or 1 deg, error targets and
   thresholds above 1 mm or 1 deg (``pmaccuracy.cli._size_messages``);
 * (Python API) an **orientation in radians that looks like degrees**: ``|phi| > 2 pi`` (more than a
@@ -38,7 +40,10 @@ mechanisms are micrometres and milliradians):
   (Eq. 8, 19) keeps the first order of the rotation; its relative second-order
   term is about ``dphi / 2`` (``1 - cos dphi`` against ``dphi``), 0.9 % at
   1 deg, and the loop closures bend further near a singularity, which is where
-  such values appear.
+  such values appear;
+* a **first-order loaded error** (:mod:`pmaccuracy.accuracy.loads`) that the exact loop closure moves by
+  more than :data:`MAX_LOADED_DIFFERENCE` = 5 % of its size (position or orientation,
+  :func:`loaded_error_messages`): large clearances bend the loops well before ``dphi`` reaches 1 deg.
 
 Example
 -------
@@ -65,6 +70,11 @@ MAX_ANGLE_RAD = 0.01
 BLOCK_LENGTH_RANGE_MM = (1.0, 1000.0)
 #: Distance (in the value's unit) to k pi/12, k pi/8 or k pi/18 below which a degree value looks like radians.
 RADIAN_MATCH = 5e-4
+#: Distance (deg) to a multiple of pi/4 below which a *direction* in degrees (gravity) looks like radians: half
+#: a unit of the second decimal, so pi/2 typed as 1.57 and 2 pi as 6.28 match; 1.5 or 2 deg do not.
+DIRECTION_MATCH = 5e-3
+#: Largest relative difference between a first-order loaded error and the exact one without a warning.
+MAX_LOADED_DIFFERENCE = 0.05
 #: Largest worst-case dphi (deg) for which the first-order model is trusted (relative 2nd order ~ dphi/2).
 MAX_LINEAR_DPHI_DEG = 1.0
 #: Largest |orientation| (rad) the API takes without a warning: a full turn (module docstring).
@@ -235,21 +245,29 @@ def check_orientations(phi_rad, where: str, what: str = "orientations", *, poses
         warnings.warn(message, PlausibilityWarning, stacklevel=3)
 
 
-def looks_like_radians(phi_deg: np.ndarray | float) -> np.ndarray:
-    """True where a value given in degrees looks like an angle in radians (module docstring), same shape."""
+def looks_like_radians(phi_deg: np.ndarray | float, *, direction: bool = False) -> np.ndarray:
+    """True where a value given in degrees looks like an angle in radians (module docstring), same shape.
+
+    ``direction``: the value is a direction in the plane (gravity), whose usual values are whole eighths of a
+    turn (0, 45, -90, 180 deg): then also a multiple of pi/4 rounded to two decimals (:data:`DIRECTION_MATCH`:
+    0.79, 1.57, 3.14, 4.71, 6.28) looks like radians.
+    """
     v = np.abs(np.asarray(phi_deg, dtype=float))
     hit = np.zeros(v.shape, dtype=bool)
-    for step in (math.pi / 12, math.pi / 8, math.pi / 18):
+    for step, match in ((math.pi / 12, RADIAN_MATCH), (math.pi / 8, RADIAN_MATCH), (math.pi / 18, RADIAN_MATCH),
+                        *(((math.pi / 4, DIRECTION_MATCH),) if direction else ())):
         k = np.rint(v / step)
-        hit |= (k >= 1) & (np.abs(v - k * step) <= RADIAN_MATCH)
-    return hit & (v > 0) & (v <= 2 * math.pi + RADIAN_MATCH) & np.isfinite(v)
+        hit |= (k >= 1) & (np.abs(v - k * step) <= match)
+    limit = 2 * math.pi + (DIRECTION_MATCH if direction else RADIAN_MATCH)
+    return hit & (v > 0) & (v <= limit) & np.isfinite(v)
 
 
-def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations") -> list[str]:
+def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations", *,
+                         direction: bool = False) -> list[str]:
     """One message if some of the angles (deg) look like radians; ``where`` names the option or file, ``what``
-    the kind of angle."""
+    the kind of angle; ``direction``: directions in the plane (:func:`looks_like_radians`)."""
     values = np.asarray(phi_deg, dtype=float).reshape(-1)
-    hits = values[looks_like_radians(values)]
+    hits = values[looks_like_radians(values, direction=direction)]
     if hits.size == 0:
         return []
     first = float(hits[0])
@@ -278,6 +296,38 @@ def linearity_messages(dphi_max_deg: np.ndarray, poses: np.ndarray | None = None
     return [f"{what} = {_g(d[k])} deg{at}{many} is beyond the first-order model's validity (about "
             f"{_g(MAX_LINEAR_DPHI_DEG)} deg; relative second-order error ~ dphi/2): the worst case is only "
             f"indicative there (near a singularity or clearances too large)"]
+
+
+def loaded_error_messages(first_order: np.ndarray, exact: np.ndarray, poses: np.ndarray,
+                          length_mm: float) -> list[str]:
+    """One message if a first-order loaded error differs from the exact one by more than
+    :data:`MAX_LOADED_DIFFERENCE` (relative), at any of the poses.
+
+    ``first_order``, ``exact``, ``poses`` ``(..., 3)`` [mm, mm, rad]. The position part ``(dx, dy)`` and the
+    orientation part ``dphi`` are compared separately, each relative to its exact size; a part smaller than a
+    tenth of the whole error (``|(dx, dy, L dphi)|``, ``L = length_mm`` the robot's size) is not judged (its
+    relative difference says nothing about the figures a user reads). Poses without an exact value are skipped.
+    """
+    f = np.asarray(first_order, dtype=float).reshape(-1, 3)
+    e = np.asarray(exact, dtype=float).reshape(-1, 3)
+    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pos, rot = np.hypot(e[:, 0], e[:, 1]), np.abs(e[:, 2])
+        size = np.hypot(pos, length_mm * rot)
+        rel_pos = np.where(pos >= 0.1 * size, np.hypot(f[:, 0] - e[:, 0], f[:, 1] - e[:, 1]) / pos, 0.0)
+        rel_rot = np.where(length_mm * rot >= 0.1 * size, np.abs(f[:, 2] - e[:, 2]) / rot, 0.0)
+    ok = np.isfinite(size) & (size > 0) & np.all(np.isfinite(f), axis=1)
+    rel = np.where(ok, np.maximum(np.nan_to_num(rel_pos), np.nan_to_num(rel_rot)), 0.0)
+    bad = rel > MAX_LOADED_DIFFERENCE
+    if not np.any(bad):
+        return []
+    k = int(np.argmax(rel))
+    part = "position" if rel_pos[k] >= rel_rot[k] else "orientation"
+    many = f" ({int(bad.sum())} of {rel.size} poses)" if rel.size > 1 else ""
+    return [f"the first-order loaded error differs from the exact one by {_g(100 * rel[k])} % ({part}) at x = "
+            f"{_g(p[k, 0])} mm, y = {_g(p[k, 1])} mm, phi = {_g(math.degrees(p[k, 2]))} deg{many}, above "
+            f"{_g(100 * MAX_LOADED_DIFFERENCE)} %: the first-order figures are only indicative there (use the exact "
+            f"ones)"]
 
 
 def _prefixed(source: str | None, messages: list[str]) -> list[str]:
@@ -312,6 +362,19 @@ def error_sources_messages(sources, source: str | None = None, what: str = "clea
                     continue  # the default block length is only used with a lateral clearance
                 if value:
                     values[f"legs[{i}].joints[{k}].{key}"] = (value, unit)
+    return _prefixed(source, clearance_messages(values, what))
+
+
+def actuator_messages(actuators: Iterable[tuple[str, float, bool]], source: str | None = None,
+                      what: str = "clearances") -> list[str]:
+    """Messages for ``actuator`` half-widths ``(name, value, revolute)`` once the joint types are known: a
+    revolute actuator's error is in rad and held to :data:`MAX_ANGLE_RAD` (``actuator = 0.05`` on a motor is
+    almost surely degrees); a prismatic one's, in mm, is checked by :func:`error_sources_messages` already.
+
+    >>> actuator_messages([("legs[1].joints[1].actuator", 0.05, True)])
+    ['legs[1].joints[1].actuator = 0.05 rad (2.86479 deg) is above 0.01 rad: clearances are usually milliradians (is it in degrees?)']
+    """
+    values = {name: (float(value), "rad") for name, value, revolute in actuators if revolute and value}
     return _prefixed(source, clearance_messages(values, what))
 
 

@@ -69,7 +69,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from . import _tomlio
+from . import _tomlio, plausibility
 from ..errors import ClearanceError, ConfigError, GeometryError, OutsideJointLimitsError, PoseError
 from .legs import check_block
 from .plausibility import check_orientations
@@ -435,7 +435,11 @@ def load_serial_sources(spec, arm: SerialArm) -> SerialErrorSources:
             f"which does not fit the serial arm {arm.name}: give one [[legs]] entry listing its {arm.n} joints, "
             "e.g. joints = [{radial = 0.005, actuator = 0.0003}, ...] (preset arm_typical)",
             source=source, key="legs")
-    return SerialErrorSources.from_dict(data, source=source, arm=arm)
+    sources = SerialErrorSources.from_dict(data, source=source, arm=arm)
+    plausibility.warn(plausibility.actuator_messages(
+        ((f"legs[1].joints[{k}].actuator", errs.actuator, joint.kind == "R")
+         for k, (joint, errs) in enumerate(zip(arm.joints, sources.joints), start=1)), source))
+    return sources
 
 
 # ====================================================================== exact bounds

@@ -21,7 +21,6 @@ the nominal orientation: ``phi_nom + remainder(phi - phi_nom, 90 deg)``.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .._textfile import read_csv
 from ..errors import VisionError
 from ._util import DEFAULT_SPACING_MM
 from ..experiment import NOMINAL_TOLERANCE, PUSHES
@@ -56,17 +56,12 @@ def read_manifest(path: str | Path) -> list[ManifestRow]:
 
     path = Path(path)
     src = str(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header = next(reader, None)
-            body = [(reader.line_num, row) for row in reader]
-    except FileNotFoundError:
-        raise VisionError(f"{src}: no such manifest file") from None
-    except IsADirectoryError:
-        raise VisionError(f"{src}: is a directory, not a manifest CSV") from None
-    except (UnicodeDecodeError, csv.Error, OSError) as exc:
-        raise VisionError(f"{src}: cannot read the manifest ({exc})") from None
+    if not path.exists():
+        raise VisionError(f"{src}: no such manifest file")
+    lines = read_csv(path, lambda message, line: VisionError(
+        f"{src}: {'' if line is None else f'line {line}: '}{message}"))
+    header = lines[0][1] if lines else None
+    body = lines[1:]
     if header is None or [h.strip() for h in header] != list(MANIFEST_COLUMNS):
         got = ",".join(header) if header else "nothing"
         raise VisionError(f"{src}: line 1: header must be {','.join(MANIFEST_COLUMNS)!r}, got {got!r}")

@@ -63,6 +63,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .._textfile import read_text
 from ..errors import ConfigError, VisionError
 from ._util import DEFAULT_SPACING_MM, MIN_CALIBRATION_DOTS, _positive
 from .camera import CameraModel, disk_image_bias, image_to_plane, local_scale, plane_matrix, plane_to_image, rotation_matrix, rotation_vector
@@ -352,10 +353,7 @@ class Calibration:
         source = str(path)
         if not path.is_file():
             raise ConfigError("no such calibration file", source=source)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"cannot read file ({exc})", source=source) from None
+        text = read_text(source, what="calibration TOML file")
         return cls.from_dict(_tomlio.parse_text(text, source), source)
 
     @classmethod

@@ -35,6 +35,7 @@ import numpy as np
 from ..accuracy.calibration.data import CalibrationData, command_columns
 from ..accuracy.calibration.parameters import actuators
 from ..accuracy.calibration.simulate import measure
+from .._textfile import read_csv
 from ..errors import MeasurementFileError, VisionError
 from ._util import DEFAULT_SPACING_MM
 from .images import MAX_IMAGE_PIXELS, load_image, save_image
@@ -113,11 +114,8 @@ def measure_calibration_photos(manifest, pv, *, mm_per_pixel: float = PHOTO_MM_P
     be measured."""
     manifest = Path(manifest)
     want = command_columns(pv.robot)
-    try:
-        with open(manifest, newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as exc:
-        raise MeasurementFileError(f"cannot read: {exc.strerror or exc}", source=str(manifest)) from None
+    lines = read_csv(manifest, MeasurementFileError)
+    rows = [row for _, row in lines]
     header = [h.strip() for h in rows[0]] if rows else []
     missing = [c for c in ("image", "point", *want, "phi_nom_deg") if c not in header]
     if missing:
@@ -126,7 +124,7 @@ def measure_calibration_photos(manifest, pv, *, mm_per_pixel: float = PHOTO_MM_P
                                    source=str(manifest), key="line 1")
     kinds_r = np.array([kind == "R" for kind, _ in actuators(pv.robot)])
     labels, commands, paths, phi_nom = [], [], [], []
-    for line, row in enumerate(rows[1:], start=2):
+    for line, row in lines[1:]:
         if not row or all(not c.strip() for c in row):
             continue
         try:
@@ -207,17 +205,12 @@ def read_calibration_manifest(path) -> tuple[tuple[str, ...], list[CalibrationPh
     :class:`~pmaccuracy.errors.VisionError` naming the file and the line."""
     path = Path(path)
     src = str(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header = [h.strip() for h in next(reader, [])]
-            body = [(reader.line_num, row) for row in reader]
-    except FileNotFoundError:
-        raise VisionError(f"{src}: no such manifest file") from None
-    except IsADirectoryError:
-        raise VisionError(f"{src}: is a directory, not a manifest CSV") from None
-    except (UnicodeDecodeError, csv.Error, OSError) as exc:
-        raise VisionError(f"{src}: cannot read the manifest ({exc})") from None
+    if not path.exists():
+        raise VisionError(f"{src}: no such manifest file")
+    lines = read_csv(path, lambda message, line: VisionError(
+        f"{src}: {'' if line is None else f'line {line}: '}{message}"))
+    header = [h.strip() for h in lines[0][1]] if lines else []
+    body = lines[1:]
     if not is_calibration_manifest(header):
         raise VisionError(f"{src}: line 1: a calibration manifest's header names image,point, the command columns "
                           f"(q1 or q1_deg, ...) and x_nom,y_nom,phi_nom_deg, got {','.join(header) or 'nothing'!r}")

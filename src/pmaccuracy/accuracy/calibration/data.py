@@ -17,15 +17,16 @@ those measurements are taken. Units: mm and rad in the arrays, mm and degrees in
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..._textfile import read_csv
 from ...errors import MeasurementFileError
 from ...io.csvio import write_csv_columns
+from ...model import plausibility
 from ...model.manipulator import Manipulator
 from ...model.serial import SerialArm
 from .parameters import ParameterVector, actuators, commands_for, wrap_commands
@@ -103,11 +104,8 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
     """
     robot = pv.robot
     src = str(path)
-    try:
-        with open(path, newline="") as fh:
-            rows = [r for r in csv.reader(fh)]
-    except OSError as exc:
-        raise MeasurementFileError(f"cannot read: {exc.strerror or exc}", source=src) from None
+    lines = read_csv(path, MeasurementFileError)
+    rows = [row for _, row in lines]
     if not rows:
         raise MeasurementFileError("empty file (expected a header x,y,phi_deg,q1...)", source=src)
     header = [h.strip() for h in rows[0]]
@@ -143,9 +141,15 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
         names += sig_names
     cols = [header.index(c) for c in names]
     labels, values = [], []
-    for line, row in enumerate(rows[1:], start=2):
+    first_seen: dict[tuple[str, ...], int] = {}   # a row repeated verbatim -> the line it first appeared on
+    repeated: list[tuple[int, int]] = []
+    for line, row in lines[1:]:
         if not row or all(not c.strip() for c in row):
             continue
+        key = tuple(c.strip() for c in row)
+        if key in first_seen:
+            repeated.append((line, first_seen[key]))
+        first_seen.setdefault(key, line)
         if len(row) != len(header):
             raise MeasurementFileError(f"expected {len(header)} values, got {len(row)}", source=src,
                                        key=f"line {line}")
@@ -164,6 +168,11 @@ def read_calibration_csv(path, pv: ParameterVector) -> CalibrationData:
         values.append(vals)
     if not values:
         raise MeasurementFileError("no data rows", source=src)
+    if repeated:
+        shown = ", ".join(f"line {a} repeats line {b}" for a, b in repeated[:3])
+        more = f" and {len(repeated) - 3} more" if len(repeated) > 3 else ""
+        plausibility.warn([f"{src}: {shown}{more} verbatim: the same reading entered twice? (each row counts as "
+                           f"one independent point)"], stacklevel=2)
     arr = np.array(values)
     na = len(want) if use_cmd else 3
     poses = np.column_stack([arr[:, na], arr[:, na + 1], np.radians(arr[:, na + 2])])

@@ -209,6 +209,18 @@ def _plan_serial(pv: SerialParameterVector, n_poses: int, candidates=None, *, se
                 index=_indices(B, sel), random_index=random_index, grid_index=grid_index, n_candidates=len(cand))
 
 
+def _compared_plan(pv, n: int, candidates: np.ndarray, seed: int) -> Plan:
+    """The plan of as many poses as a measured set (:func:`pose_set_indices`); too few measured points is a
+    :class:`ConfigError` with the key ``poses`` (the measured set's, not the plan's ``--poses``)."""
+    try:
+        return plan_poses(pv, n, candidates, seed=seed)
+    except ConfigError as exc:
+        if exc.key != "--poses":
+            raise
+        raise ConfigError(f"{n} measured points are too few to be judged beside a plan of as many ({exc.message})",
+                          key="poses") from None
+
+
 def pose_set_indices(pv: ParameterVector | SerialParameterVector, poses: np.ndarray,
                      candidates: np.ndarray | None = None, *, seed: int = 0, commands: np.ndarray | None = None) -> dict:
     """Observability indices of the measured ``poses (N, 3)`` (robot frame; mm, mm, rad) beside those of the
@@ -235,7 +247,7 @@ def pose_set_indices(pv: ParameterVector | SerialParameterVector, poses: np.ndar
     check_orientations(poses, "poses", poses=True)
     poses = np.atleast_2d(np.asarray(poses, dtype=float))
     cand = candidate_poses(pv) if candidates is None else np.asarray(candidates, dtype=float)
-    plan = plan_poses(pv, len(poses), cand, seed=seed)
+    plan = _compared_plan(pv, len(poses), cand, seed)
     allp = np.vstack([cand, poses])
     cmd = commands_for(pv, pv.nominal, allp)
     sig = np.tile([DEFAULT_ACCURACY_MM, DEFAULT_ACCURACY_MM, np.radians(DEFAULT_ACCURACY_DEG)], (len(cmd), 1))
@@ -256,7 +268,7 @@ def _serial_pose_set_indices(pv: SerialParameterVector, commands: np.ndarray, ca
     cand = candidate_commands(pv, seed=seed) if candidates is None else np.asarray(candidates, dtype=float)
     if commands.shape[1:] != (pv.robot.n,) or cand.ndim != 2 or cand.shape[1] != pv.robot.n:
         raise ConfigError(f"commands of a serial arm have shape (N, {pv.robot.n})", key="commands")
-    plan = _plan_serial(pv, len(commands), cand, seed=seed)
+    plan = _compared_plan(pv, len(commands), cand, seed)
     allc = np.vstack([cand, commands])
     sig = np.tile([DEFAULT_ACCURACY_MM, DEFAULT_ACCURACY_MM, np.radians(DEFAULT_ACCURACY_DEG)], (len(allc), 1))
     data = CalibrationData(tuple(map(str, range(len(allc)))), allc, serial_poses(pv, pv.nominal, allc), sig,

@@ -13,6 +13,7 @@ clearances, as the experiment does); the camera reads it in the true measurement
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -76,6 +77,14 @@ def true_parameters(pv: ParameterVector, seed: int = 0, error_sigma: dict | None
     return v
 
 
+def _finite(value: int | float) -> bool:
+    """Whether a number read from TOML is a finite double (an integer beyond 1e308 is not)."""
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
 def load_parameter_table(spec, pv: ParameterVector, kind: str = "errors") -> dict[str, float]:
     """Read a TOML file of ``name = value`` per error parameter (``kind``: ``"errors"``, the parameter errors
     of the true robot, or ``"tolerances"``, the half-widths of their uniform draws) into library units.
@@ -106,7 +115,7 @@ def load_parameter_table(spec, pv: ParameterVector, kind: str = "errors") -> dic
                 pv.index([name])
             except ConfigError as exc:
                 raise ConfigError(exc.message, source=source, key=name) from None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or \
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value) or \
                 (kind == "tolerances" and value < 0):
             raise ConfigError(f"must be a finite number{' >= 0' if kind == 'tolerances' else ''} "
                               f"({'deg' if units[name] == 'rad' else units[name]}), got {value!r}",
@@ -202,10 +211,11 @@ def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 
     true = true_parameters(pv, seed, error_sigma, true_fixed, errors=errors, tolerances=tolerances)
     if isinstance(pv, SerialParameterVector):
         return _simulate_serial(pv, true, n_poses, seed=seed, noise=noise, clearances=clearances, n_targets=n_targets,
-                                measure_with=measure_with)
+                                measure_with=measure_with, errors=errors, tolerances=tolerances)
     cand = candidate_poses(pv)
     plan = plan_poses(pv, n_poses, cand, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
+    _check_reached(len(data), len(plan.commands), errors, tolerances)
     ident = identify(data, pv, clearances=clearances)
     rng = np.random.default_rng(seed + 2)
     lim = np.array([c.actuated.range for c in pv.robot.chains])
@@ -226,6 +236,24 @@ def simulate_calibration(pv: ParameterVector, n_poses: int = 30, *, seed: int = 
                       errors_after=after)
 
 
+#: Smallest share of the planned poses the true robot must reach for a virtual calibration to go on.
+MIN_REACHED_SHARE = 0.5
+
+
+def _check_reached(reached: int, planned: int, errors, tolerances) -> None:
+    """Refuse a true robot that reaches fewer than :data:`MIN_REACHED_SHARE` of the planned poses: its
+    parameter errors are too large for a calibration (often a unit slip: metres or degrees given as mm).
+    The :class:`~pmaccuracy.errors.ConfigError`'s key names what gave the errors: ``errors``, ``tolerances``
+    or ``error_sigma``."""
+    if reached >= MIN_REACHED_SHARE * planned:
+        return
+    key = " and ".join(k for k, v in (("errors", errors), ("tolerances", tolerances)) if v is not None) or "error_sigma"
+    count = "none" if reached == 0 else f"only {reached}"
+    raise ConfigError(f"the true robot reaches {count} of the {planned} planned poses (out of its reach or past a "
+                      f"singularity): its parameter errors are too large for a calibration (mm, deg and gain "
+                      f"fractions expected)", key=key)
+
+
 def _measured(pv, true, plan, noise, clearances, seed, measure_with) -> CalibrationData:
     """The planned poses of the true robot measured (camera noise, clearance states) or by ``measure_with``."""
     if measure_with is not None:
@@ -239,9 +267,10 @@ def _measured(pv, true, plan, noise, clearances, seed, measure_with) -> Calibrat
 
 
 def _simulate_serial(pv: SerialParameterVector, true: np.ndarray, n_poses: int, *, seed, noise, clearances,
-                     n_targets, measure_with=None) -> Experiment:
+                     n_targets, measure_with=None, errors=None, tolerances=None) -> Experiment:
     plan = plan_poses(pv, n_poses, seed=seed)
     data = _measured(pv, true, plan, noise, clearances, seed, measure_with)
+    _check_reached(len(data), len(plan.commands), errors, tolerances)
     ident = identify(data, pv, clearances=clearances)
     # targets: where the nominal arm goes at random commands inside the ranges with a margin (so that the
     # identified arm reaches them within the ranges too)
