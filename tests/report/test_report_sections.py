@@ -46,7 +46,7 @@ def test_a_failing_section_becomes_a_box_and_the_rest_is_written():
     md = doc.to_markdown()
     assert "partial text" not in md
     assert "## 2. Second" in md and "## 3. Third" in md and "three" in md     # numbering continues
-    assert re.search(r"> \*\*Second: not computed \(after [\d.]+ s\)\.\*\* the loops cannot be closed at pose", md)
+    assert re.search(r"> \*\*Second: not computed \(after [\d.]+ s\)\.\*\* Reason: the loops cannot be closed at pose", md)
     assert "class='failed'" in doc.to_html()
     assert results["failed_sections"] == [{"section": "Second", "reason": "the loops cannot be closed at pose "
                                            "(1, 2, 3 deg)", "error": "NoSolutionError"}]

@@ -91,7 +91,7 @@ class Document:
     def failure(self, section: str, reason: str, *, seconds: float | None = None) -> None:
         """A box in place of a section (or part) that could not be computed: its name and the reason."""
         took = "" if seconds is None else f" (after {seconds:.1f} s)"
-        self.blocks.append(("failure", (f"{section}: not computed{took}.", reason)))
+        self.blocks.append(("failure", (f"{section}: not computed{took}.", f"Reason: {reason}")))
 
     def _headings(self) -> list[tuple[str, str]]:
         """``(anchor, text)`` of every level-2 heading, in order."""

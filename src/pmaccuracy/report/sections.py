@@ -136,7 +136,9 @@ class SectionRunner:
         mark = (len(doc.blocks), doc._sections, doc._figures)
         t0 = time.perf_counter()
         try:
-            return section.run()
+            value = section.run()
+            self._timed(section, t0, True)
+            return value
         except Exception as exc:   # noqa: BLE001 - any failure of one section is boxed, never fatal
             if self.strict:
                 raise
@@ -149,9 +151,17 @@ class SectionRunner:
             failure = SectionFailure(section.title, reason, type(exc).__name__)
             self.failures.append(failure)
             self.results.setdefault("failed_sections", []).append(failure.to_dict())
+            self._timed(section, t0, False)
             if section.heading:
                 doc.heading(section.title)
             doc.failure(section.title, reason, seconds=time.perf_counter() - t0)
             warnings.warn(f"report section '{section.title}' could not be computed ({reason}); the report was "
                           "written with a box in its place", SectionFailedWarning, stacklevel=2)
             return None
+
+    def _timed(self, section: Section, t0: float, ok: bool) -> None:
+        """Record the section's estimate and measured seconds in ``results["sections"]``."""
+        self.results.setdefault("sections", []).append(
+            {"section": section.label, "estimate_s": round(section.estimate_s, 2),
+             "seconds": round(time.perf_counter() - t0, 2), "ok": ok})
+
