@@ -60,7 +60,7 @@ def test_four_panels_with_unit_colorbars(case2_map):
     assert isinstance(fig, Figure)
     main, cbars = _main_axes(fig), _colorbar_axes(fig)
     assert len(main) == 4 and len(cbars) == 4
-    labels = [ax._colorbar.ax.get_ylabel() for ax in cbars]
+    labels = [_bar_label(ax) for ax in cbars]
     assert sum("[mm]" in lab for lab in labels) == 3, labels
     assert sum("[deg]" in lab for lab in labels) == 1, labels
     for ax in main:
@@ -136,7 +136,7 @@ def test_plot_layers_common_scale(case2_map):
     assert len(clims) == 1
     lo, hi = clims.pop()
     assert lo == pytest.approx(float(case2_map.dp_max.min())) and hi == pytest.approx(float(case2_map.dp_max.max()))
-    assert "mm" in _colorbar_axes(fig)[0].get_ylabel()
+    assert "mm" in _bar_label(_colorbar_axes(fig)[0])
 
 
 def _panels():
@@ -261,17 +261,29 @@ def legends_over_data(fig: Figure) -> list[str]:
     return bad
 
 
+from matplotlib.transforms import Affine2D  # noqa: E402
+
+_swap = Affine2D([[0, 1, 0], [1, 0, 0], [0, 0, 1]])
+
+
+def _bar_label(cax) -> str:
+    """A colour bar's label, on its long side (y of a vertical bar, x of a horizontal one)."""
+    return cax.get_xlabel() if cax._colorbar.orientation == "horizontal" else cax.get_ylabel()
+
+
 def colourbar_mismatches(fig: Figure, tol_px: float = 1.0) -> list[str]:
-    """Colour bars whose bottom or top (outline, extension triangles included) differ from their map's
-    (the axes holding the mappable)."""
+    """Colour bars whose ends (outline, extension triangles included) differ from their map's sides (the
+    axes holding the mappable): bottom and top of a vertical bar, left and right of a horizontal one."""
     renderer = fig.canvas.get_renderer()
     bad = []
     for cax in [ax for ax in fig.axes if hasattr(ax, "_colorbar")]:
         mappable = cax._colorbar.mappable
         ax = mappable.axes
         a, c = ax.get_window_extent(renderer), cax._colorbar.outline.get_window_extent(renderer)
+        if cax._colorbar.orientation == "horizontal":
+            a, c = a.transformed(_swap), c.transformed(_swap)
         if abs(a.y0 - c.y0) > tol_px or abs(a.y1 - c.y1) > tol_px:
-            bad.append(f"{cax.get_ylabel()!r}: bar {c.y0:.0f}-{c.y1:.0f} px, map {a.y0:.0f}-{a.y1:.0f} px")
+            bad.append(f"{_bar_label(cax)!r}: bar {c.y0:.0f}-{c.y1:.0f} px, map {a.y0:.0f}-{a.y1:.0f} px")
     return bad
 
 
@@ -326,7 +338,7 @@ def test_map_figures_pass_a_readers_look(case2_map, rrr_map):
 
 def test_colourbar_labels_name_the_factor_and_units(case2_map):
     fig = figures.plot_error_map(case2_map, 30.0, scale=2.0)
-    labels = [ax._colorbar.ax.get_ylabel() for ax in _colorbar_axes(fig)]
+    labels = [_bar_label(ax) for ax in _colorbar_axes(fig)]
     assert len(labels) == 4 and all(lab.startswith("2 x ") for lab in labels), labels
     assert [lab.endswith("[mm]") for lab in labels] == [True, True, True, False] and labels[3].endswith("[deg]")
     assert all(ax.get_title().startswith("2 x ") for ax in _main_axes(fig))
@@ -361,9 +373,9 @@ def test_singular_edges_clip_the_colour_scale_at_the_stated_percentile(rrr_map, 
         lo, hi = _mesh(ax).get_clim()
         assert hi == pytest.approx(p95, rel=1e-12) and lo == pytest.approx(values.min(), rel=1e-12)
         assert cax._colorbar.extend == "max"
-        assert "95th" in cax.get_ylabel() and f"{values.max():.3g}" in cax.get_ylabel()
+        assert "95th" in _bar_label(cax) and f"{values.max():.3g}" in _bar_label(cax)
     for cax in _colorbar_axes(figures.plot_error_map(case2_map, 0.0)):  # smooth maps are never clipped
-        assert cax._colorbar.extend == "neither" and "pct" not in cax.get_ylabel()
+        assert cax._colorbar.extend == "neither" and "pct" not in _bar_label(cax)
 
 
 def _comparison():
