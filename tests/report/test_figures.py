@@ -287,12 +287,16 @@ def colourbar_mismatches(fig: Figure, tol_px: float = 1.0) -> list[str]:
     return bad
 
 
-def assert_readable(fig: Figure, *, max_width_in: float = figures.REPORT_WIDTH_IN, min_points: float = 7.5):
-    """The generic checks: drawn at most the report's width, every text >= min_points and inside the figure,
-    no two texts on top of each other, legends off the data, colour bars matched to their maps."""
+def assert_readable(fig: Figure, *, max_width_in: float = figures.REPORT_WIDTH_IN, min_px: float = 8.0):
+    """The generic checks, on the figure as written (text raised to the floor, as ``save_figure`` does): drawn
+    at most the report's width, every text at least ``min_px`` high when the figure is shown 400 px wide and
+    inside the figure, no two texts on top of each other, legends off the data, colour bars matched to their
+    maps."""
+    figures.legible(_drawn(fig))
     _drawn(fig)
     assert fig.get_figwidth() <= max_width_in + 1e-9, fig.get_figwidth()
-    small = [(t.get_text(), t.get_fontsize()) for t in _texts(fig) if t.get_fontsize() < min_points]
+    px = 400 / (72 * fig.get_figwidth())
+    small = [(t.get_text(), t.get_fontsize() * px) for t in _texts(fig) if t.get_fontsize() * px < min_px - 1e-9]
     assert not small, small
     assert not texts_outside_figure(fig), texts_outside_figure(fig)
     assert not overlapping_texts(fig), overlapping_texts(fig)

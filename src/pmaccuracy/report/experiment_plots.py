@@ -32,8 +32,8 @@ def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, titl
     """
     names = list(datasets)
     values = [(d if isinstance(d, MeasuredErrors) else measured_errors(d)).values() for d in datasets.values()]
-    fig = Figure(figsize=(10, 7.5))
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.92, wspace=0.28, hspace=0.3)  # no layout engine
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 8.0))
+    fig.subplots_adjust(left=0.12, right=0.98, bottom=0.1, top=0.92, wspace=0.4, hspace=0.38)  # no layout engine
     for ax, q in zip(fig.subplots(2, 2).ravel(), QUANTITIES):
         ax.boxplot([v[q] for v in values])
         ax.set_xticks(range(1, len(names) + 1))
@@ -70,8 +70,8 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     errors = measured_errors(m)
     groups = _orientation_groups(m)
     n = len(m)
-    fig = Figure(figsize=(10.0, 5.4))
-    fig.subplots_adjust(left=0.09, right=0.99, bottom=0.12, top=0.82, hspace=0.14)
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 6.0))
+    fig.subplots_adjust(left=0.13, right=0.98, bottom=0.14, top=0.8, hspace=0.14)
     ax_p, ax_r = fig.subplots(2, 1, sharex=True)
     pos = np.empty(n)
     start = 0.0
@@ -113,8 +113,8 @@ def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str |
     meas, pred = comparison.measured_values(), comparison.predicted_values(factor)
     half, band, reg = comparison.band_halfwidths(), comparison.band(factor), comparison.regression(factor)
     groups = _orientation_groups(comparison.measurements)
-    fig = Figure(figsize=(10.0, 9.6))
-    fig.subplots_adjust(left=0.09, right=0.98, bottom=0.06, top=0.86, wspace=0.3, hspace=0.3)
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 9.6))
+    fig.subplots_adjust(left=0.13, right=0.98, bottom=0.07, top=0.85, wspace=0.45, hspace=0.42)
     pre = f"{factor:g} x " if factor != 1 else ""
     for k, (ax, q) in enumerate(zip(fig.subplots(2, 2).ravel(), QUANTITIES)):
         x, y = meas[q], pred[q]

@@ -39,7 +39,7 @@ from ..kinematics import as_poses, leg_states
 from ..kinematics.workspace import draw_robot
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, block_centre
-from .figures import nice_step, plot_panels
+from .figures import REPORT_WIDTH_IN, nice_step, plot_panels
 
 #: Colours: the external wrench, the joints' forces, a leg's contact state, unloaded legs, the preload.
 LOAD_COLOUR, REACTION_COLOUR, CONTACT_COLOUR, UNLOADED_COLOUR, PRELOAD_COLOUR = \
@@ -226,7 +226,7 @@ def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, ti
     rng = wrench_set_errors(robot, sources, pose[None], center, half)
     flips = rng.flips[0]
     span = _span(robot, pose)
-    fig = Figure(figsize=(10.0, 5.8))
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 6.4))
     ax = fig.add_axes((0.07, 0.30, 0.50, 0.62))
     draw_robot(robot, pose, ax, label=False, leg_colors=tuple("tab:orange" if f else "0.25" for f in flips))
     p = np.asarray(pre.wrench, dtype=float)
