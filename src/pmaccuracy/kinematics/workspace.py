@@ -774,6 +774,6 @@ def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = D
     handles, labels = axes[0][0].get_legend_handles_labels()
     keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
     fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
-               bbox_to_anchor=(0.5, 0.535), ncol=len(keep), fontsize=8, frameon=False)
+               bbox_to_anchor=(0.5, 0.535), ncol=min(len(keep), 3), fontsize=8, frameon=False)
     fig.subplots_adjust(left=0.9 / (3.3 * n + 0.4), right=0.99, bottom=0.17, top=0.93, wspace=0.45, hspace=0.55)
     return fig

@@ -25,6 +25,9 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from ..errors import ConfigError
+from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, regular_mask, singularity
+from ..kinematics.workspace import constant_orientation_workspace
+from ..model.manipulator import Manipulator
 from .._savefig import (DEFAULT_DPI, FIGURE_TYPES, MIN_TEXT_PX, NARROW_DISPLAY_PX,  # noqa: F401  (re-exported)
                         SYMBOLS, check_dpi, figure_format, legible, min_font_pt, quantity_label, save_figure,
                         smallest_text_px)
@@ -41,6 +44,8 @@ CLIP_PERCENTILE = 95.0
 #: 100 px per inch wide (750 px) and down to the screen's width; text is at least :data:`FONT_PT`, which
 #: :func:`~pmaccuracy._savefig.min_font_pt` makes 8 px high on a 400 px wide screen.
 REPORT_WIDTH_IN = 7.5
+#: At most this many map panels side by side (more go to further rows), so each stays readable at 400 px.
+MAX_COLUMNS = 2
 #: Font sizes (points) of the report's figures: tick labels, legends and notes | axis labels | titles.
 FONT_PT = math.ceil(2 * min_font_pt(REPORT_WIDTH_IN)) / 2
 LABEL_PT = FONT_PT
@@ -269,9 +274,6 @@ def map_shape(robot, phi_deg: float, x: np.ndarray, y: np.ndarray, max_condition
     """The :class:`MapShape` of ``robot`` at ``phi_deg`` (deg) on the grid ``x`` ``(nx,)``, ``y`` ``(ny,)`` (mm),
     with the maps' singularity test (:func:`pmaccuracy.kinematics.regular_mask`, default
     :data:`~pmaccuracy.kinematics.DEFAULT_MAX_CONDITION`)."""
-    from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, regular_mask, singularity
-    from ..kinematics.workspace import constant_orientation_workspace
-
     mc = DEFAULT_MAX_CONDITION if max_condition is None else float(max_condition)
     phi = math.radians(float(phi_deg))
     X, Y = np.meshgrid(np.asarray(x, float), np.asarray(y, float))
@@ -289,8 +291,6 @@ def _robot_of(ds: xr.Dataset):
     text = ds.attrs.get("robot_toml")
     if not text:
         return None
-    from ..model.manipulator import Manipulator
-
     return Manipulator.from_toml_string(text, source="the map's robot_toml")
 
 
@@ -397,6 +397,12 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
     if horizontal and not log and error is None:
         ticks = MaxNLocator(4).tick_values(lo, hi)
         cbar.set_ticks(ticks[(ticks >= lo - 1e-9 * abs(hi)) & (ticks <= hi + 1e-9 * abs(hi))])
+    elif horizontal and log:                                      # decades only, no crowded minor labels
+        from matplotlib.ticker import NullFormatter
+
+        cbar.ax.xaxis.set_minor_formatter(NullFormatter())
+    elif horizontal and error is not None and len(levels) > 5:     # every k-th band edge: at most 5 labels
+        cbar.set_ticks(levels[::math.ceil(len(levels) / 5)])
     constant = finite.size == 0 or float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300)
     if contours and not constant:
         inner = levels[(levels > float(finite.min())) & (levels < min(float(finite.max()), hi))]
@@ -617,7 +623,7 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     error (:func:`monte_carlo_levels`). ``vmin``/``vmax`` (units of the panels marked in ``limited``, default
     all) and ``log`` set the colour scales.
     """
-    ncols = ncols or len(panels)
+    ncols = min(ncols or len(panels), MAX_COLUMNS)
     nrows = int(np.ceil(len(panels) / ncols))
     boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
     common_box = None
@@ -628,7 +634,8 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     else:
         aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
     fig = Figure()
-    cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.4 * ncols + 0.8))
+    cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.6 * ncols + 0.8),
+                       label_lines=3 if any(e is not None for e in (errors or [])) else 2)
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
     errors = errors or [None] * len(panels)
     limited = limited or [True] * len(panels)
