@@ -218,25 +218,65 @@ def monte_carlo_levels(lo: float, hi: float, error: float, max_levels: int = 12)
     return np.round(np.arange(first, last + 1) * step, 12)
 
 
-def _declutter(ax, labels: list, pad_pt: float = 2.0) -> None:
-    """Remove contour labels that would overlap an earlier one (or stick out of the axes), so crowded
-    contours (near a singular edge) keep readable labels. Boxes are estimated from the text's length and
-    font size (0.6 em per character), in display units at the figure's dpi."""
+def _renderer(fig: Figure):
+    """A renderer measuring text as the figure will draw it: its canvas's, else an Agg one at the figure's size
+    and dpi (a bare ``Figure()`` has no renderer until it is saved)."""
+    get = getattr(fig.canvas, "get_renderer", None)
+    if get is not None:
+        return get()
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    w, h = fig.get_size_inches() * fig.dpi
+    return RendererAgg(max(int(w), 1), max(int(h), 1), fig.dpi)
+
+
+def _on_field(ax, box, field, region, n: int = 5) -> bool:
+    """Whether an ``n x n`` grid of points over ``box`` (display units) lies on finite cells of ``field``
+    ``(x, y, Z)`` (nearest grid point) and inside ``region`` (a Path in data units); either may be None."""
+    u, v = np.meshgrid(np.linspace(box.x0, box.x1, n), np.linspace(box.y0, box.y1, n))
+    pts = ax.transData.inverted().transform(np.column_stack([u.ravel(), v.ravel()]))
+    if region is not None and not region.contains_points(pts).all():
+        return False
+    if field is not None:
+        x, y, Z = field
+        ix = np.clip(np.searchsorted(x, pts[:, 0]), 1, len(x) - 1)
+        ix -= (pts[:, 0] - x[ix - 1]) < (x[ix] - pts[:, 0])
+        iy = np.clip(np.searchsorted(y, pts[:, 1]), 1, len(y) - 1)
+        iy -= (pts[:, 1] - y[iy - 1]) < (y[iy] - pts[:, 1])
+        if not np.isfinite(Z[iy, ix]).all():
+            return False
+    return True
+
+
+def label_contours(ax, cs, *, fontsize: float = FONT_PT, fmt: str = "%.3g", colors: str = "white",
+                   pad_pt: float = 2.0, field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   region=None) -> list:
+    """Label the contour lines ``cs`` of ``ax`` with their values, keeping only labels whose drawn boxes (rotation
+    included, measured by the renderer, plus ``pad_pt``) lie inside the axes and clear of every label kept
+    before them, so crowded contours (near a singular edge) keep readable labels. With ``field`` ``(x, y, Z)``
+    (the drawn field) and ``region`` (a matplotlib Path in data units, e.g. the workspace outline) a label
+    must also lie on coloured cells (finite ``Z``, nearest grid point) inside ``region``: white text is not
+    left on the blank page. The kept labels are then placed inline (the lines broken under them only).
+    Returns the labels."""
     fig = ax.get_figure()
-    scale = fig.dpi / 72.0
-    frame = ax.get_window_extent()
-    kept: list[tuple[float, float, float, float]] = []
-    for label in labels:
-        x, y = ax.transData.transform(label.get_position())
-        size = label.get_fontsize()
-        half_w = (0.3 * size * len(label.get_text()) + pad_pt) * scale
-        half_h = (0.6 * size + pad_pt) * scale
-        box = (x - half_w, x + half_w, y - half_h, y + half_h)
-        inside = frame.x0 <= box[0] and box[1] <= frame.x1 and frame.y0 <= box[2] and box[3] <= frame.y1
-        if not inside or any(box[0] < b[1] and b[0] < box[1] and box[2] < b[3] and b[2] < box[3] for b in kept):
-            label.remove()
-        else:
-            kept.append(box)
+    renderer = _renderer(fig)
+    pad = pad_pt * fig.dpi / 72.0
+    frame = ax.get_window_extent(renderer)
+    trial = ax.clabel(cs, inline=False, fontsize=fontsize, fmt=fmt, colors=colors)
+    kept, places = [], []
+    for label in trial:
+        b = label.get_window_extent(renderer).padded(pad)
+        inside = frame.x0 <= b.x0 and b.x1 <= frame.x1 and frame.y0 <= b.y0 and b.y1 <= frame.y1
+        if inside and (field is not None or region is not None):
+            inside = _on_field(ax, b, field, region)
+        if inside and not any(b.overlaps(k) for k in kept):
+            kept.append(b)
+            places.append(label.get_position())
+    while cs.labelTexts:
+        cs.pop_label()
+    if not places:
+        return []
+    return ax.clabel(cs, inline=True, fontsize=fontsize, fmt=fmt, colors=colors, manual=places)
 
 
 #: How the maps draw the singular places: the near-singular cells (left blank by the maps) hatched in this
@@ -309,13 +349,14 @@ def _widen(Z: np.ndarray, keep_blank: np.ndarray, passes: int = 2) -> np.ndarray
     return out
 
 
-def _outline(ax, mesh, loops) -> None:
-    """Clip ``mesh`` to the workspace ``loops`` (holes kept) and draw the boundary as a thin black line."""
+def _outline(ax, mesh, loops):
+    """Clip ``mesh`` to the workspace ``loops`` (holes kept) and draw the boundary as a thin black line; returns
+    the boundary as a Path in data units (None without loops)."""
     from matplotlib.patches import PathPatch
     from matplotlib.path import Path as MplPath
 
     if not loops:
-        return
+        return None
     verts, codes = [], []
     for loop in loops:
         verts.append(loop)
@@ -324,6 +365,7 @@ def _outline(ax, mesh, loops) -> None:
     mesh.set_clip_path(PathPatch(path, transform=ax.transData))
     ax.add_patch(PathPatch(path, facecolor="none", edgecolor="black", linewidth=0.8, zorder=3,
                            label="workspace boundary"))
+    return path
 
 
 def draw_singular(ax, x: np.ndarray, y: np.ndarray, shape: MapShape) -> list:
@@ -385,11 +427,10 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
     else:
         norm = Normalize(vmin=lo, vmax=hi)
         levels = MaxNLocator(6).tick_values(lo, hi)
-    mesh = ax.pcolormesh(x, y, Z if outline is None else _widen(Z, outline[1]), shading="auto", cmap=cmap,
-                         norm=norm)
+    shown = Z if outline is None else _widen(Z, outline[1])
+    mesh = ax.pcolormesh(x, y, shown, shading="auto", cmap=cmap, norm=norm)
     fit_limits(ax, *(box or _field_box(x, y, Z)))
-    if outline is not None:
-        _outline(ax, mesh, outline[0])
+    region = None if outline is None else _outline(ax, mesh, outline[0])
     cpos = cax.get_position()
     horizontal = cpos.width * fig.get_figwidth() > cpos.height * fig.get_figheight()
     cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither",
@@ -410,7 +451,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
             inner = inner[::2]
         if inner.size:
             cs = ax.contour(x, y, Z, levels=inner, colors="white", linewidths=0.7, alpha=0.9)
-            _declutter(ax, ax.clabel(cs, inline=True, fontsize=FONT_PT, fmt="%.3g", colors="white"))
+            label_contours(ax, cs, field=(x, y, shown), region=region)
             cbar.add_lines(cs)
     text = f"{label} [{units}]" if label else units
     if log:
