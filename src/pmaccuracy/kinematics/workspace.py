@@ -730,50 +730,97 @@ def save_comparison_figure(robots: list[Manipulator], path: str | Path,
     return path
 
 
-def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
-    """One column per robot (a :class:`matplotlib.figure.Figure`, Agg canvas; lengths in mm).
+#: At most this many robots side by side in :func:`comparison_figure` (more go to further blocks of rows), so
+#: the figure stays at most 7.0 in wide and its text readable at 400 px.
+COMPARISON_COLUMNS = 2
 
-    Top row: the robot at its home pose with its workspaces, every panel spanning the same width and
-    height (the largest robot's), so the robots' sizes compare at a glance. Bottom row: the workspaces
-    alone, zoomed, again on one common scale (the largest workspace's span), so the workspaces'
-    sizes compare too; their areas are in the legends under the panels.
+
+def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
+    """One column per robot, at most :data:`COMPARISON_COLUMNS` side by side (a
+    :class:`matplotlib.figure.Figure`, Agg canvas; lengths in mm).
+
+    Robot row: the robot at its home pose with its workspaces, every panel spanning the same width and
+    height (the largest robot's), so the robots' sizes compare at a glance. Under it, the workspaces
+    alone, zoomed, again on one common scale (the largest workspace's span), so the workspaces' sizes
+    compare too; their areas are in the legends under the panels. The symbols of every robot drawn (joints,
+    rails, platform) share one legend above the panels. The layout is measured (legends, titles) in inches,
+    with text at least 8 px high when the figure is shown 400 px wide.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     n = len(robots)
-    fig = Figure(figsize=(3.3 * n + 0.4, 8.6))
+    cols = max(1, min(n, COMPARISON_COLUMNS))
+    blocks = math.ceil(n / cols)
+    width = 3.3 * cols + 0.4
+    font = max(9.0, math.ceil(2 * min_font_pt(width)) / 2)
+    line = 1.3 * font / 72.0                                  # one line of text (in)
+    left, right, gap = 0.95, 0.3, 0.25
+    side = (width - cols * left - right - (cols - 1) * gap) / cols
+    fig = Figure(figsize=(width, 8.0))
     FigureCanvasAgg(fig)
-    axes = np.atleast_2d(np.array(fig.subplots(2, n))).reshape(2, n)
+    renderer = fig.canvas.get_renderer()
     phis = np.radians(np.asarray(phis_deg, dtype=float))
-    spans, zoom_spans = [], []
-    for ax, zax, robot in zip(axes[0], axes[1], robots):
-        plot_workspaces(robot, phis, ax=ax)
-        ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize=10)
-        x0, x1 = ax.get_xlim()
-        y0, y1 = ax.get_ylim()
-        spans.append(max(x1 - x0, y1 - y0))
-        plot_workspaces(robot, phis, ax=zax, zoom=True)
-        handles, labels = zax.get_legend_handles_labels()
-        zax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=8, frameon=False)
-        zax.set_title("workspaces (common scale)", fontsize=9)
-        x0, x1 = zax.get_xlim()
-        y0, y1 = zax.get_ylim()
-        zoom_spans.append(max(x1 - x0, y1 - y0))
-    for row, span in ((axes[0], max(spans)), (axes[1], max(zoom_spans))):
+    tops, zooms, area_legends = [], [], []
+    for b in range(blocks):
+        chunk = robots[b * cols:(b + 1) * cols]
+        row = [fig.add_axes((0, 0, 0.1, 0.1)) for _ in chunk]
+        for ax, robot in zip(row, chunk):
+            plot_workspaces(robot, phis, ax=ax)
+            ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize=font + 1)
+            for t in ax.texts:
+                t.set_fontsize(font + 1)
+        zrow = [fig.add_axes((0, 0, 0.1, 0.1)) for _ in chunk]
+        for zax, robot in zip(zrow, chunk):
+            plot_workspaces(robot, phis, ax=zax, zoom=True)
+            zax.set_title("workspaces (common scale)", fontsize=font + 1)
+            area_legends.append(zax.legend(*zax.get_legend_handles_labels(), loc="upper center",
+                                           bbox_transform=fig.transFigure, fontsize=font, frameon=False))
+        tops += row
+        zooms += zrow
+    for row in (tops, zooms):                                # one span per row kind: sizes compare
+        spans = [max(np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())) for ax in row]
+        span = max(spans)
         for ax in row:
-            x0, x1 = ax.get_xlim()
-            y0, y1 = ax.get_ylim()
-            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            cx, cy = np.mean(ax.get_xlim()), np.mean(ax.get_ylim())
             ax.set_xlim(cx - span / 2, cx + span / 2)
             ax.set_ylim(cy - span / 2, cy + span / 2)
             ax.set_aspect("equal", adjustable="box")
-            ax.tick_params(labelsize=8)
-            ax.xaxis.label.set_fontsize(9)
-            ax.yaxis.label.set_fontsize(9)
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
-    fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
-               bbox_to_anchor=(0.5, 0.535), ncol=min(len(keep), 3), fontsize=8, frameon=False)
-    fig.subplots_adjust(left=0.9 / (3.3 * n + 0.4), right=0.99, bottom=0.17, top=0.93, wspace=0.45, hspace=0.55)
+            ax.tick_params(labelsize=font)
+            ax.xaxis.label.set_fontsize(font)
+            ax.yaxis.label.set_fontsize(font)
+    handles, labels = {}, []                                 # every robot's symbols, once each
+    for ax in tops:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if "mm$^2$" not in lab and not lab.endswith(": empty") and lab not in handles:
+                handles[lab] = h
+                labels.append(lab)
+    legend = None
+    for ncol in range(min(3, len(labels)), 0, -1):          # as many columns as fit the width
+        if legend is not None:
+            legend.remove()
+        legend = fig.legend([handles[lab] for lab in labels], labels, loc="upper center", ncol=ncol,
+                            fontsize=font, frameon=False)
+        if legend.get_window_extent(renderer).width / fig.dpi <= width - 0.2:
+            break
+    legend_h = 0.0 if legend is None else legend.get_window_extent(renderer).height / fig.dpi
+    area_h = max((leg.get_window_extent(renderer).height / fig.dpi for leg in area_legends), default=0.0)
+    under = 2 * line + 0.25                                  # x tick labels and x label
+    robot_row = 2 * line + 0.15 + side + under
+    zoom_row = line + 0.15 + side + under - 0.1 + area_h + 0.2
+    height = 0.1 + legend_h + 0.15 + blocks * (robot_row + zoom_row) + 0.1
+    fig.set_size_inches(width, height)
+    if legend is not None:
+        legend.set_bbox_to_anchor((0.5, 1 - 0.1 / height), transform=fig.transFigure)
+    y = height - 0.1 - legend_h - 0.15
+    for b in range(blocks):
+        chunk = range(b * cols, min((b + 1) * cols, n))
+        for k in chunk:
+            x0 = left + (k - b * cols) * (left + side + gap)
+            tops[k].set_position((x0 / width, (y - 2 * line - 0.15 - side) / height, side / width, side / height))
+            z_top = y - robot_row - line - 0.15
+            zooms[k].set_position((x0 / width, (z_top - side) / height, side / width, side / height))
+            area_legends[k].set_bbox_to_anchor(((x0 + side / 2) / width, (z_top - side - under + 0.1) / height),
+                                               transform=fig.transFigure)
+        y -= robot_row + zoom_row
     return fig
