@@ -196,11 +196,11 @@ def display_width(path: Path) -> int | None:
     import struct
 
     data = path.read_bytes()[:4096] if path.suffix.lower() == ".png" else b""
-    if data[:8] != b"\x89PNG\r\n\x1a\n":
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or len(data) < 24:      # not a PNG, or too short for its header
         return None
     width_px = struct.unpack(">I", data[16:20])[0]
     at = data.find(b"pHYs")
-    if at < 0:
+    if at < 0 or len(data) < at + 13:
         return None
     ppu_x, _, unit = struct.unpack(">IIB", data[at + 4:at + 13])
     if unit != 1 or ppu_x == 0:                       # 1: pixels per metre
