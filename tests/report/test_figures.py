@@ -444,3 +444,27 @@ def test_workspace_comparison_has_a_common_scale_for_robots_and_for_workspaces()
     ws = constant_orientation_workspace(robots[1], 0.0)                # the largest workspace fits the zoom row
     (x0, x1), (y0, y1) = ws.bounds
     assert spans[2][0] >= x1 - x0 and spans[2][1] >= y1 - y0 and spans[2][0] < spans[0][0]
+
+
+def test_long_panel_titles_and_suptitles_wrap_inside_the_figure():
+    """A constant panel's note lengthens its title beyond its column and a long suptitle beyond the figure:
+    both are wrapped, nothing leaves the figure or lands on another text."""
+    x = np.linspace(-25, 25, 11)
+    X, Y = np.meshgrid(x, x)
+    panels = [(x, x, X, "dx offset at phi = 0 deg", "mm"), (x, x, np.full_like(X, -1.747), "dy offset at phi = 0 deg", "mm"),
+              (x, x, Y, "dphi offset at phi = 0 deg", "deg")]
+    fig = figures.plot_panels(panels, suptitle="Pose offset due to the assembly errors of Table 2 (phi = 0), " * 2)
+    assert_readable(fig)
+    assert "\n" in fig.get_suptitle() and any("\n" in ax.get_title() for ax in _main_axes(fig))
+
+
+@pytest.mark.parametrize("name, clear", [("aalborg_3ppr", "case2"), ("symmetric_3rrr", "rrr_typical")])
+def test_load_and_preload_figures_pass_a_readers_look(name, clear):
+    from pmaccuracy.accuracy.loads import Load
+    from pmaccuracy.kinematics.workspace import home_pose
+    from pmaccuracy.report.load_figures import plot_load, plot_preload
+
+    robot = Manipulator.preset(name)
+    home = home_pose(robot)
+    assert_readable(plot_load(robot, clear, home, Load(fy=10.0)))
+    assert_readable(plot_preload(robot, clear, home, np.array([0.0, 0.0, 0.0]), np.array([5.0, 5.0, 100.0])))

@@ -248,6 +248,33 @@ def _on_field(ax, box, field, region, n: int = 5) -> bool:
     return True
 
 
+def text_width_in(fig: Figure, text: str, fontsize: float) -> float:
+    """Width (inches) of ``text`` (one or more lines, mathtext allowed) at ``fontsize`` as ``fig`` draws it."""
+    from matplotlib.text import Text
+
+    probe = Text(0, 0, text, fontsize=fontsize, figure=fig)
+    return probe.get_window_extent(_renderer(fig)).width / fig.dpi
+
+
+def wrap_text(fig: Figure, text: str, width_in: float, fontsize: float) -> str:
+    """``text`` with line breaks so that no line is wider than ``width_in`` inches at ``fontsize`` (measured,
+    words kept whole, a ``$...$`` formula one word; existing line breaks kept)."""
+    import re
+
+    out = []
+    for para in text.split("\n"):
+        line = ""
+        for word in re.findall(r"(?:\$[^$]*\$|[^\s$])+", para):
+            trial = f"{line} {word}" if line else word
+            if line and text_width_in(fig, trial, fontsize) > width_in:
+                out.append(line)
+                line = word
+            else:
+                line = trial
+        out.append(line)
+    return "\n".join(out)
+
+
 def label_contours(ax, cs, *, fontsize: float = FONT_PT, fmt: str = "%.3g", colors: str = "white",
                    pad_pt: float = 2.0, field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
                    region=None) -> list:
@@ -675,25 +702,32 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     else:
         aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
     fig = Figure()
-    cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.6 * ncols + 0.8),
+    width = min(REPORT_WIDTH_IN, 3.6 * ncols + 0.8)
+    slot = (width - 0.35) / ncols - 0.95 + 0.6          # a title centred over its panel (panel_grid's margins)
+    titles = [wrap_text(fig, title + constant_note(Z, units), slot, TITLE_PT) for _, _, Z, title, units in panels]
+    lines = max(t.count("\n") + 1 for t in titles)
+    suptitle = wrap_text(fig, suptitle, width - 0.2, SUPTITLE_PT)
+    top = max(0.75, 0.3 + (suptitle.count("\n") + 1) * 1.25 * SUPTITLE_PT / 72)
+    cells = panel_grid(fig, nrows, ncols, aspect, width=width, top=top, title_space=0.4 + (lines - 1) * 1.25 * TITLE_PT / 72,
                        label_lines=3 if any(e is not None for e in (errors or [])) else 2)
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
     errors = errors or [None] * len(panels)
     limited = limited or [True] * len(panels)
-    for (ax, cax), (x, y, Z, title, units), error, lim in zip(cells, panels, errors, limited):
+    for (ax, cax), (x, y, Z, _, units), title, error, lim in zip(cells, panels, titles, errors, limited):
         rng = common or colour_range(Z)
         if lim:
             rng = limited_range(rng, vmin, vmax)
         _draw_field(fig, ax, cax, x, y, Z, "", units, rng=rng, contours=contours or error is not None,
                     error=error, log=log, box=common_box)
-        ax.set_title(title + constant_note(Z, units), fontsize=10)
-        ax.set_xlabel("x [mm]", fontsize=9)
-        ax.set_ylabel("y [mm]", fontsize=9)
-        ax.tick_params(labelsize=8)
+        ax.set_title(title, fontsize=TITLE_PT)
+        ax.set_xlabel("x [mm]", fontsize=LABEL_PT)
+        ax.set_ylabel("y [mm]", fontsize=LABEL_PT)
+        ax.tick_params(labelsize=FONT_PT)
     for ax, cax in cells[len(panels):]:
         ax.set_visible(False)
         fig.delaxes(cax)
-    fig.suptitle(suptitle, fontsize=11, y=1 - 0.12 / fig.get_figheight(), va="top")
+    fig.suptitle(suptitle, fontsize=SUPTITLE_PT,
+                 y=1 - 0.12 / fig.get_figheight(), va="top")
     return fig
 
 
