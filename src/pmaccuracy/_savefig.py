@@ -18,6 +18,11 @@ from .errors import ConfigError
 DEFAULT_DPI = 200
 #: Accepted range of ``dpi`` (a 10 in figure at 1200 dpi is already 12000 px wide).
 DPI_RANGE = (20, 1200)
+#: The narrowest width a figure is made to be read at (CSS px: a phone held upright, the report's image
+#: scaled to the screen) and the smallest text allowed there (px). A figure ``W`` inches wide needs text of
+#: at least :func:`min_font_pt` ``= MIN_TEXT_PX * 72 * W / NARROW_DISPLAY_PX`` points: 10.8 pt at 7.5 in.
+NARROW_DISPLAY_PX = 400
+MIN_TEXT_PX = 8.0
 #: File suffix -> matplotlib format: what matplotlib writes with its own backends (Agg, PDF, SVG, PS; Pillow
 #: for JPEG, TIFF and WebP is a dependency of matplotlib). ``.raw``/``.rgba`` (headerless pixels) and ``.pgf``
 #: (needs LaTeX) are left out.
@@ -66,6 +71,55 @@ def check_figure_path(path: str | os.PathLike, option: str = "path", dpi: float 
     return Path(os.fspath(path))
 
 
+def min_font_pt(width_in: float, display_px: float = NARROW_DISPLAY_PX, min_px: float = MIN_TEXT_PX) -> float:
+    """The smallest font (points) that is still ``min_px`` pixels high when a figure ``width_in`` inches wide
+    is shown ``display_px`` pixels wide.
+
+    >>> round(min_font_pt(7.5), 2), round(min_font_pt(10.0), 2)
+    (10.8, 14.4)
+    """
+    return min_px * 72.0 * float(width_in) / float(display_px)
+
+
+def drawn_texts(fig) -> list:
+    """The visible, non-empty texts of ``fig`` (titles, labels, tick labels, legends, annotations)."""
+    from matplotlib.text import Text
+
+    out = []
+    for t in fig.findobj(Text):
+        if not t.get_visible() or not t.get_text().strip():
+            continue
+        if t.axes is not None and not t.axes.get_visible():
+            continue
+        out.append(t)
+    return out
+
+
+def smallest_text_px(fig, display_px: float = NARROW_DISPLAY_PX) -> float:
+    """Height (px, font size) of the smallest text of ``fig`` when the figure is shown ``display_px`` wide
+    (``inf`` for a figure without text)."""
+    sizes = [t.get_fontsize() for t in drawn_texts(fig)]
+    return min(sizes, default=math.inf) * display_px / (72.0 * fig.get_figwidth())
+
+
+def legible(fig, display_px: float = NARROW_DISPLAY_PX, min_px: float = MIN_TEXT_PX):
+    """Raise every text of ``fig`` smaller than :func:`min_font_pt` (for the figure's width) to that size, so
+    that no text is under ``min_px`` pixels when the figure is shown ``display_px`` wide; returns ``fig``.
+
+    The figures lay their text out at these sizes already; this is the guarantee for any text they missed.
+    """
+    floor = min_font_pt(fig.get_figwidth(), display_px, min_px)
+    for ax in fig.axes:                      # tick labels made at draw time take the axis's size
+        for axis in (ax.xaxis, ax.yaxis):
+            for which, ticks in (("major", axis.get_major_ticks(1)), ("minor", axis.get_minor_ticks(1))):
+                if ticks and ticks[0].label1.get_fontsize() < floor - 1e-9:
+                    axis.set_tick_params(which=which, labelsize=floor)
+    for t in drawn_texts(fig):
+        if t.get_fontsize() < floor - 1e-9:
+            t.set_fontsize(floor)
+    return fig
+
+
 def save_figure(fig, path: str | os.PathLike, *, dpi: float = DEFAULT_DPI, option: str = "path") -> Path:
     """Write ``fig`` (a :class:`matplotlib.figure.Figure`) to ``path`` in the format its suffix names.
 
@@ -73,7 +127,8 @@ def save_figure(fig, path: str | os.PathLike, *, dpi: float = DEFAULT_DPI, optio
     ``.jpg``/``.jpeg`` -> JPEG, ``.tif``/``.tiff`` -> TIFF, ... (:data:`FIGURE_TYPES`); vector formats keep
     ``dpi`` for their embedded images only. Missing parent folders are created. An unknown suffix or a
     ``dpi`` outside :data:`DPI_RANGE` raises :class:`~pmaccuracy.errors.ConfigError` naming ``option``
-    before anything is written. Returns the path.
+    before anything is written. Every text is made :func:`legible` at :data:`NARROW_DISPLAY_PX` first.
+    Returns the path.
 
     >>> import tempfile
     >>> from matplotlib.figure import Figure
@@ -91,6 +146,7 @@ def save_figure(fig, path: str | os.PathLike, *, dpi: float = DEFAULT_DPI, optio
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         FigureCanvasAgg(fig)
+    legible(fig)
     fig.savefig(path, dpi=dpi, format=fmt)
     return path
 

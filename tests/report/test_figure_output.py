@@ -151,7 +151,7 @@ def test_map_plot_svg_and_png_dpi_with_colour_options(tmp_path, capsys):
                          capsys)
     assert status == 0, err
     dpi, w, _ = png_dpi(png.read_bytes())
-    assert dpi == pytest.approx(200, abs=0.05) and w == 2000          # 10 in wide at the default 200 dpi
+    assert dpi == pytest.approx(200, abs=0.05) and w == round(figures.REPORT_WIDTH_IN * 200)   # at 200 dpi
 
 
 def test_statistics_plot_pdf(tmp_path, capsys):
@@ -254,8 +254,8 @@ def test_error_map_notation_units_contour_labels_and_title(tmp_path):
                          ("\\delta\\phi_{max}", "deg")):
         assert any(symbol in t and f"[{unit}]" in t for t in titles), titles
     bars = [ax for ax in fig.axes if ax not in maps_axes]
-    assert all(ax.get_ylabel().strip() for ax in bars)                 # every colour bar labelled with units
-    assert all("[" in ax.get_ylabel() for ax in bars)
+    assert all((ax.get_xlabel() + ax.get_ylabel()).strip() for ax in bars)   # every colour bar labelled
+    assert all("[" in ax.get_xlabel() + ax.get_ylabel() for ax in bars)     # with units
     # the mm panels take the user's colour limits; dx_max varies, so it has labelled contour lines
     dx_ax = maps_axes[titles.index(next(t for t in titles if "x_{max}" in t))]
     mesh = dx_ax.collections[0]

@@ -60,7 +60,7 @@ def test_four_panels_with_unit_colorbars(case2_map):
     assert isinstance(fig, Figure)
     main, cbars = _main_axes(fig), _colorbar_axes(fig)
     assert len(main) == 4 and len(cbars) == 4
-    labels = [ax._colorbar.ax.get_ylabel() for ax in cbars]
+    labels = [_bar_label(ax) for ax in cbars]
     assert sum("[mm]" in lab for lab in labels) == 3, labels
     assert sum("[deg]" in lab for lab in labels) == 1, labels
     for ax in main:
@@ -136,7 +136,7 @@ def test_plot_layers_common_scale(case2_map):
     assert len(clims) == 1
     lo, hi = clims.pop()
     assert lo == pytest.approx(float(case2_map.dp_max.min())) and hi == pytest.approx(float(case2_map.dp_max.max()))
-    assert "mm" in _colorbar_axes(fig)[0].get_ylabel()
+    assert "mm" in _bar_label(_colorbar_axes(fig)[0])
 
 
 def _panels():
@@ -147,7 +147,7 @@ def _panels():
 
 def test_plot_panels_shared_scale():
     fig = figures.plot_panels(_panels(), suptitle="s", shared_scale=True)
-    clims = [_mesh(ax).get_clim() for ax in _main_axes(fig)]
+    clims = [_mesh(ax).get_clim() for ax in _main_axes(fig) if ax.get_visible()]
     assert len(clims) == 3
     assert all(c == clims[0] for c in clims)
     assert clims[0] == pytest.approx((0.0, 13.0))  # min and max over all panels
@@ -261,26 +261,42 @@ def legends_over_data(fig: Figure) -> list[str]:
     return bad
 
 
+from matplotlib.transforms import Affine2D  # noqa: E402
+
+_swap = Affine2D([[0, 1, 0], [1, 0, 0], [0, 0, 1]])
+
+
+def _bar_label(cax) -> str:
+    """A colour bar's label, on its long side (y of a vertical bar, x of a horizontal one)."""
+    return cax.get_xlabel() if cax._colorbar.orientation == "horizontal" else cax.get_ylabel()
+
+
 def colourbar_mismatches(fig: Figure, tol_px: float = 1.0) -> list[str]:
-    """Colour bars whose bottom or top (outline, extension triangles included) differ from their map's
-    (the axes holding the mappable)."""
+    """Colour bars whose ends (outline, extension triangles included) differ from their map's sides (the
+    axes holding the mappable): bottom and top of a vertical bar, left and right of a horizontal one."""
     renderer = fig.canvas.get_renderer()
     bad = []
     for cax in [ax for ax in fig.axes if hasattr(ax, "_colorbar")]:
         mappable = cax._colorbar.mappable
         ax = mappable.axes
         a, c = ax.get_window_extent(renderer), cax._colorbar.outline.get_window_extent(renderer)
+        if cax._colorbar.orientation == "horizontal":
+            a, c = a.transformed(_swap), c.transformed(_swap)
         if abs(a.y0 - c.y0) > tol_px or abs(a.y1 - c.y1) > tol_px:
-            bad.append(f"{cax.get_ylabel()!r}: bar {c.y0:.0f}-{c.y1:.0f} px, map {a.y0:.0f}-{a.y1:.0f} px")
+            bad.append(f"{_bar_label(cax)!r}: bar {c.y0:.0f}-{c.y1:.0f} px, map {a.y0:.0f}-{a.y1:.0f} px")
     return bad
 
 
-def assert_readable(fig: Figure, *, max_width_in: float = figures.REPORT_WIDTH_IN, min_points: float = 7.5):
-    """The generic checks: drawn at most the report's width, every text >= min_points and inside the figure,
-    no two texts on top of each other, legends off the data, colour bars matched to their maps."""
+def assert_readable(fig: Figure, *, max_width_in: float = figures.REPORT_WIDTH_IN, min_px: float = 8.0):
+    """The generic checks, on the figure as written (text raised to the floor, as ``save_figure`` does): drawn
+    at most the report's width, every text at least ``min_px`` high when the figure is shown 400 px wide and
+    inside the figure, no two texts on top of each other, legends off the data, colour bars matched to their
+    maps."""
+    figures.legible(_drawn(fig))
     _drawn(fig)
     assert fig.get_figwidth() <= max_width_in + 1e-9, fig.get_figwidth()
-    small = [(t.get_text(), t.get_fontsize()) for t in _texts(fig) if t.get_fontsize() < min_points]
+    px = 400 / (72 * fig.get_figwidth())
+    small = [(t.get_text(), t.get_fontsize() * px) for t in _texts(fig) if t.get_fontsize() * px < min_px - 1e-9]
     assert not small, small
     assert not texts_outside_figure(fig), texts_outside_figure(fig)
     assert not overlapping_texts(fig), overlapping_texts(fig)
@@ -326,7 +342,7 @@ def test_map_figures_pass_a_readers_look(case2_map, rrr_map):
 
 def test_colourbar_labels_name_the_factor_and_units(case2_map):
     fig = figures.plot_error_map(case2_map, 30.0, scale=2.0)
-    labels = [ax._colorbar.ax.get_ylabel() for ax in _colorbar_axes(fig)]
+    labels = [_bar_label(ax) for ax in _colorbar_axes(fig)]
     assert len(labels) == 4 and all(lab.startswith("2 x ") for lab in labels), labels
     assert [lab.endswith("[mm]") for lab in labels] == [True, True, True, False] and labels[3].endswith("[deg]")
     assert all(ax.get_title().startswith("2 x ") for ax in _main_axes(fig))
@@ -361,9 +377,9 @@ def test_singular_edges_clip_the_colour_scale_at_the_stated_percentile(rrr_map, 
         lo, hi = _mesh(ax).get_clim()
         assert hi == pytest.approx(p95, rel=1e-12) and lo == pytest.approx(values.min(), rel=1e-12)
         assert cax._colorbar.extend == "max"
-        assert "95th" in cax.get_ylabel() and f"{values.max():.3g}" in cax.get_ylabel()
+        assert "95th" in _bar_label(cax) and f"{values.max():.3g}" in _bar_label(cax)
     for cax in _colorbar_axes(figures.plot_error_map(case2_map, 0.0)):  # smooth maps are never clipped
-        assert cax._colorbar.extend == "neither" and "pct" not in cax.get_ylabel()
+        assert cax._colorbar.extend == "neither" and "pct" not in _bar_label(cax)
 
 
 def _comparison():
@@ -428,3 +444,27 @@ def test_workspace_comparison_has_a_common_scale_for_robots_and_for_workspaces()
     ws = constant_orientation_workspace(robots[1], 0.0)                # the largest workspace fits the zoom row
     (x0, x1), (y0, y1) = ws.bounds
     assert spans[2][0] >= x1 - x0 and spans[2][1] >= y1 - y0 and spans[2][0] < spans[0][0]
+
+
+def test_long_panel_titles_and_suptitles_wrap_inside_the_figure():
+    """A constant panel's note lengthens its title beyond its column and a long suptitle beyond the figure:
+    both are wrapped, nothing leaves the figure or lands on another text."""
+    x = np.linspace(-25, 25, 11)
+    X, Y = np.meshgrid(x, x)
+    panels = [(x, x, X, "dx offset at phi = 0 deg", "mm"), (x, x, np.full_like(X, -1.747), "dy offset at phi = 0 deg", "mm"),
+              (x, x, Y, "dphi offset at phi = 0 deg", "deg")]
+    fig = figures.plot_panels(panels, suptitle="Pose offset due to the assembly errors of Table 2 (phi = 0), " * 2)
+    assert_readable(fig)
+    assert "\n" in fig.get_suptitle() and any("\n" in ax.get_title() for ax in _main_axes(fig))
+
+
+@pytest.mark.parametrize("name, clear", [("aalborg_3ppr", "case2"), ("symmetric_3rrr", "rrr_typical")])
+def test_load_and_preload_figures_pass_a_readers_look(name, clear):
+    from pmaccuracy.accuracy.loads import Load
+    from pmaccuracy.kinematics.workspace import home_pose
+    from pmaccuracy.report.load_figures import plot_load, plot_preload
+
+    robot = Manipulator.preset(name)
+    home = home_pose(robot)
+    assert_readable(plot_load(robot, clear, home, Load(fy=10.0)))
+    assert_readable(plot_preload(robot, clear, home, np.array([0.0, 0.0, 0.0]), np.array([5.0, 5.0, 100.0])))

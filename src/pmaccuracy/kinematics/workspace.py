@@ -27,12 +27,13 @@ Lengths in mm, angles in rad (figures and the CLI use degrees).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .._savefig import DEFAULT_DPI, save_figure
+from .._savefig import DEFAULT_DPI, min_font_pt, save_figure
 from ..errors import EmptyWorkspaceError, GeometryError, PoseError
 from ..model.manipulator import Manipulator
 from ..model.plausibility import check_orientations
@@ -529,13 +530,17 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True,
 
     Revolute joints are circles, prismatic joints squares at the middle of their
     slide; the actuated joint of each leg is filled red and an actuated slide's
-    range is drawn as a grey rail. Coordinates in mm. ``leg_colors`` (one matplotlib colour per leg,
+    range is drawn as a grey rail. With ``label`` each leg's number is written beside its base and the
+    legend gets one entry per symbol drawn, in the symbol's own shape (a 3-PRR's actuated joint a red
+    square, a 3-RRR's a red circle). Coordinates in mm. ``leg_colors`` (one matplotlib colour per leg,
     default dark grey) colours the legs' links and joint outlines (e.g. light grey for unloaded legs).
     """
     from matplotlib.patches import Polygon
 
     ik = inverse_kinematics(robot, pose)
     pts_platform = robot.platform_points(pose)
+    bases = np.array([c.base for c in robot.chains])
+    robot_span = float(np.hypot(*np.ptp(np.vstack([bases, pts_platform]), axis=0))) or 1.0
     for i, chain in enumerate(robot.chains):
         q = ik.joints[i]
         if not np.all(np.isfinite(q)):
@@ -573,12 +578,26 @@ def draw_robot(robot: Manipulator, pose: np.ndarray, ax, *, label: bool = True,
                         markeredgecolor="k" if leg_colors is None else colour, zorder=5)
         ax.plot(chain.base[0], chain.base[1], "k^", markersize=7, zorder=4,
                 label="leg base frames" if (label and i == 0) else None)
+        if label:                                  # the leg's number beside its base, away from the robot
+            away = complex(*chain.base) - complex(pose[0], pose[1])
+            at = complex(*chain.base) + 0.07 * robot_span * away / max(abs(away), 1e-9)
+            ax.text(at.real, at.imag, str(i + 1), ha="center", va="center", fontsize="large", fontweight="bold",
+                    color=colour, zorder=6, gid=f"leg {i + 1}")
+            ax.update_datalim([(at.real, at.imag)])     # the number inside the frame
     tri = pts_platform
     ax.add_patch(Polygon(tri, closed=True, facecolor="0.6", alpha=0.5, edgecolor="k", zorder=4,
                          label=f"platform ($\\phi$ = {np.degrees(pose[2]):g} deg)" if label else None))
-    ax.plot(pose[0], pose[1], "k+", markersize=8, zorder=6)
-    if label:
-        ax.plot([], [], "o", markerfacecolor="tab:red", markeredgecolor="k", label="actuated joint")
+    ax.plot(pose[0], pose[1], "k+", markersize=8, zorder=6, label="platform centre P (the pose)" if label else None)
+    if label:                                      # one legend entry per joint symbol drawn, in its shape
+        kinds = {(j.kind, k == c.actuated_index) for c in robot.chains for k, j in enumerate(c.joints)}
+        names = {"R": ("o", "revolute joint"), "P": ("s", "prismatic joint")}
+        for kind in ("R", "P"):
+            for actuated in (True, False):
+                if (kind, actuated) in kinds:
+                    marker, name = names[kind]
+                    ax.plot([], [], marker, markersize=6, markerfacecolor="tab:red" if actuated else "white",
+                            markeredgecolor="k", label=f"{'actuated' if actuated else 'passive'} {name}")
+        ax.plot([], [], linestyle="none", marker="$1$", markersize=7, color="k", label="leg number")
 
 
 def fill_workspace(ws: Workspace, ax, color: str, label: str | None) -> None:
@@ -646,51 +665,58 @@ def save_workspace_figure(robot: Manipulator, path: str | Path,
     return path
 
 
-def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
+def workspace_figure(robot: Manipulator, phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG, width: float = 7.5):
     """The workspaces at ``phis_deg`` (deg) as a :class:`matplotlib.figure.Figure` (with an Agg canvas).
 
-    Left, large: the workspaces, zoomed to their union (8 % margin) at equal scales, their areas in
-    the legend under the axes. Right, small: the whole robot assembled at :func:`home_pose` with the
-    same workspaces and the zoomed region outlined (dashed), and the legend of its symbols under it.
-    Nothing is drawn over the data. 10 in wide (its natural size in the report), as high as the zoom
-    needs. Lengths in mm.
+    Top, large: the workspaces, zoomed to their union (8 % margin) at equal scales, their areas in the
+    legend under the axes. Below: the whole robot assembled at :func:`home_pose` with the same workspaces,
+    the zoomed region outlined (dashed) and its legs numbered, and beside it the legend of its symbols, each
+    in the shape drawn. Nothing is drawn over the data. ``width`` inches wide (the report's width), text
+    large enough to read at 400 px (:func:`pmaccuracy._savefig.min_font_pt`). Lengths in mm.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
 
-    fig = Figure(figsize=(10.0, 6.0))
+    font = math.ceil(2 * min_font_pt(width)) / 2
+    fig = Figure(figsize=(width, 8.0))
     FigureCanvasAgg(fig)
     phis = np.radians(np.asarray(phis_deg, dtype=float))
-    ax_zoom = fig.add_axes((0.08, 0.2, 0.52, 0.7))
+    ax_zoom = fig.add_axes((0.15, 0.5, 0.8, 0.4))
     plot_workspaces(robot, phis, ax=ax_zoom, zoom=True)
-    # size the figure to the zoomed box (equal scales): main axes at most 5.6 x 5.0 in
     (x0, x1), (y0, y1) = ax_zoom.get_xlim(), ax_zoom.get_ylim()
     aspect = (y1 - y0) / max(x1 - x0, 1e-9)
-    w_in = 5.6
+    left, right = 1.0, 0.3
+    w_in = width - left - right
     h_in = w_in * aspect
     if h_in > 5.0:
         h_in, w_in = 5.0, 5.0 / aspect
-    side = 2.9                                         # the whole-robot panel, square
-    height = max(h_in, side + 0.6) + 1.45              # title above; x label and legend below
-    fig.set_size_inches(10.0, height)
-    ax_zoom.set_position((0.8 / 10.0, 1.05 / height, w_in / 10.0, h_in / height))
-    ax_full = fig.add_axes((6.85 / 10.0, (height - 0.45 - side) / height, side / 10.0, side / height))
-    ax_zoom.set_title(f"{robot.name} ({robot.architecture}): constant-orientation workspaces", fontsize=11)
-    ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.5 / h_in), ncol=min(len(phis), 3),
-                   fontsize=9, frameon=False)
+    n_ws = len(phis)
+    ws_rows = math.ceil(n_ws / 2)
+    side = min(3.2, width - left - 3.3)
+    top, under_zoom = 0.5, 0.7 + 0.3 * ws_rows
+    height = top + h_in + under_zoom + 0.45 + side + 0.7
+    fig.set_size_inches(width, height)
+    ax_zoom.set_position((left / width, (height - top - h_in) / height, w_in / width, h_in / height))
+    ax_full = fig.add_axes((left / width, 0.7 / height, side / width, side / height))
+    ax_zoom.set_title(f"{robot.name} ({robot.architecture}): constant-orientation workspaces", fontsize=font + 1)
+    ax_zoom.legend(loc="upper center", bbox_to_anchor=(0.5, -0.62 / h_in), ncol=min(n_ws, 2), fontsize=font,
+                   frameon=False)
     plot_workspaces(robot, phis, ax=ax_full)
     (x0, x1), (y0, y1) = ax_zoom.get_xlim(), ax_zoom.get_ylim()
     ax_full.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, linestyle="--", linewidth=1.0,
-                                edgecolor="k", zorder=7, label="zoomed region (left)"))
-    ax_full.set_title("whole robot at a pose inside", fontsize=10)
-    ax_full.tick_params(labelsize=8)
-    ax_full.xaxis.label.set_fontsize(9)
-    ax_full.yaxis.label.set_fontsize(9)
+                                edgecolor="k", zorder=7, label="zoomed region (above)"))
+    ax_full.set_title("whole robot at a pose inside", fontsize=font + 1)
+    for ax in (ax_zoom, ax_full):
+        ax.tick_params(labelsize=font)
+        ax.xaxis.label.set_fontsize(font)
+        ax.yaxis.label.set_fontsize(font)
+    for t in ax_full.texts:
+        t.set_fontsize(font + 1)
     handles, labels = ax_full.get_legend_handles_labels()
     keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
-    ax_full.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
-                   bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=8, frameon=False)
+    ax_full.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="center left",
+                   bbox_to_anchor=(1.0 + 0.25 / side, 0.5), ncol=1, fontsize=font, frameon=False)
     return fig
 
 
@@ -704,50 +730,97 @@ def save_comparison_figure(robots: list[Manipulator], path: str | Path,
     return path
 
 
-def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
-    """One column per robot (a :class:`matplotlib.figure.Figure`, Agg canvas; lengths in mm).
+#: At most this many robots side by side in :func:`comparison_figure` (more go to further blocks of rows), so
+#: the figure stays at most 7.0 in wide and its text readable at 400 px.
+COMPARISON_COLUMNS = 2
 
-    Top row: the robot at its home pose with its workspaces, every panel spanning the same width and
-    height (the largest robot's), so the robots' sizes compare at a glance. Bottom row: the workspaces
-    alone, zoomed, again on one common scale (the largest workspace's span), so the workspaces'
-    sizes compare too; their areas are in the legends under the panels.
+
+def comparison_figure(robots: list[Manipulator], phis_deg: tuple[float, ...] = DEFAULT_PHIS_DEG):
+    """One column per robot, at most :data:`COMPARISON_COLUMNS` side by side (a
+    :class:`matplotlib.figure.Figure`, Agg canvas; lengths in mm).
+
+    Robot row: the robot at its home pose with its workspaces, every panel spanning the same width and
+    height (the largest robot's), so the robots' sizes compare at a glance. Under it, the workspaces
+    alone, zoomed, again on one common scale (the largest workspace's span), so the workspaces' sizes
+    compare too; their areas are in the legends under the panels. The symbols of every robot drawn (joints,
+    rails, platform) share one legend above the panels. The layout is measured (legends, titles) in inches,
+    with text at least 8 px high when the figure is shown 400 px wide.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     n = len(robots)
-    fig = Figure(figsize=(3.3 * n + 0.4, 8.6))
+    cols = max(1, min(n, COMPARISON_COLUMNS))
+    blocks = math.ceil(n / cols)
+    width = 3.3 * cols + 0.4
+    font = max(9.0, math.ceil(2 * min_font_pt(width)) / 2)
+    line = 1.3 * font / 72.0                                  # one line of text (in)
+    left, right, gap = 0.95, 0.3, 0.25
+    side = (width - cols * left - right - (cols - 1) * gap) / cols
+    fig = Figure(figsize=(width, 8.0))
     FigureCanvasAgg(fig)
-    axes = np.atleast_2d(np.array(fig.subplots(2, n))).reshape(2, n)
+    renderer = fig.canvas.get_renderer()
     phis = np.radians(np.asarray(phis_deg, dtype=float))
-    spans, zoom_spans = [], []
-    for ax, zax, robot in zip(axes[0], axes[1], robots):
-        plot_workspaces(robot, phis, ax=ax)
-        ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize=10)
-        x0, x1 = ax.get_xlim()
-        y0, y1 = ax.get_ylim()
-        spans.append(max(x1 - x0, y1 - y0))
-        plot_workspaces(robot, phis, ax=zax, zoom=True)
-        handles, labels = zax.get_legend_handles_labels()
-        zax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=8, frameon=False)
-        zax.set_title("workspaces (common scale)", fontsize=9)
-        x0, x1 = zax.get_xlim()
-        y0, y1 = zax.get_ylim()
-        zoom_spans.append(max(x1 - x0, y1 - y0))
-    for row, span in ((axes[0], max(spans)), (axes[1], max(zoom_spans))):
+    tops, zooms, area_legends = [], [], []
+    for b in range(blocks):
+        chunk = robots[b * cols:(b + 1) * cols]
+        row = [fig.add_axes((0, 0, 0.1, 0.1)) for _ in chunk]
+        for ax, robot in zip(row, chunk):
+            plot_workspaces(robot, phis, ax=ax)
+            ax.set_title(f"{robot.name}\n{robot.architecture}", fontsize=font + 1)
+            for t in ax.texts:
+                t.set_fontsize(font + 1)
+        zrow = [fig.add_axes((0, 0, 0.1, 0.1)) for _ in chunk]
+        for zax, robot in zip(zrow, chunk):
+            plot_workspaces(robot, phis, ax=zax, zoom=True)
+            zax.set_title("workspaces (common scale)", fontsize=font + 1)
+            area_legends.append(zax.legend(*zax.get_legend_handles_labels(), loc="upper center",
+                                           bbox_transform=fig.transFigure, fontsize=font, frameon=False))
+        tops += row
+        zooms += zrow
+    for row in (tops, zooms):                                # one span per row kind: sizes compare
+        spans = [max(np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())) for ax in row]
+        span = max(spans)
         for ax in row:
-            x0, x1 = ax.get_xlim()
-            y0, y1 = ax.get_ylim()
-            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            cx, cy = np.mean(ax.get_xlim()), np.mean(ax.get_ylim())
             ax.set_xlim(cx - span / 2, cx + span / 2)
             ax.set_ylim(cy - span / 2, cy + span / 2)
             ax.set_aspect("equal", adjustable="box")
-            ax.tick_params(labelsize=8)
-            ax.xaxis.label.set_fontsize(9)
-            ax.yaxis.label.set_fontsize(9)
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    keep = [k for k, text in enumerate(labels) if "mm$^2$" not in text and not text.endswith(": empty")]
-    fig.legend([handles[k] for k in keep], [labels[k] for k in keep], loc="upper center",
-               bbox_to_anchor=(0.5, 0.535), ncol=len(keep), fontsize=8, frameon=False)
-    fig.subplots_adjust(left=0.9 / (3.3 * n + 0.4), right=0.99, bottom=0.17, top=0.93, wspace=0.45, hspace=0.55)
+            ax.tick_params(labelsize=font)
+            ax.xaxis.label.set_fontsize(font)
+            ax.yaxis.label.set_fontsize(font)
+    handles, labels = {}, []                                 # every robot's symbols, once each
+    for ax in tops:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if "mm$^2$" not in lab and not lab.endswith(": empty") and lab not in handles:
+                handles[lab] = h
+                labels.append(lab)
+    legend = None
+    for ncol in range(min(3, len(labels)), 0, -1):          # as many columns as fit the width
+        if legend is not None:
+            legend.remove()
+        legend = fig.legend([handles[lab] for lab in labels], labels, loc="upper center", ncol=ncol,
+                            fontsize=font, frameon=False)
+        if legend.get_window_extent(renderer).width / fig.dpi <= width - 0.2:
+            break
+    legend_h = 0.0 if legend is None else legend.get_window_extent(renderer).height / fig.dpi
+    area_h = max((leg.get_window_extent(renderer).height / fig.dpi for leg in area_legends), default=0.0)
+    under = 2 * line + 0.25                                  # x tick labels and x label
+    robot_row = 2 * line + 0.15 + side + under
+    zoom_row = line + 0.15 + side + under - 0.1 + area_h + 0.2
+    height = 0.1 + legend_h + 0.15 + blocks * (robot_row + zoom_row) + 0.1
+    fig.set_size_inches(width, height)
+    if legend is not None:
+        legend.set_bbox_to_anchor((0.5, 1 - 0.1 / height), transform=fig.transFigure)
+    y = height - 0.1 - legend_h - 0.15
+    for b in range(blocks):
+        chunk = range(b * cols, min((b + 1) * cols, n))
+        for k in chunk:
+            x0 = left + (k - b * cols) * (left + side + gap)
+            tops[k].set_position((x0 / width, (y - 2 * line - 0.15 - side) / height, side / width, side / height))
+            z_top = y - robot_row - line - 0.15
+            zooms[k].set_position((x0 / width, (z_top - side) / height, side / width, side / height))
+            area_legends[k].set_bbox_to_anchor(((x0 + side / 2) / width, (z_top - side - under + 0.1) / height),
+                                               transform=fig.transFigure)
+        y -= robot_row + zoom_row
     return fig

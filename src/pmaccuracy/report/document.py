@@ -167,7 +167,9 @@ class Document:
                 path, caption = payload
                 data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
                 mime = _MIME.get(Path(path).suffix.lower(), "image/png")
-                parts.append(f"<figure><img alt='{html.escape(caption)}' src='data:{mime};base64,{data}'>"
+                width = display_width(Path(path))
+                size = f" width='{width}'" if width else ""
+                parts.append(f"<figure><img alt='{html.escape(caption)}'{size} src='data:{mime};base64,{data}'>"
                              f"<figcaption>{_inline(caption)}</figcaption></figure>")
         if self.footer:
             parts.append(f"<footer>{_inline(self.footer)}</footer>")
@@ -193,6 +195,29 @@ def provenance(command: str | None, version: str) -> str:
     when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     how = f" with `{command}`" if command else " from Python"
     return f"Written by pmaccuracy {version}{commit} on {when}{how}."
+
+
+#: CSS pixels per inch of figure at which the HTML shows a PNG at most (a 7.5 in figure: 750 px), so that its
+#: text is about the page's text size on a wide screen; narrower screens scale it down (``max-width: 100%``).
+DISPLAY_PX_PER_IN = 100
+
+
+def display_width(path: Path) -> int | None:
+    """Width (CSS px) to show a PNG at: its width in inches (pixels over the ``pHYs`` resolution) times
+    :data:`DISPLAY_PX_PER_IN`; None for other files or a PNG without a resolution."""
+    import struct
+
+    data = path.read_bytes()[:4096] if path.suffix.lower() == ".png" else b""
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or len(data) < 24:      # not a PNG, or too short for its header
+        return None
+    width_px = struct.unpack(">I", data[16:20])[0]
+    at = data.find(b"pHYs")
+    if at < 0 or len(data) < at + 13:
+        return None
+    ppu_x, _, unit = struct.unpack(">IIB", data[at + 4:at + 13])
+    if unit != 1 or ppu_x == 0:                       # 1: pixels per metre
+        return None
+    return round(width_px / (ppu_x * 0.0254) * DISPLAY_PX_PER_IN)
 
 
 #: Image types a figure may have in the HTML (data URI).

@@ -32,8 +32,8 @@ def plot_boxplots(datasets: Mapping[str, MeasuredErrors | Measurements], *, titl
     """
     names = list(datasets)
     values = [(d if isinstance(d, MeasuredErrors) else measured_errors(d)).values() for d in datasets.values()]
-    fig = Figure(figsize=(10, 7.5))
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.92, wspace=0.28, hspace=0.3)  # no layout engine
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 8.0))
+    fig.subplots_adjust(left=0.12, right=0.98, bottom=0.1, top=0.92, wspace=0.4, hspace=0.38)  # no layout engine
     for ax, q in zip(fig.subplots(2, 2).ravel(), QUANTITIES):
         ax.boxplot([v[q] for v in values])
         ax.set_xticks(range(1, len(names) + 1))
@@ -58,6 +58,22 @@ def _phi_list(groups: list[tuple[float, np.ndarray]]) -> str:
     return ", ".join(f"{phi:g}" for phi, _ in groups) + " deg"
 
 
+def _label_step(fig: Figure, ax, names, span: float, pad_em: float = 0.8) -> int:
+    """Label every ``step``-th of bars one unit apart along ``ax``'s x axis (``span`` units wide) so that the
+    point names, measured at the tick labels' size by the renderer, stay ``pad_em`` apart side by side."""
+    from matplotlib.text import Text
+
+    renderer = figures._renderer(fig)
+    size = max(figures.FONT_PT, figures.min_font_pt(fig.get_figwidth()))
+    probe = Text(0, 0, "", fontsize=size, figure=fig)
+    widest = 0.0
+    for name in dict.fromkeys(str(p) for p in names):
+        probe.set_text(name)
+        widest = max(widest, probe.get_window_extent(renderer).width)
+    per_bar = ax.get_window_extent(renderer).width / max(span, 1.0)
+    return max(1, math.ceil((widest + pad_em * size * fig.dpi / 72.0) / per_bar))
+
+
 def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None = None,
                   data: str = "measured") -> Figure:
     """Position and orientation error per point as bars (the paper's Eq. 24 and Fig. 14; not the ISO 9283 AP).
@@ -70,8 +86,8 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
     errors = measured_errors(m)
     groups = _orientation_groups(m)
     n = len(m)
-    fig = Figure(figsize=(10.0, 5.4))
-    fig.subplots_adjust(left=0.09, right=0.99, bottom=0.12, top=0.82, hspace=0.14)
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 6.0))
+    fig.subplots_adjust(left=0.13, right=0.98, bottom=0.14, top=0.8, hspace=0.14)
     ax_p, ax_r = fig.subplots(2, 1, sharex=True)
     pos = np.empty(n)
     start = 0.0
@@ -85,16 +101,16 @@ def plot_accuracy(measurements: Measurements | Comparison, *, title: str | None 
         ax_r.bar(pos[idx], errors.dphi_deg[idx], width=0.8, color=colour)
     ax_p.set_ylabel("$\\delta p$ (Eq. 24) [mm]", fontsize=10)
     ax_r.set_ylabel("$\\delta\\phi$ (Eq. 24) [deg]", fontsize=10)
-    step = max(1, int(np.ceil(n / 30)))          # at most ~30 tick labels
+    for ax in (ax_p, ax_r):
+        ax.grid(axis="y", alpha=0.3)
+        ax.tick_params(labelsize=figures.FONT_PT)
+        ax.set_xlim(-1, float(pos.max()) + 1)
+    step = _label_step(fig, ax_r, m.points, float(pos.max()) + 2)
     order = np.argsort(pos)
     ticks = order[::step]
     ax_r.set_xticks(pos[ticks])
-    ax_r.set_xticklabels(m.points[ticks], fontsize=8, rotation=90 if step == 1 and n > 20 else 0)
+    ax_r.set_xticklabels(m.points[ticks], fontsize=figures.FONT_PT)
     ax_r.set_xlabel(f"{data} point" + (f" (one in {step} labelled)" if step > 1 else ""), fontsize=10)
-    for ax in (ax_p, ax_r):
-        ax.grid(axis="y", alpha=0.3)
-        ax.tick_params(labelsize=9)
-        ax.set_xlim(-1, float(pos.max()) + 1)
     fig.legend(*ax_p.get_legend_handles_labels(), loc="upper center", bbox_to_anchor=(0.5, 0.925),
                ncol=len(groups), frameon=False, fontsize=9)
     fig.suptitle(title or f"Pose error per point at {n} poses, $\\phi$ = {_phi_list(groups)} (Eq. 24, cf. paper Fig. 14)",
@@ -113,8 +129,8 @@ def plot_regression(comparison: Comparison, factor: float = 1.0, *, title: str |
     meas, pred = comparison.measured_values(), comparison.predicted_values(factor)
     half, band, reg = comparison.band_halfwidths(), comparison.band(factor), comparison.regression(factor)
     groups = _orientation_groups(comparison.measurements)
-    fig = Figure(figsize=(10.0, 9.6))
-    fig.subplots_adjust(left=0.09, right=0.98, bottom=0.06, top=0.86, wspace=0.3, hspace=0.3)
+    fig = Figure(figsize=(figures.REPORT_WIDTH_IN, 9.6))
+    fig.subplots_adjust(left=0.13, right=0.98, bottom=0.07, top=0.85, wspace=0.45, hspace=0.42)
     pre = f"{factor:g} x " if factor != 1 else ""
     for k, (ax, q) in enumerate(zip(fig.subplots(2, 2).ravel(), QUANTITIES)):
         x, y = meas[q], pred[q]

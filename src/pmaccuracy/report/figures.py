@@ -25,8 +25,12 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from ..errors import ConfigError
-from .._savefig import (DEFAULT_DPI, FIGURE_TYPES, SYMBOLS, check_dpi, figure_format,  # noqa: F401  (re-exported)
-                        quantity_label, save_figure)
+from ..kinematics import DEFAULT_MAX_CONDITION, inverse_kinematics, regular_mask, singularity
+from ..kinematics.workspace import constant_orientation_workspace
+from ..model.manipulator import Manipulator
+from .._savefig import (DEFAULT_DPI, FIGURE_TYPES, MIN_TEXT_PX, NARROW_DISPLAY_PX,  # noqa: F401  (re-exported)
+                        SYMBOLS, check_dpi, figure_format, legible, min_font_pt, quantity_label, save_figure,
+                        smallest_text_px)
 
 #: Panels of a four-panel map: variable, measured-data key, title, units (:data:`SYMBOLS`, one notation).
 PANELS = tuple((var, key, *SYMBOLS[var]) for var, key in
@@ -36,9 +40,17 @@ PANELS = tuple((var, key, *SYMBOLS[var]) for var, key in
 #: Colour scales are clipped at this percentile of a map when the values above it (near-singular
 #: edges of a 3-RRR or 3-PRR workspace) would take more than half of the colour range.
 CLIP_PERCENTILE = 95.0
-#: Size of the figures in the reports: at most this wide (inches) at 110 dpi fits the HTML column
-#: (1100 px) at its natural size, so 9-10 pt text stays 9-10 pt on screen.
-REPORT_WIDTH_IN = 10.0
+#: Size of the figures in the reports: at most this wide (inches). The HTML report shows a figure at most
+#: 100 px per inch wide (750 px) and down to the screen's width; text is at least :data:`FONT_PT`, which
+#: :func:`~pmaccuracy._savefig.min_font_pt` makes 8 px high on a 400 px wide screen.
+REPORT_WIDTH_IN = 7.5
+#: At most this many map panels side by side (more go to further rows), so each stays readable at 400 px.
+MAX_COLUMNS = 2
+#: Font sizes (points) of the report's figures: tick labels, legends and notes | axis labels | titles.
+FONT_PT = math.ceil(2 * min_font_pt(REPORT_WIDTH_IN)) / 2
+LABEL_PT = FONT_PT
+TITLE_PT = FONT_PT + 1
+SUPTITLE_PT = FONT_PT + 2
 
 
 @dataclass(frozen=True)
@@ -102,31 +114,37 @@ def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04
 
 
 def panel_grid(fig: Figure, nrows: int, ncols: int, aspect: float, *, width: float = REPORT_WIDTH_IN,
-               top: float = 0.75, bottom: float = 0.15, title_space: float = 0.35) -> list[tuple[Any, Any]]:
-    """Place ``nrows x ncols`` map axes, each with a colour-bar axes of exactly its height, and size ``fig``.
+               top: float = 0.75, bottom: float = 0.15, title_space: float = 0.4,
+               label_lines: int = 2) -> list[tuple[Any, Any]]:
+    """Place ``nrows x ncols`` map axes, each with a horizontal colour-bar axes of exactly its width under
+    it, and size ``fig``.
 
     Every axes box has the height/width ratio ``aspect`` (clamped to [0.3, 1.4]) so that an equal-aspect
-    map fills it; the colour bar sits 0.08 in to its right, 0.15 in wide, from the axes' bottom to its
-    top. ``top``/``bottom``: inches kept free for the title / a legend. Returns ``[(ax, cax), ...]`` row
-    by row. Axes are placed at fixed positions (no layout engine, no divider).
+    map fills it; its colour bar sits under its x label, with room for its tick labels and a label of
+    ``label_lines`` lines, so no colour-bar text reaches into the next panel. Each column keeps room for its
+    own y tick labels and y label. ``top``/``bottom``: inches kept free for the title / a legend. Returns
+    ``[(ax, cax), ...]`` row by row. Axes are placed at fixed positions (no layout engine, no divider).
     """
     aspect = float(np.clip(aspect, 0.3, 1.4))
-    left, cbar_room, gap = 0.75, 1.1, 0.5       # y label | axes | bar + tick labels + label | next column
-    ax_w = (width - left - ncols * cbar_room - (ncols - 1) * gap - 0.1) / ncols
+    left, right = 0.95, 0.35                        # y tick labels + y label of each column | right margin
+    ax_w = (width - right - ncols * left) / ncols
     ax_h = ax_w * aspect
     if ax_h > 4.2:                                  # tall workspaces: keep the figure on one screen
         ax_h = 4.2
         ax_w = ax_h / aspect
-    row_h = ax_h + 0.55 + title_space               # x label under, panel title above
+    under = 0.62                                    # x tick labels and x label
+    bar_gap, bar_h, bar_text = 0.1, 0.13, 0.3 + 0.21 * label_lines
+    row_h = title_space + ax_h + under + bar_gap + bar_h + bar_text
     height = top + nrows * row_h + bottom
     fig.set_size_inches(width, height)
     out = []
     for r in range(nrows):
         for c in range(ncols):
-            x0 = left + c * (ax_w + cbar_room + gap)
-            y0 = height - top - (r + 1) * row_h + 0.55
+            x0 = left + c * (left + ax_w)
+            y0 = height - top - r * row_h - title_space - ax_h
             ax = fig.add_axes((x0 / width, y0 / height, ax_w / width, ax_h / height))
-            cax = fig.add_axes(((x0 + ax_w + 0.08) / width, y0 / height, 0.15 / width, ax_h / height))
+            yb = y0 - under - bar_gap - bar_h
+            cax = fig.add_axes((x0 / width, yb / height, ax_w / width, bar_h / height))
             out.append((ax, cax))
     return out
 
@@ -200,38 +218,221 @@ def monte_carlo_levels(lo: float, hi: float, error: float, max_levels: int = 12)
     return np.round(np.arange(first, last + 1) * step, 12)
 
 
-def _declutter(ax, labels: list, pad_pt: float = 2.0) -> None:
-    """Remove contour labels that would overlap an earlier one (or stick out of the axes), so crowded
-    contours (near a singular edge) keep readable labels. Boxes are estimated from the text's length and
-    font size (0.6 em per character), in display units at the figure's dpi."""
+def _renderer(fig: Figure):
+    """A renderer measuring text as the figure will draw it: its canvas's, else an Agg one at the figure's size
+    and dpi (a bare ``Figure()`` has no renderer until it is saved)."""
+    get = getattr(fig.canvas, "get_renderer", None)
+    if get is not None:
+        return get()
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    w, h = fig.get_size_inches() * fig.dpi
+    return RendererAgg(max(int(w), 1), max(int(h), 1), fig.dpi)
+
+
+def _on_field(ax, box, field, region, n: int = 5) -> bool:
+    """Whether an ``n x n`` grid of points over ``box`` (display units) lies on finite cells of ``field``
+    ``(x, y, Z)`` (nearest grid point) and inside ``region`` (a Path in data units); either may be None."""
+    u, v = np.meshgrid(np.linspace(box.x0, box.x1, n), np.linspace(box.y0, box.y1, n))
+    pts = ax.transData.inverted().transform(np.column_stack([u.ravel(), v.ravel()]))
+    if region is not None and not region.contains_points(pts).all():
+        return False
+    if field is not None:
+        x, y, Z = field
+        ix = np.clip(np.searchsorted(x, pts[:, 0]), 1, len(x) - 1)
+        ix -= (pts[:, 0] - x[ix - 1]) < (x[ix] - pts[:, 0])
+        iy = np.clip(np.searchsorted(y, pts[:, 1]), 1, len(y) - 1)
+        iy -= (pts[:, 1] - y[iy - 1]) < (y[iy] - pts[:, 1])
+        if not np.isfinite(Z[iy, ix]).all():
+            return False
+    return True
+
+
+def text_width_in(fig: Figure, text: str, fontsize: float) -> float:
+    """Width (inches) of ``text`` (one or more lines, mathtext allowed) at ``fontsize`` as ``fig`` draws it."""
+    from matplotlib.text import Text
+
+    probe = Text(0, 0, text, fontsize=fontsize, figure=fig)
+    return probe.get_window_extent(_renderer(fig)).width / fig.dpi
+
+
+def wrap_text(fig: Figure, text: str, width_in: float, fontsize: float) -> str:
+    """``text`` with line breaks so that no line is wider than ``width_in`` inches at ``fontsize`` (measured,
+    words kept whole, a ``$...$`` formula one word; existing line breaks kept)."""
+    import re
+
+    out = []
+    for para in text.split("\n"):
+        line = ""
+        for word in re.findall(r"(?:\$[^$]*\$|[^\s$])+", para):
+            trial = f"{line} {word}" if line else word
+            if line and text_width_in(fig, trial, fontsize) > width_in:
+                out.append(line)
+                line = word
+            else:
+                line = trial
+        out.append(line)
+    return "\n".join(out)
+
+
+def label_contours(ax, cs, *, fontsize: float = FONT_PT, fmt: str = "%.3g", colors: str = "white",
+                   pad_pt: float = 2.0, field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   region=None) -> list:
+    """Label the contour lines ``cs`` of ``ax`` with their values, keeping only labels whose drawn boxes (rotation
+    included, measured by the renderer, plus ``pad_pt``) lie inside the axes and clear of every label kept
+    before them, so crowded contours (near a singular edge) keep readable labels. With ``field`` ``(x, y, Z)``
+    (the drawn field) and ``region`` (a matplotlib Path in data units, e.g. the workspace outline) a label
+    must also lie on coloured cells (finite ``Z``, nearest grid point) inside ``region``: white text is not
+    left on the blank page. The kept labels are then placed inline (the lines broken under them only).
+    Returns the labels."""
     fig = ax.get_figure()
-    scale = fig.dpi / 72.0
-    frame = ax.get_window_extent()
-    kept: list[tuple[float, float, float, float]] = []
-    for label in labels:
-        x, y = ax.transData.transform(label.get_position())
-        size = label.get_fontsize()
-        half_w = (0.3 * size * len(label.get_text()) + pad_pt) * scale
-        half_h = (0.6 * size + pad_pt) * scale
-        box = (x - half_w, x + half_w, y - half_h, y + half_h)
-        inside = frame.x0 <= box[0] and box[1] <= frame.x1 and frame.y0 <= box[2] and box[3] <= frame.y1
-        if not inside or any(box[0] < b[1] and b[0] < box[1] and box[2] < b[3] and b[2] < box[3] for b in kept):
-            label.remove()
-        else:
-            kept.append(box)
+    renderer = _renderer(fig)
+    pad = pad_pt * fig.dpi / 72.0
+    frame = ax.get_window_extent(renderer)
+    trial = ax.clabel(cs, inline=False, fontsize=fontsize, fmt=fmt, colors=colors)
+    kept, places = [], []
+    for label in trial:
+        b = label.get_window_extent(renderer).padded(pad)
+        inside = frame.x0 <= b.x0 and b.x1 <= frame.x1 and frame.y0 <= b.y0 and b.y1 <= frame.y1
+        if inside and (field is not None or region is not None):
+            inside = _on_field(ax, b, field, region)
+        if inside and not any(b.overlaps(k) for k in kept):
+            kept.append(b)
+            places.append(label.get_position())
+    while cs.labelTexts:
+        cs.pop_label()
+    if not places:
+        return []
+    return ax.clabel(cs, inline=True, fontsize=fontsize, fmt=fmt, colors=colors, manual=places)
+
+
+#: How the maps draw the singular places: the near-singular cells (left blank by the maps) hatched in this
+#: colour, the parallel singularity det A = 0 as a line of this colour.
+SINGULAR_COLOUR = "tab:red"
+
+
+@dataclass(frozen=True)
+class MapShape:
+    """What a map's layer needs besides its values to be drawn true to the robot (mm, on the map's grid).
+
+    ``loops``: the exact workspace boundary (:func:`~pmaccuracy.kinematics.workspace.constant_orientation_workspace`);
+    ``near_singular`` ``(ny, nx)``: grid points inside the joint ranges but near a singularity (condition of
+    A above ``max_condition`` or a leg's transmission below its inverse), where the maps have no value;
+    ``det`` ``(ny, nx)``: det A inside the joint ranges (NaN outside), whose zero line is the parallel
+    singularity.
+    """
+
+    loops: tuple[np.ndarray, ...]
+    near_singular: np.ndarray
+    det: np.ndarray
+    max_condition: float
+
+    @property
+    def has_singular(self) -> bool:
+        return bool(self.near_singular.any())
+
+    @property
+    def crosses_det_zero(self) -> bool:
+        d = self.det[np.isfinite(self.det)]
+        return bool(d.size and d.min() < 0 < d.max())
+
+
+def map_shape(robot, phi_deg: float, x: np.ndarray, y: np.ndarray, max_condition: float | None = None) -> MapShape:
+    """The :class:`MapShape` of ``robot`` at ``phi_deg`` (deg) on the grid ``x`` ``(nx,)``, ``y`` ``(ny,)`` (mm),
+    with the maps' singularity test (:func:`pmaccuracy.kinematics.regular_mask`, default
+    :data:`~pmaccuracy.kinematics.DEFAULT_MAX_CONDITION`)."""
+    mc = DEFAULT_MAX_CONDITION if max_condition is None else float(max_condition)
+    phi = math.radians(float(phi_deg))
+    X, Y = np.meshgrid(np.asarray(x, float), np.asarray(y, float))
+    poses = np.stack([X, Y, np.full_like(X, phi)], axis=-1)
+    inside = inverse_kinematics(robot, poses).within_limits
+    with np.errstate(all="ignore"):
+        near = inside & ~regular_mask(robot, poses, mc)
+        det = np.where(inside, singularity(robot, poses).det, np.nan)
+    ws = constant_orientation_workspace(robot, phi)
+    return MapShape(tuple(ws.loops), near, det, mc)
+
+
+def _robot_of(ds: xr.Dataset):
+    """The robot a map was computed for, from its ``robot_toml`` attribute (None when the map has none)."""
+    text = ds.attrs.get("robot_toml")
+    if not text:
+        return None
+    return Manipulator.from_toml_string(text, source="the map's robot_toml")
+
+
+def _widen(Z: np.ndarray, keep_blank: np.ndarray, passes: int = 2) -> np.ndarray:
+    """``Z`` with the blank cells next to its values given their neighbours' mean, ``passes`` times (cells in
+    ``keep_blank`` stay blank): drawing only, so the field reaches the workspace boundary it is clipped to."""
+    out = np.array(Z, dtype=float)
+    for _ in range(passes):
+        finite = np.isfinite(out)
+        padded = np.pad(np.where(finite, out, 0.0), 1)
+        count = np.pad(finite.astype(float), 1)
+        total = padded[:-2, 1:-1] + padded[2:, 1:-1] + padded[1:-1, :-2] + padded[1:-1, 2:]
+        n = count[:-2, 1:-1] + count[2:, 1:-1] + count[1:-1, :-2] + count[1:-1, 2:]
+        grow = ~finite & (n > 0) & ~keep_blank
+        out[grow] = total[grow] / n[grow]
+    return out
+
+
+def _outline(ax, mesh, loops):
+    """Clip ``mesh`` to the workspace ``loops`` (holes kept) and draw the boundary as a thin black line; returns
+    the boundary as a Path in data units (None without loops)."""
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path as MplPath
+
+    if not loops:
+        return None
+    verts, codes = [], []
+    for loop in loops:
+        verts.append(loop)
+        codes += [MplPath.MOVETO] + [MplPath.LINETO] * (len(loop) - 2) + [MplPath.CLOSEPOLY]
+    path = MplPath(np.vstack(verts), codes)
+    mesh.set_clip_path(PathPatch(path, transform=ax.transData))
+    ax.add_patch(PathPatch(path, facecolor="none", edgecolor="black", linewidth=0.8, zorder=3,
+                           label="workspace boundary"))
+    return path
+
+
+def draw_singular(ax, x: np.ndarray, y: np.ndarray, shape: MapShape) -> list:
+    """Hatch the near-singular part of the grid (the maps' blank cells there) and draw det A = 0; returns the
+    legend handles of what was drawn (none on a map without singular places)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    if shape.has_singular:
+        ax.contourf(x, y, shape.near_singular.astype(float), levels=[0.5, 1.5], colors="none",
+                    hatches=["////"], zorder=2.5)
+        for coll in ax.collections[-1:]:
+            coll.set_edgecolor(SINGULAR_COLOUR)
+            coll.set_linewidth(0.0)
+        handles.append(Patch(facecolor="white", edgecolor=SINGULAR_COLOUR, hatch="////",
+                             label=f"near-singular (cond. A > {shape.max_condition:g} or a leg's transmission < "
+                                   f"{1 / shape.max_condition:g}): no bound, left blank"))
+    if shape.crosses_det_zero:
+        ax.contour(x, y, shape.det, levels=[0.0], colors=SINGULAR_COLOUR, linewidths=1.6, zorder=4)
+        handles.append(Line2D([], [], color=SINGULAR_COLOUR, linewidth=1.6,
+                              label="parallel singularity (det A = 0)"))
+    return handles
 
 
 def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarray, label: str, units: str, *,
                 rng: ColourRange | None = None, extra: np.ndarray | None = None, contours: bool = True,
                 cmap: str = "viridis", log: bool = False, error: float | None = None,
-                box: tuple[float, float, float, float] | None = None) -> Any:
+                box: tuple[float, float, float, float] | None = None,
+                outline: tuple[list[np.ndarray], np.ndarray] | None = None) -> Any:
     """One map panel: the field, labelled contour lines (their levels also marked on the colour bar) and a
     colour bar labelled ``label [units]``, noting a clipped scale.
 
     ``log``: logarithmic colour scale (values <= 0 left blank). ``error`` (units of the map): a Monte Carlo
     map's stated error; the colours come in discrete bands of :func:`monte_carlo_levels` (step >= error),
     and the colour bar states both (``log`` does not apply to such a panel: its bands stay linear). ``box``: axis limits ``(x0, x1, y0, y1)`` in mm (default: the field's
-    own workspace), e.g. one box for every panel of a comparison.
+    own workspace), e.g. one box for every panel of a comparison. ``outline``: ``(loops, keep_blank)`` from
+    :func:`workspace_outline`: the field is clipped to the workspace's exact boundary (drawn as a line)
+    instead of ending in grid cells; ``keep_blank`` marks the blank cells not to be filled (near-singular).
+    A colour-bar axes wider than high gets a horizontal colour bar.
     """
     from matplotlib.colors import BoundaryNorm, LogNorm, Normalize
     from matplotlib.ticker import LogLocator, MaxNLocator
@@ -253,9 +454,23 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
     else:
         norm = Normalize(vmin=lo, vmax=hi)
         levels = MaxNLocator(6).tick_values(lo, hi)
-    mesh = ax.pcolormesh(x, y, Z, shading="auto", cmap=cmap, norm=norm)
+    shown = Z if outline is None else _widen(Z, outline[1])
+    mesh = ax.pcolormesh(x, y, shown, shading="auto", cmap=cmap, norm=norm)
     fit_limits(ax, *(box or _field_box(x, y, Z)))
-    cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither")
+    region = None if outline is None else _outline(ax, mesh, outline[0])
+    cpos = cax.get_position()
+    horizontal = cpos.width * fig.get_figwidth() > cpos.height * fig.get_figheight()
+    cbar = fig.colorbar(mesh, cax=cax, extend="max" if rng.clipped else "neither",
+                        orientation="horizontal" if horizontal else "vertical")
+    if horizontal and not log and error is None:
+        ticks = MaxNLocator(4).tick_values(lo, hi)
+        cbar.set_ticks(ticks[(ticks >= lo - 1e-9 * abs(hi)) & (ticks <= hi + 1e-9 * abs(hi))])
+    elif horizontal and log:                                      # decades only, no crowded minor labels
+        from matplotlib.ticker import NullFormatter
+
+        cbar.ax.xaxis.set_minor_formatter(NullFormatter())
+    elif horizontal and error is not None and len(levels) > 5:     # every k-th band edge: at most 5 labels
+        cbar.set_ticks(levels[::math.ceil(len(levels) / 5)])
     constant = finite.size == 0 or float(np.ptp(finite)) <= 1e-9 * max(float(np.max(np.abs(finite))), 1e-300)
     if contours and not constant:
         inner = levels[(levels > float(finite.min())) & (levels < min(float(finite.max()), hi))]
@@ -263,7 +478,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
             inner = inner[::2]
         if inner.size:
             cs = ax.contour(x, y, Z, levels=inner, colors="white", linewidths=0.7, alpha=0.9)
-            _declutter(ax, ax.clabel(cs, inline=True, fontsize=8, fmt="%.3g", colors="white"))
+            label_contours(ax, cs, field=(x, y, shown), region=region)
             cbar.add_lines(cs)
     text = f"{label} [{units}]" if label else units
     if log:
@@ -274,22 +489,29 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
     if rng.clipped:
         at = f"vmax {rng.hi:.3g}" if rng.user else f"{CLIP_PERCENTILE:g}th pct."
         text += f"\nclipped at {at} (max {rng.top:.3g})"
-    cbar.set_label(text, fontsize=8 if (rng.clipped or error is not None) else 9)
-    cbar.ax.tick_params(labelsize=8)
+    cbar.set_label(text, fontsize=FONT_PT)
+    cbar.ax.tick_params(labelsize=FONT_PT)
     return mesh
 
 
 def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.ndarray] | None = None,
                    title: str | None = None, scale: float = 1.0, vmin: float | None = None,
-                   vmax: float | None = None, log: bool = False, data: str = "measured") -> Figure:
+                   vmax: float | None = None, log: bool = False, data: str = "measured", robot=None,
+                   max_condition: float | None = None) -> Figure:
     """Four panels (dx_max, dy_max, dp_max in mm; dphi_max in deg) over the workspace at ``phi_deg``.
 
     ``measured`` points are named ``data`` in the legend ("simulated" for a virtual experiment's).
 
-    Each panel fills a box of the workspace's aspect ratio with a colour bar of exactly its height
+    Each panel fills a box of the workspace's aspect ratio with a colour bar of exactly its width under it
     (:func:`panel_grid`), labelled with what is drawn, factor included (``2 x dx_max [mm]``). Contour
     lines are labelled with their values and marked on the colour bar. A constant field says so in its
     title. Colour scales dominated by near-singular edges are clipped (:func:`colour_range`).
+
+    With the robot (``robot``, else the map's own ``robot_toml`` attribute) the field is clipped to the exact
+    workspace boundary, drawn as a line, and the singular places are drawn (:func:`draw_singular`): the grid
+    points the map leaves blank near a singularity are hatched and the parallel singularity det A = 0 is a
+    line, both named in the legend under the title. ``max_condition``: the map's singularity threshold
+    (default :data:`~pmaccuracy.kinematics.DEFAULT_MAX_CONDITION`, the maps' own).
 
     Parameters
     ----------
@@ -305,38 +527,49 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
 
     Contour lines are labelled with their values; the title names the robot, the clearances and phi.
     """
+    from matplotlib.lines import Line2D
+
     layer = ds.sel(phi=phi_deg, method="nearest")
     x, y = layer.x.values, layer.y.values
     x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values)
+    robot = robot if robot is not None else _robot_of(ds)
+    shape = None if robot is None else map_shape(robot, float(layer.phi), x, y, max_condition)
+    handles = []
+    if measured is not None:
+        handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
+                              markeredgecolor="black",
+                              label=f"{data} points, filled with the {data} value on the map's colour scale"))
+    singular = shape is not None and (shape.has_singular or shape.crosses_det_zero)
+    n_legend = len(handles) + (shape.has_singular + shape.crosses_det_zero if singular else 0)
     fig = Figure()
-    cells = panel_grid(fig, 2, 2, (y1 - y0) / max(x1 - x0, 1e-9), top=0.95 if measured is not None else 0.7)
+    cells = panel_grid(fig, 2, 2, (y1 - y0) / max(x1 - x0, 1e-9), top=0.55 + 0.3 * n_legend)
     prefix = f"{scale:g} x " if scale != 1 else ""
+    drawn: list = []
     for (ax, cax), (var, mkey, label, units) in zip(cells, PANELS):
         values = layer[var].values * scale
         extra = None if measured is None else np.asarray(measured[mkey], dtype=float)
         rng = colour_range(values, extra)
         if units == "mm":
             rng = limited_range(rng, vmin, vmax)
-        _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra, log=log)
+        _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra, log=log,
+                    outline=None if shape is None else (shape.loops, shape.near_singular))
+        if shape is not None:
+            drawn = draw_singular(ax, x, y, shape)
         panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
         if measured is not None:
             ax.scatter(measured["x"], measured["y"], c=extra, cmap="viridis", vmin=rng.lo, vmax=rng.hi, s=30,
-                       edgecolors="black", linewidths=0.9, label=data, zorder=3)
-        ax.set_title(panel_title, fontsize=10)
-        ax.set_xlabel("x [mm]", fontsize=9)
-        ax.set_ylabel("y [mm]", fontsize=9)
-        ax.tick_params(labelsize=8)
-    if measured is not None:
-        from matplotlib.lines import Line2D
-
-        handles = [Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
-                          markeredgecolor="black")]
-        fig.legend(handles, [f"{data} points, filled with the {data} value on the map's colour scale"],
-                   loc="upper center", bbox_to_anchor=(0.5, 1 - 0.5 / fig.get_figheight()), frameon=False,
-                   fontsize=9)
+                       edgecolors="black", linewidths=0.9, label=data, zorder=5)
+        ax.set_title(panel_title, fontsize=TITLE_PT)
+        ax.set_xlabel("x [mm]", fontsize=LABEL_PT)
+        ax.set_ylabel("y [mm]", fontsize=LABEL_PT)
+        ax.tick_params(labelsize=FONT_PT)
+    handles += drawn
+    if handles:
+        fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 1 - 0.45 / fig.get_figheight()),
+                   frameon=False, fontsize=FONT_PT, handlelength=1.6)
     fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}, "
-                          f"$\\phi$ = {float(layer.phi):g} deg", fontsize=11, y=1 - 0.12 / fig.get_figheight(),
-                 va="top")
+                          f"$\\phi$ = {float(layer.phi):g} deg", fontsize=SUPTITLE_PT,
+                 y=1 - 0.1 / fig.get_figheight(), va="top")
     return fig
 
 
@@ -458,7 +691,7 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     error (:func:`monte_carlo_levels`). ``vmin``/``vmax`` (units of the panels marked in ``limited``, default
     all) and ``log`` set the colour scales.
     """
-    ncols = ncols or len(panels)
+    ncols = min(ncols or len(panels), MAX_COLUMNS)
     nrows = int(np.ceil(len(panels) / ncols))
     boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
     common_box = None
@@ -469,24 +702,32 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     else:
         aspect = float(np.median([(b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes]))
     fig = Figure()
-    cells = panel_grid(fig, nrows, ncols, aspect, width=min(REPORT_WIDTH_IN, 3.4 * ncols + 0.8))
+    width = min(REPORT_WIDTH_IN, 3.6 * ncols + 0.8)
+    slot = (width - 0.35) / ncols - 0.95 + 0.6          # a title centred over its panel (panel_grid's margins)
+    titles = [wrap_text(fig, title + constant_note(Z, units), slot, TITLE_PT) for _, _, Z, title, units in panels]
+    lines = max(t.count("\n") + 1 for t in titles)
+    suptitle = wrap_text(fig, suptitle, width - 0.2, SUPTITLE_PT)
+    top = max(0.75, 0.3 + (suptitle.count("\n") + 1) * 1.25 * SUPTITLE_PT / 72)
+    cells = panel_grid(fig, nrows, ncols, aspect, width=width, top=top, title_space=0.4 + (lines - 1) * 1.25 * TITLE_PT / 72,
+                       label_lines=3 if any(e is not None for e in (errors or [])) else 2)
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
     errors = errors or [None] * len(panels)
     limited = limited or [True] * len(panels)
-    for (ax, cax), (x, y, Z, title, units), error, lim in zip(cells, panels, errors, limited):
+    for (ax, cax), (x, y, Z, _, units), title, error, lim in zip(cells, panels, titles, errors, limited):
         rng = common or colour_range(Z)
         if lim:
             rng = limited_range(rng, vmin, vmax)
         _draw_field(fig, ax, cax, x, y, Z, "", units, rng=rng, contours=contours or error is not None,
                     error=error, log=log, box=common_box)
-        ax.set_title(title + constant_note(Z, units), fontsize=10)
-        ax.set_xlabel("x [mm]", fontsize=9)
-        ax.set_ylabel("y [mm]", fontsize=9)
-        ax.tick_params(labelsize=8)
+        ax.set_title(title, fontsize=TITLE_PT)
+        ax.set_xlabel("x [mm]", fontsize=LABEL_PT)
+        ax.set_ylabel("y [mm]", fontsize=LABEL_PT)
+        ax.tick_params(labelsize=FONT_PT)
     for ax, cax in cells[len(panels):]:
         ax.set_visible(False)
         fig.delaxes(cax)
-    fig.suptitle(suptitle, fontsize=11, y=1 - 0.12 / fig.get_figheight(), va="top")
+    fig.suptitle(suptitle, fontsize=SUPTITLE_PT,
+                 y=1 - 0.12 / fig.get_figheight(), va="top")
     return fig
 
 

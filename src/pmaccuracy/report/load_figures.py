@@ -39,7 +39,7 @@ from ..kinematics import as_poses, leg_states
 from ..kinematics.workspace import draw_robot
 from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, block_centre
-from .figures import nice_step, plot_panels
+from .figures import _renderer, FONT_PT, REPORT_WIDTH_IN, TITLE_PT, nice_step, plot_panels, wrap_text
 
 #: Colours: the external wrench, the joints' forces, a leg's contact state, unloaded legs, the preload.
 LOAD_COLOUR, REACTION_COLOUR, CONTACT_COLOUR, UNLOADED_COLOUR, PRELOAD_COLOUR = \
@@ -99,7 +99,8 @@ def _wrench(ax, centre: complex, w: np.ndarray, n_per_mm: float, radius: float, 
 
 
 def _pose_text(robot: Manipulator, pose: np.ndarray) -> str:
-    return f"({pose[0]:.4g}, {pose[1]:.4g}) mm, {math.degrees(pose[2]):.4g} deg"
+    x, y, phi = (round(float(v), 9) + 0.0 for v in (pose[0], pose[1], math.degrees(pose[2])))   # no 1e-15 noise
+    return f"({x:.4g}, {y:.4g}) mm, {phi:.4g} deg"
 
 
 def plot_load(robot: Manipulator | str, clearances, pose, load: Load, *, threshold: float = DEFAULT_THRESHOLD_N,
@@ -117,7 +118,7 @@ def plot_load(robot: Manipulator | str, clearances, pose, load: Load, *, thresho
     res = loaded_pose_error(robot, sources, pose, load, threshold=threshold)
     st = res.statics
     span = _span(robot, pose)
-    fig = Figure(figsize=(8.0, 7.2))
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 7.2))
     ax = fig.add_axes((0.08, 0.30, 0.88, 0.62))
     unloaded = np.asarray(res.unloaded)
     draw_robot(robot, pose, ax, label=False,
@@ -207,11 +208,55 @@ def plot_load(robot: Manipulator | str, clearances, pose, load: Load, *, thresho
     ax.grid(True, linewidth=0.3, alpha=0.5)
     name = robot.name
     cname = getattr(clearances, "name", clearances) if not isinstance(clearances, str) else clearances
-    ax.set_title(title or f"{name}, {cname} at {_pose_text(robot, pose)}: fx = {load.fx:g} N, fy = {load.fy:g} N, "
-                          f"m = {load.m:g} N mm" + (f", mass {load.mass:g} kg" if load.mass else ""), fontsize=10)
-    handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.06, 0.01), fontsize=8.5, frameon=False)
+    _stack(fig, [(ax, title or f"{name}, {cname} at {_pose_text(robot, pose)}: fx = {load.fx:g} N, "
+                             f"fy = {load.fy:g} N, m = {load.m:g} N mm"
+                             + (f", mass {load.mass:g} kg" if load.mass else ""), None)])
     return fig
+
+
+def _stack(fig: Figure, rows: list, left: float = 1.0, right: float = 0.25, max_h: float = 4.6) -> None:
+    """Lay ``rows`` ``[(axes, title, height or None), ...]`` out top to bottom on ``fig`` (:data:`REPORT_WIDTH_IN`
+    wide), each with its title wrapped over it and its legend (the axes' legend entries, labels wrapped)
+    under its x label; heights and widths measured in inches, so no text reaches the next row or leaves
+    the figure. ``height`` None: an equal-aspect drawing sized to its data limits (at most ``max_h``)."""
+    width = REPORT_WIDTH_IN
+    w = width - left - right
+    line = 1.25 * FONT_PT / 72.0
+    laid, total = [], 0.1
+    for ax, title, height in rows:
+        if height is None:
+            (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+            aw, height = w, w * (y1 - y0) / max(x1 - x0, 1e-12)
+            if height > max_h:
+                aw, height = max_h * (x1 - x0) / max(y1 - y0, 1e-12), max_h
+        else:
+            aw = w
+        x0 = max(left, (width - aw + left - right) / 2)  # a narrow drawing centred (y labels on its left)
+        centre = x0 + aw / 2                            # the title is centred over its axes
+        text = wrap_text(fig, title, 2 * min(centre, width - centre) - 0.2, TITLE_PT)
+        ax.set_title(text, fontsize=TITLE_PT)
+        ax.tick_params(labelsize=FONT_PT)
+        ax.xaxis.label.set_fontsize(FONT_PT)
+        ax.yaxis.label.set_fontsize(FONT_PT)
+        handles, labels = ax.get_legend_handles_labels()
+        legend = None
+        if handles:
+            labels = [wrap_text(fig, lab, width - 1.2, FONT_PT) for lab in labels]
+            legend = fig.legend(handles, labels, loc="upper left", fontsize=FONT_PT, frameon=False)
+        leg_h = 0.0 if legend is None else legend.get_window_extent(_renderer(fig)).height / fig.dpi
+        title_h = (text.count("\n") + 1) * line + 0.15
+        under = 2 * line + 0.3
+        laid.append((ax, x0, aw, height, title_h, under, legend, leg_h))
+        total += title_h + height + under + leg_h + 0.2
+    fig.set_size_inches(width, total)
+    y = total - 0.1
+    for ax, x0, aw, height, title_h, under, legend, leg_h in laid:
+        y -= title_h + height
+        ax.set_position((x0 / width, y / total, aw / width, height / total))
+        y -= under
+        if legend is not None:
+            legend.set_bbox_to_anchor((0.3 / width, y / total), transform=fig.transFigure)
+        y -= leg_h + 0.2
 
 
 def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, title: str | None = None) -> Figure:
@@ -226,7 +271,7 @@ def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, ti
     rng = wrench_set_errors(robot, sources, pose[None], center, half)
     flips = rng.flips[0]
     span = _span(robot, pose)
-    fig = Figure(figsize=(10.0, 5.8))
+    fig = Figure(figsize=(REPORT_WIDTH_IN, 6.4))
     ax = fig.add_axes((0.07, 0.30, 0.50, 0.62))
     draw_robot(robot, pose, ax, label=False, leg_colors=tuple("tab:orange" if f else "0.25" for f in flips))
     p = np.asarray(pre.wrench, dtype=float)
@@ -252,9 +297,6 @@ def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, ti
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.grid(True, linewidth=0.3, alpha=0.5)
-    ax.set_title(title or f"{robot.name} at {_pose_text(robot, pose)}: preload for the process box", fontsize=10)
-    handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.04, 0.0), fontsize=8.5, frameon=False)
     # ------------------------------------------------------------ ranges beside the worst case
     bx = fig.add_axes((0.66, 0.30, 0.31, 0.62))
     scale = np.array([1.0, 1.0, 180.0 / math.pi])
@@ -270,8 +312,8 @@ def plot_preload(robot: Manipulator | str, clearances, pose, center, half, *, ti
     bx.set_xticks(x, [r"$\delta x$ [mm]", r"$\delta y$ [mm]", r"$\delta\phi$ [deg]"])
     bx.set_ylabel("mm or deg (as labelled)")
     bx.grid(True, axis="y", linewidth=0.3, alpha=0.5)
-    bx.set_title("clearance error", fontsize=10)
-    bx.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, frameon=False)
+    _stack(fig, [(ax, title or f"{robot.name} at {_pose_text(robot, pose)}: preload for the process box", None),
+                 (bx, "clearance error", 2.6)], max_h=3.6)
     return fig
 
 
