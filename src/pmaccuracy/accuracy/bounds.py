@@ -71,6 +71,7 @@ from ..kinematics import raw_transmission
 from ..model import plausibility
 from ..model.sources import (PPR_TOLERANCE_KEYS, ErrorSources, first_order_error, source_coefficient,
                               states_half_widths, worst_configuration)
+from ..numerics.memory import settle_allocator
 from ..numerics.screws import dot
 from .error_model import VARIATION_UNITS
 
@@ -368,6 +369,7 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
     and the legs' transmission indices, for the caller to refuse or blank poses.
     """
 
+    settle_allocator()   # once a process: the blocks' temporaries stay on the heap from the first call on
     states = leg_states(robot, poses)
     n = poses.shape[0]
     within = np.ones(n, dtype=bool)

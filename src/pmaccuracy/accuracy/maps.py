@@ -195,6 +195,24 @@ def _coords(phis: np.ndarray, x: np.ndarray, y: np.ndarray) -> dict:
             "y": ("y", y, {"units": "mm"}), "x": ("x", x, {"units": "mm"})}
 
 
+def map_dataset(data_vars: dict, phis: np.ndarray, x: np.ndarray, y: np.ndarray, attrs: dict) -> xr.Dataset:
+    """``xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)`` of numpy variables ``{name: (dims,
+    values, attrs)}``: the same Dataset, built without xarray's probes for dask arrays.
+
+    Built the ordinary way from numpy arrays, a Dataset asks whether each array is a dask array, and the
+    first such question of a process imports ``dask`` and ``dask.array`` when they are installed (about
+    0.6 s; issue 35). Here each variable is a :class:`xarray.Variable` built on the fast path (the values
+    are numpy arrays already) and each coordinate a :class:`pandas.Index`, which xarray takes as it is.
+    """
+    import pandas as pd   # (xarray's own dependency, imported with it)
+
+    variables = {name: xr.Variable(dims, np.asarray(values), dict(vattrs), fastpath=True)
+                 for name, (dims, values, vattrs) in data_vars.items()}
+    coords = {name: xr.Variable(dim, pd.Index(np.asarray(values), name=name), dict(vattrs))
+              for name, (dim, values, vattrs) in _coords(phis, x, y).items()}
+    return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+
 def _attrs(robot: Manipulator, clearances: ClearanceSet) -> dict[str, str]:
     """Provenance attributes of a map (every value a string, as NetCDF-3 stores them)."""
 
@@ -273,7 +291,7 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
             raise _empty_layer_error(phi, n)
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
                  for name, (units, long_name) in MAP_VARIABLES.items()}
-    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+    return map_dataset(data_vars, phis, x, y, attrs)
 
 
 #: Certified map variables: name -> (units, long name); the bounds keep the names of :data:`MAP_VARIABLES`.
@@ -361,7 +379,7 @@ def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str
             values[name][:, outside] = np.nan
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
                  for name, (units, long_name) in CERTIFIED_VARIABLES.items()}
-    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+    return map_dataset(data_vars, phis, x, y, attrs)
 
 
 def _cut(region: Shape, x: np.ndarray, y: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
