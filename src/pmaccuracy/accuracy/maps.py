@@ -57,6 +57,7 @@ from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
 from ..kinematics.workspace import constant_orientation_workspace
 from .._optional import require
 from .. import __version__
+from ..io.csvio import float_table
 from ..io.resolve import clearances_arg, robot_arg
 
 #: Map variables: name -> (units, long name).
@@ -683,7 +684,6 @@ def _csv_options():
 def _write_csv_rows(fh, options, xs: np.ndarray, ys: np.ndarray, phi_deg: float, block: list[np.ndarray]) -> None:
     """Append the CSV lines of the inside points of grid rows ``ys`` ``(r,)`` (mm): ``block`` holds the four
     ``(r, len(xs))`` layers of :data:`MAP_VARIABLES`; pyarrow writes the floats (shortest round-trip decimals)."""
-    pa = require("pyarrow")
     pcsv = require("pyarrow.csv")
 
     inside = np.ones(block[0].shape, dtype=bool)
@@ -692,7 +692,7 @@ def _write_csv_rows(fh, options, xs: np.ndarray, ys: np.ndarray, phi_deg: float,
     iy, ix = np.nonzero(inside)
     values = [xs[ix], ys[iy], np.full(ix.size, float(phi_deg))]
     values += [np.asarray(b[inside], dtype=float) for b in block]
-    pcsv.write_csv(pa.table(dict(zip(CSV_COLUMNS, values))), fh, options)
+    pcsv.write_csv(float_table(dict(zip(CSV_COLUMNS, values))), fh, options)
 
 
 def _save_csv(ds: xr.Dataset, path: Path) -> None:
