@@ -110,6 +110,15 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     return bounds_or_nan(robot, clearances, poses, max_condition).reshape(X.shape + (4,))
 
 
+def _fill_rows(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_rows: np.ndarray, phi: float,
+               max_condition: float, out: list[np.ndarray]) -> None:
+    """:func:`_rows_block` written straight into ``out``: four C-contiguous ``(len(y_rows), len(x))`` arrays (a
+    map's final arrays, or a buffer reused from band to band), in the order of :data:`MAP_VARIABLES`."""
+    X, Y = np.meshgrid(x, y_rows)
+    poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
+    bounds_or_nan(robot, clearances, poses, max_condition, out=out)
+
+
 def map_nbytes(n_phi: int, n: int) -> int:
     """Bytes of the four float64 result arrays of an ``n_phi x n x n`` map."""
     return BYTES_PER_POINT * n_phi * n * n
@@ -423,8 +432,13 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
     bar = tqdm(total=len(blocks), disable=not show, desc="error map", unit="block", file=sys.stderr)
     with bar:
         if not use_dask:
+            direct = kernel is _rows_block and names == list(MAP_VARIABLES)
             for k, j in blocks:
-                store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
+                if direct:   # written straight into the final arrays: no band copied
+                    _fill_rows(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition,
+                               [out[name][k, j:j + rows] for name in names])
+                else:
+                    store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
                 bar.update()
             return
         try:
@@ -862,19 +876,21 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
             else:
                 options = _csv_options()
                 fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+            buffer = np.empty((len(MAP_VARIABLES), rows, len(x)))   # one band's results, reused band to band
             for k, j in blocks:
-                block = _rows_block(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition)
-                if np.isinf(block).any():
+                r = len(y[j:j + rows])
+                layers = [buffer[v, :r] for v in range(len(MAP_VARIABLES))]
+                _fill_rows(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition, layers)
+                if any(np.isinf(layer).any() for layer in layers):
                     raise ConfigError("the errors overflow: the clearances are far outside any physical range; "
                                       "nothing written", key="clearances")
-                layers = [block[..., v] for v in range(len(MAP_VARIABLES))]
                 if suffix == ".nc":
                     for name, layer in zip(MAP_VARIABLES, layers):
                         fh.seek(begins[name] + 8 * (k * len(y) + j) * len(x))
                         fh.write(np.ascontiguousarray(layer, dtype=">f8"))
                 else:
                     _write_csv_rows(fh, options, x, y[j:j + rows], phis_deg[k], layers)
-                _record_block(record[k, 0, 0], block)
+                _record_block(record[k, 0, 0], layers)
                 bar.update()
         for k, phi in enumerate(phis):
             if not record[k, 0, 0, 0]:
@@ -886,14 +902,16 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
     return _summary_from_record(record, phis)
 
 
-def _record_block(rec: np.ndarray, block: np.ndarray) -> None:
-    """Fold a block ``(rows, nx, 4)`` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN extremes: none yet)."""
-    inside = np.isfinite(block[..., 0])
+def _record_block(rec: np.ndarray, layers: list[np.ndarray]) -> None:
+    """Fold a band's four layers ``(rows, nx)`` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN
+    extremes: none yet)."""
+    inside = np.isfinite(layers[0])
     count = int(inside.sum())
     if not count:
         return
-    values = block[inside]                     # (count, 4); NaN nowhere (bounds_or_nan fills whole rows)
-    lo, hi = values.min(axis=0), values.max(axis=0)
+    values = [layer[inside] for layer in layers]   # NaN nowhere (bounds_or_nan blanks all four together)
+    lo = np.array([v.min() for v in values])
+    hi = np.array([v.max() for v in values])
     nv = len(MAP_VARIABLES)
     rec[1:1 + nv] = lo if not rec[0] else np.fmin(rec[1:1 + nv], lo)
     rec[1 + nv:] = hi if not rec[0] else np.fmax(rec[1 + nv:], hi)
