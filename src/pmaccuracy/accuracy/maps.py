@@ -50,6 +50,7 @@ from .bounds import bounds_or_nan
 from .certified import QUANTITIES, certified_pose_errors
 from .regions import Disc, Polygon, Rect, Shape
 from ..model.clearances import ClearanceSet
+from ..model.sources import ErrorSources
 from ..errors import ConfigError, EmptyWorkspaceError
 from ..model.manipulator import Manipulator, round_trip_degrees
 from ..model.plausibility import PlausibilityWarning, check_orientations
@@ -110,10 +111,16 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     return bounds_or_nan(robot, clearances, poses, max_condition).reshape(X.shape + (4,))
 
 
-def _fill_rows(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_rows: np.ndarray, phi: float,
+def _as_sources(clearances):
+    """Per-joint :class:`~pmaccuracy.model.sources.ErrorSources` of a map's clearances (the kernel's form)."""
+    return clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
+
+
+def _fill_rows(robot: Manipulator, clearances, x: np.ndarray, y_rows: np.ndarray, phi: float,
                max_condition: float, out: list[np.ndarray]) -> None:
     """:func:`_rows_block` written straight into ``out``: four C-contiguous ``(len(y_rows), len(x))`` arrays (a
-    map's final arrays, or a buffer reused from band to band), in the order of :data:`MAP_VARIABLES`."""
+    map's final arrays, or a buffer reused from band to band), in the order of :data:`MAP_VARIABLES`;
+    ``clearances`` best already as :func:`_as_sources`."""
     X, Y = np.meshgrid(x, y_rows)
     poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
     bounds_or_nan(robot, clearances, poses, max_condition, out=out)
@@ -433,9 +440,10 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
     with bar:
         if not use_dask:
             direct = kernel is _rows_block and names == list(MAP_VARIABLES)
+            sources = _as_sources(clearances) if direct else None
             for k, j in blocks:
                 if direct:   # written straight into the final arrays: no band copied
-                    _fill_rows(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition,
+                    _fill_rows(robot, sources, x, y[j:j + rows], float(phis[k]), max_condition,
                                [out[name][k, j:j + rows] for name in names])
                 else:
                     store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
@@ -876,21 +884,26 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
             else:
                 options = _csv_options()
                 fh.write((",".join(CSV_COLUMNS) + "\n").encode())
-            buffer = np.empty((len(MAP_VARIABLES), rows, len(x)))   # one band's results, reused band to band
+            # one band's results and their big-endian copy, reused band to band
+            buffer = np.empty((len(MAP_VARIABLES), rows, len(x)))
+            big_endian = np.empty((rows, len(x)), dtype=">f8") if suffix == ".nc" else None
+            sources = _as_sources(clearances)   # converted once, not per band
             for k, j in blocks:
                 r = len(y[j:j + rows])
                 layers = [buffer[v, :r] for v in range(len(MAP_VARIABLES))]
-                _fill_rows(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition, layers)
-                if any(np.isinf(layer).any() for layer in layers):
+                _fill_rows(robot, sources, x, y[j:j + rows], float(phis[k]), max_condition, layers)
+                count, lo, hi = _band_extremes(layers)
+                if np.isinf(lo).any() or np.isinf(hi).any():
                     raise ConfigError("the errors overflow: the clearances are far outside any physical range; "
                                       "nothing written", key="clearances")
                 if suffix == ".nc":
                     for name, layer in zip(MAP_VARIABLES, layers):
                         fh.seek(begins[name] + 8 * (k * len(y) + j) * len(x))
-                        fh.write(np.ascontiguousarray(layer, dtype=">f8"))
+                        np.copyto(big_endian[:r], layer)
+                        fh.write(big_endian[:r])
                 else:
                     _write_csv_rows(fh, options, x, y[j:j + rows], phis_deg[k], layers)
-                _record_block(record[k, 0, 0], layers)
+                _record_block(record[k, 0, 0], count, lo, hi)
                 bar.update()
         for k, phi in enumerate(phis):
             if not record[k, 0, 0, 0]:
@@ -902,16 +915,21 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
     return _summary_from_record(record, phis)
 
 
-def _record_block(rec: np.ndarray, layers: list[np.ndarray]) -> None:
-    """Fold a band's four layers ``(rows, nx)`` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN
+def _band_extremes(layers: list[np.ndarray]) -> tuple[int, np.ndarray, np.ndarray]:
+    """A band's four layers ``(rows, nx)`` -> (inside points, the four minima, the four maxima); NaN extremes
+    when no point is inside. (bounds_or_nan blanks the four together, so NaN-ignoring reductions see the
+    inside points only; an overflow shows as an infinite extreme.)"""
+    count = int(np.count_nonzero(~np.isnan(layers[0])))
+    lo = np.array([np.fmin.reduce(layer, axis=None) for layer in layers])
+    hi = np.array([np.fmax.reduce(layer, axis=None) for layer in layers])
+    return count, lo, hi
+
+
+def _record_block(rec: np.ndarray, count: int, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Fold a band's :func:`_band_extremes` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN
     extremes: none yet)."""
-    inside = np.isfinite(layers[0])
-    count = int(inside.sum())
     if not count:
         return
-    values = [layer[inside] for layer in layers]   # NaN nowhere (bounds_or_nan blanks all four together)
-    lo = np.array([v.min() for v in values])
-    hi = np.array([v.max() for v in values])
     nv = len(MAP_VARIABLES)
     rec[1:1 + nv] = lo if not rec[0] else np.fmin(rec[1:1 + nv], lo)
     rec[1 + nv:] = hi if not rec[0] else np.fmax(rec[1 + nv:], hi)
