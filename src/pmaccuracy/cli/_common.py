@@ -311,14 +311,24 @@ def degrees_as_given(angles_rad: np.ndarray) -> np.ndarray:
     rad = np.asarray(angles_rad, dtype=float)
     deg = np.degrees(rad)
     out = deg.copy()
-    todo = np.flatnonzero(np.isfinite(rad))
-    for digits in range(16):
-        if todo.size == 0:
-            break
-        candidate = np.round(deg.flat[todo], digits)
-        ok = np.radians(candidate) == rad.flat[todo]
-        out.flat[todo[ok]] = candidate[ok]
-        todo = todo[~ok]
+    finite = np.isfinite(rad)
+    # Values far from every multiple of 10^-9 cannot resolve with 9 decimals or fewer (the multiples of
+    # 10^-k, k <= 9, are multiples of 10^-9), so they start at 10 decimals: every value of a file of
+    # random 16-digit angles, which would otherwise take all 16 passes (issue 35). A rounding that resolves
+    # lies within about 2 ulp of the value (both convert to the same radians, and radians() is monotone):
+    # below 5.7e-13 for |deg| <= 1000, i.e. 5.7e-4 of the 10^-9 grid's step, and the distance is measured
+    # here to within 6e-5 of that step, so a measured 1e-3 or more rules out 0-9 decimals.
+    with np.errstate(invalid="ignore"):
+        scaled = deg * 1e9
+        far = finite & (np.abs(deg) <= 1000.0) & (np.abs(scaled - np.rint(scaled)) >= 1e-3)
+    for todo, first in ((np.flatnonzero(finite & ~far), 0), (np.flatnonzero(far), 10)):
+        for digits in range(first, 16):
+            if todo.size == 0:
+                break
+            candidate = np.round(deg.flat[todo], digits)
+            ok = np.radians(candidate) == rad.flat[todo]
+            out.flat[todo[ok]] = candidate[ok]
+            todo = todo[~ok]
     return out
 
 
