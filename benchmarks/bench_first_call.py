@@ -131,8 +131,16 @@ def main() -> None:
     parser.add_argument("--grid", type=int, default=1000)
     parser.add_argument("--poses", type=int, default=1_000_000)
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--skip-cli", action="store_true")
+    parser.add_argument("--skip-cli", action="store_true", help="only the library calls")
+    parser.add_argument("--cli-only", action="store_true", help="only the command line's pose-file path")
     args = parser.parse_args()
+    if not args.cli_only:
+        library_calls(args)
+    if not args.skip_cli:
+        command_line(args)
+
+
+def library_calls(args: argparse.Namespace) -> None:
     print(f"{'robot':<16} {'call':<16} {'floor':>7} {'first':>7} {'best':>7} {'first/floor':>11} {'best/floor':>10} "
           f"{'first/best':>10}   {'wall: first/best':>16}")
     for name, clear, phis_deg in CASES:
@@ -144,9 +152,9 @@ def main() -> None:
     print(f"(maps: 2 orientations x {args.grid}^2 grid points, floor per layer; bounds: {args.poses} poses inside "
           f"the workspace, floor per pose; CPU time of a fresh process per row, imports excluded; floor best of "
           f"{args.repeats}, steady best of 4)")
-    if args.skip_cli:
-        return
 
+
+def command_line(args: argparse.Namespace) -> None:
     import numpy as np
 
     sys.path.insert(0, str(HERE))
