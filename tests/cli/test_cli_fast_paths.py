@@ -1,6 +1,6 @@
 """The pose-file path's per-value helpers, shortened for 10^6 poses (issue 35), against plain references.
 
-``degrees_as_given`` now starts most values at 10 decimals and ``looks_like_radians`` tests only the values
+``degrees_as_given`` now starts most values at 10 or 13 decimals and ``looks_like_radians`` tests only the values
 that could be radians; both must give bit for bit what the plain passes over every value give (the
 references below, the helpers as they were written before).
 """
@@ -55,15 +55,17 @@ def _angle_sets() -> list[np.ndarray]:
     rng = np.random.default_rng(35)
     typed = np.concatenate([np.round(rng.uniform(-400, 400, 4000), k) for k in range(16)])
     near_grid = np.round(rng.uniform(-1000, 1000, 20000), 9) + rng.integers(-8, 9, 20000) * 1.2e-13
+    near_grid_12 = np.round(rng.uniform(-64, 64, 20000), 12) + rng.integers(-8, 9, 20000) * 7.2e-15
     return [np.radians(rng.uniform(-30, 30, 50000)),          # a file of random 16-digit angles
             np.radians(typed),                                   # angles typed with 0-15 decimals
             np.radians(near_grid),                               # within a few ulp of a 9-decimal value
+            np.radians(near_grid_12),                            # ... of a 12-decimal value
             np.radians(rng.uniform(-1e5, 1e5, 5000)),            # beyond the shortcut's 1000 deg
             rng.uniform(-7, 7, 20000),                           # radians read as such
             np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1e-300, 5e-324, -5e-324, np.pi, -np.pi / 6])]
 
 
-@pytest.mark.parametrize("k", range(6))
+@pytest.mark.parametrize("k", range(7))
 def test_degrees_as_given_matches_the_plain_passes(k):
     angles = _angle_sets()[k]
     assert same_bits(degrees_as_given(angles), degrees_reference(angles))
