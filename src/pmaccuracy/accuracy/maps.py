@@ -223,8 +223,11 @@ def map_dataset(data_vars: dict, phis: np.ndarray, x: np.ndarray, y: np.ndarray,
     """
     import pandas as pd   # (xarray's own dependency, imported with it)
 
-    variables = {name: xr.Variable(dims, np.asarray(values), dict(vattrs), fastpath=True)
-                 for name, (dims, values, vattrs) in data_vars.items()}
+    try:
+        variables = {name: xr.Variable(dims, np.asarray(values), dict(vattrs), fastpath=True)
+                     for name, (dims, values, vattrs) in data_vars.items()}
+    except TypeError:     # an xarray without the fast path: the ordinary construction (same Dataset)
+        return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
     coords = {name: xr.Variable(dim, pd.Index(np.asarray(values), name=name), dict(vattrs))
               for name, (dim, values, vattrs) in _coords(phis, x, y).items()}
     return xr.Dataset(variables, coords=coords, attrs=attrs)
