@@ -164,3 +164,28 @@ def test_one_pose_bounds_imports_no_plotting_or_tables():
     modules = _imported("bounds", "--pose", "0", "0", "0")
     assert not [m for m in modules if m.split(".")[0] in HEAVY]
     assert "pmaccuracy.cli.bounds_cmd" in modules and "pmaccuracy.cli.map_cmd" not in modules
+
+
+def test_poses_csv_bounds_reads_and_writes_without_pandas(tmp_path):
+    """The pose-file path loads pyarrow's CSV reader and writer but not pandas, which pyarrow's numpy
+    conversions (``to_numpy``, ``pyarrow.array``) would import on their first call (about 0.4 s)."""
+    rng = np.random.default_rng(5)
+    path = tmp_path / "poses.csv"
+    write_csv_columns({"x": rng.uniform(-5, 5, 50), "y": rng.uniform(-5, 5, 50), "phi_deg": rng.uniform(-5, 5, 50)},
+                      path)
+    modules = _imported("bounds", "--poses-csv", str(path), "--format", "csv")
+    assert "pyarrow.csv" in modules
+    assert not [m for m in modules if m.split(".")[0] in HEAVY and m.split(".")[0] != "pyarrow"]
+
+
+def test_float_table_holds_the_values_bit_for_bit():
+    from pmaccuracy.io.csvio import float_table
+
+    values = np.array([0.1, -0.0, 1e-300, np.nan, np.inf, 5e-324, 1 / 3])
+    strided = np.arange(10.0)[::3]
+    table = float_table({"a": values, "b": np.arange(7), "c": np.concatenate([strided, strided[:3]])})
+    assert table.column_names == ["a", "b", "c"]
+    back = np.frombuffer(table.column("a").chunks[0].buffers()[1], dtype="<f8")
+    assert np.array_equal(back.view(np.int64), values.view(np.int64))
+    assert table.column("b").to_pylist() == list(range(7))
+    assert table.column("c").to_pylist() == [0.0, 3.0, 6.0, 9.0, 0.0, 3.0, 6.0]

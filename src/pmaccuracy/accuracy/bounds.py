@@ -71,6 +71,7 @@ from ..kinematics import raw_transmission
 from ..model import plausibility
 from ..model.sources import (PPR_TOLERANCE_KEYS, ErrorSources, first_order_error, source_coefficient,
                               states_half_widths, worst_configuration)
+from ..numerics.memory import settle_allocator
 from ..numerics.screws import dot
 from .error_model import VARIATION_UNITS
 
@@ -368,6 +369,7 @@ def bounds_kernel(robot: Manipulator, sources, poses: np.ndarray, details: bool 
     and the legs' transmission indices, for the caller to refuse or blank poses.
     """
 
+    settle_allocator()   # once a process: the blocks' temporaries stay on the heap from the first call on
     states = leg_states(robot, poses)
     n = poses.shape[0]
     within = np.ones(n, dtype=bool)
@@ -478,21 +480,49 @@ def _generic_bounds(robot: Manipulator, sources, poses: np.ndarray, flat: np.nda
                            worst_signs={q: shaped(extra[f"s_{q}"], (3,)) for q in QUANTITIES} if details else {})
 
 
+#: Poses per kernel call of :func:`bounds_or_nan` at most: a map's band (about 10^4 grid points) goes to the
+#: kernel whole, longer inputs in equal pieces (a piece of 8192 and one of 1808 cost a third more than one of
+#: 10000: the kernel's fixed cost per call is about that of 2000 poses).
+BAND = 2 * CHUNK
+
+
 def bounds_or_nan(robot: Manipulator, clearances, poses: np.ndarray,
-                  max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
+                  max_condition: float = DEFAULT_MAX_CONDITION, out=None) -> np.ndarray:
     """``(n, 4)`` [dx_max mm, dy_max mm, dphi_max deg, dp_max mm] at poses ``(n, 3)``, NaN outside the joint
-    ranges or near a singularity (one pass: the maps' kernel; no error is raised)."""
+    ranges or near a singularity (one pass: the maps' kernel; no error is raised).
+
+    ``out``: four arrays ``(n,)`` (or of any shape of ``n`` elements, C-contiguous) to write the four
+    quantities straight into, e.g. a map's final arrays; they are returned instead of a new ``(n, 4)``."""
 
     robot = robot_arg(robot)
     clearances = clearances_arg(clearances, robot)
     sources = clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
-    out = np.empty((poses.shape[0], 4))
-    for k in range(0, poses.shape[0], CHUNK):
-        block = bounds_kernel(robot, sources, poses[k:k + CHUNK])
+    n = poses.shape[0]
+    if out is None:
+        result = np.empty((n, 4))
+        targets = [result[:, v] for v in range(4)]
+    else:
+        result = out
+        targets = []
+        for target in out:
+            if target.size != n or not target.flags.c_contiguous:
+                raise ValueError(f"out: four C-contiguous arrays of {n} elements expected")
+            targets.append(target.reshape(-1))            # a view (contiguous)
+    pieces = -(-n // BAND)
+    size = -(-n // max(1, pieces))
+    for k in range(0, n, max(1, size)):
+        block = bounds_kernel(robot, sources, poses[k:k + size])
         ok = block.within & _regular(block, max_condition)
-        for v, value in enumerate((block.dx, block.dy, np.degrees(block.dphi), block.dp)):
-            out[k:k + CHUNK, v] = np.where(ok, value, np.nan)
-    return out
+        bad = None if ok.all() else ~ok
+        for target, value in zip(targets, (block.dx, block.dy, block.dphi, block.dp)):
+            dst = target[k:k + size]
+            if value is block.dphi:
+                np.degrees(value, out=dst)
+            else:
+                dst[...] = value
+            if bad is not None:
+                dst[bad] = np.nan
+    return result
 
 
 def first_order_pose_error(robot: Manipulator, poses: np.ndarray | PoseState,

@@ -95,7 +95,6 @@ from ..model.manipulator import Manipulator
 from ..model.sources import ErrorSources, JointErrors, block_centre, first_order_error, worst_configuration
 from ..numerics.interval import Iv, t_parts, v_cv
 from ..numerics.screws import cross, dot
-from .._optional import require
 from ..errors import EmptyWorkspaceError
 from ..kinematics import DEFAULT_MAX_CONDITION
 from . import maps as _maps
@@ -619,10 +618,9 @@ def _map_poses(robot, clearances, phis, n: int, region, max_condition: float):
 
 
 def _dataset(values: dict, variables: dict, phis, x, y, attrs: dict):
-    xr = require("xarray")
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": u, "long_name": ln})
                  for name, (u, ln) in variables.items() if name in values}
-    return xr.Dataset(data_vars, coords=_maps._coords(phis, x, y), attrs=attrs)
+    return _maps.map_dataset(data_vars, phis, x, y, attrs)
 
 
 def _describe_load(load: Load) -> str:

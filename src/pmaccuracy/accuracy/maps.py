@@ -50,6 +50,7 @@ from .bounds import bounds_or_nan
 from .certified import QUANTITIES, certified_pose_errors
 from .regions import Disc, Polygon, Rect, Shape
 from ..model.clearances import ClearanceSet
+from ..model.sources import ErrorSources
 from ..errors import ConfigError, EmptyWorkspaceError
 from ..model.manipulator import Manipulator, round_trip_degrees
 from ..model.plausibility import PlausibilityWarning, check_orientations
@@ -57,6 +58,7 @@ from ..kinematics import DEFAULT_MAX_CONDITION, require_regular
 from ..kinematics.workspace import constant_orientation_workspace
 from .._optional import require
 from .. import __version__
+from ..io.csvio import float_table
 from ..io.resolve import clearances_arg, robot_arg
 
 #: Map variables: name -> (units, long name).
@@ -107,6 +109,21 @@ def _rows_block(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y_r
     X, Y = np.meshgrid(x, y_rows)
     poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
     return bounds_or_nan(robot, clearances, poses, max_condition).reshape(X.shape + (4,))
+
+
+def _as_sources(clearances):
+    """Per-joint :class:`~pmaccuracy.model.sources.ErrorSources` of a map's clearances (the kernel's form)."""
+    return clearances if isinstance(clearances, ErrorSources) else ErrorSources.from_clearance_set(clearances)
+
+
+def _fill_rows(robot: Manipulator, clearances, x: np.ndarray, y_rows: np.ndarray, phi: float,
+               max_condition: float, out: list[np.ndarray]) -> None:
+    """:func:`_rows_block` written straight into ``out``: four C-contiguous ``(len(y_rows), len(x))`` arrays (a
+    map's final arrays, or a buffer reused from band to band), in the order of :data:`MAP_VARIABLES`;
+    ``clearances`` best already as :func:`_as_sources`."""
+    X, Y = np.meshgrid(x, y_rows)
+    poses = np.stack([X.ravel(), Y.ravel(), np.full(X.size, phi)], axis=-1)
+    bounds_or_nan(robot, clearances, poses, max_condition, out=out)
 
 
 def map_nbytes(n_phi: int, n: int) -> int:
@@ -195,6 +212,27 @@ def _coords(phis: np.ndarray, x: np.ndarray, y: np.ndarray) -> dict:
             "y": ("y", y, {"units": "mm"}), "x": ("x", x, {"units": "mm"})}
 
 
+def map_dataset(data_vars: dict, phis: np.ndarray, x: np.ndarray, y: np.ndarray, attrs: dict) -> xr.Dataset:
+    """``xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)`` of numpy variables ``{name: (dims,
+    values, attrs)}``: the same Dataset, built without xarray's probes for dask arrays.
+
+    Built the ordinary way from numpy arrays, a Dataset asks whether each array is a dask array, and the
+    first such question of a process imports ``dask`` and ``dask.array`` when they are installed (about
+    0.6 s; issue 35). Here each variable is a :class:`xarray.Variable` built on the fast path (the values
+    are numpy arrays already) and each coordinate a :class:`pandas.Index`, which xarray takes as it is.
+    """
+    import pandas as pd   # (xarray's own dependency, imported with it)
+
+    try:
+        variables = {name: xr.Variable(dims, np.asarray(values), dict(vattrs), fastpath=True)
+                     for name, (dims, values, vattrs) in data_vars.items()}
+    except TypeError:     # an xarray without the fast path: the ordinary construction (same Dataset)
+        return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+    coords = {name: xr.Variable(dim, pd.Index(np.asarray(values), name=name), dict(vattrs))
+              for name, (dim, values, vattrs) in _coords(phis, x, y).items()}
+    return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+
 def _attrs(robot: Manipulator, clearances: ClearanceSet) -> dict[str, str]:
     """Provenance attributes of a map (every value a string, as NetCDF-3 stores them)."""
 
@@ -273,7 +311,7 @@ def error_map(robot: Manipulator | str, clearances: ClearanceSet | str, phis: fl
             raise _empty_layer_error(phi, n)
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
                  for name, (units, long_name) in MAP_VARIABLES.items()}
-    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+    return map_dataset(data_vars, phis, x, y, attrs)
 
 
 #: Certified map variables: name -> (units, long name); the bounds keep the names of :data:`MAP_VARIABLES`.
@@ -361,7 +399,7 @@ def certified_error_map(robot: Manipulator | str, clearances: ClearanceSet | str
             values[name][:, outside] = np.nan
     data_vars = {name: (("phi", "y", "x"), values[name], {"units": units, "long_name": long_name})
                  for name, (units, long_name) in CERTIFIED_VARIABLES.items()}
-    return xr.Dataset(data_vars, coords=_coords(phis, x, y), attrs=attrs)
+    return map_dataset(data_vars, phis, x, y, attrs)
 
 
 def _cut(region: Shape, x: np.ndarray, y: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -404,8 +442,14 @@ def _evaluate(robot: Manipulator, clearances: ClearanceSet, x: np.ndarray, y: np
     bar = tqdm(total=len(blocks), disable=not show, desc="error map", unit="block", file=sys.stderr)
     with bar:
         if not use_dask:
+            direct = kernel is _rows_block and names == list(MAP_VARIABLES)
+            sources = _as_sources(clearances) if direct else None
             for k, j in blocks:
-                store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
+                if direct:   # written straight into the final arrays: no band copied
+                    _fill_rows(robot, sources, x, y[j:j + rows], float(phis[k]), max_condition,
+                               [out[name][k, j:j + rows] for name in names])
+                else:
+                    store(k, j, kernel(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition))
                 bar.update()
             return
         try:
@@ -665,7 +709,6 @@ def _csv_options():
 def _write_csv_rows(fh, options, xs: np.ndarray, ys: np.ndarray, phi_deg: float, block: list[np.ndarray]) -> None:
     """Append the CSV lines of the inside points of grid rows ``ys`` ``(r,)`` (mm): ``block`` holds the four
     ``(r, len(xs))`` layers of :data:`MAP_VARIABLES`; pyarrow writes the floats (shortest round-trip decimals)."""
-    pa = require("pyarrow")
     pcsv = require("pyarrow.csv")
 
     inside = np.ones(block[0].shape, dtype=bool)
@@ -674,7 +717,7 @@ def _write_csv_rows(fh, options, xs: np.ndarray, ys: np.ndarray, phi_deg: float,
     iy, ix = np.nonzero(inside)
     values = [xs[ix], ys[iy], np.full(ix.size, float(phi_deg))]
     values += [np.asarray(b[inside], dtype=float) for b in block]
-    pcsv.write_csv(pa.table(dict(zip(CSV_COLUMNS, values))), fh, options)
+    pcsv.write_csv(float_table(dict(zip(CSV_COLUMNS, values))), fh, options)
 
 
 def _save_csv(ds: xr.Dataset, path: Path) -> None:
@@ -844,19 +887,26 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
             else:
                 options = _csv_options()
                 fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+            # one band's results and their big-endian copy, reused band to band
+            buffer = np.empty((len(MAP_VARIABLES), rows, len(x)))
+            big_endian = np.empty((rows, len(x)), dtype=">f8") if suffix == ".nc" else None
+            sources = _as_sources(clearances)   # converted once, not per band
             for k, j in blocks:
-                block = _rows_block(robot, clearances, x, y[j:j + rows], float(phis[k]), max_condition)
-                if np.isinf(block).any():
+                r = len(y[j:j + rows])
+                layers = [buffer[v, :r] for v in range(len(MAP_VARIABLES))]
+                _fill_rows(robot, sources, x, y[j:j + rows], float(phis[k]), max_condition, layers)
+                count, lo, hi = _band_extremes(layers)
+                if np.isinf(lo).any() or np.isinf(hi).any():
                     raise ConfigError("the errors overflow: the clearances are far outside any physical range; "
                                       "nothing written", key="clearances")
-                layers = [block[..., v] for v in range(len(MAP_VARIABLES))]
                 if suffix == ".nc":
                     for name, layer in zip(MAP_VARIABLES, layers):
                         fh.seek(begins[name] + 8 * (k * len(y) + j) * len(x))
-                        fh.write(np.ascontiguousarray(layer, dtype=">f8"))
+                        np.copyto(big_endian[:r], layer)
+                        fh.write(big_endian[:r])
                 else:
                     _write_csv_rows(fh, options, x, y[j:j + rows], phis_deg[k], layers)
-                _record_block(record[k, 0, 0], block)
+                _record_block(record[k, 0, 0], count, lo, hi)
                 bar.update()
         for k, phi in enumerate(phis):
             if not record[k, 0, 0, 0]:
@@ -868,14 +918,21 @@ def write_map(path: str | Path, robot: Manipulator | str, clearances: ClearanceS
     return _summary_from_record(record, phis)
 
 
-def _record_block(rec: np.ndarray, block: np.ndarray) -> None:
-    """Fold a block ``(rows, nx, 4)`` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN extremes: none yet)."""
-    inside = np.isfinite(block[..., 0])
-    count = int(inside.sum())
+def _band_extremes(layers: list[np.ndarray]) -> tuple[int, np.ndarray, np.ndarray]:
+    """A band's four layers ``(rows, nx)`` -> (inside points, the four minima, the four maxima); NaN extremes
+    when no point is inside. (bounds_or_nan blanks the four together, so NaN-ignoring reductions see the
+    inside points only; an overflow shows as an infinite extreme.)"""
+    count = int(np.count_nonzero(~np.isnan(layers[0])))
+    lo = np.array([np.fmin.reduce(layer, axis=None) for layer in layers])
+    hi = np.array([np.fmax.reduce(layer, axis=None) for layer in layers])
+    return count, lo, hi
+
+
+def _record_block(rec: np.ndarray, count: int, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Fold a band's :func:`_band_extremes` into a record ``[inside points, 4 minima, 4 maxima]`` (NaN
+    extremes: none yet)."""
     if not count:
         return
-    values = block[inside]                     # (count, 4); NaN nowhere (bounds_or_nan fills whole rows)
-    lo, hi = values.min(axis=0), values.max(axis=0)
     nv = len(MAP_VARIABLES)
     rec[1:1 + nv] = lo if not rec[0] else np.fmin(rec[1:1 + nv], lo)
     rec[1 + nv:] = hi if not rec[0] else np.fmax(rec[1 + nv:], hi)

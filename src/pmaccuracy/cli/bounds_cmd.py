@@ -84,17 +84,16 @@ def _columns(result) -> dict[str, np.ndarray]:
 
 def _exact_columns(robot, clearances, poses: np.ndarray, tolerances, allow_outside: bool,
                    progress: bool | None) -> dict[str, np.ndarray]:
-    """Exact bounds of ``poses`` ``(N, 3)`` [mm, mm, rad] as output columns, block by block with a progress bar.
+    """Exact bounds of ``poses`` ``(N, 3)`` [mm, mm, rad] as output columns; with a progress bar block by block.
 
-    The columns are preallocated and filled per block of :data:`PROGRESS_BLOCK`
-    poses, so only one block of the library's intermediate arrays (generators
-    ``(n, 3, 3)`` etc.) is alive at a time.
+    Without a bar, one library call (it builds only its four result arrays, 32 bytes a pose). With one, the
+    columns are preallocated and filled per block of :data:`PROGRESS_BLOCK` poses.
     """
     from ..accuracy.bounds import max_pose_errors
 
     n = poses.shape[0]
     show = (sys.stderr.isatty() if progress is None else progress) and n > PROGRESS_BLOCK
-    if not show and n <= PROGRESS_BLOCK:
+    if not show:   # one call: the library builds only its four result arrays (no block's columns copied)
         return _columns(max_pose_errors(robot, clearances, poses, tolerances=tolerances,
                                         allow_outside=allow_outside))
     from tqdm import tqdm

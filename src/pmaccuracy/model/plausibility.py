@@ -253,13 +253,19 @@ def looks_like_radians(phi_deg: np.ndarray | float, *, direction: bool = False) 
     0.79, 1.57, 3.14, 4.71, 6.28) looks like radians.
     """
     v = np.abs(np.asarray(phi_deg, dtype=float))
-    hit = np.zeros(v.shape, dtype=bool)
+    limit = 2 * math.pi + (DIRECTION_MATCH if direction else RADIAN_MATCH)
+    with np.errstate(invalid="ignore"):
+        candidates = (v > 0) & (v <= limit)       # (NaN compares False: never a candidate)
+    where = np.flatnonzero(candidates)            # usually a small part of a file of degrees: tested alone
+    w = v.reshape(-1)[where]
+    hit = np.zeros(w.shape, dtype=bool)
     for step, match in ((math.pi / 12, RADIAN_MATCH), (math.pi / 8, RADIAN_MATCH), (math.pi / 18, RADIAN_MATCH),
                         *(((math.pi / 4, DIRECTION_MATCH),) if direction else ())):
-        k = np.rint(v / step)
-        hit |= (k >= 1) & (np.abs(v - k * step) <= match)
-    limit = 2 * math.pi + (DIRECTION_MATCH if direction else RADIAN_MATCH)
-    return hit & (v > 0) & (v <= limit) & np.isfinite(v)
+        k = np.rint(w / step)
+        hit |= (k >= 1) & (np.abs(w - k * step) <= match)
+    out = np.zeros(v.shape, dtype=bool)
+    out.reshape(-1)[where[hit]] = True
+    return out[()] if v.ndim == 0 else out
 
 
 def orientation_messages(phi_deg: Sequence[float] | np.ndarray, where: str, what: str = "orientations", *,
