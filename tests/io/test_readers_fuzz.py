@@ -202,3 +202,12 @@ def test_mutations_reach_the_readers_checks(folder, calibration_files):
     assert len(load_measurements(DATA / "hand_measurements.csv")) >= 1
     assert np.isfinite(wrench_set_errors("symmetric_3rpr", "rpr_typical", [0.0, 0.0, 0.0], [1, 0, 0], [1, 1, 10])
                        .upper).all()
+
+
+@pytest.mark.parametrize("name", ["aalborg_3ppr", "symmetric_3rrr", "symmetric_3prr", "symmetric_3rpr"])
+def test_robot_toml_every_number_replaced_by_a_huge_integer(folder, name):
+    """Each number of a preset robot file in turn replaced by a 400-digit integer (beyond any float): the
+    library's error naming the file, never an OverflowError (found by the fuzzing above in a radians check)."""
+    base = _preset("robots", name)
+    for m in NUMBER.finditer(base):
+        check(robot_arg, folder / "huge.toml", base[:m.start()] + b"9" * 400 + base[m.end():])

@@ -407,7 +407,8 @@ def degree_key_messages(data: object, where: str = "") -> list[str]:
             name = f"{where}.{key}" if where else str(key)
             if str(key).endswith("_deg"):
                 values = value if isinstance(value, list) else [value]
-                numbers = [float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+                numbers = [float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)
+                           and abs(v) < 1e300]   # an integer beyond a float is refused by the reader, not here
                 hits = [v for v in numbers if v and bool(looks_like_radians(v))]
                 if hits:
                     out.append(f"{name} = {_g(hits[0])} looks like radians ({_g(round(math.degrees(hits[0]), 1))} "
