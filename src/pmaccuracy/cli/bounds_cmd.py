@@ -18,10 +18,7 @@ COLUMNS = ("x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max")
 
 
 def add_clearances(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--clearances", default="case1",
-                        help="clearance preset (3-PPR: case1, case2, all, none; per joint: rpr_typical, "
-                             "rrr_typical, prr_typical) or path to a clearance TOML file: the 3-PPR format or one "
-                             "listing each leg's joints for any architecture (default: case1)")
+    parser.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -133,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         return serial_cmd.run(args)
     serial_cmd.refuse_joints(args)
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     per_joint = isinstance(clearances, ErrorSources)
     if per_joint:

@@ -134,7 +134,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     if args.repeats is not None and args.repeats < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {args.repeats}", key="--repeats")
     for option, value in (("--repeats-out", args.repeats_out), ("--distribution", args.distribution)):
@@ -184,7 +184,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     if args.push_n is not None and not args.push_n > 0:

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     if plot and not (args.pose or args.poses_csv or args.map):
         raise ConfigError("draws one pose (--pose) or a map (--map), not a region's preload", key="--plot")
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
     hi = np.array([args.fx[1], args.fy[1], args.m[1]])
     for k, key in enumerate(("--fx", "--fy", "--m")):

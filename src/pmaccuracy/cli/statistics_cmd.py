@@ -62,8 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_clearances(p)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
                    help="one pose: x mm, y mm, phi deg")
-    p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
-                   help="orientation of a percentile map in degrees (repeatable; needs --out)")
+    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", metavar="PHI",
+                   help="orientation(s) of a percentile map in degrees: several values and/or the option repeated "
+                        "(needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
                    help="grid points per axis of a map (default: 21)")
     add_shape(p)
@@ -113,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
     thresholds = dict(args.threshold or [])
     distribution = distributions.Distribution.load(args.distribution)
     robot = _common.load_robot(args)
+    _common.clearances_or_default(args, robot)
     if args.pose is not None:
         pose = np.array([args.pose[0], args.pose[1], math.radians(args.pose[2])])
         result = distributions.pose_statistics(

@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(p)
     p.add_argument("--clearances", default=None, metavar="TEMPLATE",
                    help="template clearance preset or file: its non-zero keys are the unknowns (default: case1 "
-                        "for a 3-PPR, the architecture's *_typical preset otherwise)")
+                        "for a 3-PPR, the architecture's *_typical preset otherwise, printed on stderr)")
     p.add_argument("--target", action="append", required=True, metavar="NAME=VALUE",
                    help="a target, repeatable: dx=MM, dy=MM, dp=MM, dphi_deg=DEG")
     add_region(p, phi_required=False)
@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         _common.prepare_output(out, "--out", (".toml",))
     robot = _common.load_robot(args)
+    _common.clearances_or_default(args, robot)
     region = parse_region(robot, args)
     from ..errors import EmptyWorkspaceError
 
