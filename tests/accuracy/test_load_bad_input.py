@@ -79,7 +79,7 @@ def test_plausible_forces_do_not_warn(capsys):
 
 
 def test_push_force_in_the_wrong_unit_warns(capsys, tmp_path):
-    assert main(["experiment", "simulate", "--grid", "2", "--push-n", "5e4", "--clearances", "case1", "--out",
+    assert main(["experiment", "simulate", "--grid", "3", "--push-n", "5e4", "--clearances", "case1", "--out",
                  str(tmp_path / "s.csv")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--push-n" in err[0] and "kN" in err[0]

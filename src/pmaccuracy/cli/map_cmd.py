@@ -319,3 +319,5 @@ def _plots(ds, plot: Path, args: argparse.Namespace) -> None:
         path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")
         fig = figures.plot_error_map(ds, float(phi), vmin=args.vmin, vmax=args.vmax, log=args.log)
         figures.save_figure(fig, path, dpi=args.dpi, option="--plot")
+        if path != plot:   # one file per orientation: say where each went (stderr, after a successful run)
+            args.__dict__.setdefault("notes", []).append(f"pmaccuracy map: wrote {path}")
