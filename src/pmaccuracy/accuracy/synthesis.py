@@ -450,9 +450,16 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
 
 def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str:
     """The synthesized per-joint clearance file (TOML text, mm / rad), with its targets and certificate as
-    comments; :func:`pmaccuracy.load_clearances` reads it back."""
+    comments; :func:`pmaccuracy.load_clearances` reads it back. ``robot``: an object, a preset name or a robot
+    file (as everywhere); ``result`` and ``region`` must be a :class:`Synthesis` and a :class:`Region`
+    (ConfigError naming the argument otherwise)."""
     import tomli_w
 
+    robot = robot_arg(robot)
+    for name, value, kind in (("result", result, Synthesis), ("region", region, Region)):
+        if not isinstance(value, kind):
+            raise ConfigError(f"expected a {kind.__name__} (from {'synthesize' if kind is Synthesis else 'make_region'}"
+                              f"), got {type(value).__name__}", key=name)
     lines = [f"# Synthesized by pmaccuracy synthesize ({result.mode}) for {robot.name} over {region.describe()}."]
     lines.append("# Targets: " + ", ".join(
         f"{q}{'_deg' if q == 'dphi' else ''} <= {np.degrees(v) if q == 'dphi' else v:.6g}"

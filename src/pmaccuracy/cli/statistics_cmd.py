@@ -71,8 +71,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv; missing parent "
                                                  "folders are created")
     _common.add_plot(p, "figure of a map's first orientation: percentile, worst case and their ratio for |dp| "
-                        "(mm) and |dphi| (deg), in colour steps no finer than the Monte Carlo error; --vmin/--vmax "
-                        "set the mm panels, --log the worst-case panels", maps=True)
+                        "(mm) and |dphi| (deg), with --threshold also the map of P(|Q| > V) per threshold, in "
+                        "colour steps no finer than the Monte Carlo error; --vmin/--vmax set the mm panels, --log "
+                        "the worst-case panels", maps=True)
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
     p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of numpy.random.default_rng (default: 0)")

@@ -84,7 +84,23 @@ def parse_region(robot, args: argparse.Namespace):
     from ..accuracy.global_worst import make_region
 
     _common.check_gap_pct(args.gap_pct)
-    return make_region(robot, tuple(np.radians(args.phi_deg)), parse_shape(args))
+    return cli_region(make_region, robot, args.phi_deg, parse_shape(args), args)
+
+
+def cli_region(make_region, robot, phi_deg, shape, args: argparse.Namespace):
+    """``make_region`` of the options: its errors name the options (``--phi-deg``, the shape's), not the
+    library's arguments (``phi``, ``box``)."""
+    import numpy as np
+
+    from ..errors import ConfigError
+
+    try:
+        return make_region(robot, tuple(np.radians(phi_deg)), shape)
+    except ConfigError as exc:
+        option = {"phi": "--phi-deg", "box": shape_key(args)}.get(exc.key)
+        if option is None:
+            raise
+        raise ConfigError(exc.message, source=exc.source, key=option) from None
 
 
 def register(sub: argparse._SubParsersAction) -> None:
