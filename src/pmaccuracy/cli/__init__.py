@@ -256,6 +256,8 @@ def main(argv: list[str] | None = None) -> int:
             status = int(args.func(args) or 0)
             if not getattr(args, "quiet", False):   # notes of the run (the default clearances used), then warnings
                 pending[:0] = getattr(args, "notes", [])
+            if pending:   # after the output, as a terminal shows it, also when stdout is a pipe
+                sys.stdout.flush()
             for text in pending:
                 print(text, file=sys.stderr)
             return status
