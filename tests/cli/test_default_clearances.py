@@ -129,3 +129,22 @@ def test_mixed_legs_have_no_default(tmp_path):
     with pytest.raises(ConfigError, match="per-joint clearance file") as info:
         default_clearances(mixed_robot)
     assert info.value.key == "clearances"
+
+
+@pytest.mark.parametrize("robot", ["symmetric_3rrr", "symmetric_3prr", "symmetric_3rpr"])
+def test_reproduce_on_another_architecture_uses_the_default(robot, capsys, monkeypatch, tmp_path):
+    """``reproduce --robot R`` (no --clearances) writes R's accuracy report with R's default; the report itself is
+    replaced by a stub that records what it was given (the report is tested in tests/report)."""
+    import pmaccuracy.report.accuracy_report as report
+
+    given = {}
+
+    def stub(out, robot_obj, clearances, grid, **kwargs):
+        given["clearances"] = clearances
+        return {"elapsed_s": 0, "clearances": clearances}
+
+    monkeypatch.setattr(report, "accuracy_report", stub)
+    status, out, err = run(["reproduce", "--robot", robot, "--out", tmp_path / "out", "--grid", 5], capsys)
+    assert status == 0, err
+    assert given["clearances"] == EXPECTED[robot] == default_clearances(robot)
+    assert err.splitlines() == [f"clearances: {EXPECTED[robot]} (default)"]
