@@ -206,17 +206,18 @@ def test_cli_certified_and_nonlinear_json():
     pose = ["--pose", "10", "5", "3"]
     up = json.loads(_cli("--certified", *pose, "--format", "json").stdout)[0]
     lo = json.loads(_cli("--nonlinear", *pose, "--format", "json").stdout)[0]
-    keys = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max", "gap"]
+    keys = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max", "gap_pct"]
     assert list(up) == keys and list(lo) == keys
-    assert set(up["gap"]) == {"dx", "dy", "dphi", "dp"}
+    assert set(up["gap_pct"]) == {"dx", "dy", "dphi", "dp"}
     res = C.certified_pose_errors("aalborg_3ppr", "case1", PAPER_POSE)
     for key, q in (("dx_max", "dx"), ("dy_max", "dy"), ("dp_max", "dp")):
         assert up[key] == pytest.approx(res.upper[q][0], rel=1e-12)
         assert lo[key] == pytest.approx(res.lower[q][0], rel=1e-12)
-        assert up["gap"][q] == pytest.approx((up[key] - lo[key]) / lo[key], rel=1e-9)
+        # in percent, as worst prints its gap
+        assert up["gap_pct"][q] == pytest.approx(100 * (up[key] - lo[key]) / lo[key], rel=1e-9)
     assert up["dphi_max_deg"] == pytest.approx(np.degrees(res.upper["dphi"][0]), rel=1e-12)
     csv = _cli("--certified", *pose, "--format", "csv").stdout.splitlines()[0].split(",")
-    assert csv[-4:] == ["gap.dx", "gap.dy", "gap.dphi", "gap.dp"]
+    assert csv[-4:] == ["gap_pct.dx", "gap_pct.dy", "gap_pct.dphi", "gap_pct.dp"]
 
 
 @pytest.mark.parametrize("extra, word", [(["--method", "slsqp"], "slsqp"), (["--nonlinear"], "exclude"),

@@ -18,7 +18,8 @@ from pmaccuracy.errors import ConfigError
 from pmaccuracy.experiment.virtual_rig import predict_pushes
 from pmaccuracy.model.plausibility import MAX_FORCE_N, PlausibilityWarning
 
-POSE = ["--pose", "0", "0", "0"]
+# explicit clearances: without them a run also notes the default it used on stderr
+POSE = ["--clearances", "case2", "--pose", "0", "0", "0"]
 
 
 def run(argv: list[str]) -> int:
@@ -61,7 +62,7 @@ def test_cli_refuses_with_one_line_naming_the_option(argv, option, capsys, tmp_p
     (["load", *POSE, "--fx", "1", "--m", "1e9"], "--m"),               # 1e9 N mm over a 30 mm robot
     (["load", *POSE, "--mass", "1", "--gravity-deg", "-1.5708"], "--gravity-deg"),     # -90 deg in radians
     (["preload", *POSE, "--fx", "-5e4", "5e4"], "--fx"),
-    (["load", "--map", "--grid", "3", "--out", "{tmp}/m.nc", "--fx", "2e4"], "--fx"),   # run() and the map once
+    (["load", "--map", "--grid", "3", "--out", "{tmp}/m.nc", "--fx", "2e4", "--clearances", "case2"], "--fx"),
 ])
 def test_cli_warns_once_for_a_force_in_the_wrong_unit_and_still_answers(argv, option, capsys, tmp_path):
     assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
@@ -78,7 +79,8 @@ def test_plausible_forces_do_not_warn(capsys):
 
 
 def test_push_force_in_the_wrong_unit_warns(capsys, tmp_path):
-    assert main(["experiment", "simulate", "--grid", "2", "--push-n", "5e4", "--out", str(tmp_path / "s.csv")]) == 0
+    assert main(["experiment", "simulate", "--grid", "3", "--push-n", "5e4", "--clearances", "case1", "--out",
+                 str(tmp_path / "s.csv")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--push-n" in err[0] and "kN" in err[0]
 

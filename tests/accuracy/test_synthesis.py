@@ -226,7 +226,8 @@ def test_cli_warns_in_one_line_when_the_certificate_stops_short(monkeypatch, cap
         return real(*args, **kwargs)
 
     monkeypatch.setattr(S, "global_worst", short)
-    status, text, err = run(["synthesize", "--target", "dp=0.3", "--phi-deg", "-30", "30"], capsys)
+    status, text, err = run(["synthesize", "--target", "dp=0.3", "--phi-deg", "-30", "30", "--clearances", "case1"],
+                            capsys)
     assert status == 0
     lines = [ln for ln in err.splitlines() if ln]
     assert len(lines) == 1 and lines[0].startswith("pmaccuracy synthesize: warning: the certified worst case is not")

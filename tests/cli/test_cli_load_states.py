@@ -61,7 +61,8 @@ def test_details_print_each_joints_contact_state(robot, clear, radial, actuator,
 
 def test_details_of_an_unloaded_leg_read_zero(capsys):
     # pushing the paper's robot along -y leaves leg 3 unloaded: its pin state is undetermined (0)
-    assert main(["load", "--pose", "0", "0", "0", "--fy", "-20", "--details", "--format", "json"]) == 0
+    assert main(["load", "--clearances", "case2", "--pose", "0", "0", "0", "--fy", "-20", "--details", "--format",
+                 "json"]) == 0
     rec = json.loads(capsys.readouterr().out)[0]
     assert rec["unloaded_legs"] == "3"
     assert rec["leg3.joint3.pin_dx_mm"] == 0 and rec["leg3.joint3.pin_dy_mm"] == 0

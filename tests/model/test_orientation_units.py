@@ -188,7 +188,7 @@ def test_several_slips_make_one_line():
 def test_command_line_does_not_warn_twice(capsys):
     from pmaccuracy.cli import main
     # 0.2618 deg looks like radians to the command line (one warning); the API sees 0.00457 rad: silent
-    assert main(["bounds", "--pose", "0", "0", "0.2618"]) == 0
+    assert main(["bounds", "--clearances", "case1", "--pose", "0", "0", "0.2618"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "looks like radians" in err[0]
     # 900 deg is 15.7 rad for the API, but the command line's angles are degrees by construction: no warning

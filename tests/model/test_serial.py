@@ -481,7 +481,8 @@ def test_cli_refusals(tmp_path, capsys):
     one_line_error(*run(base + ["--joints", 0, 200, 0], capsys), "joint 2", "outside")
     one_line_error(*run(base + ["--joints", 0, 0, 0, "--tolerances", "example_tolerances"], capsys), "--tolerances")
     one_line_error(*run(base + ["--joints", 0, 0, 0, "--method", "slsqp"], capsys), "slsqp")
-    one_line_error(*run(["bounds", "--robot", robot, "--joints", 0, 0, 0], capsys), "case1", "3-PPR")
+    one_line_error(*run(["bounds", "--robot", robot, "--clearances", "case1", "--joints", 0, 0, 0], capsys), "case1",
+                   "3-PPR")
     one_line_error(*run(["bounds", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--joints", 0, 0, 0],
                         capsys), "--joints", "parallel robot")
     status, out, err = run(base + ["--joints", 0, 200, 0, "--allow-outside", "--format", "json"], capsys)

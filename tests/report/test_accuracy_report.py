@@ -48,10 +48,12 @@ def test_reproduce_any_robot(robot, clear, tmp_path, capsys):
     assert not re.search(r"<td>-?\d(\.\d+)?e-1\d</td>", html)
 
 
-def test_reproduce_other_architecture_needs_clearances(tmp_path, capsys):
-    code = main(["reproduce", "--robot", "symmetric_3rpr", "--out", str(tmp_path / "x")])
+def test_reproduce_other_architecture_refuses_unfitting_clearances_first(tmp_path, capsys):
+    # without --clearances a 3-RPR gets its default (tests/cli/test_default_clearances.py); clearances of
+    # another architecture are refused before anything is written, naming the preset that fits
+    code = main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "case1", "--out", str(tmp_path / "x")])
     err = capsys.readouterr().err
-    assert code == 2 and "--clearances" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and "rpr_typical" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
 
 

@@ -236,12 +236,13 @@ def make_region(robot: Manipulator, phi: tuple[float, float],
                           key="box")
     lo, hi = (float(v) for v in phi)
     if not (np.isfinite(lo) and np.isfinite(hi)):
-        raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="--phi-deg")
+        raise ConfigError(f"the orientation interval must be finite, got [{lo}, {hi}] rad", key="phi")
     if lo > hi:
-        raise ConfigError(f"the orientation interval is reversed: {np.degrees(lo):g} > {np.degrees(hi):g} deg",
-                          key="--phi-deg")
+        raise ConfigError(f"the orientation interval is reversed: {np.degrees(lo):g} > {np.degrees(hi):g} deg "
+                          f"({lo:g} > {hi:g} rad)", key="phi")
     if hi - lo >= np.pi:
-        raise ConfigError("the orientation interval must be shorter than 180 deg", key="--phi-deg")
+        raise ConfigError(f"the orientation interval must be shorter than pi rad (180 deg), got [{lo:g}, {hi:g}] "
+                          f"rad ({np.degrees(hi - lo):g} deg wide; angles are in rad)", key="phi")
     if box is None:
         return reach_region(robot, (lo, hi))
     if isinstance(box, Rect):
@@ -251,10 +252,10 @@ def make_region(robot: Manipulator, phi: tuple[float, float],
         return Region(x=(x0, x1), y=(y0, y1), phi=(lo, hi), shape=box)
     x0, x1, y0, y1 = (float(v) for v in box)
     if not np.all(np.isfinite([x0, x1, y0, y1])):
-        raise ConfigError("the box must be finite", key="--region")
+        raise ConfigError("the box must be finite", key="box")
     if x0 > x1 or y0 > y1:
         raise ConfigError(f"the box is empty or reversed: x0={x0:g} > x1={x1:g} or y0={y0:g} > y1={y1:g}",
-                          key="--region")
+                          key="box")
     return Region(x=(x0, x1), y=(y0, y1), phi=(lo, hi))
 
 

@@ -50,7 +50,7 @@ from .global_worst import DEFAULT_GAP, GlobalWorst, QuantityWorst, Region, as_so
 from ..model.plausibility import PlausibilityWarning
 from ..kinematics import inverse_3x3, inverse_kinematics
 from ..model.sources import KEYS, ErrorSources, JointErrors, half_widths
-from ..io.resolve import load_clearances
+from ..io.resolve import DEFAULT_CLEARANCES, default_clearances, load_clearances
 from .._optional import require
 from ..io.resolve import robot_arg
 from ..kinematics.workspace import constant_orientation_workspace
@@ -59,8 +59,9 @@ from ..kinematics.workspace import constant_orientation_workspace
 TARGETS = {"dx": "mm", "dy": "mm", "dp": "mm", "dphi_deg": "deg"}
 #: Target name -> quantity of :data:`pmaccuracy.accuracy.bounds.QUANTITIES`.
 QUANTITY = {"dx": "dx", "dy": "dy", "dp": "dp", "dphi_deg": "dphi"}
-#: Default template per architecture.
-DEFAULT_TEMPLATES = {"3-PPR": "case1", "3-RPR": "rpr_typical", "3-RRR": "rrr_typical", "3-PRR": "prr_typical"}
+#: Default template per parallel architecture: the default clearances of every command
+#: (:data:`pmaccuracy.io.resolve.DEFAULT_CLEARANCES`).
+DEFAULT_TEMPLATES = {k: v for k, v in DEFAULT_CLEARANCES.items() if k != "serial"}
 _SIGNS = np.array([[1, 1, 1], [1, 1, -1], [1, -1, 1], [1, -1, -1]], dtype=float)
 
 
@@ -98,12 +99,9 @@ def parse_targets(items) -> dict[str, float]:
 
 
 def default_template(robot: Manipulator) -> str:
-    """The clearance preset used as template: ``case1`` for a 3-PPR, the architecture's ``*_typical``."""
-    try:
-        return DEFAULT_TEMPLATES[robot.architecture]
-    except KeyError:
-        raise ConfigError(f"no default template for a {robot.architecture} robot: give --clearances",
-                          key="--clearances") from None
+    """The clearance preset used as template: the default clearances of every command
+    (:func:`pmaccuracy.io.resolve.default_clearances`: ``case1`` for a 3-PPR, the architecture's ``*_typical``)."""
+    return default_clearances(robot)
 
 
 @dataclass(frozen=True)
@@ -452,9 +450,16 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
 
 def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str:
     """The synthesized per-joint clearance file (TOML text, mm / rad), with its targets and certificate as
-    comments; :func:`pmaccuracy.load_clearances` reads it back."""
+    comments; :func:`pmaccuracy.load_clearances` reads it back. ``robot``: an object, a preset name or a robot
+    file (as everywhere); ``result`` and ``region`` must be a :class:`Synthesis` and a :class:`Region`
+    (ConfigError naming the argument otherwise)."""
     import tomli_w
 
+    robot = robot_arg(robot)
+    for name, value, kind in (("result", result, Synthesis), ("region", region, Region)):
+        if not isinstance(value, kind):
+            raise ConfigError(f"expected a {kind.__name__} (from {'synthesize' if kind is Synthesis else 'make_region'}"
+                              f"), got {type(value).__name__}", key=name)
     lines = [f"# Synthesized by pmaccuracy synthesize ({result.mode}) for {robot.name} over {region.describe()}."]
     lines.append("# Targets: " + ", ".join(
         f"{q}{'_deg' if q == 'dphi' else ''} <= {np.degrees(v) if q == 'dphi' else v:.6g}"

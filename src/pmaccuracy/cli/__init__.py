@@ -9,7 +9,9 @@ ends the program with exit status 2 and one line on stderr,
 of the failures that are not the user's input errors. Plausibility warnings
 (:mod:`pmaccuracy.model.plausibility`) and other warnings are printed one line each,
 ``pmaccuracy CMD: warning: ...``, after a successful run (a failing run prints only its error line; a
-long-run estimate is printed at once), unless ``--quiet`` (an option of every command).
+long-run estimate is printed at once), unless ``--quiet`` (an option of every command). A command run
+without ``--clearances`` says which it used, ``clearances: NAME (default)`` (the one rule
+:func:`pmaccuracy.io.resolve.default_clearances`), on stderr before those warnings.
 """
 
 from __future__ import annotations
@@ -78,8 +80,27 @@ class OneLineParser(argparse.ArgumentParser):
                           help="no warnings on stderr (values in unlikely units, results beyond the linear "
                                "model, long runs); errors are still printed")
 
+    def parse_known_args(self, args=None, namespace=None):  # the arguments, for error()'s hint
+        self._arguments = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}{self._dash_hint(message)} "
+                     f"(see {self.prog} --help)\n")
+
+    def _dash_hint(self, message: str) -> str:
+        """``: a value starting with '-' ...`` when an option missed its value because that value starts with
+        ``-`` (``--region -35,10,...`` reads as an option): argparse says only "expected one argument"."""
+        found = re.match(r"argument (\S+): expected (?:one|\d+) argument", message)
+        if not found:
+            return ""
+        names = found.group(1).split("/")
+        arguments = [str(a) for a in getattr(self, "_arguments", [])]
+        for k, item in enumerate(arguments[:-1]):
+            value = arguments[k + 1]
+            if item in names and value.startswith("-") and value not in self._option_string_actions:
+                return f"; a value starting with '-' reads as an option: write {item}={value}"
+        return ""
 
 
 def _requested_command(argv: list[str]) -> str | None:
@@ -242,6 +263,10 @@ def main(argv: list[str] | None = None) -> int:
         try:
             _option_warnings(args)
             status = int(args.func(args) or 0)
+            if not getattr(args, "quiet", False):   # notes of the run (the default clearances used), then warnings
+                pending[:0] = getattr(args, "notes", [])
+            if pending:   # after the output, as a terminal shows it, also when stdout is a pipe
+                sys.stdout.flush()
             for text in pending:
                 print(text, file=sys.stderr)
             return status

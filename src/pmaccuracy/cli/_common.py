@@ -352,3 +352,38 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
         warn(orientation_messages(arr[:, 2], f"{csv_path}: column phi_deg"))
     arr[:, 2] = np.radians(arr[:, 2])
     return arr
+
+
+#: The help text of every ``--clearances`` option that has the default rule.
+CLEARANCES_HELP = ("clearance preset (3-PPR: case1, case2, all, none; 3-RPR: rpr_typical; 3-RRR: rrr_typical; "
+                   "3-PRR: prr_typical; serial arm: arm_typical) or path to a clearance TOML file: the 3-PPR format "
+                   "or one listing each leg's joints for any architecture (default: case1 for a 3-PPR, the "
+                   "architecture's *_typical preset otherwise, printed on stderr)")
+
+
+def clearances_or_default(args: argparse.Namespace, robot: Any) -> str | Any:
+    """``args.clearances``, or the robot's default (:func:`pmaccuracy.io.resolve.default_clearances`, the one
+    rule of every command), said once on stderr as ``clearances: NAME (default)`` (after a successful run, see
+    :func:`announce_default_clearances`) and kept in ``args.clearances``. A robot with no default: ConfigError
+    naming ``--clearances``."""
+    from ..io.resolve import default_clearances
+
+    if getattr(args, "clearances", None) is not None:
+        return args.clearances
+    try:
+        name = default_clearances(robot)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, key="--clearances") from None
+    announce_default_clearances(name, args)
+    args.clearances = name
+    return name
+
+
+def announce_default_clearances(text: str, args: argparse.Namespace) -> None:
+    """Note ``clearances: TEXT (default)`` in ``args.notes``: :func:`pmaccuracy.cli.main` prints the notes on
+    stderr when the command succeeds (before its warnings; a failing run prints only its one error line), not
+    with ``--quiet``."""
+    note = f"clearances: {text} (default)"
+    notes = args.__dict__.setdefault("notes", [])
+    if note not in notes:
+        notes.append(note)

@@ -18,10 +18,7 @@ COLUMNS = ("x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max")
 
 
 def add_clearances(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--clearances", default="case1",
-                        help="clearance preset (3-PPR: case1, case2, all, none; per joint: rpr_typical, "
-                             "rrr_typical, prr_typical) or path to a clearance TOML file: the 3-PPR format or one "
-                             "listing each leg's joints for any architecture (default: case1)")
+    parser.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,7 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="exact closed form (default) or the paper-style SLSQP baseline (slow, local)")
     p.add_argument("--certified", action="store_true",
                    help="certified upper bounds of the exact nonlinear loop closure's worst case (never below it) "
-                        "with gap.dx ... gap.dp, the relative distance to the best feasible configuration found")
+                        "with gap_pct.dx ... gap_pct.dp, the relative distance (percent) to the best feasible "
+                        "configuration found")
     p.add_argument("--nonlinear", action="store_true",
                    help="the best feasible worst case of the exact nonlinear model (local ascent from the "
                         "first-order worst vertices), with the gap to the certified bound")
@@ -132,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         return serial_cmd.run(args)
     serial_cmd.refuse_joints(args)
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     per_joint = isinstance(clearances, ErrorSources)
     if per_joint:
@@ -172,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
                              details=True)
     _linear_checked(_columns(result), poses)
     if per_joint:
-        _common.emit(_per_joint_details(robot, clearances, result), args.format)
+        _emit_details(_per_joint_details(robot, clearances, result), args.format)
         return 0
     records = result.records()
     shown = _common.degrees_as_given(poses[:, 2])
@@ -184,8 +182,33 @@ def run(args: argparse.Namespace) -> int:
         if result.worst_variations:
             rec["worst_variations"] = {q: {name: np.asarray(v)[k] for name, v in var.items()}
                                        for q, var in result.worst_variations.items()}
-    _common.emit(records, args.format)
+    _emit_details(records, args.format)
     return 0
+
+
+def _emit_details(records: list[dict], fmt: str) -> None:
+    """``bounds --details``: JSON and CSV complete (one record or row per pose, every source a key or column);
+    the table one block per pose, its bounds on one line, then one row per error source (a 3-PPR per-leg
+    value one row per leg) with its value in the worst configuration of each quantity, one column each."""
+    if fmt != "table":
+        _common.emit(records, fmt)
+        return
+    for n, rec in enumerate(records):
+        if n:
+            sys.stdout.write("\n")
+        _common.emit([{k: v for k, v in rec.items() if not isinstance(v, dict)}], "table")
+        rows: dict[str, dict] = {}
+        for group, prefix in (("worst", ""), ("worst_variations", "variation.")):
+            for q, values in (rec.get(group) or {}).items():
+                for name, value in values.items():
+                    value = _common._plain(value)
+                    items = ([(f"leg{i}.{name}", v) for i, v in enumerate(value, start=1)]
+                             if isinstance(value, list) else [(name, value)])
+                    for key, v in items:
+                        rows.setdefault(prefix + key, {"source": prefix + key})[f"worst_{q}"] = v
+        if rows:
+            sys.stdout.write("value of each source in the worst-case configuration of each quantity:\n")
+            _common.emit(list(rows.values()), "table")
 
 
 def _linear_checked(columns: dict[str, np.ndarray], poses: np.ndarray) -> dict[str, np.ndarray]:
@@ -256,7 +279,7 @@ def _columnar_output(columns: dict[str, np.ndarray], fmt: str) -> None:
 
 def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarray, tolerances) -> int:
     """``bounds --certified`` / ``--nonlinear``: the ``bounds`` keys with the certified upper bounds (or the
-    nonlinear maxima) and ``gap`` per quantity (:mod:`pmaccuracy.accuracy.certified`)."""
+    nonlinear maxima) and ``gap_pct`` per quantity, in percent (:mod:`pmaccuracy.accuracy.certified`)."""
     from ..accuracy.certified import certified_pose_errors
 
     if args.certified and args.nonlinear:
@@ -280,5 +303,6 @@ def _certified_run(args: argparse.Namespace, robot, clearances, poses: np.ndarra
     records = result.records("upper" if args.certified else "lower")
     for rec, shown in zip(records, _common.degrees_as_given(poses[:, 2])):
         rec["phi_deg"] = float(shown)
+        rec["gap_pct"] = {q: 100 * g for q, g in rec.pop("gap").items()}   # percent, as worst prints it
     _common.emit(records, args.format)
     return 0

@@ -250,7 +250,10 @@ def _summary(ident) -> dict:
     from ..accuracy.calibration.identify import identification_to_dict
 
     d = identification_to_dict(ident)
-    return {**d["fit"], "condition": d["identifiability"]["condition"],
+    # a unit in every printed name: the whitened residuals are in multiples of the readings' stated sigmas
+    names = {"rms_before": "rms_before_sigmas", "rms_after": "rms_after_sigmas",
+             "fit_rms_position": "fit_rms_position_mm"}
+    return {**{names.get(k, k): v for k, v in d["fit"].items()}, "condition": d["identifiability"]["condition"],
             **{k: d["identifiability"][k] for k in ("O1", "O2", "O3", "O4")},
             "identified": len(ident.identifiability.identified), "fixed": list(ident.identifiability.fixed)}
 

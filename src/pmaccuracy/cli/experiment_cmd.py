@@ -134,7 +134,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     if args.repeats is not None and args.repeats < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {args.repeats}", key="--repeats")
     for option, value in (("--repeats-out", args.repeats_out), ("--distribution", args.distribution)):
@@ -146,6 +146,7 @@ def run_simulate(args: argparse.Namespace) -> int:
         distribution = Distribution.load(args.distribution)
     if args.grid >= 2:
         _common.check_grid_memory(1, args.grid, "--grid")
+        _check_enough_points(robot, args)
     _common.prepare_output(args.out, "--out", (".csv",))
     if args.repeats_out:
         _common.prepare_output(args.repeats_out, "--repeats-out", (".csv",))
@@ -180,11 +181,33 @@ def run_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The fewest measured points of a comparison: its spread (ssd) and its regression need three.
+MIN_POINTS = 3
+
+
+def _check_enough_points(robot, args: argparse.Namespace) -> None:
+    """Refuse (ConfigError naming --grid) a lattice with fewer than :data:`MIN_POINTS` points inside the
+    workspace (away from singularities), naming how many are inside and the smallest --grid that has enough."""
+    from ..errors import ConfigError
+    from ..experiment.virtual_rig import grid_poses
+
+    phi = math.radians(args.phi_deg)
+    inside = len(grid_poses(robot, phi, args.grid))
+    if inside >= MIN_POINTS:
+        return
+    larger = next((n for n in range(args.grid + 1, args.grid + 30) if len(grid_poses(robot, phi, n)) >= MIN_POINTS),
+                  None)
+    hint = f": use a larger --grid (--grid {larger} has enough)" if larger else ""
+    raise ConfigError(f"{inside} of its {args.grid ** 2} points lie inside the workspace at phi = {args.phi_deg:g} deg "
+                      f"(away from singularities); the comparison needs at least {MIN_POINTS} (its spread and "
+                      f"regression){hint}", key="--grid")
+
+
 def run_compare(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     if args.push_n is not None and not args.push_n > 0:

@@ -46,11 +46,17 @@ def _to_file_units(robot, values: np.ndarray, kinds) -> list[float]:
     return [float(np.degrees(v)) if k == "R" else float(v) for v, k in zip(values, kinds)]
 
 
+def _shown(joints, values) -> list[float]:
+    """Joint values in mm (P) or deg (R) for output, a revolute's turned into ``[lo, lo + 360)`` of its range
+    (:meth:`pmaccuracy.model.chain.Joint.wrap`, the convention of ``calibrate compensate``)."""
+    return [float(np.degrees(j.wrap(v))) if j.kind == "R" else float(v) for j, v in zip(joints, values)]
+
+
 def _passive(robot, joints: np.ndarray) -> list[list[float]]:
     out = []
     for chain, q in zip(robot.chains, joints):
         i, j = chain.passive_indices
-        out.append(_to_file_units(robot, q[[i, j]], (chain.joints[i].kind, chain.joints[j].kind)))
+        out.append(_shown((chain.joints[i], chain.joints[j]), q[[i, j]]))
     return out
 
 
@@ -64,7 +70,7 @@ def run_ik(args: argparse.Namespace) -> int:
     out = []
     for k, (x, y, phi) in enumerate(poses):
         record = {"x": x, "y": y, "phi_deg": round_trip_degrees(phi),
-                  "q": _to_file_units(robot, ik.q[k], robot.actuated_kinds),
+                  "q": _shown([c.actuated for c in robot.chains], ik.q[k]),
                   "passive": _passive(robot, ik.joints[k])}
         if robot.is_3ppr:
             record["s"] = ik.s[k]

@@ -120,14 +120,11 @@ def write_map(ds, out: str) -> list[dict]:
 
 
 def add_robot_clearances_poses(p: argparse.ArgumentParser, serial: bool = False) -> None:
-    """``--robot``, ``--clearances`` (default case2; with ``serial``, arm_typical for a serial arm) and the poses
-    (``--pose``, ``--poses-csv``) of ``load`` and ``preload``."""
+    """``--robot``, ``--clearances`` (the default rule of every command:
+    :func:`pmaccuracy.io.resolve.default_clearances`) and the poses (``--pose``, ``--poses-csv``) of ``load`` and
+    ``preload`` (``serial``: the command also takes serial arms)."""
     _common.add_robot(p)
-    if serial:
-        p.add_argument("--clearances", default=None,
-                       help="clearance preset or file (default: case2; for a serial arm arm_typical)")
-    else:
-        p.add_argument("--clearances", default="case2", help="clearance preset or file (default: case2)")
+    p.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
                    help="a commanded pose (repeatable)")
     p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
@@ -144,7 +141,6 @@ def run(args: argparse.Namespace) -> int:
     if serial_cmd.is_serial_robot(args.robot):   # architecture = "serial": joint values instead of poses
         return run_serial(args)
     serial_cmd.refuse_joints(args)
-    args.clearances = "case2" if args.clearances is None else args.clearances
     check_map_options(args)
     if args.exact and not args.map:
         raise ConfigError("goes with --map (the poses' output always has the exact columns)", key="--exact")
@@ -156,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     if args.magnify is not None and not plot:
         raise ConfigError("goes with --plot", key="--magnify")
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         robot.characteristic_length))
     if args.mass:
@@ -300,7 +296,7 @@ def run_serial(args: argparse.Namespace) -> int:
         raise ConfigError(f"must be >= 0 (N or N mm), got {args.unloaded_below:g}", key="--unloaded-below")
     arm = SerialArm.load(args.robot)
     q = _joint_values(arm, args.joints)
-    sources = load_serial_sources(args.clearances or "arm_typical", arm)
+    sources = load_serial_sources(_common.clearances_or_default(args, arm), arm)
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         sum(j.length for j in arm.joints) or None))
     if args.mass:

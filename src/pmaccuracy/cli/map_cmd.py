@@ -32,8 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Prints the ranges.")
     _common.add_robot(p)
     add_clearances(p)
-    p.add_argument("--phi-deg", type=_common.finite_float, action="append", required=True, metavar="PHI",
-                   help="platform orientation in degrees (repeatable, each value once)")
+    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", required=True, metavar="PHI",
+                   help="platform orientation(s) in degrees: several values (--phi-deg 0 15) and/or the option "
+                        "repeated, each value once")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
     add_shape(p)
     p.add_argument("--out", required=True, metavar="FILE",
@@ -100,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("a region applies to in-memory maps (.nc, .csv), not to .zarr maps", key=shape_key(args))
     args.shape = shape
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)
     # .nc and .csv are written block by block as they are computed (maps.write_map) unless the blocks come from
@@ -319,3 +320,5 @@ def _plots(ds, plot: Path, args: argparse.Namespace) -> None:
         path = plot if ds.sizes["phi"] == 1 else plot.with_name(f"{plot.stem}-{phi:g}deg{plot.suffix}")
         fig = figures.plot_error_map(ds, float(phi), vmin=args.vmin, vmax=args.vmax, log=args.log)
         figures.save_figure(fig, path, dpi=args.dpi, option="--plot")
+        if path != plot:   # one file per orientation: say where each went (stderr, after a successful run)
+            args.__dict__.setdefault("notes", []).append(f"pmaccuracy map: wrote {path}")

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     if plot and not (args.pose or args.poses_csv or args.map):
         raise ConfigError("draws one pose (--pose) or a map (--map), not a region's preload", key="--plot")
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances, robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
     hi = np.array([args.fx[1], args.fy[1], args.m[1]])
     for k, key in enumerate(("--fx", "--fy", "--m")):
@@ -131,7 +131,7 @@ def run_region(args: argparse.Namespace, robot, clearances, center, half) -> int
     from ..accuracy.global_worst import make_region
     from ..accuracy.loads import design_region_preload
     from ..errors import ConfigError, EmptyWorkspaceError
-    from .worst_cmd import parse_shape, shape_key
+    from .worst_cmd import cli_region, parse_shape, shape_key
 
     grid = REGION_GRID if args.grid is None else args.grid
     if grid < 2:
@@ -139,7 +139,7 @@ def run_region(args: argparse.Namespace, robot, clearances, center, half) -> int
     phi = list(args.phi_deg or [0.0])
     phi = phi * 2 if len(phi) == 1 else phi
     _common.check_grid_memory(2 * args.phi_steps, 2 * grid, "--grid")
-    region = make_region(robot, tuple(np.radians(phi)), parse_shape(args))
+    region = cli_region(make_region, robot, phi, parse_shape(args), args)
     try:
         res = design_region_preload(robot, clearances, region, center, half, grid=grid, n_phi=args.phi_steps,
                                    certify=args.certify)

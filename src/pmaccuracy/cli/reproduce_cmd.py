@@ -22,7 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-experiment", action="store_true", help="skip the virtual experiment section")
     p.add_argument("--clearances", metavar="C",
                    help="clearances (preset or file): writes the accuracy report of ROBOT with C instead of the "
-                        "paper's reproduction (needed for robots other than a 3-PPR; e.g. rpr_typical)")
+                        "paper's reproduction (for a 3-PPR); without it a robot other than a 3-PPR gets its "
+                        "architecture's *_typical preset (printed on stderr)")
     p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
                    help="orientations of the accuracy report's maps (deg, repeatable; default 0 and 30)")
     p.add_argument("--target", action="append", metavar="NAME=VALUE",
@@ -64,10 +65,8 @@ def run(args: argparse.Namespace) -> int:
         from ..report.accuracy_report import REPORT_PHIS_DEG, accuracy_report
         from ..io.resolve import load_clearances
 
-        if args.clearances is None:
-            raise ConfigError(f"{robot.name} is a {robot.architecture}: give its clearances with --clearances (e.g. "
-                              "a preset rpr_typical, rrr_typical, prr_typical or a per-joint file)", key="--clearances")
-        load_clearances(args.clearances, robot)  # checked before anything is computed
+        # without --clearances: the default rule of every command (a 3-PPR gets the paper's reproduction below)
+        load_clearances(_common.clearances_or_default(args, robot), robot)  # checked before anything is computed
         _common.prepare_output(args.out, "--out", folder=True)   # inputs first: a refused run leaves no folder
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,

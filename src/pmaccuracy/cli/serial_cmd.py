@@ -64,9 +64,11 @@ def run(args: argparse.Namespace) -> int:
                               "(position, direction, length) in the --clearances file")
     if args.method != "exact":
         raise PmAccuracyError("--method slsqp is for parallel robots; a serial arm's bounds are exact")
+    from . import _common
+
     arm = SerialArm.load(args.robot)
     q = _joint_values(arm, args.joints)
-    sources = load_serial_sources(args.clearances, arm)
+    sources = load_serial_sources(_common.clearances_or_default(args, arm), arm)
     result = max_serial_errors(arm, sources, q, allow_outside=args.allow_outside, details=args.details)
     columns = result.columns()
     if not args.details:
@@ -74,8 +76,6 @@ def run(args: argparse.Namespace) -> int:
 
         format_columns(columns, args.format, sys.stdout)
         return 0
-    from . import _common
-
     shown = np.array(args.joints, dtype=float)  # as given: deg for R, mm for P
     records = []
     for i in range(len(q)):

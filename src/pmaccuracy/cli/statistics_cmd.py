@@ -62,16 +62,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_clearances(p)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
                    help="one pose: x mm, y mm, phi deg")
-    p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
-                   help="orientation of a percentile map in degrees (repeatable; needs --out)")
+    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", metavar="PHI",
+                   help="orientation(s) of a percentile map in degrees: several values and/or the option repeated "
+                        "(needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
                    help="grid points per axis of a map (default: 21)")
     add_shape(p)
     p.add_argument("--out", metavar="FILE", help="percentile map to write: .nc (NetCDF) or .csv; missing parent "
                                                  "folders are created")
     _common.add_plot(p, "figure of a map's first orientation: percentile, worst case and their ratio for |dp| "
-                        "(mm) and |dphi| (deg), in colour steps no finer than the Monte Carlo error; --vmin/--vmax "
-                        "set the mm panels, --log the worst-case panels", maps=True)
+                        "(mm) and |dphi| (deg), with --threshold also the map of P(|Q| > V) per threshold, in "
+                        "colour steps no finer than the Monte Carlo error; --vmin/--vmax set the mm panels, --log "
+                        "the worst-case panels", maps=True)
     p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
                    help="Monte Carlo samples (default: 100000 at a pose, 10000 for a map)")
     p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of numpy.random.default_rng (default: 0)")
@@ -113,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
     thresholds = dict(args.threshold or [])
     distribution = distributions.Distribution.load(args.distribution)
     robot = _common.load_robot(args)
+    _common.clearances_or_default(args, robot)
     if args.pose is not None:
         pose = np.array([args.pose[0], args.pose[1], math.radians(args.pose[2])])
         result = distributions.pose_statistics(

@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common.add_robot(p)
     p.add_argument("--clearances", default=None, metavar="TEMPLATE",
                    help="template clearance preset or file: its non-zero keys are the unknowns (default: case1 "
-                        "for a 3-PPR, the architecture's *_typical preset otherwise)")
+                        "for a 3-PPR, the architecture's *_typical preset otherwise, printed on stderr)")
     p.add_argument("--target", action="append", required=True, metavar="NAME=VALUE",
                    help="a target, repeatable: dx=MM, dy=MM, dp=MM, dphi_deg=DEG")
     add_region(p, phi_required=False)
@@ -34,6 +34,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="FILE.toml", help="write the synthesized clearance file; missing parent folders are created")
     _common.add_format(p)
     p.set_defaults(func=run)
+
+
+def _unit(robot, source) -> str:
+    """The unit of a synthesized source's value: mm or rad (an actuator's by its joint type)."""
+    from ..model.sources import UNITS
+
+    if source.key == "actuator":
+        return "mm" if robot.chains[source.leg].joints[source.joint].kind == "P" else "rad"
+    return UNITS[source.key]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         _common.prepare_output(out, "--out", (".toml",))
     robot = _common.load_robot(args)
+    _common.clearances_or_default(args, robot)
     region = parse_region(robot, args)
     from ..errors import EmptyWorkspaceError
 
@@ -62,15 +72,18 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     if out is not None:
         out.write_text(clearance_toml(res, robot, region), encoding="utf-8")
-    sources = [{"source": s.label, "template": float(t), "synthesized": float(v), "ratio": float(v / t)}
-               for s, t, v in zip(res.sources, res.template_values, res.values)]
+    sources = [{"source": s.label, "unit": _unit(robot, s), "template": float(t), "synthesized": float(v),
+                "ratio": float(v / t)} for s, t, v in zip(res.sources, res.template_values, res.values)]
     worst = []
     for q, w in res.worst.quantities.items():
         f = np.degrees if q == "dphi" else float
         target = targets.get(q)
-        worst.append({"quantity": q + ("_deg" if q == "dphi" else ""), "target": None if target is None else f(target),
-                      "lower": f(w.lower), "upper": f(w.upper), "gap_pct": 100 * w.gap, "x": w.pose[0],
-                      "y": w.pose[1], "phi_deg": np.degrees(w.pose[2]), "certified": w.converged})
+        shown = None if target is None else f(target)
+        if args.format == "table":   # only the targets given, no "nan"
+            shown = "-" if target is None else f"{shown:g}"
+        worst.append({"quantity": q + ("_deg" if q == "dphi" else ""), "unit": "deg" if q == "dphi" else "mm",
+                      "target": shown, "lower": f(w.lower), "upper": f(w.upper), "gap_pct": 100 * w.gap,
+                      "x": w.pose[0], "y": w.pose[1], "phi_deg": np.degrees(w.pose[2]), "certified": w.converged})
     if args.format == "json":
         _common.emit({"robot": robot.name, "mode": mode, "scale": res.scale, "cost": res.cost, "cuts": res.cuts,
                       "region": region.describe(), "sources": sources, "worst": worst}, "json")

@@ -84,7 +84,23 @@ def parse_region(robot, args: argparse.Namespace):
     from ..accuracy.global_worst import make_region
 
     _common.check_gap_pct(args.gap_pct)
-    return make_region(robot, tuple(np.radians(args.phi_deg)), parse_shape(args))
+    return cli_region(make_region, robot, args.phi_deg, parse_shape(args), args)
+
+
+def cli_region(make_region, robot, phi_deg, shape, args: argparse.Namespace):
+    """``make_region`` of the options: its errors name the options (``--phi-deg``, the shape's), not the
+    library's arguments (``phi``, ``box``)."""
+    import numpy as np
+
+    from ..errors import ConfigError
+
+    try:
+        return make_region(robot, tuple(np.radians(phi_deg)), shape)
+    except ConfigError as exc:
+        option = {"phi": "--phi-deg", "box": shape_key(args)}.get(exc.key)
+        if option is None:
+            raise
+        raise ConfigError(exc.message, source=exc.source, key=option) from None
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -96,9 +112,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "relative gap. grid_best is the best value on a GRID x GRID x NPHI grid of the region, for "
                     "comparison. A region touching a parallel singularity (unbounded errors) is refused.")
     _common.add_robot(p)
-    p.add_argument("--clearances", default=None,
-                   help="clearance preset or file (default: case1 for a 3-PPR, the architecture's *_typical preset "
-                        "otherwise)")
+    p.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
     add_region(p, phi_required=True)
     p.add_argument("--certified", action="store_true",
                    help="the worst case of the exact (nonlinear) loop closure instead of the first-order model: "
@@ -124,8 +138,6 @@ def run(args: argparse.Namespace) -> int:
 
     from ..accuracy.global_worst import global_worst, grid_best
     from ..io.resolve import load_clearances
-    from ..accuracy.synthesis import default_template
-
     from ..errors import ConfigError, EmptyWorkspaceError
 
     if args.gap_pct is None:
@@ -138,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("targets need --largest-disc X Y (or use the synthesize command)", key="--target")
     _common.check_grid_memory(args.grid[1], args.grid[0], "--grid")
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances or default_template(robot), robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     region = parse_region(robot, args)
     try:
         grid, grid_poses = grid_best(robot, clearances, region, *args.grid)
@@ -177,7 +189,7 @@ def run_largest_disc(args: argparse.Namespace) -> int:
 
     from ..errors import ConfigError
     from ..accuracy.global_worst import largest_disc
-    from ..accuracy.synthesis import default_template, parse_targets
+    from ..accuracy.synthesis import parse_targets
     from ..io.resolve import load_clearances
 
     if shape_key(args) != "--workspace":
@@ -189,7 +201,7 @@ def run_largest_disc(args: argparse.Namespace) -> int:
     _common.check_gap_pct(args.gap_pct)
     targets = parse_targets(args.target)
     robot = _common.load_robot(args)
-    clearances = load_clearances(args.clearances or default_template(robot), robot)
+    clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     res = largest_disc(robot, clearances, tuple(args.largest_disc), tuple(np.radians(args.phi_deg)), targets,
                        tol=args.tol_mm, gap=args.gap_pct / 100)
     records = []

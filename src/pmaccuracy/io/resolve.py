@@ -19,9 +19,52 @@ from ..errors import ClearanceError, ConfigError
 from ..kinematics import resolve_robot
 from ..model import _tomlio, plausibility
 from ..model.clearances import ClearanceSet
+from ..model.serial import SerialArm, is_serial_spec
 from ..model.sources import ErrorSources, is_per_joint
 
 _SPEC = (str, os.PathLike)
+
+#: The default clearances of every command and report, by architecture: the paper's case 1 for a 3-PPR, the
+#: architecture's typical per-joint preset otherwise (:func:`default_clearances`).
+DEFAULT_CLEARANCES = {"3-PPR": "case1", "3-RPR": "rpr_typical", "3-RRR": "rrr_typical", "3-PRR": "prr_typical",
+                      "serial": "arm_typical"}
+#: The clearance presets that fit each architecture (shown in suggestions); a per-joint file fits any robot.
+ARCHITECTURE_PRESETS = {"3-PPR": ("case1", "case2", "all", "none"), "3-RPR": ("rpr_typical",),
+                        "3-RRR": ("rrr_typical",), "3-PRR": ("prr_typical",), "serial": ("arm_typical",)}
+
+
+def _architecture(robot: Any) -> tuple[str, str]:
+    """``(architecture, name)`` of a robot object, preset name or TOML path (a serial arm's is ``"serial"``)."""
+    if not hasattr(robot, "architecture"):
+        robot = SerialArm.load(robot) if is_serial_spec(robot) else robot_arg(robot)
+    return robot.architecture, robot.name
+
+
+def default_clearances(robot: Any) -> str:
+    """The clearance preset used when none is given, the same for every command and report.
+
+    ``case1`` (the paper's first case) for a 3-PPR, ``rpr_typical``, ``rrr_typical``,
+    ``prr_typical`` for a 3-RPR, 3-RRR, 3-PRR, ``arm_typical`` for a serial arm
+    (:data:`DEFAULT_CLEARANCES`). ``robot``: an object, a preset name or a TOML path. A robot whose legs
+    mix types (architecture ``chain``) has no default: :class:`ConfigError` naming ``clearances``.
+
+    >>> default_clearances("symmetric_3rrr"), default_clearances("aalborg_3ppr")
+    ('rrr_typical', 'case1')
+    """
+    architecture, name = _architecture(robot)
+    try:
+        return DEFAULT_CLEARANCES[architecture]
+    except KeyError:
+        raise ConfigError(f"{name!r} mixes leg types ({architecture}): no preset fits it, give a per-joint "
+                          "clearance file listing each leg's joints, e.g. joints = [{actuator = 0.005}, "
+                          "{radial = 0.02}, {radial = 0.02}]", key="clearances") from None
+
+
+def clearance_examples(robot: Any) -> str:
+    """The presets that fit ``robot``'s architecture, for messages: ``"rrr_typical or a per-joint file"``."""
+    architecture, _ = _architecture(robot)
+    names = ARCHITECTURE_PRESETS.get(architecture, ())
+    return ", ".join(names) + " or a per-joint file" if names else "a per-joint file"
 
 
 def _kind(value: Any) -> str:
@@ -90,6 +133,17 @@ def load_clearances(spec, robot):
     if not robot.is_3ppr:
         raise ClearanceError(
             f"this file uses the 3-PPR clearance format (bearing_angle, guide_lateral, revolute_radial per leg) but "
-            f"{robot.name!r} is a {robot.architecture}: list each leg's joints instead, e.g. joints = "
-            "[{radial = 0.02}, {actuator = 0.005}, {radial = 0.02}]", source=source, key="legs")
+            f"{robot.name!r} is a {robot.architecture}: use {clearance_examples(robot)} listing each leg's joints"
+            f"{_joints_example(robot)}", source=source, key="legs")
     return ClearanceSet.from_dict(data, source=source)
+
+
+def _joints_example(robot) -> str:
+    """``, e.g. joints = [...]`` from the first leg of the architecture's default preset ('' without one)."""
+    name = DEFAULT_CLEARANCES.get(robot.architecture)
+    if name is None or robot.is_3ppr:
+        return ""
+    data, _ = _tomlio.read_spec(name, kind="clearance", folder="clearances")
+    joints = ", ".join("{" + ", ".join(f"{k} = {v:g}" for k, v in joint.items()) + "}"
+                       for joint in data["legs"][0]["joints"])
+    return f", e.g. (as {name}) joints = [{joints}]"

@@ -135,6 +135,17 @@ class Joint:
             return a, expi(a) * self.link_z
         return np.full(q.shape, self.offset), expi(self.offset) * (q + self.link_z)
 
+    def wrap(self, q: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+        """Revolute values ``q`` (rad) turned by whole turns into ``[lo, lo + 2 pi)`` of the range (the convention
+        of printed joint angles: a range of [130, 310] deg shows 220 deg, not -140); values less than ``tol``
+        below ``lo`` stay there. Slides and unlimited revolutes are returned as they are."""
+        q = np.asarray(q, dtype=float)
+        lo = self.range[0]
+        if self.kind != "R" or not np.isfinite(lo):
+            return q
+        u = q - lo + tol
+        return lo + np.mod(u, 2 * np.pi) - tol
+
     def within(self, q: np.ndarray, tol: float) -> np.ndarray:
         """True where ``q`` lies in the range (R: modulo 2 pi), with slack ``tol`` (rad or mm)."""
         lo, hi = self.range

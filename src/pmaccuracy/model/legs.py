@@ -62,6 +62,9 @@ def _point(table: dict[str, Any], key: str, *, source: str, where: str) -> tuple
 def _mode(table: dict[str, Any], *, source: str, where: str, default: int | None = None) -> int:
     if "working_mode" not in table and default is not None:
         return default
+    if "working_mode" not in table:
+        raise ConfigError("missing: give working_mode = 1 or -1 (the branch of the leg's inverse kinematics)",
+                          source=source, key=f"{where}.working_mode")
     value = table.get("working_mode")
     if value not in (1, -1) or isinstance(value, bool):
         raise ConfigError(f"must be +1 or -1, got {value!r}", source=source, key=f"{where}.working_mode")

@@ -23,7 +23,9 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
                                percentile: float | None = None, dpi: float = figures.DEFAULT_DPI,
                                vmin: float | None = None, vmax: float | None = None, log: bool = False) -> Path:
     """Figure: for one orientation, the percentile of ``|dp|`` and of ``|dphi|`` beside their worst case and
-    the ratio percentile / worst case (2 x 3 panels), written in the format ``path``'s extension names.
+    the ratio percentile / worst case (2 x 3 panels), then for each quantity with a threshold in ``ds``
+    (``region_statistics(..., thresholds=...)``) the map of the probability of exceeding it (a third row),
+    written in the format ``path``'s extension names.
 
     The percentile and ratio panels are drawn in colour bands no finer than the Monte Carlo error stated in
     ``ds.attrs`` (``dp_p95_error``, ``dp_p95_ratio_error``, ...; :func:`figures.monte_carlo_levels`), so
@@ -51,6 +53,14 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
                    (x, y, pv / mv, f"percentile / worst case, {label}", "ratio [1]")]
         errors += [_stated_error(ds, f"{q}_{key}_error"), None, _stated_error(ds, f"{q}_{key}_ratio_error")]
         limited += [unit == "mm", unit == "mm", False]
+    for q, unit, label in (("dx", "mm", r"$|\delta x|$"), ("dy", "mm", r"$|\delta y|$"), ("dp", "mm", r"$|\delta p|$"),
+                           ("dphi", "deg", r"$|\delta\phi|$")):
+        if f"{q}_exceed" in layer:   # a threshold was given: the exceedance probability map
+            threshold = float(ds.attrs.get(f"{q}_threshold", "nan"))
+            panels.append((x, y, layer[f"{q}_exceed"].values, f"P({label} > {threshold:g} {unit})",
+                           "probability [1]"))
+            errors.append(_stated_error(ds, "exceed_se_max"))
+            limited.append(False)
     fig = figures.plot_panels(panels, ncols=3, errors=errors, limited=limited, vmin=vmin, vmax=vmax, log=log,
                               suptitle=f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
                                        f"$\\phi$ = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} "
