@@ -264,3 +264,22 @@ def test_plot_layers_clips_each_orientation_to_its_workspace():
     assert len(maps) == 2
     assert _clip_matches_workspace(maps[0], robot, 0.0) and _clip_matches_workspace(maps[1], robot, 20.0)
     assert not _clip_matches_workspace(maps[1], robot, 0.0)
+
+
+def _shows_whole_outline(ax, robot, phi_deg: float) -> bool:
+    from pmaccuracy.kinematics.workspace import constant_orientation_workspace
+
+    pts = np.vstack(constant_orientation_workspace(robot, np.radians(phi_deg)).loops)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    return bool((pts[:, 0] >= x0).all() and (pts[:, 0] <= x1).all() and (pts[:, 1] >= y0).all()
+                and (pts[:, 1] <= y1).all())
+
+
+def test_shaped_panels_show_the_whole_workspace_not_only_the_grid_points_with_a_value():
+    """A 3-PRR's workspace reaches past its grid points with a value (curved sides, a near-singular blank
+    row): the axes hold all of its exact outline."""
+    robot = Manipulator.preset("symmetric_3prr")
+    ds = error_map(robot, "prr_typical", np.radians([0.0]), 21)
+    for fig in (figures.plot_layers(ds, "dp_max"), figures.plot_error_map(ds, 0.0)):
+        for ax in (a for a in fig.axes if not hasattr(a, "_colorbar")):
+            assert _shows_whole_outline(ax, robot, 0.0), ax.get_title()

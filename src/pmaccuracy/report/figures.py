@@ -102,12 +102,18 @@ def _limits(values: np.ndarray, extra: np.ndarray | None) -> tuple[float, float]
     return r.lo, r.hi
 
 
-def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04) -> tuple[float, ...]:
-    """``(x0, x1, y0, y1)``: the finite part of a field (its workspace) plus a margin (mm)."""
+def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04,
+               loops: tuple[np.ndarray, ...] | None = None) -> tuple[float, ...]:
+    """``(x0, x1, y0, y1)``: the finite part of a field (its workspace) plus a margin (mm); with the workspace's
+    exact boundary ``loops`` (``(k, 2)`` arrays, mm), the box holds all of it too (it reaches past the grid
+    points with a value, e.g. past near-singular blank rows)."""
     finite = np.isfinite(Z)
-    if not finite.any():
+    if not finite.any() and not loops:
         return float(x.min()), float(x.max()), float(y.min()), float(y.max())
     xs, ys = x[finite.any(axis=0)], y[finite.any(axis=1)]
+    if loops:
+        pts = np.vstack(loops)
+        xs, ys = np.concatenate([xs, pts[:, 0]]), np.concatenate([ys, pts[:, 1]])
     dx = (xs.max() - xs.min()) * margin + 1e-9
     dy = (ys.max() - ys.min()) * margin + 1e-9
     return float(xs.min() - dx), float(xs.max() + dx), float(ys.min() - dy), float(ys.max() + dy)
@@ -490,7 +496,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
         levels = MaxNLocator(6).tick_values(lo, hi)
     shown = Z if outline is None else _widen(Z, outline[1])
     mesh = ax.pcolormesh(x, y, shown, shading="auto", cmap=cmap, norm=norm)
-    fit_limits(ax, *(box or _field_box(x, y, Z)))
+    fit_limits(ax, *(box or _field_box(x, y, Z, loops=None if outline is None else outline[0])))
     region = None if outline is None else _outline(ax, mesh, outline[0])
     cpos = cax.get_position()
     horizontal = cpos.width * fig.get_figwidth() > cpos.height * fig.get_figheight()
@@ -565,9 +571,9 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
 
     layer = ds.sel(phi=phi_deg, method="nearest")
     x, y = layer.x.values, layer.y.values
-    x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values)
     robot = robot if robot is not None else _robot_of(ds)
     shape = None if robot is None else map_shape(robot, float(layer.phi), x, y, max_condition)
+    x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values, loops=None if shape is None else shape.loops)
     handles = []
     if measured is not None:
         handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
@@ -733,7 +739,8 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     shaped = panel_shapes(shapes, panels)
     ncols = min(ncols or len(panels), MAX_COLUMNS)
     nrows = int(np.ceil(len(panels) / ncols))
-    boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
+    boxes = [_field_box(x, y, Z, loops=None if shape is None else shape.loops)
+             for (x, y, Z, _, _), shape in zip(panels, shaped)]
     common_box = None
     if same_axes:
         common_box = (min(b[0] for b in boxes), max(b[1] for b in boxes), min(b[2] for b in boxes),

@@ -52,6 +52,7 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
         errors += [_stated_error(ds, f"{q}_{key}_error"), None, _stated_error(ds, f"{q}_{key}_ratio_error")]
         limited += [unit == "mm", unit == "mm", False]
     fig = figures.plot_panels(panels, ncols=3, errors=errors, limited=limited, vmin=vmin, vmax=vmax, log=log,
+                              shapes=[(figures._robot_of(ds), float(layer.phi))] * len(panels),
                               suptitle=f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
                                        f"$\\phi$ = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} "
                                        f"Monte Carlo samples")
