@@ -189,3 +189,97 @@ def test_html_shows_a_png_at_100_px_per_inch(tmp_path, case2_like):
     doc = Document("t")
     doc.figure(path, "map")
     assert f"width='{round(fig.get_figwidth() * 100)}'" in doc.to_html()
+
+
+def _clip_matches_workspace(ax, robot, phi_deg: float) -> bool:
+    """Whether the field of ``ax`` is clipped to the exact workspace outline of ``robot`` at ``phi_deg``."""
+    from pmaccuracy.kinematics.workspace import constant_orientation_workspace
+
+    clip = ax.collections[0].get_clip_path()
+    if clip is None:
+        return False
+    verts = clip.get_fully_transformed_path().vertices
+    outline = ax.transData.transform(np.vstack(constant_orientation_workspace(robot, np.radians(phi_deg)).loops))
+    return len(verts) == len(outline) and np.allclose(np.sort(verts, axis=0), np.sort(outline, axis=0))
+
+
+def test_plot_panels_with_shapes_clips_each_panel_to_its_own_workspace():
+    robot, other = Manipulator.preset("aalborg_3ppr"), Manipulator.preset("symmetric_3ppr")
+    panels, shapes = [], []
+    for rb, phi in ((robot, 0.0), (other, 30.0)):
+        layer = error_map(rb, "case2", np.radians([phi]), 21).isel(phi=0)
+        panels.append((layer.x.values, layer.y.values, layer.dp_max.values, rb.name, "mm"))
+        shapes.append((rb, phi))
+    fig = figures.plot_panels(panels + [panels[0]], suptitle="s", shapes=shapes + [None])
+    maps = [a for a in fig.axes if not hasattr(a, "_colorbar") and a.get_visible()]
+    assert len(maps) == 3
+    assert _clip_matches_workspace(maps[0], robot, 0.0)
+    assert _clip_matches_workspace(maps[1], other, 30.0)
+    assert not _clip_matches_workspace(maps[1], robot, 0.0)       # the check tells the two workspaces apart
+    assert not _clip_matches_workspace(maps[2], robot, 0.0)       # no shape: grid cells, no outline
+    assert [p.get_label() for p in maps[1].patches] == ["workspace boundary"]
+    assert not maps[2].patches
+    with pytest.raises(ValueError):
+        figures.plot_panels(panels, suptitle="s", shapes=shapes[:1])
+
+
+def test_plot_panels_with_shapes_draws_and_names_the_singular_band(banded):
+    robot, ds = banded
+    layer = ds.isel(phi=0)
+    fig = figures.plot_panels([(layer.x.values, layer.y.values, layer.dp_max.values, "dp_max", "mm")],
+                              suptitle="s", shapes=[(robot, -15.0)])
+    labels = [t.get_text().replace("\n", " ") for t in fig.legends[0].get_texts()]
+    assert any("near-singular" in t and "left blank" in t for t in labels), labels
+    assert any("det A = 0" in t for t in labels), labels
+    ax = [a for a in fig.axes if not hasattr(a, "_colorbar")][0]
+    assert _zero_lines(ax)
+    assert _clip_matches_workspace(ax, robot, -15.0)
+    FigureCanvasAgg(fig) if not isinstance(fig.canvas, FigureCanvasAgg) else None
+    fig.canvas.draw()
+    legend = fig.legends[0].get_window_extent()
+    assert legend.y1 <= fig.bbox.y1 and legend.y0 >= ax.get_window_extent().y1   # between title and panel
+    assert figures.smallest_text_px(fig, 400) >= 8 - 1e-9
+
+
+def test_a_region_map_is_not_widened_past_its_region():
+    """Blank cells inside the joint ranges (outside a map's region) stay blank: only cells outside the
+    workspace are filled so that the field reaches the exact boundary."""
+    robot = Manipulator.preset("symmetric_3prr")
+    layer = error_map(robot, "prr_typical", np.radians([0.0]), 21).isel(phi=0)
+    x, y = layer.x.values, layer.y.values
+    Z = layer.dp_max.values.copy()
+    Z[:, : len(x) // 2] = np.nan                                   # a region: the right half only
+    shape = figures.map_shape(robot, 0.0, x, y)
+    inside = np.isfinite(shape.det)
+    assert (inside & np.isnan(Z)).sum() > 20 and (~inside).sum() > 20
+    widened = figures._widen(Z, shape.outline(Z)[1])
+    assert np.isnan(widened[inside & np.isnan(Z)]).all()
+    assert (np.isfinite(widened) & ~inside).sum() > 5              # the outside rim is still filled
+
+
+def test_plot_layers_clips_each_orientation_to_its_workspace():
+    robot = Manipulator.preset("symmetric_3prr")
+    ds = error_map(robot, "prr_typical", np.radians([0.0, 20.0]), 15)
+    maps = [a for a in figures.plot_layers(ds, "dp_max").axes if not hasattr(a, "_colorbar")]
+    assert len(maps) == 2
+    assert _clip_matches_workspace(maps[0], robot, 0.0) and _clip_matches_workspace(maps[1], robot, 20.0)
+    assert not _clip_matches_workspace(maps[1], robot, 0.0)
+
+
+def _shows_whole_outline(ax, robot, phi_deg: float) -> bool:
+    from pmaccuracy.kinematics.workspace import constant_orientation_workspace
+
+    pts = np.vstack(constant_orientation_workspace(robot, np.radians(phi_deg)).loops)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    return bool((pts[:, 0] >= x0).all() and (pts[:, 0] <= x1).all() and (pts[:, 1] >= y0).all()
+                and (pts[:, 1] <= y1).all())
+
+
+def test_shaped_panels_show_the_whole_workspace_not_only_the_grid_points_with_a_value():
+    """A 3-PRR's workspace reaches past its grid points with a value (curved sides, a near-singular blank
+    row): the axes hold all of its exact outline."""
+    robot = Manipulator.preset("symmetric_3prr")
+    ds = error_map(robot, "prr_typical", np.radians([0.0]), 21)
+    for fig in (figures.plot_layers(ds, "dp_max"), figures.plot_error_map(ds, 0.0)):
+        for ax in (a for a in fig.axes if not hasattr(a, "_colorbar")):
+            assert _shows_whole_outline(ax, robot, 0.0), ax.get_title()

@@ -386,7 +386,8 @@ def _assembly_section(doc: Document, robot: Manipulator, phis: np.ndarray, grid:
     doc.table(["phi [deg]", "dx [mm]", "dy [mm]", "dphi [deg]", "first-order vs exact, position [mm]",
                "orientation [deg]"], rows)
     doc.figure(renderer.submit(out / "assembly_offset_phi0.png", figures.plot_panels, panels,
-                               suptitle="Pose offset due to the assembly errors of Table 2 (phi = 0)"),
+                               suptitle="Pose offset due to the assembly errors of Table 2 (phi = 0)",
+                               shapes=[(robot, 0.0)] * len(panels)),
                "Offsets caused by the Table 2 assembly errors at phi = 0 (first order). They are systematic and "
                "an order of magnitude larger than the clearance errors: calibration removes them, "
                "clearances it cannot (paper Sec. 1).")
@@ -446,7 +447,8 @@ def _design_section(doc: Document, robot: Manipulator, jobs: dict, out: Path, re
     doc.paragraph(_design_reading(robot.name, other.name, design_json))
     doc.figure(renderer.submit(out / "design_comparison.png", figures.plot_panels, panels,
                                suptitle="dp_max with case 2 clearances (common colour scale)", shared_scale=True,
-                               same_axes=True,
+                               same_axes=True, shapes=[(rb, float(key)) for (case, key) in jobs if case == "case2"
+                                                       for rb in (robot, other)],
                                ncols=2),
                f"dp_max of {robot.name} (left) and {other_name} (right), case 2, at phi = 0 and 30 deg.")
 

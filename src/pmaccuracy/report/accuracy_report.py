@@ -266,7 +266,8 @@ def _sources_section(doc, robot, sources, phis, grid, results, out, renderer) ->
                   "dx, dy and dphi maxima are additive over the kinds and dp sub-additive.")
     doc.figure(renderer.submit(out / "sources_dp_max.png", figures.plot_panels, panels,
                                suptitle=f"{figures.SYMBOLS['dp_max'][0]} of each kind of source alone, "
-                                        f"phi = {np.degrees(phis[0]):g} deg"),
+                                        f"phi = {np.degrees(phis[0]):g} deg",
+                               shapes=[(robot, float(np.degrees(phis[0])))] * len(panels)),
                f"dp_max of each kind of error source alone at phi = {np.degrees(phis[0]):g} deg (mm).")
     doc.table(["sources", "phi [deg]", "max dx_max [mm]", "max dy_max [mm]", "max dphi_max [deg]",
                "max dp_max [mm]"], rows)

@@ -375,7 +375,7 @@ def certified_map_job(robot: Manipulator, case, phis_deg: list[float], grid: int
                     "mm"),
                    (x, y, excess_pct, f"$\\phi$ = {phi_deg:g} deg: certified above first order", "%")]
     if figure is not None:
-        render(figure, plot_panels, panels, ncols=2,
+        render(figure, plot_panels, panels, ncols=2, shapes=[(robot, float(p)) for p in phis_deg for _ in range(2)],
                suptitle=f"{robot.name}, clearances {out['clearances']}: certified worst case of the exact model "
                         f"over {out['region']} ({n} x {n} grid)")
         out["figure"] = True

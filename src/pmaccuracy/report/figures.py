@@ -102,12 +102,18 @@ def _limits(values: np.ndarray, extra: np.ndarray | None) -> tuple[float, float]
     return r.lo, r.hi
 
 
-def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04) -> tuple[float, ...]:
-    """``(x0, x1, y0, y1)``: the finite part of a field (its workspace) plus a margin (mm)."""
+def _field_box(x: np.ndarray, y: np.ndarray, Z: np.ndarray, margin: float = 0.04,
+               loops: tuple[np.ndarray, ...] | None = None) -> tuple[float, ...]:
+    """``(x0, x1, y0, y1)``: the finite part of a field (its workspace) plus a margin (mm); with the workspace's
+    exact boundary ``loops`` (``(k, 2)`` arrays, mm), the box holds all of it too (it reaches past the grid
+    points with a value, e.g. past near-singular blank rows)."""
     finite = np.isfinite(Z)
-    if not finite.any():
+    if not finite.any() and not loops:
         return float(x.min()), float(x.max()), float(y.min()), float(y.max())
     xs, ys = x[finite.any(axis=0)], y[finite.any(axis=1)]
+    if loops:
+        pts = np.vstack(loops)
+        xs, ys = np.concatenate([xs, pts[:, 0]]), np.concatenate([ys, pts[:, 1]])
     dx = (xs.max() - xs.min()) * margin + 1e-9
     dy = (ys.max() - ys.min()) * margin + 1e-9
     return float(xs.min() - dx), float(xs.max() + dx), float(ys.min() - dy), float(ys.max() + dy)
@@ -336,6 +342,12 @@ class MapShape:
         d = self.det[np.isfinite(self.det)]
         return bool(d.size and d.min() < 0 < d.max())
 
+    def outline(self, Z: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+        """``(loops, keep_blank)`` for :func:`_draw_field` drawing the field ``Z`` of this grid: the blank cells
+        to keep blank are those inside the joint ranges (near-singular, outside the map's region, ...); only
+        the blank cells outside the workspace next to it are filled so that the field reaches the boundary."""
+        return self.loops, self.near_singular | (np.isfinite(self.det) & ~np.isfinite(Z))
+
 
 def map_shape(robot, phi_deg: float, x: np.ndarray, y: np.ndarray, max_condition: float | None = None) -> MapShape:
     """The :class:`MapShape` of ``robot`` at ``phi_deg`` (deg) on the grid ``x`` ``(nx,)``, ``y`` ``(ny,)`` (mm),
@@ -351,6 +363,22 @@ def map_shape(robot, phi_deg: float, x: np.ndarray, y: np.ndarray, max_condition
         det = np.where(inside, singularity(robot, poses).det, np.nan)
     ws = constant_orientation_workspace(robot, phi)
     return MapShape(tuple(ws.loops), near, det, mc)
+
+
+def panel_shapes(shapes, panels) -> list[MapShape | None]:
+    """The :class:`MapShape` of each panel of :func:`plot_panels` (None where ``shapes`` has none)."""
+    if shapes is None:
+        return [None] * len(panels)
+    if len(shapes) != len(panels):
+        raise ValueError(f"plot_panels: {len(shapes)} shapes for {len(panels)} panels")
+    out = []
+    for shape, (x, y, *_rest) in zip(shapes, panels):
+        if shape is None or isinstance(shape, MapShape):
+            out.append(shape)
+        else:
+            robot, phi_deg = shape
+            out.append(None if robot is None else map_shape(robot, phi_deg, x, y))
+    return out
 
 
 def _robot_of(ds: xr.Dataset):
@@ -395,27 +423,39 @@ def _outline(ax, mesh, loops):
     return path
 
 
-def draw_singular(ax, x: np.ndarray, y: np.ndarray, shape: MapShape) -> list:
-    """Hatch the near-singular part of the grid (the maps' blank cells there) and draw det A = 0; returns the
-    legend handles of what was drawn (none on a map without singular places)."""
+def _singular_entries(shape: MapShape) -> dict[str, str]:
+    """The legend entries of what :func:`draw_singular` draws for ``shape``: ``{label: "hatch" | "line"}``."""
+    out = {}
+    if shape.has_singular:
+        out[f"near-singular (cond. A > {shape.max_condition:g} or a leg's transmission < "
+            f"{1 / shape.max_condition:g}): no bound, left blank"] = "hatch"
+    if shape.crosses_det_zero:
+        out["parallel singularity (det A = 0)"] = "line"
+    return out
+
+
+def _singular_handle(kind: str, label: str):
+    """A legend handle of :func:`draw_singular`'s hatching (``"hatch"``) or det A = 0 line (``"line"``)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = []
+    if kind == "hatch":
+        return Patch(facecolor="white", edgecolor=SINGULAR_COLOUR, hatch="////", label=label)
+    return Line2D([], [], color=SINGULAR_COLOUR, linewidth=1.6, label=label)
+
+
+def draw_singular(ax, x: np.ndarray, y: np.ndarray, shape: MapShape) -> list:
+    """Hatch the near-singular part of the grid (the maps' blank cells there) and draw det A = 0; returns the
+    legend handles of what was drawn (none on a map without singular places)."""
     if shape.has_singular:
         ax.contourf(x, y, shape.near_singular.astype(float), levels=[0.5, 1.5], colors="none",
                     hatches=["////"], zorder=2.5)
         for coll in ax.collections[-1:]:
             coll.set_edgecolor(SINGULAR_COLOUR)
             coll.set_linewidth(0.0)
-        handles.append(Patch(facecolor="white", edgecolor=SINGULAR_COLOUR, hatch="////",
-                             label=f"near-singular (cond. A > {shape.max_condition:g} or a leg's transmission < "
-                                   f"{1 / shape.max_condition:g}): no bound, left blank"))
     if shape.crosses_det_zero:
         ax.contour(x, y, shape.det, levels=[0.0], colors=SINGULAR_COLOUR, linewidths=1.6, zorder=4)
-        handles.append(Line2D([], [], color=SINGULAR_COLOUR, linewidth=1.6,
-                              label="parallel singularity (det A = 0)"))
-    return handles
+    return [_singular_handle(kind, label) for label, kind in _singular_entries(shape).items()]
 
 
 def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarray, label: str, units: str, *,
@@ -456,7 +496,7 @@ def _draw_field(fig: Figure, ax, cax, x: np.ndarray, y: np.ndarray, Z: np.ndarra
         levels = MaxNLocator(6).tick_values(lo, hi)
     shown = Z if outline is None else _widen(Z, outline[1])
     mesh = ax.pcolormesh(x, y, shown, shading="auto", cmap=cmap, norm=norm)
-    fit_limits(ax, *(box or _field_box(x, y, Z)))
+    fit_limits(ax, *(box or _field_box(x, y, Z, loops=None if outline is None else outline[0])))
     region = None if outline is None else _outline(ax, mesh, outline[0])
     cpos = cax.get_position()
     horizontal = cpos.width * fig.get_figwidth() > cpos.height * fig.get_figheight()
@@ -531,9 +571,9 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
 
     layer = ds.sel(phi=phi_deg, method="nearest")
     x, y = layer.x.values, layer.y.values
-    x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values)
     robot = robot if robot is not None else _robot_of(ds)
     shape = None if robot is None else map_shape(robot, float(layer.phi), x, y, max_condition)
+    x0, x1, y0, y1 = _field_box(x, y, layer["dp_max"].values, loops=None if shape is None else shape.loops)
     handles = []
     if measured is not None:
         handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
@@ -552,7 +592,7 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
         if units == "mm":
             rng = limited_range(rng, vmin, vmax)
         _draw_field(fig, ax, cax, x, y, values, prefix + label, units, rng=rng, extra=extra, log=log,
-                    outline=None if shape is None else (shape.loops, shape.near_singular))
+                    outline=None if shape is None else shape.outline(values))
         if shape is not None:
             drawn = draw_singular(ax, x, y, shape)
         panel_title = f"{prefix}{label} [{units}]" + constant_note(values, units)
@@ -573,24 +613,23 @@ def plot_error_map(ds: xr.Dataset, phi_deg: float, *, measured: Mapping[str, np.
     return fig
 
 
-def plot_layers(ds: xr.Dataset, var: str, *, title: str | None = None) -> Figure:
-    """One variable of a map at every orientation, side by side on a common colour scale."""
+def plot_layers(ds: xr.Dataset, var: str, *, title: str | None = None, robot=None) -> Figure:
+    """One variable of a map at every orientation, side by side on a common colour scale (at most
+    :data:`MAX_COLUMNS` a row): :func:`plot_panels` with ``shared_scale``.
+
+    With the robot (``robot``, else the map's own ``robot_toml`` attribute) each panel is clipped to the exact
+    workspace boundary of its orientation and its singular places are drawn, as in :func:`plot_error_map`.
+    """
     units = ds[var].attrs.get("units", "")
-    n = ds.sizes["phi"]
     x, y = ds.x.values, ds.y.values
-    boxes = [_field_box(x, y, ds[var].sel(phi=phi).values) for phi in ds.phi.values]
-    aspect = max((b[3] - b[2]) / max(b[1] - b[0], 1e-9) for b in boxes)
-    fig = Figure()
-    cells = panel_grid(fig, 1, n, aspect, width=min(REPORT_WIDTH_IN, 3.6 * n + 0.8))
-    rng = colour_range(ds[var].values)
-    for (ax, cax), phi in zip(cells, ds.phi.values):
-        _draw_field(fig, ax, cax, x, y, ds[var].sel(phi=phi).values, SYMBOLS.get(var, (var,))[0], units, rng=rng)
-        ax.set_title(f"$\\phi$ = {phi:g} deg", fontsize=10)
-        ax.set_xlabel("x [mm]")
-        ax.set_ylabel("y [mm]")
-    fig.suptitle(title or f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
-                          f"{quantity_label(var, units)}")
-    return fig
+    robot = robot if robot is not None else _robot_of(ds)
+    phis = [float(p) for p in ds.phi.values]
+    panels = [(x, y, ds[var].sel(phi=phi).values, f"$\\phi$ = {phi:g} deg", quantity_label(var, units))
+              for phi in phis]
+    return plot_panels(panels, shared_scale=True, contours=True,
+                       shapes=None if robot is None else [(robot, phi) for phi in phis],
+                       suptitle=title or f"{ds.attrs.get('robot', '')}, clearances "
+                                         f"{ds.attrs.get('clearances', '')}: {quantity_label(var, units)}")
 
 
 def save(fig: Figure, path: str | Path, dpi: int = DEFAULT_DPI) -> Path:
@@ -679,7 +718,8 @@ def constant_note(values: np.ndarray, units: str) -> str:
 def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]], *, suptitle: str,
                 shared_scale: bool = False, ncols: int | None = None, same_axes: bool = False,
                 errors: list[float | None] | None = None, vmin: float | None = None, vmax: float | None = None,
-                log: bool = False, limited: list[bool] | None = None, contours: bool = False) -> Figure:
+                log: bool = False, limited: list[bool] | None = None, contours: bool = False,
+                shapes: list | None = None) -> Figure:
     """Several scalar fields side by side: each panel is ``(x (n,), y (m,), Z (m, n), title, units)``
     (x, y in mm).
 
@@ -690,10 +730,17 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     Monte Carlo error (units of the panel) or None: such a panel is drawn in colour bands no finer than its
     error (:func:`monte_carlo_levels`). ``vmin``/``vmax`` (units of the panels marked in ``limited``, default
     all) and ``log`` set the colour scales.
+
+    ``shapes``: per panel ``(robot, phi_deg)`` (or a :class:`MapShape` of the panel's grid, or None): such a
+    panel is clipped to the robot's exact workspace boundary at ``phi_deg`` (drawn as a line) instead of
+    ending in grid cells, its near-singular blank cells are hatched and det A = 0 is drawn
+    (:func:`draw_singular`), named in a legend under the title.
     """
+    shaped = panel_shapes(shapes, panels)
     ncols = min(ncols or len(panels), MAX_COLUMNS)
     nrows = int(np.ceil(len(panels) / ncols))
-    boxes = [_field_box(x, y, Z) for x, y, Z, _, _ in panels]
+    boxes = [_field_box(x, y, Z, loops=None if shape is None else shape.loops)
+             for (x, y, Z, _, _), shape in zip(panels, shaped)]
     common_box = None
     if same_axes:
         common_box = (min(b[0] for b in boxes), max(b[1] for b in boxes), min(b[2] for b in boxes),
@@ -707,18 +754,27 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     titles = [wrap_text(fig, title + constant_note(Z, units), slot, TITLE_PT) for _, _, Z, title, units in panels]
     lines = max(t.count("\n") + 1 for t in titles)
     suptitle = wrap_text(fig, suptitle, width - 0.2, SUPTITLE_PT)
-    top = max(0.75, 0.3 + (suptitle.count("\n") + 1) * 1.25 * SUPTITLE_PT / 72)
+    legend = {}
+    for shape in shaped:
+        if shape is not None:
+            legend.update(_singular_entries(shape))
+    legend_lines = [wrap_text(fig, text, width - 0.6, FONT_PT).count("\n") + 1 for text in legend]
+    head = 0.3 + (suptitle.count("\n") + 1) * 1.25 * SUPTITLE_PT / 72
+    top = max(0.75, head + sum(0.05 + n * 1.25 * FONT_PT / 72 for n in legend_lines) + (0.1 if legend else 0.0))
     cells = panel_grid(fig, nrows, ncols, aspect, width=width, top=top, title_space=0.4 + (lines - 1) * 1.25 * TITLE_PT / 72,
                        label_lines=3 if any(e is not None for e in (errors or [])) else 2)
     common = colour_range(np.concatenate([p[2].ravel() for p in panels])) if shared_scale else None
     errors = errors or [None] * len(panels)
     limited = limited or [True] * len(panels)
-    for (ax, cax), (x, y, Z, _, units), title, error, lim in zip(cells, panels, titles, errors, limited):
+    for (ax, cax), (x, y, Z, _, units), title, error, lim, shape in zip(cells, panels, titles, errors, limited,
+                                                                        shaped):
         rng = common or colour_range(Z)
         if lim:
             rng = limited_range(rng, vmin, vmax)
         _draw_field(fig, ax, cax, x, y, Z, "", units, rng=rng, contours=contours or error is not None,
-                    error=error, log=log, box=common_box)
+                    error=error, log=log, box=common_box, outline=None if shape is None else shape.outline(Z))
+        if shape is not None:
+            draw_singular(ax, x, y, shape)
         ax.set_title(title, fontsize=TITLE_PT)
         ax.set_xlabel("x [mm]", fontsize=LABEL_PT)
         ax.set_ylabel("y [mm]", fontsize=LABEL_PT)
@@ -726,6 +782,11 @@ def plot_panels(panels: list[tuple[np.ndarray, np.ndarray, np.ndarray, str, str]
     for ax, cax in cells[len(panels):]:
         ax.set_visible(False)
         fig.delaxes(cax)
+    if legend:
+        fig.legend(handles=[_singular_handle(kind, wrap_text(fig, text, width - 0.6, FONT_PT))
+                            for text, kind in legend.items()],
+                   loc="upper center", bbox_to_anchor=(0.5, 1 - (head - 0.05) / fig.get_figheight()),
+                   frameon=False, fontsize=FONT_PT, handlelength=1.6)
     fig.suptitle(suptitle, fontsize=SUPTITLE_PT,
                  y=1 - 0.12 / fig.get_figheight(), va="top")
     return fig

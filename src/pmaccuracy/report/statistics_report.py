@@ -62,6 +62,7 @@ def save_percentile_map_figure(ds, path: str | Path, *, phi_deg: float | None = 
             errors.append(_stated_error(ds, "exceed_se_max"))
             limited.append(False)
     fig = figures.plot_panels(panels, ncols=3, errors=errors, limited=limited, vmin=vmin, vmax=vmax, log=log,
+                              shapes=[(figures._robot_of(ds), float(layer.phi))] * len(panels),
                               suptitle=f"{ds.attrs.get('robot', '')}, clearances {ds.attrs.get('clearances', '')}: "
                                        f"$\\phi$ = {float(layer.phi):g} deg, {ds.attrs.get('samples', '?')} "
                                        f"Monte Carlo samples")
