@@ -3,25 +3,31 @@
 One section of ``pmaccuracy reproduce`` (:func:`pmaccuracy.report.reproduce`) that puts
 side by side, for one robot, what a designer needs to fix clearances:
 
-(a) **certified vs first-order vs best nonlinear** worst cases at a few poses for the
-    clearance cases ``case1`` and ``case2`` at 1x and 10x
+(a) **certified vs first-order vs best nonlinear** worst cases at a few poses (:func:`check_poses`: the home pose
+    or the region's reference pose, and the worst corners or worst grid points of the region at phi = 0 and at
+    the ends of the orientation interval) for the clearance cases ``case1`` and ``case2`` at 1x and 10x
     (:func:`pmaccuracy.accuracy.certified.certified_pose_errors`): ``first_order <= nonlinear <=
     max over the error set of the exact pose error <= certified``; the relative gap
-    ``(certified - nonlinear) / nonlinear`` says how well the exact worst case is known;
-(b) the **certified global maximum** of ``dx, dy, dphi, dp`` over the workspace for
+    ``(certified - nonlinear) / nonlinear`` says how well the exact worst case is known; (a') the certified map
+    over the region at the report's map orientations, its grid coarsened to a time budget
+    (:func:`certified_map_job`);
+(b) the **certified global maximum** of ``dx, dy, dphi, dp`` over the region (default the workspace) for
     ``phi`` in :data:`PHI_RANGE_DEG` (:func:`pmaccuracy.accuracy.global_worst.global_worst`, first-order
-    model), with the attaining pose, against the best value of the report's own grid maps
-    (``results["cases"]``, which only sample the paper's orientations);
+    model), with the attaining pose, against the largest value of the report's grid maps over the same region
+    at their orientations inside the interval (:func:`grid_maxima`);
 (c) **tolerance synthesis** for :data:`TARGETS` over the same region
     (:func:`pmaccuracy.accuracy.synthesis.synthesize`, uniform scaling and minimum reciprocal cost),
     re-verified by the global worst case;
-(d) **statistics** at the home pose and a percentile map
+(d) **statistics** at the home (or reference) pose and a percentile map over the region
     (:func:`pmaccuracy.report.statistics_report.statistics_section`);
 (e) **ISO 9283** AP / RP of a virtual repeated-pose test (:func:`pmaccuracy.experiment.iso9283.simulate_repeats`,
     as ``experiment simulate --repeats``) beside the model's predicted RP
     (:func:`pmaccuracy.experiment.iso9283.compare_repeatability`).
 
-Every number shown is also stored, JSON-ready, in ``results["design_decisions"]``
+The verdict at the top is computed from these tables (:func:`trust`), never written apart from them. A part
+that cannot be computed (a singular region, a pose where the loops cannot close) becomes a box naming it and the
+reason; the rest is still written. Every number shown is also stored, JSON-ready, in
+``results["design_decisions"]``
 (``results["design"]`` already holds section 6, the design comparison). Units: mm,
 and degrees for every key ending in ``_deg``; the computations run in mm and rad.
 The expensive parts run in the report's worker processes
