@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import LogLocator, MaxNLocator
 
 from .. import __version__
 from .._savefig import SYMBOLS, save_figure
@@ -47,7 +48,7 @@ from ..io.resolve import load_clearances
 from ..kinematics.workspace import constant_orientation_workspace
 from ..model.serial import SerialArm, load_serial_sources, max_serial_errors
 from .document import Document, provenance
-from .figures import REPORT_WIDTH_IN
+from .figures import FONT_PT, LABEL_PT, REPORT_WIDTH_IN, SUPTITLE_PT, TITLE_PT, wrap_text
 
 #: Monte Carlo samples of the clearance floor's RMS at each pose.
 FLOOR_SAMPLES = 2000
@@ -57,6 +58,85 @@ ARROW_FRACTION = 0.12
 REACH_SAMPLES = 4000
 #: What is left counts as the clearance floor at a pose when it is within the floor plus this many sigmas.
 FLOOR_SIGMAS = 3.0
+
+
+#: Space (inches) kept between a text and the next thing: another axes' texts, a legend, the figure's edge.
+GAP_IN = 0.1
+
+
+def _new_figure(height: float = 4.0) -> Figure:
+    """A report-wide figure drawn by Agg (its renderer measures the texts as they will be drawn)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = Figure(figsize=(REPORT_WIDTH_IN, height))
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _reach_in(fig: Figure, ax) -> tuple[float, float, float, float]:
+    """How far (inches) the texts of ``ax`` (title, axis labels, tick labels, offset texts) reach past its
+    box: left, bottom, right, top."""
+    r = fig.canvas.get_renderer()
+    box, tight = ax.get_window_extent(r), ax.get_tightbbox(r, bbox_extra_artists=[])
+    return tuple(max(0.0, v) / fig.dpi for v in (box.x0 - tight.x0, box.y0 - tight.y0, tight.x1 - box.x1,
+                                                 tight.y1 - box.y1))
+
+
+def _arrange(fig: Figure, grid: list[list], heights: list[float], *, top: float = 0.0, bottom: float = 0.0,
+             extra: list[float] | None = None, passes: int = 2) -> list[list[tuple[float, float, float, float]]]:
+    """Place the axes of ``grid`` (rows of axes, None for an empty cell) at fixed positions measured in
+    inches, with each row's axes ``heights[r]`` high and each column as wide as the figure leaves after
+    every column's and row's texts (measured, :func:`_reach_in`) and :data:`GAP_IN` around them; ``top`` /
+    ``bottom``: inches kept free above / below (a title, a legend); ``extra``: inches kept free under each
+    row's texts (a key). Sizes the figure's height. Measured
+    again after placing (``passes``), as the tick labels follow the axes' size. Returns each cell's box
+    ``(x0, y0, w, h)`` in inches, row by row."""
+    nrows, ncols = len(grid), len(grid[0])
+    width = fig.get_figwidth()
+    cells = []
+    for _ in range(passes):
+        reach = [[_reach_in(fig, ax) if ax is not None else (0.0, 0.0, 0.0, 0.0) for ax in row] for row in grid]
+        left = [max(reach[r][c][0] for r in range(nrows)) + GAP_IN for c in range(ncols)]
+        right = [max(reach[r][c][2] for r in range(nrows)) + GAP_IN for c in range(ncols)]
+        below = [max(reach[r][c][1] for c in range(ncols)) + GAP_IN + (extra[r] if extra else 0.0)
+                 for r in range(nrows)]
+        above = [max(reach[r][c][3] for c in range(ncols)) + GAP_IN for r in range(nrows)]
+        ax_w = (width - sum(left) - sum(right)) / ncols
+        height = top + sum(above) + sum(heights) + sum(below) + bottom
+        fig.set_size_inches(width, height)
+        cells, y = [], height - top
+        for r, row in enumerate(grid):
+            y -= above[r] + heights[r]
+            x, line = 0.0, []
+            for c, ax in enumerate(row):
+                x += left[c]
+                line.append((x, y, ax_w, heights[r]))
+                if ax is not None:
+                    ax.set_position((x / width, y / height, ax_w / width, heights[r] / height))
+                x += ax_w + right[c]
+            cells.append(line)
+            y -= below[r]
+    return cells
+
+
+def _legend(fig: Figure, handles: list, labels: list[str], *, loc: str = "lower center",
+            anchor: tuple[float, float] = (0.5, 0.0), width: float | None = None):
+    """A frameless figure legend at ``loc`` of the figure point ``anchor`` with as many columns as fit in
+    ``width`` inches (default: the figure's width less :data:`GAP_IN` each side), its labels wrapped when even
+    one column is too wide. Returns the legend and its height in inches."""
+    if not labels:
+        return None, 0.0
+    width = (fig.get_figwidth() - 2 * GAP_IN) if width is None else width
+    r = fig.canvas.get_renderer()
+    for ncol in range(len(labels), 0, -1):
+        texts = labels if ncol > 1 else [wrap_text(fig, t, width - 0.6, FONT_PT) for t in labels]
+        leg = fig.legend(handles, texts, loc=loc, bbox_to_anchor=anchor, ncol=ncol, fontsize=FONT_PT,
+                         frameon=False, handlelength=1.6, columnspacing=1.2, borderaxespad=0.2)
+        box = leg.get_window_extent(r)
+        if box.width / fig.dpi <= width or ncol == 1:
+            return leg, box.height / fig.dpi
+        leg.remove()
+    raise AssertionError("unreachable")
 
 
 def model_residuals(ident: Identification, data: CalibrationData, values: np.ndarray | None = None) -> np.ndarray:
@@ -361,12 +441,14 @@ def _residual_section(doc, tmp, pv, frame_phi, positions, before, after, outlier
     phi_lo, phi_hi = float(np.nanmin(positions[:, 2])), float(np.nanmax(positions[:, 2]))
     phis = list(dict.fromkeys(round(p, 9) for p in (0.0, phi_lo, phi_hi)))
     span = float(np.nanmax(np.ptp(positions[:, :2], axis=0))) if len(positions) > 1 else 1.0
-    fig = Figure(figsize=(REPORT_WIDTH_IN, 6.0))
-    axes = fig.subplots(1, 2, sharex=True, sharey=True)
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.33, top=0.86, wspace=0.1)
+    fig = _new_figure()
+    axes = [fig.add_axes((0.1, 0.4, 0.4, 0.5))]
+    axes.append(fig.add_axes((0.55, 0.4, 0.4, 0.5), sharex=axes[0], sharey=axes[0]))
+    caxes = [fig.add_axes((0.1, 0.1, 0.4, 0.03)), fig.add_axes((0.55, 0.1, 0.4, 0.03))]
     c, s_ = np.cos(frame_phi), np.sin(frame_phi)   # residuals are in the measurement frame: turn to the robot's
-    scales, extent = [], []
-    for ax, r, title in ((axes[0], before, "before: nominal robot"), (axes[1], after, "after: identified robot")):
+    scales, extent, quivers = [], [], []
+    for ax, cax, r, title in ((axes[0], caxes[0], before, "before: nominal robot"),
+                              (axes[1], caxes[1], after, "after: identified robot")):
         ok = np.all(np.isfinite(r), axis=1)
         size = np.hypot(r[ok & ~outliers, 0], r[ok & ~outliers, 1])   # outliers drawn, not scaled for
         longest = float(size.max()) if size.size else 1.0
@@ -383,31 +465,44 @@ def _residual_section(doc, tmp, pv, frame_phi, positions, before, after, outlier
         quiv = ax.quiver(positions[ok, 0], positions[ok, 1], u, v, np.degrees(r[ok, 2]), cmap="coolwarm",
                          norm=Normalize(-max(vmax, 1e-9), max(vmax, 1e-9)), angles="xy", scale_units="xy",
                          scale=1.0 / magnify, width=0.006, edgecolor="0.2", linewidth=0.3)
+        quivers.append(quiv)
         ax.plot(positions[ok, 0], positions[ok, 1], ".", color="0.2", ms=2)
         if outliers.any():
             ax.plot(positions[outliers, 0], positions[outliers, 1], "x", color="k", ms=7, label="outlier (dropped)")
-        ax.set_title(f"{title}\narrows magnified {magnify:.3g} times", fontsize=10)
+        ax.set_title(f"{title}\narrows magnified {magnify:.3g} times", fontsize=TITLE_PT)
         ax.set_aspect("equal", adjustable="box")
-        ax.set_xlabel("x [mm]", fontsize=9)
-        ax.tick_params(labelsize=8)
-        ax.quiverkey(quiv, 0.55, -0.2, key, f"{key:g} mm residual", labelpos="E", coordinates="axes",
-                     fontproperties={"size": 9})
-        box = ax.get_position()
-        cax = fig.add_axes([box.x0 + 0.1 * box.width, 0.135, 0.8 * box.width, 0.025])
+        ax.set_xlabel("x [mm]", fontsize=LABEL_PT)
+        ax.tick_params(labelsize=FONT_PT)
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+        ax.yaxis.set_major_locator(MaxNLocator(6))
         bar = fig.colorbar(quiv, cax=cax, orientation="horizontal")
-        bar.set_label(r"orientation residual $\delta\phi$ [deg]", fontsize=9)
-        cax.tick_params(labelsize=8)
+        bar.set_label(r"orientation residual $\delta\phi$ [deg]", fontsize=LABEL_PT)
+        cax.xaxis.set_major_locator(MaxNLocator(5, symmetric=True))
+        cax.tick_params(labelsize=FONT_PT)
+    axes[1].tick_params(labelleft=False)
     pts = np.vstack(extent + [np.vstack(line.get_xydata()) for ax in axes for line in ax.get_lines()])
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
     pad = 0.04 * max(x1 - x0, y1 - y0, 1.0)
     axes[0].set_xlim(x0 - pad, x1 + pad)            # every arrow tip inside (quiver does not autoscale)
     axes[0].set_ylim(y0 - pad, y1 + pad)
-    axes[0].set_ylabel("y [mm]", fontsize=9)
+    axes[0].set_ylabel("y [mm]", fontsize=LABEL_PT)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize=8, frameon=False)
-    fig.suptitle("Measured minus model pose: arrows the position residual, colour the orientation residual",
-                 fontsize=10, y=0.985)
+    _, legend_h = _legend(fig, handles, labels)
+    title = wrap_text(fig, "Measured minus model pose: arrows the position residual, colour the orientation "
+                      "residual", REPORT_WIDTH_IN - 2 * GAP_IN, SUPTITLE_PT)
+    head = fig.suptitle(title, fontsize=SUPTITLE_PT, va="top")
+    head_h = head.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi + 2 * GAP_IN
+    key_h = 0.3                                      # the key arrow and its text, between a map and its colour bar
+    ratio = (y1 - y0 + 2 * pad) / (x1 - x0 + 2 * pad)
+    cells = _arrange(fig, [axes, caxes], [3.0, 0.13], top=head_h, bottom=legend_h + GAP_IN, extra=[key_h, 0.0])
+    ax_h = float(np.clip(cells[0][0][2] * ratio, 1.5, 4.2))
+    cells = _arrange(fig, [axes, caxes], [ax_h, 0.13], top=head_h, bottom=legend_h + GAP_IN, extra=[key_h, 0.0])
+    height = fig.get_figheight()
+    head.set_y(1.0 - GAP_IN / height)
+    for ax, quiv, (magnify, key, _), (bx, by, bw, bh) in zip(axes, quivers, scales, cells[1]):
+        ax.quiverkey(quiv, (bx + 0.3 * bw) / REPORT_WIDTH_IN, (by + bh + GAP_IN + key_h / 2) / height, key,
+                     f"{key:g} mm residual", labelpos="E", coordinates="figure", fontproperties={"size": FONT_PT})
     (mb, kb, vb), (ma, ka, va) = scales
     res["arrows"] = {"before": {"magnify": mb, "key_mm": kb}, "after": {"magnify": ma, "key_mm": ka}}
     n = doc.figure(save_figure(fig, tmp / "residuals.png"),
@@ -441,33 +536,33 @@ def _parameter_section(doc, tmp, r, simulated: bool) -> None:
     groups = [(u, label, f, [e for e in r["estimates"] if e["unit"] == u]) for u, label, f in _GROUPS]
     groups = [g for g in groups if g[3]]
     heights = [len(g[3]) for g in groups]
-    fig = Figure(figsize=(REPORT_WIDTH_IN, 1.0 + 0.24 * sum(heights) + 0.7 * len(groups)))
-    axes = fig.subplots(len(groups), 1, gridspec_kw={"height_ratios": heights}, squeeze=False)[:, 0]
-    fig.subplots_adjust(left=0.25, right=0.97, top=1 - 0.5 / fig.get_figheight(),
-                        bottom=0.5 / fig.get_figheight(), hspace=0.9 / max(1.0, np.mean(heights)) + 0.25)
+    fig = _new_figure()
+    axes = [fig.add_axes((0.3, 0.1, 0.6, 0.8)) for _ in groups]
     for ax, (unit, label, f, rows) in zip(axes, groups):
         y = np.arange(len(rows))
         for k, e in enumerate(rows):
             if e["identified"]:
-                ax.errorbar(e["change"] * f, k, xerr=e["sigma"] * f, fmt="o", color="C0", ms=4, capsize=2,
-                            label="estimate +- 1 sigma" if k == 0 else None)
+                ax.errorbar(e["change"] * f, k, xerr=e["sigma"] * f, fmt="o", color="C0", ms=4, capsize=2)
             else:
                 ax.plot(0.0, k, "o", mfc="white", mec="0.5", ms=5)
             if simulated:
                 ax.plot(e["true_change"] * f, k, "x", color="C3", ms=6)
         ax.axvline(0.0, color="0.6", lw=0.8)
-        ax.set_yticks(y, [e["parameter"] + ("" if e["identified"] else " (fixed)") for e in rows], fontsize=8)
-        ax.invert_yaxis()
-        ax.set_xlabel(label, fontsize=9)
-        ax.tick_params(axis="x", labelsize=8)
+        ax.set_yticks(y, [e["parameter"] + ("" if e["identified"] else " (fixed)") for e in rows], fontsize=FONT_PT)
+        ax.set_ylim(len(rows) - 0.5, -0.5)
+        ax.set_xlabel(label, fontsize=LABEL_PT)
+        ax.tick_params(axis="x", labelsize=FONT_PT)
+        ax.xaxis.set_major_locator(MaxNLocator(6))
         ax.grid(axis="x", color="0.9")
     from matplotlib.lines import Line2D
 
     handles = [Line2D([], [], marker="o", color="C0", ls="-", ms=4, label="estimate - nominal, +- 1 sigma"),
                Line2D([], [], marker="o", mfc="white", mec="0.5", ls="", label="fixed at nominal")]
     if simulated:
-        handles.append(Line2D([], [], marker="x", color="C3", ls="", label="true - nominal, in the fit's gauge (simulation)"))
-    fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=8, frameon=False)
+        handles.append(Line2D([], [], marker="x", color="C3", ls="",
+                              label="true - nominal, in the fit's gauge (simulation)"))
+    _, legend_h = _legend(fig, handles, [h.get_label() for h in handles], loc="upper center", anchor=(0.5, 1.0))
+    _arrange(fig, [[ax] for ax in axes], [0.3 * h for h in heights], top=legend_h + GAP_IN)
     n = doc.figure(save_figure(fig, tmp / "parameters.png"),
                    "Change of each parameter from nominal with its 1-sigma error bar, per unit (mm; deg; gain - 1 "
                    "in 10^-3)" + (", and the true change of the simulation, moved along the unidentifiable directions "
@@ -509,9 +604,8 @@ def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationD
     full = np.linalg.svd(Js, compute_uv=False)
     full = np.concatenate([full, np.zeros(int(np.sum(norms == 0)))])
     r["full_spectrum"] = full.tolist()
-    fig = Figure(figsize=(REPORT_WIDTH_IN, 4.4))
-    ax = fig.subplots()
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.3, top=0.9)
+    fig = _new_figure()
+    ax = fig.add_axes((0.15, 0.3, 0.8, 0.6))
     floor = s[0] * 1e-12 if s.size else 1e-12
     ax.bar(np.arange(1, s.size + 1), s, color="C0", label=f"identified parameters ({s.size}), at the start")
     ax.plot(np.arange(1, full.size + 1), np.maximum(full, floor), "o", color="0.3", ms=4, mfc="none",
@@ -520,16 +614,24 @@ def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationD
         ax.axhline(RTOL * s[0], color="C3", ls="--", lw=1, label=f"threshold {RTOL:g} s_1: below it, not separable")
     ax.set_yscale("log")
     ax.set_ylim(floor / 3, None)
-    ax.set_xlabel("index of the singular value", fontsize=9)
-    ax.set_ylabel("singular value of the scaled Jacobian", fontsize=9)
-    ax.tick_params(labelsize=8)
-    if idf.fixed:
-        ax.annotate(f"{len(idf.fixed)} not separable: " + ", ".join(idf.fixed[:4]) + (" ..." if len(idf.fixed) > 4
-                                                                                      else ""),
-                    (s.size + 1, floor), xytext=(-6, 28), textcoords="offset points", ha="right", fontsize=8,
-                    arrowprops={"arrowstyle": "->", "color": "0.4"})
-    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, frameon=False)
-    ax.set_title(f"condition number {idf.condition:.4g}, O1 = {idf.O1:.3g}", fontsize=10)
+    ax.yaxis.set_major_locator(LogLocator(numticks=6))
+    ax.xaxis.set_major_locator(MaxNLocator(8, integer=True))
+    ax.set_xlabel("index of the singular value", fontsize=LABEL_PT)
+    ax.set_ylabel("scaled singular value", fontsize=LABEL_PT)
+    ax.tick_params(labelsize=FONT_PT)
+    ax.set_title(f"condition number {idf.condition:.4g}, O1 = {idf.O1:.3g}", fontsize=TITLE_PT)
+    handles, labels = ax.get_legend_handles_labels()
+    leg, legend_h = _legend(fig, handles, labels)
+    note, note_h = None, 0.0
+    if idf.fixed:   # under the axes (the bars fill the plot down to its floor), wrapped to the figure's width
+        text = (f"{len(idf.fixed)} not separable (circles below the dashed line): " + ", ".join(idf.fixed[:6])
+                + (f" and {len(idf.fixed) - 6} more" if len(idf.fixed) > 6 else ""))
+        text = wrap_text(fig, text, REPORT_WIDTH_IN - 2 * GAP_IN, FONT_PT)
+        note = fig.text(0.5, 0.0, text, ha="center", va="bottom", fontsize=FONT_PT)
+        note_h = note.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi + GAP_IN
+    _arrange(fig, [[ax]], [2.4], top=GAP_IN, bottom=legend_h + note_h + GAP_IN)
+    if note is not None:
+        note.set_y((legend_h + GAP_IN) / fig.get_figheight())
     n = doc.figure(save_figure(fig, tmp / "spectrum.png"),
                    "Singular values of the whitened identification Jacobian with unit-length columns: bars, the "
                    "identified parameters (the fit's own spectrum); circles, every parameter at the estimate. A "
@@ -548,16 +650,29 @@ def _observability_section(doc, tmp, r: dict) -> None:
     names = [("poses", "measured poses"), ("planned", "D-optimal plan"), ("random", "random (mean of 20)"),
              ("grid", "grid")]
     keys = ("O1", "O2", "O3", "O4", "condition")
-    fig = Figure(figsize=(REPORT_WIDTH_IN, 3.0))
-    axes = fig.subplots(1, len(keys))
-    fig.subplots_adjust(left=0.06, right=0.97, bottom=0.32, top=0.85, wspace=0.5)
+    colours = ["C0", "C2", "0.6", "0.8"]
+    fig = _new_figure()
+    grid = [[fig.add_axes((0.1, 0.1, 0.2, 0.2)) for _ in range(3)], [None, None, None]]
+    grid[1][:2] = [fig.add_axes((0.1, 0.1, 0.2, 0.2)) for _ in range(2)]
+    axes = grid[0] + grid[1][:2]
     for ax, k in zip(axes, keys):
-        vals = [ind[n][k] for n, _ in names]
-        ax.bar(range(len(names)), vals, color=["C0", "C2", "0.6", "0.8"])
-        ax.set_xticks(range(len(names)), [lbl for _, lbl in names], rotation=45, ha="right", fontsize=7)
-        ax.set_title(k + (" (lower: better)" if k == "condition" else ""), fontsize=8.5)
-        ax.tick_params(axis="y", labelsize=7)
-        ax.ticklabel_format(axis="y", style="sci", scilimits=(-2, 3))
+        vals = np.array([ind[n][k] for n, _ in names], dtype=float)
+        top = float(np.nanmax(np.abs(vals))) if np.isfinite(vals).any() else 1.0
+        e = int(np.floor(np.log10(top))) if top > 0 else 0
+        e = e if e < -1 or e > 3 else 0       # the power of ten in the title, not as an offset over the axes
+        ax.bar(range(len(names)), vals / 10.0 ** e, color=colours)
+        ax.set_xticks([])
+        ax.yaxis.set_major_locator(MaxNLocator(4))
+        ax.tick_params(axis="y", labelsize=FONT_PT)
+        title = k + (rf" [$10^{{{e}}}$]" if e else "") + (" (lower: better)" if k == "condition" else "")
+        ax.set_title(title, fontsize=TITLE_PT)
+    from matplotlib.patches import Patch
+
+    cells = _arrange(fig, grid, [1.5, 1.5])
+    x0, y0, w, h = cells[1][1]                       # the key: in the free cell, right of the last panel
+    lo, hi = x0 + w + _reach_in(fig, grid[1][1])[2] + GAP_IN, REPORT_WIDTH_IN - GAP_IN
+    _legend(fig, [Patch(color=c) for c in colours], [lbl for _, lbl in names], loc="center",
+            anchor=((lo + hi) / 2 / REPORT_WIDTH_IN, (y0 + h / 2) / fig.get_figheight()), width=hi - lo)
     n = doc.figure(save_figure(fig, tmp / "observability.png"),
                    f"Observability indices of the {r['points']} measured poses beside a D-optimal plan, random "
                    "choices (mean of 20) and evenly spaced candidates of the same number; larger is better, "
@@ -591,28 +706,31 @@ def _accuracy_section(doc, tmp, r: dict, simulated: bool) -> None:
                       "before calibration is not a number; Section 1 shows them after.")
     order = np.argsort(acc["before_mm"])
     x = np.arange(1, acc["poses"] + 1)
-    fig = Figure(figsize=(REPORT_WIDTH_IN, 3.8))
-    axes = fig.subplots(1, 2)
-    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.3, top=0.9, wspace=0.22)
+    fig = _new_figure()
+    axes = [fig.add_axes((0.1, 0.3, 0.35, 0.6)), fig.add_axes((0.6, 0.3, 0.35, 0.6))]
     fl = acc["floor"]
-    for ax, q, unit, sym in ((axes[0], "mm", "mm", SYMBOLS["dp_max"][0]),
-                             (axes[1], "deg", "deg", SYMBOLS["dphi_max"][0])):
+    xlabel = wrap_text(fig, f"{acc['where']}, sorted by the position error before", REPORT_WIDTH_IN / 2 - 1.0,
+                       LABEL_PT)
+    for ax, q, unit in ((axes[0], "mm", "mm"), (axes[1], "deg", "deg")):
         b, a = np.asarray(acc[f"before_{q}"])[order], np.asarray(acc[f"after_{q}"])[order]
         ax.plot(x, b, "o", color="0.55", ms=4, label="before calibration")
         ax.plot(x, a, "o", color="C0", ms=4, label="after calibration")
         if fl is not None:
             key = "dp" if q == "mm" else "dphi"
             ax.plot(x, np.asarray(fl[f"{key}_max_{unit}"])[order], "-", color="C3", lw=1.2,
-                    label=f"clearance floor: worst case {sym}")
+                    label=f"clearance floor: worst case ({SYMBOLS['dp_max'][0]}, {SYMBOLS['dphi_max'][0]})")
             ax.plot(x, np.asarray(fl[f"{key}_rms_{unit}"])[order], "--", color="C3", lw=1.0,
                     label="clearance floor: RMS")
-        ax.set_xlabel(f"{acc['where']}, sorted by the position error before", fontsize=9)
+        ax.set_xlabel(xlabel, fontsize=LABEL_PT)
         ax.set_ylabel(("position error |dp|" if q == "mm" else "orientation error |dphi|") + f" [{unit}]",
-                      fontsize=9)
-        ax.tick_params(labelsize=8)
+                      fontsize=LABEL_PT)
+        ax.tick_params(labelsize=FONT_PT)
+        ax.xaxis.set_major_locator(MaxNLocator(5, integer=True))
+        ax.yaxis.set_major_locator(MaxNLocator(6))
         ax.set_ylim(0, None)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    _, legend_h = _legend(fig, handles, labels)
+    _arrange(fig, [axes], [2.4], top=GAP_IN, bottom=legend_h + GAP_IN)
     what = ("measured on the true robot at targets the fit never saw, with the nominal commands (before) and "
             "the compensated commands of the identified robot (after)" if simulated else
             "the residuals at the measured poses, of the nominal (before) and the identified (after) robot: the "
