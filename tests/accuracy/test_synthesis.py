@@ -233,3 +233,20 @@ def test_cli_warns_in_one_line_when_the_certificate_stops_short(monkeypatch, cap
     assert len(lines) == 1 and lines[0].startswith("pmaccuracy synthesize: warning: the certified worst case is not")
     assert "dp (" in lines[0]
     assert "False" in text   # the certificate table's certified column
+
+
+def test_min_cost_solver_failure_is_the_librarys_error(monkeypatch):
+    """cvxpy's SolverError (seen near a singular band of a 3-PRR) reaches the user as a CertificationError that
+    says what to do, not as an internal error."""
+    import cvxpy as cp
+
+    from pmaccuracy.accuracy.global_worst import make_region
+    from pmaccuracy.accuracy.synthesis import synthesize
+    from pmaccuracy.errors import CertificationError
+
+    def fail(self, *args, **kwargs):
+        raise cp.error.SolverError("Solver 'CLARABEL' failed.")
+    monkeypatch.setattr(cp.Problem, "solve", fail)
+    region = make_region("symmetric_3rpr", (0.0, 0.0), (-2.0, 2.0, -2.0, 2.0))
+    with pytest.raises(CertificationError, match="cone program of the min-cost synthesis could not be solved"):
+        synthesize("symmetric_3rpr", region, {"dp": 0.05}, clearances="rpr_typical", mode="min-cost")

@@ -179,3 +179,24 @@ def test_the_verdict_says_what_the_tables_say(disc_report):
     assert f"scaled by {uni['scale']:.3g}" in verdict
     assert ("meets" if gw["dp"]["upper"] <= 0.05 else "misses") in verdict
     assert not re.search(r"\b(\d+\.\d+)-\1\b", md)                  # no "0.24-0.24"
+
+
+def test_a_failing_part_of_the_design_section_is_boxed_and_warned(tmp_path, monkeypatch):
+    """A part of the design section that raises (here the synthesis, as cvxpy's solver does near a singularity)
+    becomes a box in that section with one warning; the other parts and the verdict are still written."""
+    def fail(*args, **kwargs):
+        raise RuntimeError("solver failed")
+    monkeypatch.setattr(dr, "synthesis_job", fail)
+    out = tmp_path / "rep"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = ar.accuracy_report(out, "symmetric_3rpr", "rpr_typical", 11, experiment=False, workers=0,
+                                 region=Disc((0.0, 0.0), 4.0), phi_range_deg=(-1.0, 1.0), targets={"dp": 0.05})
+    warned = [str(w.message) for w in caught if issubclass(w.category, SectionFailedWarning)]
+    assert len(warned) == 2 and all("(c) Tolerance synthesis" in w for w in warned)   # uniform and min-cost
+    assert all("internal error (RuntimeError: solver failed)" in w for w in warned)
+    assert [f["section"] for f in res["failed_sections"]] == ["Design decisions: (c) Tolerance synthesis, min-cost",
+                                                             "Design decisions: (c) Tolerance synthesis, uniform"]
+    md = (out / "report.md").read_text()
+    assert "**(c) Tolerance synthesis: not computed.** Reason: internal error (RuntimeError: solver failed)" in md
+    assert "**(b) Global maximum" in md and "**Verdict.**" in md and "could not be sized" in md

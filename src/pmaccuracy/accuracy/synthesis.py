@@ -43,7 +43,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..model import _tomlio
-from ..errors import ConfigError
+from ..errors import CertificationError, ConfigError
 from ..model.clearances import ClearanceSet
 from ..model.manipulator import Manipulator
 from .global_worst import DEFAULT_GAP, GlobalWorst, QuantityWorst, Region, as_sources, global_worst
@@ -318,7 +318,13 @@ def _solve(lin, Mx, My, targets: dict, weights: np.ndarray, free: np.ndarray) ->
         X, Y = Mx.reshape(-1, m), My.reshape(-1, m)
         cons.append(cp.SOC(np.full(X.shape[0], targets["dp"]), cp.vstack([expr(X), expr(Y)]), axis=0))
     prob = cp.Problem(cp.Minimize(weights[free] @ cp.inv_pos(z)), cons)
-    prob.solve(solver=cp.CLARABEL)
+    try:
+        prob.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError as exc:   # numerically hopeless data, e.g. poses near a singularity
+        worst = float(np.max(np.abs(lin))) if lin.size else float("nan")
+        raise CertificationError(f"the cone program of the min-cost synthesis could not be solved ({exc}); its "
+                                 f"pose coefficients reach {worst:.3g} (near a singularity they grow without "
+                                 "bound): narrow the region or use the uniform mode") from None
     if z.value is None or prob.status not in ("optimal", "optimal_inaccurate"):
         raise ConfigError(f"the cone program failed ({prob.status}): the targets may be unreachable with the "
                           "sources kept fixed", key="--target")

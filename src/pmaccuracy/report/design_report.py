@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,7 @@ from ..experiment.virtual_rig import grid_poses
 from ..kinematics import inverse_kinematics, regular_mask
 from ..kinematics.workspace import constant_orientation_workspace
 from .figures import plot_panels, render
-from .sections import SECTION_ERRORS
+from .sections import SECTION_ERRORS, SectionFailedWarning
 from .statistics_report import statistics_section
 
 #: Condition number (of A, and inverse transmission) above which a corner is left out of table (a).
@@ -476,14 +477,14 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
         try:
             poses, pose_labels = check_poses(robot, cases[label], phi_range, shape)
             rows += certified_rows(robot, label, poses, pose_labels, scales, clearances=cases[label])
-        except SECTION_ERRORS as exc:   # a failing part becomes a box in the text, the rest is still written
+        except Exception as exc:   # noqa: BLE001 - a failing part becomes a box, the rest is still written
             rows.append({"case": label, "error": _reason(exc)})
     got = {}
     for key, job in jobs.items():
         t = time.perf_counter()
         try:
             got[key] = job.result()
-        except SECTION_ERRORS as exc:   # e.g. a region that reaches a singularity: said in the text, not hidden
+        except Exception as exc:   # noqa: BLE001 - one part failing (a singular region...) is said, not fatal
             got[key] = {"error": _reason(exc)}
         got[key]["wait_s"] = time.perf_counter() - t
     data = {"settings": {"cases": labels, "scales": list(scales), "phi_range_deg": list(phi_range),
@@ -511,6 +512,15 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
         gw["grid_orientations_deg"] = grid_max.get("orientations_deg", [])
         gw["grid_error"] = grid_max.get("error")
     data["seconds"] = time.perf_counter() - t0
+    parts = {"synthesis": "(c) Tolerance synthesis", "statistics": "(d) Statistics", "global": "(b) Global maximum",
+             "certified_map": "(a') Certified map", "iso": "(e) ISO 9283 test", "grid": "(b) grid maxima"}
+    failed = [(f"{parts[k[0]]}, {k[1]}", v["error"]) for k, v in got.items() if "error" in v]
+    failed += [(f"(a) Certified worst cases, {c}", e) for c, e in data["certified_errors"].items()]
+    for part, reason in failed:   # one warning per part replaced by a box in the section
+        warnings.warn(f"report part '{part}' of the design decisions could not be computed ({reason}); the report "
+                      "was written with a box in its place", SectionFailedWarning, stacklevel=2)
+    results.setdefault("failed_sections", []).extend({"section": f"Design decisions: {p}", "reason": r}
+                                                      for p, r in failed)
     data = _ready(data)
     results["design_decisions"] = data
     _write(doc, robot, data, figure, cert_figure)
@@ -518,8 +528,12 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
 
 
 def _reason(exc: BaseException) -> str:
-    """An error's message on one line (its type when it has none)."""
-    return " ".join(str(exc).split()) or type(exc).__name__
+    """An error's message on one line (its type when it has none); an error that is not the library's or a
+    numerical one is named an internal error (a defect to report)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if not isinstance(exc, SECTION_ERRORS):
+        text = f"internal error ({type(exc).__name__}: {text}); please report it with the command line"
+    return text
 
 
 # ---------------------------------------------------------------------------------------------- text

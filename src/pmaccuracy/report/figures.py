@@ -689,9 +689,12 @@ class Renderer:
 
     def compute(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
         """Run any module-level ``function(*args, **kwargs)`` in a worker; a Future of its (pickled) result."""
-        if self._pool is None:
+        if self._pool is None:   # in this process: the Future holds the result or the exception, as a worker's
             future: Future = Future()
-            future.set_result(function(*args, **kwargs))
+            try:
+                future.set_result(function(*args, **kwargs))
+            except Exception as exc:   # noqa: BLE001 - handed to the caller through the Future
+                future.set_exception(exc)
             return future
         return self._pool.submit(function, *args, **kwargs)
 
