@@ -238,7 +238,7 @@ def test_cli_prints_the_flagged_rows(tmp_path, capsys):
     robot = tmp_path / "robot.toml"
     import tomli_w
     robot.write_text(tomli_w.dumps(pv.robot.to_dict()))
-    assert main(["calibrate", "identify", "--robot", str(robot), "--data", str(path), "--out",
+    assert main(["calibrate", "identify", "--robot", str(robot), "--data", str(path), "--clearances", "none", "--out",
                  str(tmp_path / "id.json")]) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("outlier:")]
     assert len(lines) == 1 and lines[0].startswith("outlier: row 7 (point 7): ") and "sigma" in lines[0]

@@ -108,7 +108,7 @@ def test_simulate_with_named_errors_and_bad_names(tmp_path, capsys):
     recovered within 4 sigma; an unknown name in --errors / --tolerances: exit 2 naming it."""
     (tmp_path / "e.toml").write_text('"leg1.base.x" = 0.3\nleg2.actuator.offset = 0.2\n')
     status, out, err = run(["calibrate", "simulate", "--robot", "symmetric_3rrr", "--poses", "20", "--errors",
-                            tmp_path / "e.toml", "--format", "json"], capsys)
+                            tmp_path / "e.toml", "--clearances", "none", "--format", "json"], capsys)
     assert status == 0, err
     rows = {r["parameter"]: r for r in json.loads(out)["estimates"]}
     moved = {n for n, r in rows.items() if r["true"] != r["nominal"]}

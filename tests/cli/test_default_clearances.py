@@ -148,3 +148,70 @@ def test_reproduce_on_another_architecture_uses_the_default(robot, capsys, monke
     assert status == 0, err
     assert given["clearances"] == EXPECTED[robot] == default_clearances(robot)
     assert err.splitlines() == [f"clearances: {EXPECTED[robot]} (default)"]
+
+
+@pytest.mark.parametrize("robot", ["symmetric_3rrr", "aalborg_3ppr"])
+def test_calibrate_steps_name_the_same_default_as_bounds(robot, capsys, tmp_path):
+    """Every calibrate step that takes clearances (simulate, identify, compensate, report from a simulation and
+    from measurements) uses the default that bounds names for the same robot, says it once on stderr, and gives
+    the output of the same run with that preset given explicitly."""
+    status, _, err = run(["bounds", "--robot", robot, "--pose", 0, 0, 0], capsys)
+    assert status == 0 and err.splitlines() == [f"clearances: {EXPECTED[robot]} (default)"], err
+    default = NOTE.match(err.splitlines()[0]).group(1)
+    data, ident = tmp_path / "data.csv", tmp_path / "id.json"
+    status, _, err = run(["calibrate", "simulate", "--robot", robot, "--poses", 12, "--clearances", "none",
+                          "--data-out", data], capsys)
+    assert status == 0 and "clearances:" not in err, err
+    steps = {
+        "simulate": ["calibrate", "simulate", "--robot", robot, "--poses", 12, "--format", "json"],
+        "identify": ["calibrate", "identify", "--robot", robot, "--data", data, "--format", "json"],
+        "compensate": ["calibrate", "compensate", "--identification", ident, "--pose", 0, 0, 0, "--format", "json"],
+        "report (simulation)": ["calibrate", "report", "--robot", robot, "--poses", 12, "--out", tmp_path / "s.html"],
+        "report (measured)": ["calibrate", "report", "--data", data, "--identification", ident,
+                              "--out", tmp_path / "m.html"],
+    }
+    for name, argv in steps.items():
+        if name == "compensate":   # the identification of the same data, written by identify
+            assert run(["calibrate", "identify", "--robot", robot, "--data", data, "--out", ident], capsys)[0] == 0
+        status, out, err = run(argv, capsys)
+        assert status == 0, (name, err)
+        assert [ln for ln in err.splitlines() if ln.startswith("clearances:")] == \
+            [f"clearances: {default} (default)"], (name, err)
+        status2, out2, err2 = run([*argv, "--clearances", default], capsys)
+        assert status2 == 0 and "clearances:" not in err2, (name, err2)
+        assert out == out2, name
+
+
+@pytest.mark.parametrize("robot", ["symmetric_3rrr", "symmetric_3rpr", "symmetric_3prr", "aalborg_3ppr",
+                                   "planar_3r_arm"])
+def test_clearances_none_fits_every_architecture(robot, capsys):
+    """The preset ``none`` is read as the all-zero set of the robot's own architecture (not the 3-PPR file refused
+    elsewhere): zero bounds where the default gives nonzero ones, and calibrate simulate runs without a clearance
+    floor and without a default note."""
+    from pmaccuracy.io.resolve import load_clearances, no_clearances
+    from pmaccuracy.model.clearances import ClearanceSet
+    from pmaccuracy.model.serial import SerialArm, SerialErrorSources, load_serial_sources
+    from pmaccuracy.model.sources import ErrorSources, JointErrors
+
+    serial = robot == "planar_3r_arm"
+    sources = load_serial_sources("none", SerialArm.load(robot)) if serial else load_clearances("none", robot)
+    assert sources == no_clearances(robot) and sources.name == "none"
+    if serial:
+        assert isinstance(sources, SerialErrorSources) and sources.joints == (JointErrors(),) * 3
+    elif robot == "aalborg_3ppr":
+        assert isinstance(sources, ClearanceSet) and not sources.bearing_angle.any() and \
+            not sources.guide_lateral.any() and not sources.revolute_radial.any()
+    else:
+        assert isinstance(sources, ErrorSources)
+        assert all(joint == JointErrors() for leg in sources.legs for joint in leg)
+    where = ["--joints", 10, 20, 30] if serial else ["--pose", 0, 0, 0]
+    columns = ("dx_max", "dy_max", "dphi_max_deg", "dp_max")
+    for given, zero in ((["--clearances", "none"], True), ([], False)):
+        status, out, err = run(["bounds", "--robot", robot, *where, "--format", "json", *given], capsys)
+        assert status == 0, err
+        import json
+        row = json.loads(out)[0]
+        assert all((row[c] == 0) == zero for c in columns), (given, row)
+    status, out, err = run(["calibrate", "simulate", "--robot", robot, "--poses", 12, "--clearances", "none"], capsys)
+    assert status == 0 and "clearances:" not in err, err
+    assert "floor_dp_max_mm" not in out and "max_error_after_mm" in out

@@ -115,7 +115,8 @@ def test_vision_batch_reads_a_calibration_manifest_and_identify_recovers_the_tru
     rows = np.loadtxt(readings, delimiter=",", skiprows=1)
     np.testing.assert_allclose(rows[:, header.index("x")], lib.poses[:, 0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(rows[:, header.index("sigma_phi_deg")], np.degrees(lib.sigmas[:, 2]), rtol=1e-12)
-    assert main(["calibrate", "identify", "--robot", "symmetric_3rpr", "--data", str(readings),
+    # the photos were rendered without clearances: identify with the same model (the default would add rpr_typical)
+    assert main(["calibrate", "identify", "--robot", "symmetric_3rpr", "--data", str(readings), "--clearances", "none",
                  "--out", str(tmp_path / "id.json"), "--format", "csv"]) == 0
     capsys.readouterr()
     ident = identification_from_dict(json.loads((tmp_path / "id.json").read_text()), source="id.json")

@@ -8,6 +8,8 @@ import argparse
 from . import _common
 
 HELP = "kinematic calibration: plan poses, identify parameters from measurements, compensate, simulate"
+_DEFAULT_HELP = ("Default: the robot's default of every command (case1 for a 3-PPR, the architecture's *_typical "
+                 "preset otherwise, printed on stderr); 'none' for the model without clearances")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: add each point's clearance pose covariance (first order, the "
                         "clearance states uniform in their sets, independent from point to point) to its "
-                        "measurement covariance, so that the sigmas account for the clearances")
+                        "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP)
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     _common.add_format(s)
@@ -58,7 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--poses-csv", metavar="FILE", help="target poses from a CSV with columns x,y,phi_deg")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: the clearance floor (worst case and RMS of the position and the "
-                        "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position)")
+                        "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position). "
+                        + _DEFAULT_HELP + " (of the identified robot)")
     s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
@@ -81,7 +84,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "parameters not named stay nominal")
     s.add_argument("--noise-mm", type=float, default=0.01, help="1-sigma of the camera in x and y, mm")
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
-    s.add_argument("--clearances", metavar="FILE", help="clearance preset or file: random states in the measurements")
+    s.add_argument("--clearances", metavar="FILE",
+                   help="clearance preset or file: random states in the measurements, and the clearance floor. "
+                        + _DEFAULT_HELP)
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     s.add_argument("--report", metavar="FILE.html",
@@ -122,7 +127,7 @@ def _register_report(steps) -> None:
                    help="identification of --data, written by calibrate identify --out")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: the clearance floor (and, simulating, random clearance states "
-                            "in the measurements)")
+                        "in the measurements). " + _DEFAULT_HELP)
     s.add_argument("--poses", type=_common.positive_int, metavar="N", help="simulation: poses to plan (default 30)")
     s.add_argument("--seed", type=int, help="seed of the simulation, the random pose choices and the floor's "
                                             "samples (default 0)")
@@ -138,6 +143,14 @@ def _register_report(steps) -> None:
                    help="simulation: the true robot's errors drawn uniformly (seeded) within +- the named "
                         "tolerances (as calibrate simulate --tolerances); parameters not named stay nominal")
     s.set_defaults(func=run_report)
+
+
+def _clearances(args: argparse.Namespace, robot):
+    """The clearances of a calibrate step for ``robot``: ``--clearances``, or the default of every command
+    (:func:`pmaccuracy.cli._common.clearances_or_default`, named on stderr); ``none`` gives None, the
+    calibration model without clearances (the all-zero set would give the same fit, plus a floor of 0)."""
+    clearances = _common.clearances_or_default(args, robot)
+    return None if clearances == "none" else clearances
 
 
 def _write_report(path, ident, data, *, experiment=None, clearances=None, seed=0, args=None) -> None:
@@ -184,7 +197,8 @@ def run_report(args: argparse.Namespace) -> int:
         ident = read_identification(args.identification)
         data = read_calibration_csv(args.data, ident.parameters)
         try:
-            _write_report(args.out, ident, data, clearances=args.clearances, seed=values["seed"], args=args)
+            _write_report(args.out, ident, data, clearances=_clearances(args, ident.parameters.robot),
+                          seed=values["seed"], args=args)
         except ConfigError as exc:
             if exc.key != "poses" or exc.source is not None:
                 raise
@@ -192,12 +206,13 @@ def run_report(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
     pv = error_parameters(_robot(args))
+    clearances = _clearances(args, pv.robot)
     errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
     tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
     sigma = None if named else {"mm": values["error_mm"], "rad": np.radians(values["error_deg"])}
     noise = (max(values["noise_mm"], 1e-9), max(values["noise_mm"], 1e-9), max(np.radians(values["noise_deg"]), 1e-11))
     ex = _simulated(args, simulate_calibration, pv, values["poses"], seed=values["seed"], noise=noise,
-                    clearances=args.clearances, error_sigma=sigma, errors=errors, tolerances=tolerances)
+                    clearances=clearances, error_sigma=sigma, errors=errors, tolerances=tolerances)
     _write_report(args.out, ex.identification, ex.data, experiment=ex, seed=values["seed"], args=args)
     print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} points)")
     return 0
@@ -346,7 +361,7 @@ def run_identify(args: argparse.Namespace) -> int:
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
     ident = identify(data, pv, fixed=tuple(args.fix), frame=frame, robust=not args.no_robust,
-                     clearances=args.clearances)
+                     clearances=_clearances(args, pv.robot))
     if args.out:
         Path(args.out).write_text(json.dumps(identification_to_dict(ident), indent=2), encoding="utf-8")
     if args.robot_out:
@@ -367,7 +382,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
     ident = read_identification(args.identification)
-    comp = compensate(ident, targets, clearances=args.clearances)
+    comp = compensate(ident, targets, clearances=_clearances(args, ident.parameters.robot))
     pv = ident.parameters
     if args.out:
         write_calibration_csv(pv.robot, comp.commands, None, args.out)
@@ -419,6 +434,8 @@ def run_simulate(args: argparse.Namespace) -> int:
     measure_with = None
     if args.mm_per_pixel is not None and not args.photos:
         raise ConfigError("only with --photos DIR", key="--mm-per-pixel")
+    robot = _robot(args)
+    clearances = _clearances(args, robot)
     if args.photos:
         from ..vision.calibration_photos import PHOTO_MM_PER_PIXEL, photo_measurer
 
@@ -426,15 +443,15 @@ def run_simulate(args: argparse.Namespace) -> int:
         if not (np.isfinite(scale) and 0.01 <= scale <= 1.0):
             raise ConfigError(f"must be within [0.01, 1] mm per pixel, got {scale!r}", key="--mm-per-pixel")
         folder = _common.prepare_output(args.photos, "--photos", folder=True)
-        measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=args.clearances)
-    pv = error_parameters(_robot(args))
+        measure_with = photo_measurer(folder, mm_per_pixel=scale, clearances=clearances)
+    pv = error_parameters(robot)
     errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
     tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
     sigma = None if named else {"mm": 0.1 if args.error_mm is None else args.error_mm,
                                 "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
     noise = (max(args.noise_mm, 1e-9), max(args.noise_mm, 1e-9), max(np.radians(args.noise_deg), 1e-11))
     ex = _simulated(args, simulate_calibration, pv, args.poses, seed=args.seed, noise=noise,
-                    clearances=args.clearances, error_sigma=sigma, measure_with=measure_with, errors=errors,
+                    clearances=clearances, error_sigma=sigma, measure_with=measure_with, errors=errors,
                     tolerances=tolerances)
     ident = ex.identification
     if args.data_out:

@@ -104,13 +104,37 @@ def legs_values(value: Any, name: str, *, nonnegative: bool = True) -> np.ndarra
     return arr
 
 
+#: The preset name meaning "no joint clearance", accepted for every architecture (:func:`no_clearances`).
+NO_CLEARANCES = "none"
+
+
+def no_clearances(robot: Any):
+    """The all-zero clearance set of ``robot``'s own architecture, named ``none``: an empty
+    :class:`~pmaccuracy.model.clearances.ClearanceSet` for a 3-PPR, :class:`ErrorSources` of three legs of
+    three zero :class:`~pmaccuracy.model.sources.JointErrors` for another parallel robot (mixed legs too),
+    :class:`~pmaccuracy.model.serial.SerialErrorSources` of one zero entry per joint for a serial arm.
+    ``robot``: an object, a preset name or a TOML path."""
+    from ..model.serial import SerialErrorSources
+    from ..model.sources import JointErrors
+
+    if not hasattr(robot, "architecture"):
+        robot = SerialArm.load(robot) if is_serial_spec(robot) else robot_arg(robot)
+    if isinstance(robot, SerialArm):
+        return SerialErrorSources(joints=(JointErrors(),) * robot.n, name=NO_CLEARANCES)
+    if robot.is_3ppr:
+        return ClearanceSet.load(NO_CLEARANCES)
+    return ErrorSources(legs=tuple((JointErrors(),) * 3 for _ in range(3)), name=NO_CLEARANCES)
+
+
 def load_clearances(spec, robot):
     """Clearances for ``robot`` from a preset name, a TOML file, or an object.
 
     A file listing each leg's ``joints`` gives :class:`ErrorSources` (any
     architecture); the 3-PPR format (``bearing_angle``, ``guide_lateral``,
     ``revolute_radial`` per leg) gives a :class:`~pmaccuracy.model.clearances.ClearanceSet`
-    and needs a 3-PPR robot. Either is checked against the robot's joints.
+    and needs a 3-PPR robot. Either is checked against the robot's joints. The preset ``none`` fits every
+    robot: the 3-PPR format's empty set for a 3-PPR, all-zero :class:`ErrorSources` otherwise
+    (:func:`no_clearances`).
     """
     robot = robot_arg(robot)  # a preset name or a TOML path too
     if isinstance(spec, ErrorSources):
@@ -118,6 +142,8 @@ def load_clearances(spec, robot):
     if isinstance(spec, ClearanceSet):
         robot.require_3ppr("the 3-PPR clearance format (guide, bearing, revolute per leg)")
         return spec
+    if isinstance(spec, str) and spec == NO_CLEARANCES and not robot.is_3ppr:
+        return no_clearances(robot)
     data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
     if is_per_joint(data):
         sources = ErrorSources.from_dict(data, source=source)

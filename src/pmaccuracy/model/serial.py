@@ -427,6 +427,8 @@ def load_serial_sources(spec, arm: SerialArm) -> SerialErrorSources:
     """Error sources for ``arm`` from a clearance preset name, a TOML file or a :class:`SerialErrorSources`."""
     if isinstance(spec, SerialErrorSources):
         return spec.check(arm)
+    if isinstance(spec, str) and spec == "none":   # the preset of no clearance, for every architecture
+        return SerialErrorSources(joints=(JointErrors(),) * arm.n, name="none")
     data, source = _tomlio.read_spec(spec, kind="clearance", folder="clearances")
     legs = data.get("legs")
     if isinstance(legs, list) and legs and not any(isinstance(leg, dict) and "joints" in leg for leg in legs):
