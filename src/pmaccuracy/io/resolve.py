@@ -19,8 +19,8 @@ from ..errors import ClearanceError, ConfigError
 from ..kinematics import resolve_robot
 from ..model import _tomlio, plausibility
 from ..model.clearances import ClearanceSet
-from ..model.serial import SerialArm, is_serial_spec
-from ..model.sources import ErrorSources, is_per_joint
+from ..model.serial import SerialArm, SerialErrorSources, is_serial_spec
+from ..model.sources import ErrorSources, JointErrors, is_per_joint
 
 _SPEC = (str, os.PathLike)
 
@@ -114,9 +114,6 @@ def no_clearances(robot: Any):
     three zero :class:`~pmaccuracy.model.sources.JointErrors` for another parallel robot (mixed legs too),
     :class:`~pmaccuracy.model.serial.SerialErrorSources` of one zero entry per joint for a serial arm.
     ``robot``: an object, a preset name or a TOML path."""
-    from ..model.serial import SerialErrorSources
-    from ..model.sources import JointErrors
-
     if not hasattr(robot, "architecture"):
         robot = SerialArm.load(robot) if is_serial_spec(robot) else robot_arg(robot)
     if isinstance(robot, SerialArm):
