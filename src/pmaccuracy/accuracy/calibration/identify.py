@@ -751,13 +751,19 @@ def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust
         keep = (chi2 <= threshold) & usable(v)
     else:
         keep = use
-    for _ in range(MAX_ROUNDS):
+    def refit(keep: np.ndarray):
+        """Least squares on the points ``keep`` from ``v`` (updated in place); returns the solution and the
+        Jacobian function of its problem."""
         _enough(data, keep, L)
         fun, jac = problem(data.subset(keep), v)
         sol = optimize.least_squares(fun, v[free], jac=jac, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15,
                                      max_nfev=200)
-        nfev += sol.nfev
         v[free] = sol.x
+        return sol, jac
+
+    for _ in range(MAX_ROUNDS):
+        sol, jac = refit(keep)
+        nfev += sol.nfev
         reach = usable(v)
         if robust:
             chi2, _ = test(v)
@@ -769,12 +775,8 @@ def fit(data: CalibrationData, x0: np.ndarray, free: np.ndarray, problem, robust
             break
         keep = again
     else:
-        _enough(data, keep, L)
-        fun, jac = problem(data.subset(keep), v)
-        sol = optimize.least_squares(fun, v[free], jac=jac, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                                     max_nfev=200)
+        sol, jac = refit(keep)
         nfev += sol.nfev
-        v[free] = sol.x
     chi2, r = test(v)
     if not robust and not keep.all():
         n = int(np.flatnonzero(~keep)[0])
