@@ -63,13 +63,13 @@ def _check_options(args: argparse.Namespace) -> list[str | None]:
     if len(args.robot) < 2:
         raise ConfigError("give at least two robots (--robot A --robot B ...); the first is the reference",
                           key="--robot")
+    if args.grid < 2:      # checked with or without --clearances
+        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     if args.clearances is None:
         return [None] * len(args.robot)
     if len(args.clearances) not in (1, len(args.robot)):
         raise ConfigError(f"give --clearances once (for every robot) or once per robot: {len(args.robot)} robots, "
                           f"{len(args.clearances)} --clearances", key="--clearances")
-    if args.grid < 2:
-        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     seen = set()
     for phi in args.phi_deg:
         if phi in seen:

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from . import _common
-from .worst_cmd import add_shape, parse_shape
+from .worst_cmd import add_shape, parse_shape, shape_key
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -51,6 +51,19 @@ def _targets(items: list[str] | None) -> dict[str, float] | None:
     return {name.strip(): float(value) for name, _, value in (str(i).partition("=") for i in items)}
 
 
+def _check_region(robot, shape, args: argparse.Namespace) -> None:
+    """Refuse (ConfigError naming --disc/--box/--polygon/--region) a design region without a reachable,
+    well-conditioned pose, before anything is written: the design section could only box its failure."""
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from ..report.design_report import reference_pose
+
+    try:
+        reference_pose(robot, shape)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(f"{exc}: the design section needs a region inside the workspace of {robot.name} "
+                          f"(or --no-design)", key=shape_key(args)) from None
+
+
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
@@ -61,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
     if phi_range is not None and not phi_range[0] < phi_range[1]:
         raise ConfigError(f"needs LO < HI, got {phi_range[0]:g} {phi_range[1]:g}", key="--phi-range-deg")
     robot = _common.load_robot(args)
+    if shape is not None and not args.no_design:
+        _check_region(robot, shape, args)
     if args.clearances is not None or not robot.is_3ppr:
         from ..report.accuracy_report import REPORT_PHIS_DEG, accuracy_report
         from ..io.resolve import load_clearances

@@ -133,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
             _common.emit(rows, args.format)
         return 0
 
+    _common.check_grid_memory(len(args.phi_deg), args.grid, "--grid")   # before the output and the long-run warning
     out = _common.prepare_output(args.out, "--out", (".nc", ".csv"))
     # rough rate: 2e6 point-samples per second (measured on a 2-core machine; points outside the workspace skipped)
     _common.warn_long_run(len(args.phi_deg) * args.grid ** 2 * (args.samples or 10_000) / 2e6,
