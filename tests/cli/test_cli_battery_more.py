@@ -90,3 +90,16 @@ def test_reproduce_refuses_a_design_region_outside_the_workspace(tmp_path, capsy
     out = tmp_path / "rep"
     refused_line(["reproduce", "--out", out, "--disc", "5000", "5000", "5"], capsys, "--disc")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("content", [None, b"", b"\xff\xfe\x00\x01binary\x00\n", "image,x\n\xe9t\xe9\n".encode("latin-1")],
+                         ids=["missing", "empty", "binary", "latin-1"])
+def test_vision_batch_names_a_bad_manifest_before_blaming_the_scale(tmp_path, capsys, content):
+    manifest = tmp_path / "manifest.csv"
+    if content is not None:
+        manifest.write_bytes(content)
+    out = tmp_path / "m.csv"
+    out.write_text("keep me\n", encoding="utf-8")
+    line = refused_line(["vision", "batch", manifest, "--mm-per-pixel", "0.1", "--out", out], capsys, "manifest.csv")
+    assert "--mm-per-pixel" not in line, line
+    assert out.read_text(encoding="utf-8") == "keep me\n"

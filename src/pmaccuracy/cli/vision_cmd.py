@@ -581,12 +581,12 @@ def run_batch(args: argparse.Namespace) -> int:
     _check_scale(args.mm_per_pixel)
     if _is_calibration_manifest(args.manifest):
         return _run_calibration_batch(args, out)
+    rows = read_manifest(args.manifest)   # a missing or unreadable manifest is named before any option is blamed
     if args.calibration is None:
         raise PmAccuracyError("--mm-per-pixel: the clearance experiment's manifest (image,point,x_nom,y_nom,"
                               "phi_nom_deg,push) needs --calibration CAL.toml")
     calibration = _load_calibration(args.calibration)
     _check_height(args, calibration, args.calibration)
-    rows = read_manifest(args.manifest)
     measurements, records = measure_batch(rows, calibration, height_mm=args.marker_height_mm,
                                           spacing_mm=args.spacing_mm, polarity=args.polarity)
     for record in records:
