@@ -103,3 +103,28 @@ def test_vision_batch_names_a_bad_manifest_before_blaming_the_scale(tmp_path, ca
     line = refused_line(["vision", "batch", manifest, "--mm-per-pixel", "0.1", "--out", out], capsys, "manifest.csv")
     assert "--mm-per-pixel" not in line, line
     assert out.read_text(encoding="utf-8") == "keep me\n"
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["ik", "--pose", "1e300", "0", "0"], "--pose (number 1)"),
+    (["ik", "--pose", "0", "0", "0", "--pose", "0", "1e12", "0"], "--pose (number 2)"),
+    (["ik", "--pose", "0", "0", "1e12"], "phi_deg"),
+    (["load", "--pose", "1e20", "0", "0", "--fx", "1"], "--pose"),
+    (["workspace", "--phi-deg", "1e300"], "--phi-deg"),
+])
+def test_absurd_pose_values_are_refused_not_answered(capsys, argv, needle):
+    # before: exit 0 with overflowed joint values (1e+300, 1.2e+284) or an empty workspace of nan bounds
+    refused_line(argv, capsys, needle)
+
+
+def test_absurd_value_in_poses_csv_names_file_and_row(tmp_path, capsys):
+    poses = tmp_path / "poses.csv"
+    poses.write_text("x,y,phi_deg\n0,0,0\n0,-1e300,0\n", encoding="utf-8")
+    line = refused_line(["ik", "--poses-csv", poses], capsys, "poses.csv")
+    assert "data row 2" in line and "column y" in line, line
+
+
+def test_ordinary_angles_beyond_a_turn_still_answer(capsys):
+    # the bound is on magnitude, not on turns: 720 deg is a legitimate way to write 0
+    status, err = run(["ik", "--pose", "0", "0", "720"], capsys)
+    assert status == 0, err
