@@ -128,3 +128,13 @@ def test_ordinary_angles_beyond_a_turn_still_answer(capsys):
     # the bound is on magnitude, not on turns: 720 deg is a legitimate way to write 0
     status, err = run(["ik", "--pose", "0", "0", "720"], capsys)
     assert status == 0, err
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["bounds", "--robot", "planar_3r_arm", "--joints", "400", "0", "0"], "--joints"),
+    (["bounds", "--robot", "planar_3r_arm", "--joints", "1e300", "0", "0", "--allow-outside"], "--joints"),
+    (["load", "--robot", "planar_3r_arm", "--joints", "400", "0", "0", "--fx", "1"], "--joints"),
+])
+def test_serial_joint_values_name_joints(capsys, argv, needle):
+    # before: "configuration 1: joint 1 ..." without the option, or exit 0 with errors at phi = 1e300 deg
+    refused_line(argv, capsys, needle)

@@ -295,7 +295,7 @@ def run_serial(args: argparse.Namespace) -> int:
     if args.unloaded_below < 0:
         raise ConfigError(f"must be >= 0 (N or N mm), got {args.unloaded_below:g}", key="--unloaded-below")
     arm = SerialArm.load(args.robot)
-    q = _joint_values(arm, args.joints)
+    q = _joint_values(arm, args.joints, allow_outside=args.allow_outside)
     sources = load_serial_sources(_common.clearances_or_default(args, arm), arm)
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         sum(j.length for j in arm.joints) or None))
