@@ -138,3 +138,13 @@ def test_ordinary_angles_beyond_a_turn_still_answer(capsys):
 def test_serial_joint_values_name_joints(capsys, argv, needle):
     # before: "configuration 1: joint 1 ..." without the option, or exit 0 with errors at phi = 1e300 deg
     refused_line(argv, capsys, needle)
+
+
+@pytest.mark.parametrize("content", ["", "# laws\n", 'name = "mine"\n'], ids=["empty", "comment", "name-only"])
+def test_distribution_file_without_a_law_is_refused(tmp_path, capsys, content):
+    # before: read as "uniform for every source" without a word
+    law = tmp_path / "laws.toml"
+    law.write_text(content, encoding="utf-8")
+    line = refused_line(["statistics", "--pose", "0", "0", "0", "--samples", "1000", "--distribution", law],
+                        capsys, "laws.toml")
+    assert "no law" in line, line
