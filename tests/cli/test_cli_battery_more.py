@@ -148,3 +148,15 @@ def test_distribution_file_without_a_law_is_refused(tmp_path, capsys, content):
     line = refused_line(["statistics", "--pose", "0", "0", "0", "--samples", "1000", "--distribution", law],
                         capsys, "laws.toml")
     assert "no law" in line, line
+
+
+@pytest.mark.parametrize("argv", [
+    ["worst", "--phi-deg", "1e300", "1e300", "--disc", "0", "0", "5"],
+    ["experiment", "simulate", "--grid", "3", "--phi-deg", "1e300", "--out", "{tmp}/m.csv"],
+    ["compare-designs", "--robot", "aalborg_3ppr", "--robot", "symmetric_3ppr", "--phi-deg", "-1e20"],
+])
+def test_orientation_beyond_any_turn_count_names_phi_deg(tmp_path, capsys, argv):
+    # before: blamed on --disc, or "the workspace at phi = 1e+300 deg is empty" without the option
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    refused_line(argv, capsys, "--phi-deg")
+    assert not (tmp_path / "m.csv").exists()

@@ -122,6 +122,16 @@ def finite_float(text: str) -> float:
     return value
 
 
+def angle_deg(text: str) -> float:
+    """argparse type of an orientation in degrees: a finite number at most :data:`MAX_POSE_VALUE` in magnitude
+    (beyond it the angle keeps no digit and the answer would be an empty workspace or a meaningless pose)."""
+    value = finite_float(text)
+    if abs(value) > MAX_POSE_VALUE:
+        raise argparse.ArgumentTypeError(f"{text!r} deg is beyond {MAX_POSE_VALUE:g} deg in magnitude: not an "
+                                         f"orientation (a typing slip?)")
+    return value
+
+
 def check_gap_pct(value: float | None, option: str = "--gap-pct") -> None:
     """Refuse (ConfigError naming ``option``) a gap target outside (0, 100) percent; ``None`` (the default) passes."""
     if value is not None and not 0 < value < 100:

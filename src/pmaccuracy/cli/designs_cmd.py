@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearance preset or file: once for every robot, or once per robot in the order of --robot "
                         "(default: each robot's default, case1 for a 3-PPR, the architecture's *_typical preset "
                         "otherwise, printed on stderr)")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", required=True, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", required=True, metavar="PHI",
                    help="platform orientation(s) in degrees: several values and/or the option repeated")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N",
                    help="grid points per axis over each workspace and over the shared region (default: 101)")

@@ -60,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "reading is the exact loop closure (default) or the first-order model, plus Gaussian camera "
                     "noise.")
     _add_common(sp)
-    sp.add_argument("--phi-deg", type=_common.finite_float, default=0.0, metavar="PHI",
+    sp.add_argument("--phi-deg", type=_common.angle_deg, default=0.0, metavar="PHI",
                     help="platform orientation in degrees (default: 0)")
     sp.add_argument("--grid", type=int, default=5, metavar="N",
                     help="N x N lattice over the workspace's bounding box; points inside are measured (default: 5)")

@@ -65,7 +65,7 @@ def add_map_options(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument("--map", action="store_true", help=what)
     p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
                    help="with --map: N x N grid over the workspace's bounding box (default: 41)")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", default=None, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", default=None, metavar="PHI",
                    help="platform orientation(s) in degrees of the map (default: 0)")
     p.add_argument("--out", metavar="FILE", help="with --map: the map file, .nc or .csv (missing folders are created)")
     add_shape(p)

@@ -24,13 +24,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearances (preset or file): writes the accuracy report of ROBOT with C instead of the "
                         "paper's reproduction (for a 3-PPR); without it a robot other than a 3-PPR gets its "
                         "architecture's *_typical preset (printed on stderr)")
-    p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, action="append", metavar="PHI",
                    help="orientations of the accuracy report's maps (deg, repeatable; default 0 and 30)")
     p.add_argument("--target", action="append", metavar="NAME=VALUE",
                    help="design target of the design section's synthesis, repeatable: dx, dy, dp in mm, dphi_deg in "
                         "deg (e.g. --target dp=0.1 --target dphi_deg=0.1); default for the paper's robot dp=0.3 and "
                         "dphi_deg=0.3, for the accuracy report none (no synthesis)")
-    p.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, metavar=("LO", "HI"),
+    p.add_argument("--phi-range-deg", type=_common.angle_deg, nargs=2, metavar=("LO", "HI"),
                    help="orientation interval (deg) of the design section's global worst case and synthesis "
                         "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
     p.add_argument("--no-design", action="store_true", help="skip the design section of the accuracy report")

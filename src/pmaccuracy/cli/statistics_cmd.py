@@ -62,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_clearances(p)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
                    help="one pose: x mm, y mm, phi deg")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", metavar="PHI",
                    help="orientation(s) of a percentile map in degrees: several values and/or the option repeated "
                         "(needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",

@@ -247,7 +247,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                     "--marker-height-mm above the reference plane (seeded, reproducible).")
     p.add_argument("--x", type=_common.finite_float, default=0.0, help="x of the platform centre, mm")
     p.add_argument("--y", type=_common.finite_float, default=0.0, help="y of the platform centre, mm")
-    p.add_argument("--phi-deg", type=_common.finite_float, default=0.0, help="orientation, deg")
+    p.add_argument("--phi-deg", type=_common.angle_deg, default=0.0, help="orientation, deg")
     _add_height(p)
     _add_spacing(p, "side of the marker square")
     p.add_argument("--marker-radius-mm", type=_positive_float, default=1.5,

@@ -19,7 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Several orientations (--phi-deg 0 30, or the option repeated) print one row each (JSON: a "
                     "list). With --compare, one row per robot and orientation and a side-by-side figure (--plot).")
     _common.add_robot(p)
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", default=None,
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", default=None,
                    metavar="PHI",
                    help="platform orientation(s) in degrees, several values and/or the option repeated (default: "
                         "0)")
@@ -52,12 +52,6 @@ def run(args: argparse.Namespace) -> int:
     plot = Path(args.plot) if args.plot else None
     _common.check_plot(args)
     requested = list(dict.fromkeys(args.phi_deg or [0.0]))    # in the given order, each once
-    for phi in requested:
-        if abs(phi) > _common.MAX_POSE_VALUE:   # would print an empty workspace of a meaningless angle
-            from ..errors import ConfigError
-
-            raise ConfigError(f"{phi:g} deg is beyond {_common.MAX_POSE_VALUE:g} deg in magnitude: not an orientation "
-                              f"(a typing slip?)", key="--phi-deg")
     results = [_summary(robot, phi, constant_orientation_workspace(robot, np.radians(phi)))
                for robot in robots for phi in requested]
     if len(requested) == 1:   # the orientation asked for, then the usual three for context
