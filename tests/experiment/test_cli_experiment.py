@@ -159,10 +159,10 @@ def test_compare_missing_file_exits_2(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("extra, needle", [
-    (["--take-up", "-0.2"], "take_up"),
-    (["--take-up", "2"], "take_up"),
-    (["--noise-mm", "-0.01"], "noise_mm"),
-    (["--noise-deg", "-0.01"], "noise_deg"),
+    (["--take-up", "-0.2"], "--take-up"),
+    (["--take-up", "2"], "--take-up"),
+    (["--noise-mm", "-0.01"], "--noise-mm"),
+    (["--noise-deg", "-0.01"], "--noise-deg"),
     (["--grid", "1"], "grid"),
     (["--grid", "0"], "grid"),
     (["--take-up", "nan"], "take-up"),

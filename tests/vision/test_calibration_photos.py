@@ -132,7 +132,9 @@ def test_vision_batch_reads_a_calibration_manifest_and_identify_recovers_the_tru
      "line 2: no such image file"),
     ("image,point,q1,q2,q3,x_nom,y_nom,phi_nom_deg\n1.png,1,1,1,1,0,0,0\n1.png,1,1,1,1,0,0,0\n",
      ["--mm-per-pixel", "0.25"], "line 3: point 1 repeated"),
-    ("image,point,x_nom,y_nom,phi_nom_deg,push\n1.png,P1,0,0,0,+x\n", ["--mm-per-pixel", "0.25"], "--calibration"),
+    ("image,point,x_nom,y_nom,phi_nom_deg,push\n" + "".join(f"1.png,P1,0,0,0,{p}\n" for p in ("+x", "-x", "+y", "-y",
+                                                                                            "+r", "-r")),
+     ["--mm-per-pixel", "0.25"], "--calibration"),
 ])
 def test_vision_batch_bad_calibration_manifest_exits_2_with_one_line(manifest, options, where, tmp_path, capsys):
     (tmp_path / "1.png").write_bytes(b"")

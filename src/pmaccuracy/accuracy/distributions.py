@@ -184,6 +184,10 @@ class Distribution:
         if str(spec) in LAWS:
             return cls(default=SourceLaw(str(spec)), name=str(spec))
         data, source = _tomlio.read_spec(spec, kind="distribution", folder=None)
+        if isinstance(data, dict) and not ({"default", *SHAPES} & set(data)):
+            # an empty file (or one with only a name) would silently mean "uniform everywhere"
+            raise ConfigError(f"sets no law: give default = \"uniform\", \"truncnormal\" or \"boundary\", or a "
+                              f"law per kind of source ({', '.join(SHAPES)})", source=source)
         return cls.from_dict(data, source=source)
 
 

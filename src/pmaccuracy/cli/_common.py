@@ -122,6 +122,16 @@ def finite_float(text: str) -> float:
     return value
 
 
+def angle_deg(text: str) -> float:
+    """argparse type of an orientation in degrees: a finite number at most :data:`MAX_POSE_VALUE` in magnitude
+    (beyond it the angle keeps no digit and the answer would be an empty workspace or a meaningless pose)."""
+    value = finite_float(text)
+    if abs(value) > MAX_POSE_VALUE:
+        raise argparse.ArgumentTypeError(f"{text!r} deg is beyond {MAX_POSE_VALUE:g} deg in magnitude: not an "
+                                         f"orientation (a typing slip?)")
+    return value
+
+
 def check_gap_pct(value: float | None, option: str = "--gap-pct") -> None:
     """Refuse (ConfigError naming ``option``) a gap target outside (0, 100) percent; ``None`` (the default) passes."""
     if value is not None and not 0 < value < 100:
@@ -350,8 +360,27 @@ def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -
 
         arr = read_poses_csv(csv_path)
         warn(orientation_messages(arr[:, 2], f"{csv_path}: column phi_deg"))
+    _check_pose_magnitudes(arr, pose_args, csv_path)
     arr[:, 2] = np.radians(arr[:, 2])
     return arr
+
+
+#: Largest |x|, |y| (mm) or |phi| (deg) of a pose given on the command line: beyond it the kinematics overflow or
+#: lose every digit (1e9 mm is 1000 km; 1e9 deg keeps the angle to 1e-7 deg), so the value is a typing slip.
+MAX_POSE_VALUE = 1e9
+
+
+def _check_pose_magnitudes(arr: np.ndarray, pose_args, csv_path) -> None:
+    """Refuse (PmAccuracyError naming --pose and which one, or the CSV file and its data row) a pose value above
+    :data:`MAX_POSE_VALUE` in magnitude, instead of answering with overflowed or meaningless joint values."""
+    big = np.argwhere(np.abs(arr) > MAX_POSE_VALUE)
+    if not len(big):
+        return
+    k, c = (int(v) for v in big[0])
+    column, unit = (("x", "mm"), ("y", "mm"), ("phi_deg", "deg"))[c]
+    where = (f"--pose (number {k + 1})" if pose_args else f"{csv_path}: data row {k + 1}, column {column}")
+    raise PmAccuracyError(f"{where}: {column} = {arr[k, c]:g} {unit} is beyond {MAX_POSE_VALUE:g} {unit} in magnitude: "
+                          f"not a pose of a planar robot (a typing slip?)")
 
 
 #: The help text of every ``--clearances`` option that has the default rule.

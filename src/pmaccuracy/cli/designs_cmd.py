@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearance preset or file: once for every robot, or once per robot in the order of --robot "
                         "(default: each robot's default, case1 for a 3-PPR, the architecture's *_typical preset "
                         "otherwise, printed on stderr)")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", required=True, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", required=True, metavar="PHI",
                    help="platform orientation(s) in degrees: several values and/or the option repeated")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N",
                    help="grid points per axis over each workspace and over the shared region (default: 101)")
@@ -63,13 +63,13 @@ def _check_options(args: argparse.Namespace) -> list[str | None]:
     if len(args.robot) < 2:
         raise ConfigError("give at least two robots (--robot A --robot B ...); the first is the reference",
                           key="--robot")
+    if args.grid < 2:      # checked with or without --clearances
+        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     if args.clearances is None:
         return [None] * len(args.robot)
     if len(args.clearances) not in (1, len(args.robot)):
         raise ConfigError(f"give --clearances once (for every robot) or once per robot: {len(args.robot)} robots, "
                           f"{len(args.clearances)} --clearances", key="--clearances")
-    if args.grid < 2:
-        raise ConfigError(f"needs at least 2 points per axis, got {args.grid}", key="--grid")
     seen = set()
     for phi in args.phi_deg:
         if phi in seen:

@@ -60,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "reading is the exact loop closure (default) or the first-order model, plus Gaussian camera "
                     "noise.")
     _add_common(sp)
-    sp.add_argument("--phi-deg", type=_common.finite_float, default=0.0, metavar="PHI",
+    sp.add_argument("--phi-deg", type=_common.angle_deg, default=0.0, metavar="PHI",
                     help="platform orientation in degrees (default: 0)")
     sp.add_argument("--grid", type=int, default=5, metavar="N",
                     help="N x N lattice over the workspace's bounding box; points inside are measured (default: 5)")
@@ -130,11 +130,34 @@ def register(sub: argparse._SubParsersAction) -> None:
     cp.set_defaults(func=run_compare)
 
 
+#: The library's keyword of each experiment parameter -> the option that sets it (errors name the option).
+_OPTIONS = {"take_up": "--take-up", "noise_mm": "--noise-mm", "noise_deg": "--noise-deg", "grid": "--grid",
+            "model": "--model", "push_n": "--push-n", "accuracy_mm": "--accuracy-mm",
+            "accuracy_deg": "--accuracy-deg", "limit_tolerance_mm": "--limit-tolerance-mm"}
+
+
+def _named(check, *values):
+    """Run a library check (or computation) on option values; a ConfigError keyed by a Python keyword is raised
+    again keyed by the option of that keyword, so the one error line names what the user typed."""
+    from ..errors import ConfigError
+
+    try:
+        return check(*values)
+    except ConfigError as exc:
+        if exc.key not in _OPTIONS:
+            raise
+        raise type(exc)(exc.message, source=exc.source, key=_OPTIONS[exc.key]) from None
+
+
 def run_simulate(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
+    from ..experiment.virtual_rig import _check_simulation
 
     robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
+    if args.grid < 2:      # before any output folder is made
+        raise ConfigError(f"the grid needs at least 2 points per axis, got {args.grid}", key="--grid")
+    _named(_check_simulation, args.take_up, args.noise_mm, args.noise_deg, args.model)
     if args.repeats is not None and args.repeats < 2:
         raise ConfigError(f"ISO 9283 repeatability needs at least 2 cycles, got {args.repeats}", key="--repeats")
     for option, value in (("--repeats-out", args.repeats_out), ("--distribution", args.distribution)):
@@ -156,9 +179,9 @@ def run_simulate(args: argparse.Namespace) -> int:
         from ..model.plausibility import force_messages, warn
 
         warn(force_messages({"--push-n": args.push_n}))
-    measurements = experiment.simulate_experiment(
+    measurements = _named(lambda: experiment.simulate_experiment(
         robot, clearances, math.radians(args.phi_deg), args.grid, take_up=args.take_up, noise_mm=args.noise_mm,
-        noise_deg=args.noise_deg, model=args.model, seed=args.seed, push_n=args.push_n)
+        noise_deg=args.noise_deg, model=args.model, seed=args.seed, push_n=args.push_n))
     path = experiment.write_measurements(args.out, measurements)
     record = {"out": str(path), "points": len(measurements), "rows": len(measurements) * len(experiment.PUSHES),
               "phi_deg": args.phi_deg, "model": args.model, "take_up": args.take_up, "noise_mm": args.noise_mm,
@@ -208,6 +231,9 @@ def run_compare(args: argparse.Namespace) -> int:
 
     robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
+    from ..experiment import _check_accuracy
+
+    _named(_check_accuracy, args.accuracy_mm, args.accuracy_deg, args.limit_tolerance_mm)
     if args.map_grid < 2:
         raise ConfigError(f"the map grid needs at least 2 points per axis, got {args.map_grid}", key="--map-grid")
     if args.push_n is not None and not args.push_n > 0:
@@ -224,9 +250,9 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.out:
         _common.check_grid_memory(1, args.map_grid, "--map-grid")
         _common.prepare_output(args.out, "--out", folder=True)
-    comparison = experiment.compare(robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm,
-                                    accuracy_deg=args.accuracy_deg, limit_tolerance_mm=args.limit_tolerance_mm,
-                                    push_n=args.push_n)
+    comparison = _named(lambda: experiment.compare(
+        robot, clearances, args.measurements, accuracy_mm=args.accuracy_mm, accuracy_deg=args.accuracy_deg,
+        limit_tolerance_mm=args.limit_tolerance_mm, push_n=args.push_n))
     summary = comparison.summary()
     if repeats is not None:
         summary["iso9283"] = iso9283.compare_repeatability(robot, clearances, repeats, distribution=distribution,

@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from ..errors import NoSolutionError, OutsideJointLimitsError
+from ..errors import NoSolutionError, OutsideJointLimitsError, PoseError
 from . import _common
 
 IK_HELP = "inverse kinematics: actuated and passive joint values of poses (any architecture)"
@@ -114,9 +114,12 @@ def run_fk(args: argparse.Namespace) -> int:
             name = f"s{i + 1}" if robot.is_3ppr else f"q{i + 1}"
             outside.append(f"{name}={args.joints[i]:g} {unit} not in [{conv(lo):g}, {conv(hi):g}]")
     if outside and not args.allow_outside:
-        raise OutsideJointLimitsError("actuator values outside their ranges: " + ", ".join(outside)
+        raise OutsideJointLimitsError("--joints: actuator values outside their ranges: " + ", ".join(outside)
                                       + " (--allow-outside to solve anyway)")
-    fk = forward_kinematics(robot, q)
+    try:
+        fk = forward_kinematics(robot, q)
+    except PoseError as exc:        # e.g. values beyond any length: name the option they came from
+        raise PoseError(f"--joints: {exc}") from None
     if not fk.valid.any():
         raise NoSolutionError(f"no assembly mode: the legs cannot be closed with q = {args.joints}")
     out = []

@@ -65,7 +65,7 @@ def add_map_options(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument("--map", action="store_true", help=what)
     p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
                    help="with --map: N x N grid over the workspace's bounding box (default: 41)")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", default=None, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", default=None, metavar="PHI",
                    help="platform orientation(s) in degrees of the map (default: 0)")
     p.add_argument("--out", metavar="FILE", help="with --map: the map file, .nc or .csv (missing folders are created)")
     add_shape(p)
@@ -295,7 +295,7 @@ def run_serial(args: argparse.Namespace) -> int:
     if args.unloaded_below < 0:
         raise ConfigError(f"must be >= 0 (N or N mm), got {args.unloaded_below:g}", key="--unloaded-below")
     arm = SerialArm.load(args.robot)
-    q = _joint_values(arm, args.joints)
+    q = _joint_values(arm, args.joints, allow_outside=args.allow_outside)
     sources = load_serial_sources(_common.clearances_or_default(args, arm), arm)
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         sum(j.length for j in arm.joints) or None))

@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Prints the ranges.")
     _common.add_robot(p)
     add_clearances(p)
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", required=True, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", required=True, metavar="PHI",
                    help="platform orientation(s) in degrees: several values (--phi-deg 0 15) and/or the option "
                         "repeated, each value once")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")

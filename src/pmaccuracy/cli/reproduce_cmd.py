@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from . import _common
-from .worst_cmd import add_shape, parse_shape
+from .worst_cmd import add_shape, parse_shape, shape_key
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,13 +24,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearances (preset or file): writes the accuracy report of ROBOT with C instead of the "
                         "paper's reproduction (for a 3-PPR); without it a robot other than a 3-PPR gets its "
                         "architecture's *_typical preset (printed on stderr)")
-    p.add_argument("--phi-deg", type=_common.finite_float, action="append", metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, action="append", metavar="PHI",
                    help="orientations of the accuracy report's maps (deg, repeatable; default 0 and 30)")
     p.add_argument("--target", action="append", metavar="NAME=VALUE",
                    help="design target of the design section's synthesis, repeatable: dx, dy, dp in mm, dphi_deg in "
                         "deg (e.g. --target dp=0.1 --target dphi_deg=0.1); default for the paper's robot dp=0.3 and "
                         "dphi_deg=0.3, for the accuracy report none (no synthesis)")
-    p.add_argument("--phi-range-deg", type=_common.finite_float, nargs=2, metavar=("LO", "HI"),
+    p.add_argument("--phi-range-deg", type=_common.angle_deg, nargs=2, metavar=("LO", "HI"),
                    help="orientation interval (deg) of the design section's global worst case and synthesis "
                         "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
     p.add_argument("--no-design", action="store_true", help="skip the design section of the accuracy report")
@@ -51,6 +51,19 @@ def _targets(items: list[str] | None) -> dict[str, float] | None:
     return {name.strip(): float(value) for name, _, value in (str(i).partition("=") for i in items)}
 
 
+def _check_region(robot, shape, args: argparse.Namespace) -> None:
+    """Refuse (ConfigError naming --disc/--box/--polygon/--region) a design region without a reachable,
+    well-conditioned pose, before anything is written: the design section could only box its failure."""
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from ..report.design_report import reference_pose
+
+    try:
+        reference_pose(robot, shape)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(f"{exc}: the design section needs a region inside the workspace of {robot.name} "
+                          f"(or --no-design)", key=shape_key(args)) from None
+
+
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
 
@@ -61,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
     if phi_range is not None and not phi_range[0] < phi_range[1]:
         raise ConfigError(f"needs LO < HI, got {phi_range[0]:g} {phi_range[1]:g}", key="--phi-range-deg")
     robot = _common.load_robot(args)
+    if shape is not None and not args.no_design:
+        _check_region(robot, shape, args)
     if args.clearances is not None or not robot.is_3ppr:
         from ..report.accuracy_report import REPORT_PHIS_DEG, accuracy_report
         from ..io.resolve import load_clearances

@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-from ..errors import PmAccuracyError
+from ..errors import PmAccuracyError, PoseError
 
 
 def is_serial_robot(spec) -> bool:
@@ -29,7 +29,7 @@ def refuse_joints(args: argparse.Namespace) -> None:
                               f"{args.robot} is a parallel robot: give poses with --pose X Y PHI_DEG or --poses-csv")
 
 
-def _joint_values(arm, joints: list[list[float]] | None) -> np.ndarray:
+def _joint_values(arm, joints: list[list[float]] | None, *, allow_outside: bool = False) -> np.ndarray:
     """Configurations ``(N, n)`` in rad / mm from repeated ``--joints`` (deg for R, mm for P)."""
     units = " ".join(f"Q{k}_{j.unit.upper()}" for k, j in enumerate(arm.joints, start=1))
     if not joints:
@@ -39,7 +39,20 @@ def _joint_values(arm, joints: list[list[float]] | None) -> np.ndarray:
         if len(values) != arm.n:
             raise PmAccuracyError(f"--joints (occurrence {i}): {arm.name} has {arm.n} joints ({arm.kinds}), got "
                                   f"{len(values)} values; expected --joints {units}")
-    return arm.joints_from_cli(np.array(joints, dtype=float))
+    from ._common import MAX_POSE_VALUE
+
+    given = np.array(joints, dtype=float)
+    big = np.argwhere(np.abs(given) > MAX_POSE_VALUE)
+    if len(big):    # answered before with meaningless errors at an angle of 1e300 deg (with --allow-outside)
+        i, k = (int(v) for v in big[0])
+        raise PmAccuracyError(f"--joints (occurrence {i + 1}): Q{k + 1} = {given[i, k]:g} is beyond "
+                              f"{MAX_POSE_VALUE:g} (deg or mm) in magnitude: not a joint value (a typing slip?)")
+    q = arm.joints_from_cli(given)
+    try:    # "configuration k" is the k-th --joints: the line names the option
+        arm.check_joints(q, allow_outside=allow_outside)
+    except PoseError as exc:
+        raise type(exc)(f"--joints: {exc}") from None
+    return q
 
 
 def _named(key: str, value: np.ndarray):
@@ -67,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from . import _common
 
     arm = SerialArm.load(args.robot)
-    q = _joint_values(arm, args.joints)
+    q = _joint_values(arm, args.joints, allow_outside=args.allow_outside)
     sources = load_serial_sources(_common.clearances_or_default(args, arm), arm)
     result = max_serial_errors(arm, sources, q, allow_outside=args.allow_outside, details=args.details)
     columns = result.columns()

@@ -62,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_clearances(p)
     p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
                    help="one pose: x mm, y mm, phi deg")
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", metavar="PHI",
                    help="orientation(s) of a percentile map in degrees: several values and/or the option repeated "
                         "(needs --out)")
     p.add_argument("--grid", type=_common.positive_int, default=21, metavar="N",
@@ -133,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
             _common.emit(rows, args.format)
         return 0
 
+    _common.check_grid_memory(len(args.phi_deg), args.grid, "--grid")   # before the output and the long-run warning
     out = _common.prepare_output(args.out, "--out", (".nc", ".csv"))
     # rough rate: 2e6 point-samples per second (measured on a 2-core machine; points outside the workspace skipped)
     _common.warn_long_run(len(args.phi_deg) * args.grid ** 2 * (args.samples or 10_000) / 2e6,

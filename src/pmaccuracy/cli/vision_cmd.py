@@ -247,7 +247,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                     "--marker-height-mm above the reference plane (seeded, reproducible).")
     p.add_argument("--x", type=_common.finite_float, default=0.0, help="x of the platform centre, mm")
     p.add_argument("--y", type=_common.finite_float, default=0.0, help="y of the platform centre, mm")
-    p.add_argument("--phi-deg", type=_common.finite_float, default=0.0, help="orientation, deg")
+    p.add_argument("--phi-deg", type=_common.angle_deg, default=0.0, help="orientation, deg")
     _add_height(p)
     _add_spacing(p, "side of the marker square")
     p.add_argument("--marker-radius-mm", type=_positive_float, default=1.5,
@@ -581,12 +581,12 @@ def run_batch(args: argparse.Namespace) -> int:
     _check_scale(args.mm_per_pixel)
     if _is_calibration_manifest(args.manifest):
         return _run_calibration_batch(args, out)
+    rows = read_manifest(args.manifest)   # a missing or unreadable manifest is named before any option is blamed
     if args.calibration is None:
         raise PmAccuracyError("--mm-per-pixel: the clearance experiment's manifest (image,point,x_nom,y_nom,"
                               "phi_nom_deg,push) needs --calibration CAL.toml")
     calibration = _load_calibration(args.calibration)
     _check_height(args, calibration, args.calibration)
-    rows = read_manifest(args.manifest)
     measurements, records = measure_batch(rows, calibration, height_mm=args.marker_height_mm,
                                           spacing_mm=args.spacing_mm, polarity=args.polarity)
     for record in records:

@@ -19,7 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Several orientations (--phi-deg 0 30, or the option repeated) print one row each (JSON: a "
                     "list). With --compare, one row per robot and orientation and a side-by-side figure (--plot).")
     _common.add_robot(p)
-    p.add_argument("--phi-deg", type=_common.finite_float, nargs="+", action="extend", default=None,
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", default=None,
                    metavar="PHI",
                    help="platform orientation(s) in degrees, several values and/or the option repeated (default: "
                         "0)")

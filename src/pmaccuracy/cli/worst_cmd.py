@@ -11,7 +11,7 @@ HELP = "certified global worst case of dx, dy, dphi, dp over a region of poses (
 
 def add_region(p: argparse.ArgumentParser, *, phi_required: bool) -> None:
     """``--phi-deg LO HI`` and ``--region workspace|x0,x1,y0,y1`` (shared with ``synthesize``)."""
-    p.add_argument("--phi-deg", nargs=2, type=_common.finite_float, metavar=("LO", "HI"),
+    p.add_argument("--phi-deg", nargs=2, type=_common.angle_deg, metavar=("LO", "HI"),
                    required=phi_required, default=None if phi_required else [0.0, 0.0],
                    help="orientation interval in degrees, LO <= HI" + ("" if phi_required else " (default: 0 0)"))
     add_shape(p)
