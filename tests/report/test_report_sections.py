@@ -200,3 +200,18 @@ def test_a_failing_part_of_the_design_section_is_boxed_and_warned(tmp_path, monk
     md = (out / "report.md").read_text()
     assert "**(c) Tolerance synthesis: not computed.** Reason: internal error (RuntimeError: solver failed)" in md
     assert "**(b) Global maximum" in md and "**Verdict.**" in md and "could not be sized" in md
+
+
+def test_reproduce_takes_several_orientations_after_one_phi_deg(tmp_path, capsys):
+    """``--phi-deg 0 3`` as ``--phi-deg 0 --phi-deg 3`` (like map, workspace, worst); a repeated one is refused
+    before any folder is made."""
+    out = tmp_path / "rep"
+    assert main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--grid", "11",
+                 "--no-experiment", "--no-design", "--phi-deg", "0", "3", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    assert set(res["workspace"]) == {"0", "3"} and set(res["cases"]["rpr_typical"]) == {"0", "3"}
+    capsys.readouterr()
+    assert main(["reproduce", "--robot", "symmetric_3rpr", "--clearances", "rpr_typical", "--phi-deg", "0", "3",
+                 "--phi-deg", "3", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--phi-deg" in err[0] and "twice" in err[0] and not (tmp_path / "x").exists()

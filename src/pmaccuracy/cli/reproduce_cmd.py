@@ -24,8 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="clearances (preset or file): writes the accuracy report of ROBOT with C instead of the "
                         "paper's reproduction (for a 3-PPR); without it a robot other than a 3-PPR gets its "
                         "architecture's *_typical preset (printed on stderr)")
-    p.add_argument("--phi-deg", type=_common.angle_deg, action="append", metavar="PHI",
-                   help="orientations of the accuracy report's maps (deg, repeatable; default 0 and 30)")
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", metavar="PHI",
+                   help="orientations of the accuracy report's maps (deg): several values (--phi-deg 0 15) and/or "
+                        "the option repeated; default 0 and 30")
     p.add_argument("--target", action="append", metavar="NAME=VALUE",
                    help="design target of the design section's synthesis, repeatable: dx, dy, dp in mm, dphi_deg in "
                         "deg (e.g. --target dp=0.1 --target dphi_deg=0.1); default for the paper's robot dp=0.3 and "
@@ -82,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
 
         # without --clearances: the default rule of every command (a 3-PPR gets the paper's reproduction below)
         load_clearances(_common.clearances_or_default(args, robot), robot)  # checked before anything is computed
-        _common.prepare_output(args.out, "--out", folder=True)   # inputs first: a refused run leaves no folder
         phis = tuple(args.phi_deg) if args.phi_deg else REPORT_PHIS_DEG
+        if len(set(phis)) < len(phis):
+            raise ConfigError(f"an orientation is given twice: {' '.join(f'{v:g}' for v in phis)}", key="--phi-deg")
+        _common.prepare_output(args.out, "--out", folder=True)   # inputs first: a refused run leaves no folder
         results = accuracy_report(Path(args.out), robot, args.clearances, args.grid, phis_deg=phis, seed=args.seed,
                                   experiment=not args.no_experiment, design=not args.no_design, targets=targets,
                                   phi_range_deg=phi_range, command=_common.command_line(args), region=shape,
