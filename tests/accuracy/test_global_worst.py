@@ -11,6 +11,8 @@ convex in the position and attained at a vertex of the (convex) square.
 
 from __future__ import annotations
 
+from importlib import resources
+
 import numpy as np
 import pytest
 
@@ -203,3 +205,25 @@ def test_well_conditioned_random_robots_certify_over_an_orientation_interval(kin
     region = make_region(robot, phi, (nom[0] - half_mm, nom[0] + half_mm, nom[1] - half_mm, nom[1] + half_mm))
     res = global_worst(robot, src, region, max_boxes=30_000)
     check_certificate(robot, src, res, 1e-3)
+
+
+def test_a_singular_band_met_during_the_search_is_refused(tmp_path):
+    """A 3-PRR whose workspace at phi in [-15, 0] deg holds a singular band that the first samples miss: the
+    search's later maxima lie at poses the maps leave blank (condition above 100, checked independently by
+    ``singularity``), so the region is refused with the pose, never answered with a 'worst case' of millions of
+    mm (what it returned before)."""
+    import re
+
+    import pmaccuracy as pm
+    from pmaccuracy.accuracy.global_worst import SingularRegionError
+    from pmaccuracy.kinematics import singularity
+
+    text = (resources.files("pmaccuracy") / "data" / "robots" / "symmetric_3prr.toml").read_text()
+    text = text.replace("s_range = [-200.0, 0.0]", "s_range = [-300.0, 100.0]")
+    k = text.rindex("working_mode = 1")
+    (tmp_path / "band.toml").write_text(text[:k] + "working_mode = -1" + text[k + len("working_mode = 1"):])
+    robot = pm.load_robot(str(tmp_path / "band.toml"))
+    with pytest.raises(SingularRegionError) as info:
+        pm.global_worst(robot, "prr_typical", pm.make_region(robot, tuple(np.radians([-15.0, 0.0])), None))
+    x, y, phi = (float(v) for v in re.search(r"x=(\S+) mm, y=(\S+) mm, phi=(\S+) deg", str(info.value)).groups())
+    assert singularity(robot, np.array([[x, y, np.radians(phi)]])).condition[0] > 100

@@ -478,6 +478,9 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
         if np.any(np.isfinite(vals)):
             k = np.nanargmax(np.where(np.isnan(vals), -np.inf, vals), axis=0)
             better = vals[k, range(4)] > lower
+            # a new maximum at a pose the maps leave blank (condition above max_condition) is the singularity
+            # coming into the region, as for the first samples: refused, never returned as a finite worst case
+            _check_regular(robot, pts[k[better]], region, max_condition)
             lower = np.where(better, vals[k, range(4)], lower)
             lower_pose = np.where(better[:, None], pts[k], lower_pose)
         sizes = np.column_stack([boxes[:, 1] - boxes[:, 0], boxes[:, 3] - boxes[:, 2],
