@@ -61,7 +61,7 @@ from ..kinematics import inverse_kinematics, regular_mask
 from ..kinematics.workspace import constant_orientation_workspace
 from .figures import plot_panels, render
 from .design_text import span, trust, write  # noqa: F401 - span and trust are part of this module's face
-from .sections import SECTION_ERRORS, SectionFailedWarning
+from .sections import SectionFailedWarning, reason_of
 from .statistics_report import statistics_section
 
 #: Condition number (of A, and inverse transmission) above which a corner is left out of table (a).
@@ -479,14 +479,14 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
             poses, pose_labels = check_poses(robot, cases[label], phi_range, shape)
             rows += certified_rows(robot, label, poses, pose_labels, scales, clearances=cases[label])
         except Exception as exc:   # noqa: BLE001 - a failing part becomes a box, the rest is still written
-            rows.append({"case": label, "error": _reason(exc)})
+            rows.append({"case": label, "error": reason_of(exc)})
     got = {}
     for key, job in jobs.items():
         t = time.perf_counter()
         try:
             got[key] = job.result()
         except Exception as exc:   # noqa: BLE001 - one part failing (a singular region...) is said, not fatal
-            got[key] = {"error": _reason(exc)}
+            got[key] = {"error": reason_of(exc)}
         got[key]["wait_s"] = time.perf_counter() - t
     data = {"settings": {"cases": labels, "scales": list(scales), "phi_range_deg": list(phi_range),
                          "gap": GLOBAL_GAP, "targets": dict(targets or {}), "threshold_dp": threshold,
@@ -527,12 +527,3 @@ def design_section(doc: Document, robot: Manipulator, out: str | Path, results: 
     results["design_decisions"] = data
     write(doc, robot, data, figure, cert_figure)
     return data
-
-
-def _reason(exc: BaseException) -> str:
-    """An error's message on one line (its type when it has none); an error that is not the library's or a
-    numerical one is named an internal error (a defect to report)."""
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    if not isinstance(exc, SECTION_ERRORS):
-        text = f"internal error ({type(exc).__name__}: {text}); please report it with the command line"
-    return text

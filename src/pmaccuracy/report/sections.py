@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, TextIO
 
 import numpy as np
+from tqdm import tqdm
 
 from ..errors import PmAccuracyError
 from ..model.plausibility import PlausibilityWarning
@@ -68,6 +69,21 @@ class SectionFailure:
 
     def to_dict(self) -> dict[str, str]:
         return {"section": self.title, "reason": self.reason, "error": self.error}
+
+
+def reason_of(exc: BaseException) -> str:
+    """A failure's reason on one line, as the box and the warning give it: the error's message (its type when it
+    has none); an exception outside :data:`SECTION_ERRORS` is a defect of pmaccuracy, not of the input, and is
+    named an internal error.
+
+    >>> reason_of(ZeroDivisionError("float division by zero"))
+    'float division by zero'
+    """
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if not isinstance(exc, SECTION_ERRORS):
+        text = (f"internal error ({type(exc).__name__}: {text}); please report it with the command line "
+                "(PMACCURACY_DEBUG=1 with --strict shows the traceback)")
+    return text
 
 
 def estimate(points: float = 0.0, *, seconds_per_point: float = 0.0, fixed: float = 0.0) -> float:
@@ -116,8 +132,6 @@ class SectionRunner:
 
     def run(self, sections: list[Section]) -> list[Any]:
         """Run ``sections`` in order; returns their return values (``None`` for a failed one)."""
-        from tqdm import tqdm
-
         if self.stream is not None:
             print(self.plan_text(sections), file=self.stream, flush=True)
         out = []
@@ -131,7 +145,7 @@ class SectionRunner:
         return out
 
     def run_one(self, section: Section) -> Any:
-        """Run one section; on a :data:`SECTION_ERRORS` error roll its blocks back and put a box in its place."""
+        """Run one section; on any exception roll its blocks back and put a box in its place (:func:`reason_of`)."""
         doc = self.doc
         mark = (len(doc.blocks), doc._sections, doc._figures)
         t0 = time.perf_counter()
@@ -144,10 +158,7 @@ class SectionRunner:
                 raise
             del doc.blocks[mark[0]:]
             doc._sections, doc._figures = mark[1], mark[2]
-            reason = " ".join(str(exc).split()) or type(exc).__name__
-            if not isinstance(exc, SECTION_ERRORS):   # a defect of pmaccuracy, not of the input: say so
-                reason = (f"internal error ({type(exc).__name__}: {reason}); please report it with the command "
-                          "line (PMACCURACY_DEBUG=1 with --strict shows the traceback)")
+            reason = reason_of(exc)
             failure = SectionFailure(section.title, reason, type(exc).__name__)
             self.failures.append(failure)
             self.results.setdefault("failed_sections", []).append(failure.to_dict())
