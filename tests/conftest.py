@@ -46,6 +46,28 @@ for _folder in (_HERE / "reference", _HERE):
 settings.register_profile("pmaccuracy", derandomize=True, database=None)
 settings.load_profile("pmaccuracy")
 
+def run_cli(argv, capsys, *, catch: bool = False):
+    """``(status, stdout, stderr)`` of ``pmaccuracy ARGV`` run in-process (every item passed through ``str``);
+    argparse's ``SystemExit`` counts as a status. With ``catch`` an escaping exception becomes the status
+    ``"exception"`` with its traceback appended to stderr (for batteries that must report every case); without
+    it the exception propagates to pytest. Imported by the test modules as ``from conftest import run_cli``."""
+    import traceback
+
+    from pmaccuracy.cli import main
+
+    try:
+        status = main([str(a) for a in argv])
+    except SystemExit as exc:
+        status = exc.code
+    except BaseException:  # noqa: BLE001 - reported by the caller's assertions
+        if not catch:
+            raise
+        out = capsys.readouterr()
+        return "exception", out.out, out.err + traceback.format_exc()
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
 #: Random geometries keep |sin(gamma + theta)| above this (guide and bearing well apart).
 MIN_SINE = 0.2
 #: Random home poses are kept further than this from the parallel singularity (condition number of A).

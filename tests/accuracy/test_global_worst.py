@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from pmaccuracy.accuracy.bounds import max_pose_errors
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError, EmptyWorkspaceError
 from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.accuracy.global_worst import SingularRegionError, global_worst, grid_best, make_region
 from pmaccuracy.kinematics import inverse_kinematics
 from pmaccuracy.io.resolve import load_clearances
 from pmaccuracy.kinematics.workspace import constant_orientation_workspace, home_pose
+from conftest import run_cli
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 CASE1 = load_clearances("case1", AALBORG)
@@ -147,12 +147,7 @@ def test_bad_regions():
 
 
 def run(argv, capsys):
-    try:
-        status = main(argv)
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def test_cli_json(capsys):

@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 
 from pmaccuracy.accuracy.bounds import max_pose_errors
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
 from pmaccuracy.model.manipulator import Manipulator
 from pmaccuracy.accuracy.global_worst import global_worst, make_region
 from pmaccuracy.kinematics import inverse_kinematics
 from pmaccuracy.io.resolve import load_clearances
 from pmaccuracy.accuracy.synthesis import clearance_toml, free_sources, parse_targets, pose_coefficients, synthesize
+from conftest import run_cli
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 RNG = np.random.default_rng(5)
@@ -105,12 +105,7 @@ def test_bad_targets(items, needle):
 
 
 def run(argv, capsys):
-    try:
-        status = main(argv)
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def test_cli_writes_a_clearance_file_that_bounds_reads(tmp_path, capsys):

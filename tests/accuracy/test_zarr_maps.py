@@ -14,9 +14,9 @@ import pytest
 import xarray as xr
 
 from pmaccuracy.accuracy import maps
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
 from pmaccuracy.accuracy.maps import error_map, load_map, save_map, write_zarr_map, zarr_progress
+from conftest import run_cli
 
 PHIS = np.radians([0.0, 30.0])
 N, TILE = 23, 8  # 2 x 3 x 3 = 18 tiles, the last row and column of tiles partial
@@ -90,12 +90,7 @@ def test_other_inputs_or_foreign_folder_refused(tmp_path):
 
 
 def _run(argv, capsys):
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def test_cli_zarr_threads_in_new_folder(tmp_path, capsys, memory_map):

@@ -21,21 +21,15 @@ import tomli_w
 
 from pmaccuracy.accuracy.bounds import max_pose_errors
 from pmaccuracy.model.clearances import ClearanceSet
-from pmaccuracy.cli import main
 from pmaccuracy.model.manipulator import Manipulator
+from conftest import run_cli
 
 AALBORG = Manipulator.preset("aalborg_3ppr")
 KEYS = ["x", "y", "phi_deg", "dx_max", "dy_max", "dphi_max_deg", "dp_max"]
 
 
 def run(argv, capsys):
-    """Run the CLI; returns (status, stdout, stderr). argparse errors (SystemExit) count as a status too."""
-    try:
-        status = main(argv)
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def library(poses_deg, clearances="case1", **kw):

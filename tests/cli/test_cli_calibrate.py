@@ -8,17 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from pmaccuracy.cli import main
 from pmaccuracy.model.manipulator import Manipulator
+from conftest import run_cli
 
 
 def run(argv, capsys):
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def test_plan_simulate_identify_compensate(tmp_path, capsys):

@@ -11,16 +11,11 @@ import math
 import numpy as np
 
 from serial_calibration_reference import arm_poses
-from pmaccuracy.cli import main
+from conftest import run_cli
 
 
 def run(argv, capsys):
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def _rows(path):

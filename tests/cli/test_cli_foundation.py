@@ -15,20 +15,14 @@ import sys
 import numpy as np
 import pytest
 
-from pmaccuracy.cli import main
+from conftest import run_cli
 
 L12_HOME = 192.34 - 83.15 - 30 * np.cos(np.radians(30))   # l1 = l2 at the home pose (mm)
 L3_HOME = 192.34 - 70.0 - 30.0
 
 
 def run(argv, capsys):
-    """Run the CLI in-process: (exit status, stdout, stderr)."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:   # argparse errors
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+    return run_cli(argv, capsys)
 
 
 def assert_one_line_error(code, out, err, *needles):

@@ -11,25 +11,17 @@ from __future__ import annotations
 import json
 import math
 import os
-import traceback
 
 import numpy as np
 import pytest
 
 from pmaccuracy.cli import NEGATIVE_NUMBER, main
+from conftest import run_cli
 
 
 def run(argv, capsys):
     """(status, stdout, stderr); an escaping exception is status "exception" with its traceback."""
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    except BaseException:  # noqa: BLE001 - reported by the assertions
-        out = capsys.readouterr()
-        return "exception", out.out, out.err + traceback.format_exc()
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys, catch=True)
 
 
 def assert_error(result, command, *needles):

@@ -10,17 +10,15 @@ from __future__ import annotations
 
 import json
 import os
-import traceback
 
-import numpy as np
 import pytest
 
 from pmaccuracy.accuracy.calibration.data import write_calibration_csv
 from pmaccuracy.accuracy.calibration.identify import identification_to_dict
 from pmaccuracy.accuracy.calibration.parameters import error_parameters
 from pmaccuracy.accuracy.calibration.simulate import simulate_calibration
-from pmaccuracy.cli import main
 from pmaccuracy.model.manipulator import Manipulator
+from conftest import run_cli
 
 #: A cell one character longer than the csv module's default field limit (131 072).
 HUGE = "a" * 131_073
@@ -28,15 +26,7 @@ HUGE = "a" * 131_073
 
 def run(argv, capsys):
     """(status, stdout, stderr); an escaping exception is status "exception" with its traceback."""
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    except BaseException:  # noqa: BLE001 - reported by the assertions
-        out = capsys.readouterr()
-        return "exception", out.out, out.err + traceback.format_exc()
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys, catch=True)
 
 
 def refused(argv, capsys, *needles, absent=()):

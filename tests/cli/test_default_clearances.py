@@ -18,10 +18,10 @@ from pathlib import Path
 import pytest
 import tomli_w
 
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
 from pmaccuracy.io.resolve import default_clearances
 from pmaccuracy.model import _tomlio
+from conftest import run_cli
 
 #: robot -> the preset the rule names for it (the issue's statement of the rule)
 EXPECTED = {"aalborg_3ppr": "case1", "symmetric_3ppr": "case1", "symmetric_3rrr": "rrr_typical",
@@ -30,13 +30,7 @@ NOTE = re.compile(r"^clearances: (\S+) \(default\)$")
 
 
 def run(argv, capsys):
-    """``(status, stdout, stderr)`` of ``pmaccuracy ARGV`` in-process (argparse's exits count too)."""
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def user_file(robot: str, folder: Path) -> str:

@@ -17,19 +17,13 @@ import numpy as np
 import pytest
 import tomli_w
 
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ConfigError
 from pmaccuracy.model import _tomlio
+from conftest import run_cli
 
 
 def run(argv, capsys):
-    """``(status, stdout, stderr)`` of ``pmaccuracy ARGV`` in-process (argparse's exits count too)."""
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def robot_file(tmp_path, preset: str, name: str, change=None) -> str:

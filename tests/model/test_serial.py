@@ -23,10 +23,10 @@ import pytest
 import tomli_w
 from scipy.optimize import minimize_scalar
 
-from pmaccuracy.cli import main
 from pmaccuracy.errors import ClearanceError, ConfigError, OutsideJointLimitsError, PoseError
 from pmaccuracy.model.serial import SerialArm, SerialErrorSources, SerialJoint, load_serial_sources, max_serial_errors, zonotope_max_norm
 from pmaccuracy.model.sources import JointErrors
+from conftest import run_cli
 
 QUANTITIES = ("dx", "dy", "dphi", "dp")
 #: Sources that displace by a vector (two error variables each).
@@ -344,12 +344,7 @@ def test_preset_arm_stretched_closed_form(capsys):
 # ---------------------------------------------------------------- CLI
 
 def run(argv, capsys):
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def write(path: Path, data) -> str:

@@ -17,8 +17,8 @@ import pytest
 import pmaccuracy as pm
 from pmaccuracy.accuracy.calibration.parameters import frame_apply
 from pmaccuracy.accuracy.calibration.plan import candidate_poses, plan_poses, pose_set_indices
-from pmaccuracy.cli import main
 from pmaccuracy.report.calibration_report import model_residuals, true_in_gauge
+from conftest import run_cli
 
 ROBOT, CLEARANCES, POSES, SEED = "symmetric_3rpr", "rpr_typical", 24, 2
 
@@ -186,12 +186,7 @@ def test_report_path_must_be_html(run, tmp_path):
 
 # ----------------------------------------------------------------------------------------------- command line
 def cli(argv, capsys):
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    out = capsys.readouterr()
-    return status, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 def test_cli_simulate_report_and_data_report(tmp_path, capsys):
