@@ -9,22 +9,15 @@ library's keyword, or nothing, or the run went on and wrote a report.
 
 from __future__ import annotations
 
-import traceback
-
 import pytest
 
-from pmaccuracy.cli import main
+from conftest import run_cli
 
 
 def run(argv, capsys):
     """(status, stderr); an escaping exception is status "exception" with its traceback."""
-    try:
-        status = main([str(a) for a in argv])
-    except SystemExit as exc:
-        status = exc.code
-    except BaseException:  # noqa: BLE001 - reported by the assertions
-        return "exception", capsys.readouterr().err + traceback.format_exc()
-    return status, capsys.readouterr().err
+    status, _, err = run_cli(argv, capsys, catch=True)
+    return status, err
 
 
 def refused_line(argv, capsys, option):

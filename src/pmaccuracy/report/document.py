@@ -1,6 +1,6 @@
 """A tiny document model rendered both as Markdown and as self-contained HTML.
 
-Reports are lists of blocks (headings, paragraphs, tables, figures); the HTML
+Reports are lists of blocks (headings, paragraphs, tables, figures, boxes for parts not computed); the HTML
 embeds every figure as a base64 PNG so a single file can be mailed or archived.
 """
 
