@@ -7,7 +7,8 @@ import argparse
 import numpy as np
 
 from ..errors import NoSolutionError, OutsideJointLimitsError, PoseError
-from . import _common
+from ..model.spatial import is_spatial
+from . import _common, spatial_cmd
 
 IK_HELP = "inverse kinematics: actuated and passive joint values of poses (any architecture)"
 FK_HELP = "forward kinematics: every assembly mode for actuator values (any architecture)"
@@ -20,9 +21,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "(for a 3-PPR also s and l as in the paper, Eq. 2a/2b). Lengths in mm, phi in "
                                    "degrees.")
     _common.add_robot(p)
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
-                   help="a pose: x mm, y mm, phi deg (repeatable)")
-    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    p.add_argument("--pose", nargs="+", type=_common.finite_float, action="append", metavar="V",
+                   help=spatial_cmd.POSE_HELP)
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg (planar) or the spatial robot's "
+                   "coordinates x,y,z,roll_deg,pitch_deg,yaw_deg (6-UPS), x,y,z (Delta, 3-UPU), z,roll_deg,pitch_deg "
+                   "(3-RPS, 3-PRS)")
     _common.add_format(p)
     p.set_defaults(func=run_ik)
 
@@ -33,12 +36,22 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "joints are within their ranges, its passive joints and each leg's working "
                                    "mode (sign of B_ii).")
     _common.add_robot(p)
-    p.add_argument("--joints", nargs=3, type=_common.finite_float, required=True, metavar=("Q1", "Q2", "Q3"),
-                   help="actuated joint values: mm for prismatic, deg for revolute actuators")
+    p.add_argument("--joints", nargs="+", type=_common.finite_float, required=True, metavar="Q",
+                   help="actuated joint values, one per leg (three for a planar robot, six for a 6-UPS): mm for "
+                        "prismatic, deg for revolute actuators")
     p.add_argument("--allow-outside", action="store_true",
                    help="accept actuator values outside their ranges")
     _common.add_format(p)
     p.set_defaults(func=run_fk)
+
+
+def _three(values, option: str, names: str) -> None:
+    """A planar robot's ``--pose``/``--joints`` take three values each."""
+    from ..errors import PmAccuracyError
+
+    for k, v in enumerate(values or [], start=1):
+        if len(v) != 3:
+            raise PmAccuracyError(f"{option} (number {k}): a planar robot takes three values {names}, got {len(v)}")
 
 
 def _to_file_units(robot, values: np.ndarray, kinds) -> list[float]:
@@ -65,6 +78,9 @@ def run_ik(args: argparse.Namespace) -> int:
     from ..kinematics import inverse_kinematics
 
     robot = _common.load_robot(args)
+    if is_spatial(robot):
+        return spatial_cmd.run_ik(args, robot)
+    _three(args.pose, "--pose", "X Y PHI_DEG (mm, mm, deg)")
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     ik = inverse_kinematics(robot, poses)
     out = []
@@ -101,6 +117,9 @@ def run_fk(args: argparse.Namespace) -> int:
     from ..kinematics import forward_kinematics
 
     robot = _common.load_robot(args)
+    if is_spatial(robot):
+        return spatial_cmd.run_fk(args, robot)
+    _three([args.joints], "--joints", "Q1 Q2 Q3 (mm or deg)")
     kinds = robot.actuated_kinds
     from ..model.plausibility import orientation_messages, warn
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from . import _common
+from ..errors import PmAccuracyError
 from ..io.resolve import robot_arg
 
 HELP = "constant-orientation workspace: exact region bounded by segments and arcs (Sec. 3, any architecture)"
@@ -23,6 +24,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    metavar="PHI",
                    help="platform orientation(s) in degrees, several values and/or the option repeated (default: "
                         "0)")
+    p.add_argument("--orientation-deg", type=_common.angle_deg, nargs=3, metavar=("ROLL", "PITCH", "YAW"),
+                   help="spatial 6-UPS: the fixed orientation of its constant-orientation workspace, roll pitch yaw "
+                        "in deg as extrinsic x-y-z rotations (default: 0 0 0)")
+    p.add_argument("--n", type=int, default=40, metavar="N",
+                   help="spatial robots: grid points per axis of the workspace (default 40; 8 to 200)")
+    p.add_argument("--html", metavar="FILE.html",
+                   help="spatial robots: also write an interactive 3D view of the workspace (one HTML page that "
+                        "works offline)")
     p.add_argument("--compare", nargs="+", metavar="ROBOT",
                    help="compare several robots (preset names or files) instead of --robot")
     _common.add_plot(p, "also write a figure: the robot with its workspaces at PHI and at 0, 30, -30 deg (at "
@@ -46,7 +55,20 @@ def run(args: argparse.Namespace) -> int:
 
     from ..kinematics.workspace import DEFAULT_PHIS_DEG, constant_orientation_workspace
 
+    from ..model.spatial import is_spatial
+
     robots = [robot_arg(spec) for spec in args.compare] if args.compare else [_common.load_robot(args)]
+    if any(is_spatial(r) for r in robots):
+        if len(robots) > 1:
+            raise PmAccuracyError("--compare takes planar robots only so far")
+        if not 8 <= args.n <= 200:
+            raise PmAccuracyError(f"--n: {args.n} grid points per axis; give 8 to 200")
+        from . import spatial_cmd
+
+        return spatial_cmd.run_workspace(args, robots[0])
+    for option, value in (("--orientation-deg", args.orientation_deg), ("--html", args.html)):
+        if value is not None:
+            raise PmAccuracyError(f"{option} is for spatial robots; {robots[0].name} is planar (use --phi-deg)")
     from pathlib import Path
 
     plot = Path(args.plot) if args.plot else None

@@ -52,8 +52,9 @@ def _not_text(path: str) -> NoReturn:
     raise ConfigError("not a UTF-8 text CSV file", source=path)
 
 
-def read_poses_csv(path: str | Path) -> np.ndarray:
-    """Poses from a CSV whose header names the columns ``x``, ``y``, ``phi_deg`` (mm, mm, deg) -> ``(N, 3)``.
+def read_poses_csv(path: str | Path, columns: tuple[str, ...] | None = None) -> np.ndarray:
+    """Poses from a CSV whose header names the columns ``x``, ``y``, ``phi_deg`` (mm, mm, deg) -> ``(N, 3)``
+    (or the given ``columns``, e.g. a spatial robot's ``x, y, z, roll_deg, pitch_deg, yaw_deg``).
 
     Other columns are ignored (so a map written by ``pmaccuracy map --out FILE.csv``
     feeds back into ``pmaccuracy bounds --poses-csv``); blank lines are skipped; a
@@ -67,15 +68,16 @@ def read_poses_csv(path: str | Path) -> np.ndarray:
         non-numeric or non-finite value (naming the line and the column), no poses
     """
     path = str(path)
+    columns = tuple(columns or POSE_COLUMNS)
     header = _header(path)
-    missing = [c for c in POSE_COLUMNS if c not in header]
+    missing = [c for c in columns if c not in header]
     if missing:
-        raise ConfigError(f"header must name the columns x,y,phi_deg (missing {','.join(missing)}), "
+        raise ConfigError(f"header must name the columns {','.join(columns)} (missing {','.join(missing)}), "
                           f"got {','.join(header)!r}", source=path)
-    cols = [header.index(c) for c in POSE_COLUMNS]
+    cols = [header.index(c) for c in columns]
     poses = _read_fast(path, len(header), cols)
     if poses is None:  # something the fast reader did not take: the careful reader explains or accepts it
-        poses = _read_careful(path, header, cols)
+        poses = _read_careful(path, header, cols, columns)
     if poses.shape[0] == 0:
         raise ConfigError("no poses in file", source=path)
     return poses
@@ -100,7 +102,7 @@ def _read_fast(path: str, n_columns: int, cols: list[int]) -> np.ndarray | None:
         return None
     if any(table.column(n).null_count for n in wanted):
         return None
-    out = np.empty((table.num_rows, 3))
+    out = np.empty((table.num_rows, len(cols)))
     for k, n in enumerate(wanted):
         _copy_column(table.column(n), out[:, k])
     if not np.isfinite(out).all():
@@ -121,7 +123,8 @@ def _copy_column(column, out: np.ndarray) -> None:
         pos += count
 
 
-def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
+def _read_careful(path: str, header: list[str], cols: list[int], columns: tuple[str, ...] = POSE_COLUMNS
+                  ) -> np.ndarray:
     """The plain :mod:`csv` reader: same result as the fast one on clean files, a precise error otherwise."""
     rows = []
     reader = None
@@ -137,7 +140,7 @@ def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
                     raise ConfigError(f"expected {len(header)} values, got {len(row)}", source=path,
                                       key=f"line {line}")
                 values = []
-                for j, name in zip(cols, POSE_COLUMNS):
+                for j, name in zip(cols, columns):
                     try:
                         v = float(row[j])
                     except ValueError:
@@ -153,7 +156,7 @@ def _read_careful(path: str, header: list[str], cols: list[int]) -> np.ndarray:
     except csv.Error as exc:  # e.g. a field longer than csv.field_size_limit() (131072 characters)
         where = f"line {reader.line_num}" if reader is not None and reader.line_num else None
         raise ConfigError(f"malformed CSV ({exc})", source=path, key=where) from None
-    return np.array(rows, dtype=float).reshape(-1, 3)
+    return np.array(rows, dtype=float).reshape(-1, len(columns))
 
 
 def float_table(columns: Mapping[str, np.ndarray]):

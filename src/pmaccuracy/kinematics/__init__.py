@@ -19,6 +19,9 @@ import numpy as np
 
 from ..errors import ConfigError, GeometryError, NoSolutionError, OutsideJointLimitsError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator, perp, unit
+from ..model.spatial import SpatialManipulator, is_spatial, is_spatial_architecture
+from ..model import _tomlio
+from . import spatial as _spatial
 from ..model.plausibility import check_orientations
 from ..numerics.linalg import inverse_3x3
 from ..numerics.screws import wrap
@@ -128,9 +131,15 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     >>> robot = Manipulator.preset("aalborg_3ppr")
     >>> (inverse_kinematics(robot, [0.0, 0.0, 0.0]).s.round(6) + 0.0).tolist()   # (+ 0.0: no -0.0)
     [-15.0, -15.0, 0.0]
+
+    A spatial robot (:class:`~pmaccuracy.model.spatial.SpatialManipulator`) takes poses ``(..., 6)``
+    ``[x, y, z mm, rotation vector rad]`` and gives a :class:`~pmaccuracy.kinematics.spatial.SpatialIK`
+    (:func:`pmaccuracy.kinematics.spatial.inverse_kinematics`).
     """
-    check_orientations(poses, "poses", poses=True)
     robot = resolve_robot(robot)  # a preset name or a TOML path too
+    if is_spatial(robot):
+        return _spatial.inverse_kinematics(robot, poses, tol)
+    check_orientations(poses, "poses", poses=True)
     poses = as_poses(poses)
     return ik_from_states(robot, leg_states(robot, poses), tol)
 
@@ -436,8 +445,13 @@ def _expand_locked(robot, q):
 
 
 def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOLERANCE,
-                       residual_tol: float = 1e-7) -> FKSolution:
+                       residual_tol: float = 1e-7, *, guess=None) -> FKSolution:
     """Every assembly mode for actuator values ``q (..., 3)`` (mm or rad), whatever the working modes.
+
+    A spatial robot: one set of actuator values ``(n,)`` without ``guess`` gives every real assembly mode
+    (:func:`pmaccuracy.kinematics.spatial.assembly_modes`); a batch ``(..., n)`` or a ``guess`` (poses
+    ``(..., 6)``) gives the pose Newton's method reaches from the guess (default: the home pose;
+    :func:`pmaccuracy.kinematics.spatial.forward_kinematics`).
 
     1. Lock each leg's actuated joint: its two passive joints make a dyad,
        ``kappa |p|^2 + g(phi) . p + h(phi) = 0`` (:meth:`pmaccuracy.model.chain.Chain.locked`).
@@ -455,6 +469,14 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
     A 3-PPR has at most two modes (the paper's analytic solution), a 3-RPR up to six.
     """
     robot = resolve_robot(robot)  # a preset name or a TOML path too
+    if is_spatial(robot):
+        q_arr = np.asarray(q, dtype=float)
+        if guess is None and q_arr.ndim == 1:
+            return _spatial.assembly_modes(robot, q_arr)
+        return _spatial.forward_kinematics(robot, q_arr, guess)
+    if guess is not None:
+        raise ConfigError("guess= is for spatial robots; a planar robot's forward kinematics gives every mode",
+                          key="guess")
     try:
         q = np.asarray(q, dtype=float)
     except (TypeError, ValueError):
@@ -595,7 +617,12 @@ def resolve_robot(robot, name: str = "robot") -> Manipulator:
     '3-PPR'
     """
     if isinstance(robot, (str, os.PathLike)):
-        loaded = Manipulator.load(robot)
+        data, source = _tomlio.read_spec(robot, kind="robot", folder=Manipulator.PRESET_FOLDER)
+        if is_spatial_architecture(data.get("architecture")):
+            loaded = SpatialManipulator.from_dict(data, source=source)
+            _spatial.check_reachable(loaded, source)
+            return loaded
+        loaded = Manipulator.from_dict(data, source=source)
         try:
             check_reachable(loaded)
         except GeometryError as exc:
@@ -604,7 +631,7 @@ def resolve_robot(robot, name: str = "robot") -> Manipulator:
             raise GeometryError(f"the actuated joint ranges give no usable joint values ({exc})",
                                 source=os.fspath(robot), key="legs") from None
         return loaded
-    if not hasattr(robot, "chains"):
+    if not hasattr(robot, "chains") and not is_spatial(robot):
         raise ConfigError(f"expected a Manipulator, a preset name or a robot TOML path, got {type(robot).__name__}",
                           key=name)
     return robot
@@ -619,7 +646,13 @@ def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.nda
     (:meth:`pmaccuracy.model.chain.Chain.screws`). For the 3-PPR
     ``A_i = [w_i^T E^T, -r_i w_i^T k_i]`` and ``B = diag(w_i^T E^T u_i)`` (Eq. 4a, 4b).
     NaN where a leg cannot reach the pose.
+
+    A spatial robot gives a :class:`~pmaccuracy.kinematics.spatial.SpatialJacobians` (the legs' actuation and
+    constraint wrenches, the overall 6 x 6 Jacobian and the forward one).
     """
+    robot = resolve_robot(robot)
+    if is_spatial(robot):
+        return _spatial.jacobians(robot, poses)
     check_orientations(poses, "poses", poses=True)
     ik = inverse_kinematics(robot, poses)
     return ik.A, ik.B
@@ -693,9 +726,15 @@ def raw_transmission(robot: Manipulator, states: tuple) -> list:
 
 
 def singularity(robot: Manipulator, poses: np.ndarray) -> Singularity:
-    """det A, the condition number of the homogenized A and the legs' transmission indices (Eq. 4a-4b)."""
-    check_orientations(poses, "poses", poses=True)
+    """det A, the condition number of the homogenized A and the legs' transmission indices (Eq. 4a-4b).
+
+    A spatial robot gives a :class:`~pmaccuracy.kinematics.spatial.SpatialSingularity` (serial, parallel and
+    constraint singularity measures).
+    """
     robot = resolve_robot(robot)  # a preset name or a TOML path too
+    if is_spatial(robot):
+        return _spatial.singularity(robot, poses)
+    check_orientations(poses, "poses", poses=True)
     poses = as_poses(poses)
     ik = inverse_kinematics(robot, poses)
     A_inv, det = inverse_3x3(ik.A)

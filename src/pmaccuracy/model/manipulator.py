@@ -28,6 +28,10 @@ from . import _tomlio
 from ._tomlio import round_trip_degrees  # noqa: F401 - re-exported (files and coordinates in degrees)
 from ..errors import ConfigError, GeometryError, UnsupportedArchitectureError
 from .legs import LEG_TYPES, Chain, ChainLeg, LegType, PPRLeg
+from .spatial_legs import ARCHITECTURE_ALIASES as _SPATIAL_ALIASES, SPATIAL_LEG_TYPES as _SPATIAL_TYPES
+
+#: Architectures of spatial robot files (:mod:`pmaccuracy.model.spatial`), refused here with a pointer there.
+SPATIAL_ARCHITECTURES = set(_SPATIAL_TYPES) | set(_SPATIAL_ALIASES)
 
 #: Keys of one ``[[legs]]`` table in a 3-PPR robot file.
 LEG_KEYS = PPRLeg.KEYS
@@ -79,6 +83,8 @@ class Manipulator(_tomlio.TomlPresets):
     legs: tuple[LegType, LegType, LegType]
     name: str = "custom"
     description: str = ""
+    #: Twist dimension: 3 (``[dx, dy, dphi]``); a :class:`~pmaccuracy.model.spatial.SpatialManipulator` has 6.
+    dimension: ClassVar[int] = 3
     KIND: ClassVar[str] = "robot"
     PRESET_FOLDER: ClassVar[str] = "robots"
 
@@ -172,6 +178,10 @@ class Manipulator(_tomlio.TomlPresets):
                 "this is a planar serial arm: it works with 'pmaccuracy bounds --joints Q1 Q2 ...' "
                 "(pmaccuracy.model.serial.SerialArm); the other commands take parallel robots", source=source,
                 key="architecture")
+        if arch in SPATIAL_ARCHITECTURES:
+            raise UnsupportedArchitectureError(
+                f"this is a spatial robot ({arch}): load it with pmaccuracy.load_robot or "
+                "pmaccuracy.model.spatial.SpatialManipulator", source=source, key="architecture")
         _tomlio.reject_unknown(data, {"architecture", "name", "description", "legs"}, source=source, where="")
         leg_type = LEG_TYPES.get(arch) if isinstance(arch, str) else None
         if leg_type is None:

@@ -1,0 +1,166 @@
+"""The ``ik``, ``fk`` and ``workspace`` commands for spatial robots (called by those commands when the robot file's
+architecture is spatial): parse the robot's own coordinates, call the kinematics, print.
+
+Coordinates on the command line: lengths in mm, angles in degrees, orientation as roll, pitch, yaw in the
+**extrinsic x-y-z** convention (``docs/guide/spatial.md``).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..errors import NoSolutionError, OutsideJointLimitsError, PmAccuracyError, PoseError
+from ..model.spatial import CONTROLLED, POSE_NAMES
+from . import _common
+
+#: What ``--pose`` takes, in every help text.
+POSE_HELP = ("a pose (repeatable). Planar robots: X Y PHI_DEG (mm, mm, deg). Spatial robots, their controlled "
+             "coordinates: 6-UPS X Y Z ROLL PITCH YAW, Delta and 3-UPU X Y Z, 3-RPS and 3-PRS Z ROLL PITCH (mm; "
+             "angles in deg, roll-pitch-yaw as extrinsic x-y-z rotations about the base axes)")
+
+#: Column names of the controlled coordinates in CSV files and outputs.
+COLUMN = {"x": "x", "y": "y", "z": "z", "roll": "roll_deg", "pitch": "pitch_deg", "yaw": "yaw_deg"}
+
+
+def _angles(names) -> list[bool]:
+    return [n in ("roll", "pitch", "yaw") for n in names]
+
+
+def poses(robot, pose_args, csv_path) -> np.ndarray:
+    """Full poses ``(N, 6)`` from ``--pose`` values or a CSV of the robot's controlled coordinates."""
+    from ..kinematics.spatial import complete_poses
+
+    names = robot.controlled
+    if bool(pose_args) == bool(csv_path):
+        raise PmAccuracyError(f"give poses with --pose {' '.join(n.upper() for n in names)} (repeatable) or "
+                              "--poses-csv FILE, not both")
+    if pose_args:
+        bad = [k for k, v in enumerate(pose_args, start=1) if len(v) != len(names)]
+        if bad:
+            raise PmAccuracyError(f"--pose (number {bad[0]}): a {robot.architecture} takes {len(names)} values "
+                                  f"{' '.join(n.upper() for n in names)} (mm, deg), got {len(pose_args[bad[0] - 1])}")
+        arr = np.array(pose_args, dtype=float)
+    else:
+        from ..io.csvio import read_poses_csv
+
+        arr = read_poses_csv(csv_path, tuple(COLUMN[n] for n in names))
+    big = np.argwhere(np.abs(arr) > _common.MAX_POSE_VALUE)
+    if len(big):
+        k, c = (int(v) for v in big[0])
+        raise PmAccuracyError(f"--pose (number {k + 1}): {names[c]} = {arr[k, c]:g} is beyond "
+                              f"{_common.MAX_POSE_VALUE:g} in magnitude (a typing slip?)")
+    arr[:, _angles(names)] = np.radians(arr[:, _angles(names)])
+    try:
+        return complete_poses(robot, arr)
+    except NoSolutionError as exc:
+        raise NoSolutionError(f"--pose: {exc}") from None
+
+
+def _pose_record(robot, pose) -> dict:
+    from ..kinematics.spatial import coordinates
+
+    c = coordinates(pose, degrees=True)
+    return {COLUMN[n]: float(v) for n, v in zip(POSE_NAMES, c)}
+
+
+def _joint_values(robot, q) -> list[float]:
+    return [float(np.degrees(v)) if k == "R" else float(v) for v, k in zip(q, robot.actuated_kinds)]
+
+
+def run_ik(args: argparse.Namespace, robot) -> int:
+    from ..kinematics.spatial import inverse_kinematics
+
+    full = poses(robot, args.pose, args.poses_csv)
+    ik = inverse_kinematics(robot, full)
+    out = []
+    for k in range(full.shape[0]):
+        record = _pose_record(robot, full[k])
+        record["q"] = _joint_values(robot, ik.q[k])
+        record["passive_deg"] = [{name: float(np.degrees(v[k])) for name, v in legs.items()}
+                                 for legs in ik.joint_angles]
+        record["within_limits"] = bool(ik.within_limits[k])
+        record["violations"] = ik.violations((k,))
+        out.append(record)
+    rows = []
+    for r in out:
+        row = {key: r[key] for key in COLUMN.values()}
+        row.update({f"q{i + 1}": v for i, v in enumerate(r["q"])})
+        row["within_limits"] = r["within_limits"]
+        row["violations"] = "; ".join(r["violations"])
+        rows.append(row)
+    _common.emit(out, args.format, records=rows)
+    return 0
+
+
+def run_fk(args: argparse.Namespace, robot) -> int:
+    from ..kinematics.spatial import assembly_modes
+
+    n = robot.n_actuators
+    if len(args.joints) != n:
+        raise PmAccuracyError(f"--joints: a {robot.architecture} has {n} actuators, got {len(args.joints)} values")
+    kinds = robot.actuated_kinds
+    q = np.array([np.radians(v) if k == "R" else v for v, k in zip(args.joints, kinds)])
+    outside = []
+    for i, (v, (lo, hi), k) in enumerate(zip(q, robot.strokes, kinds)):
+        if not lo - 1e-12 <= v <= hi + 1e-12:
+            unit, conv = ("deg", np.degrees) if k == "R" else ("mm", float)
+            outside.append(f"q{i + 1}={args.joints[i]:g} {unit} not in [{conv(lo):g}, {conv(hi):g}]")
+    if outside and not args.allow_outside:
+        raise OutsideJointLimitsError("--joints: actuator values outside their ranges: " + ", ".join(outside)
+                                      + " (--allow-outside to solve anyway)")
+    try:
+        modes = assembly_modes(robot, q)
+    except PoseError as exc:
+        raise PoseError(f"--joints: {exc}") from None
+    if modes.poses.shape[0] == 0:
+        raise NoSolutionError(f"no assembly mode: the legs cannot be closed with q = {list(args.joints)}")
+    out = []
+    for pose, ok, wm in zip(modes.poses, modes.within_limits, modes.working_modes):
+        record = _pose_record(robot, pose)
+        record["working_modes"] = [int(m) for m in wm]
+        record["within_limits"] = bool(ok)
+        out.append(record)
+    rows = []
+    for r in out:
+        row = {key: r[key] for key in COLUMN.values()}
+        row["working_modes"] = " ".join(f"{m:+d}" for m in r["working_modes"])
+        row["within_limits"] = r["within_limits"]
+        rows.append(row)
+    if args.format == "json":
+        _common.emit({"method": modes.method, "complete": modes.complete, "modes": out}, args.format)
+    else:
+        _common.emit(out, args.format, records=rows)
+    return 0
+
+
+def run_workspace(args: argparse.Namespace, robot) -> int:
+    """The constant-orientation workspace (6-UPS: at ``--orientation-deg``; Delta, 3-UPU: the reachable one) or the
+    (z, roll, pitch) workspace of a 3-RPS/3-PRS: volume, bounds, slices and the 3D view."""
+    from pathlib import Path
+
+    from ..kinematics.spatial_workspace import spatial_workspace
+
+    if getattr(args, "phi_deg", None):
+        raise PmAccuracyError(f"--phi-deg is the orientation of a planar robot; {robot.name} is a "
+                              f"{robot.architecture}: give --orientation-deg ROLL PITCH YAW")
+    plot = Path(args.plot) if args.plot else None
+    _common.check_plot(args)
+    html = Path(args.html) if getattr(args, "html", None) else None
+    if html is not None and html.suffix.lower() not in (".html", ".htm"):
+        raise PmAccuracyError(f"--html: {html} must end in .html")
+    orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
+    ws = spatial_workspace(robot, orientation=orientation, n=args.n)
+    data = {"robot": robot.name, "architecture": robot.architecture, **ws.summary()}
+    if plot is not None:
+        from ..report.spatial_figures import save_spatial_workspace_figure
+
+        save_spatial_workspace_figure(robot, ws, plot, dpi=args.dpi)
+    if html is not None:
+        from ..report.spatial_figures import write_spatial_workspace_page
+
+        write_spatial_workspace_page(robot, ws, html)
+    record = {k: v for k, v in data.items() if not isinstance(v, (dict, list))}
+    _common.emit(data, args.format, records=[record])
+    return 0
