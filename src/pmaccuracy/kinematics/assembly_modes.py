@@ -83,10 +83,15 @@ from ..errors import NoSolutionError, PoseError
 __all__ = ["AssemblyModes", "assembly_modes", "polish", "closure_residuals", "study_quadrics",
            "pose_to_study", "study_to_pose", "NoSolutionError"]
 
-#: A path is at the exceptional set ``e = 0`` once ``|e| / |z| <`` this at ``t <`` :data:`T_INF` (or when its step
-#: collapses there). A real pose has ``|e| / |z| >= 1 / sqrt(1 + (|p| / 2)^2) >= 0.55`` for ``|p| <= 3`` characteristic
-#: lengths (true whenever one constraint is a sphere: ``|p| <= |A| + L + |b|``).
-E_INF = 1e-2
+#: A path ends on the non-pose set ``e . e = 0`` once ``rho = |e . e| / ||z||^2 <`` :data:`E_INF` at ``t <``
+#: :data:`T_INF`, or when its step collapses with ``rho <`` :data:`E_LOST`. A real pose has
+#: ``rho = 1 / (1 + |p|^2 / 4) >= 0.3`` for ``|p| <= 3`` characteristic lengths (true whenever one constraint is a
+#: sphere: ``|p| <= |A| + L + |b|``); along paths into ``e . e = 0``, rho falls like t or faster (1e-9 at
+#: t = 1e-6 for Dietmaier's platform), while a finite complex solution with a large complex translation can have
+#: rho ~ 1e-5. At t = 0 a Newton-converged endpoint is finite when rho > :data:`E_FINITE`.
+E_FINITE = 1e-12
+E_INF = 1e-7
+E_LOST = 1e-2
 T_INF = 1e-6
 
 #: Bezout number of the seven quadrics in P^7: the number of homotopy paths.
@@ -302,6 +307,32 @@ def polish(spheres, planes, positions, rotations, iterations: int = 8):
 
 # ------------------------------------------------------------------------------------------------ homotopy
 
+def _solve(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Batched ``J x = rhs`` ``(P, 8, 8) (P, 8)``; rows with a singular or non-finite ``J`` give NaN (a failed step)."""
+    bad = ~np.all(np.isfinite(J), axis=(1, 2)) | ~np.all(np.isfinite(rhs), axis=1)
+    if bad.any():
+        J = J.copy()
+        J[bad] = np.eye(8)
+    try:
+        x = np.linalg.solve(J, rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        x = np.empty_like(rhs)
+        for i in range(len(J)):
+            try:
+                x[i] = np.linalg.solve(J[i], rhs[i])
+            except np.linalg.LinAlgError:
+                x[i] = np.nan
+    x[bad] = np.nan
+    return x
+
+
+def _rho(z: np.ndarray) -> np.ndarray:
+    """``|e . e| / ||z||^2`` (Hermitian norm) ``(P,)``: 0 on the non-pose set ``e . e = 0``; for a real pose
+    ``|e|^2 / (|e|^2 + |g|^2) = 1 / (1 + |p|^2 / 4)`` whatever the (complex) scale of ``z``."""
+    e = z[:, :4]
+    return np.abs(np.sum(e * e, axis=1)) / np.sum(z.real ** 2 + z.imag ** 2, axis=1)
+
+
 class _System:
     """``H(z, t) = (1 - t) F(z) + gamma t G(z)`` and the patch ``h . z = 1``, evaluated for many paths."""
 
@@ -336,7 +367,7 @@ class _System:
         J = self.jac(z, t, Qz)
         rhs = np.zeros((z.shape[0], 8), dtype=complex)
         rhs[:, :7] = -(self.gamma * G - F)
-        return np.linalg.solve(J, rhs[..., None])[..., 0]
+        return _solve(J, rhs)
 
     def newton(self, z, t):
         """One Newton step at fixed t: new z and the step's norm."""
@@ -345,7 +376,7 @@ class _System:
         rhs = np.empty((z.shape[0], 8), dtype=complex)
         rhs[:, :7] = -((1 - t)[:, None] * F + (self.gamma * t)[:, None] * G)
         rhs[:, 7] = 1 - z @ self.h
-        dz = np.linalg.solve(J, rhs[..., None])[..., 0]
+        dz = _solve(J, rhs)
         return z + dz, np.linalg.norm(dz, axis=1)
 
 
@@ -392,14 +423,34 @@ def _track(system: _System, z: np.ndarray, *, h0: float, hmax: float, tol: float
         steps[active] += 1
         done = acc[t[acc] <= 0.0]
         status[done] = 0
-        e_ratio = np.linalg.norm(z[active, :4], axis=1) / np.linalg.norm(z[active], axis=1)
+        e_ratio = _rho(z[active])
         near0 = active[(e_ratio < e_tol) & (t[active] < t_inf) & (status[active] < 0)]
         status[near0] = 2
         stuck = (dt[active] < 1e-13) | (steps[active] >= max_steps)
         lost = active[stuck & (status[active] < 0)]
-        status[lost] = np.where(e_ratio[stuck & (status[active] < 0)] < e_tol, 2, 1)
+        status[lost] = np.where(e_ratio[stuck & (status[active] < 0)] < E_LOST, 2, 1)
         active = active[status[active] < 0]
     return z, t, steps, status
+
+
+def _classify(system: _System, z: np.ndarray, status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Endpoints of tracked paths: Newton (5 steps) at t = 0 on those that reached it; status becomes 3 (finite:
+    converged, ``max |F_k| / ||z||^2 < 1e-8`` and ``rho >`` :data:`E_FINITE`), 2 (on ``e . e = 0``: no pose) or
+    1 (failed: lost, or reached t = 0 but Newton does not converge there away from ``e . e = 0``)."""
+    z, status = z.copy(), status.copy()
+    idx = np.flatnonzero(status == 0)
+    ze = z[idx]
+    with np.errstate(all="ignore"):
+        for _ in range(5):
+            ze, _dn = system.newton(ze, np.zeros(len(ze)))
+        rho = _rho(ze)
+        _, F, _ = system.parts(ze)
+        res = np.max(np.abs(F), axis=1) / np.sum(np.abs(ze) ** 2, axis=1)
+    ok = np.all(np.isfinite(ze), axis=1) & np.isfinite(res)
+    finite = ok & (rho > E_FINITE) & (res < 1e-8)
+    status[idx] = np.where(finite, 3, np.where(ok & (rho <= E_FINITE), 2, 1))
+    z[idx[ok]] = ze[ok]
+    return z, status
 
 
 @dataclass(frozen=True)
@@ -485,27 +536,17 @@ def assembly_modes(spheres: list[tuple] | None = None, planes: list[tuple] | Non
     v = np.hstack([np.ones((PATHS, 1)), signs]).astype(complex)
     z0 = v / (v @ h)[:, None]
 
-    e_tol = E_INF
-    z, t, steps, status = _track(system, z0, h0=0.05, hmax=0.1, tol=1e-8, max_steps=4000, e_tol=e_tol, t_inf=T_INF)
-    for k in range(2):
+    z, _, _, status = _track(system, z0, h0=0.05, hmax=0.1, tol=1e-8, max_steps=4000, e_tol=E_INF, t_inf=T_INF)
+    z, status = _classify(system, z, status)
+    for k in range(2):   # failed paths again from t = 1, with smaller steps and a tighter corrector
         again = np.flatnonzero(status == 1)
         if not again.size:
             break
-        z2, t2, st2, s2 = _track(system, z0[again], h0=0.05 / 4 ** (k + 1), hmax=0.1 / 4 ** (k + 1),
-                                 tol=1e-9, max_steps=8000, e_tol=e_tol, t_inf=T_INF)
-        z[again], t[again], status[again] = z2, t2, s2
-    # endpoints
-    reached = np.flatnonzero(status == 0)
-    ze = z[reached]
-    for _ in range(5):
-        ze, _dn = system.newton(ze, np.zeros(len(ze)))
-    e_ratio = np.linalg.norm(ze[:, :4], axis=1) / np.linalg.norm(ze, axis=1)
-    Qz, F, _ = system.parts(ze)
-    res = np.max(np.abs(F), axis=1) / np.linalg.norm(ze, axis=1) ** 2
-    finite_mask = (e_ratio >= e_tol) & (res < 1e-8)
-    status[reached[~finite_mask & (e_ratio >= e_tol)]] = 1
+        z2, _, _, s2 = _track(system, z0[again], h0=0.05 / 4 ** (k + 1), hmax=0.1 / 4 ** (k + 1),
+                              tol=1e-9, max_steps=8000, e_tol=E_INF, t_inf=T_INF)
+        z[again], status[again] = _classify(system, z2, s2)
     failed = int(np.sum(status == 1))
-    zf = ze[finite_mask]
+    zf = z[status == 3]
     finite = int(zf.shape[0])
     # dehomogenize: e . e = 1
     lam = 1 / np.sqrt(np.sum(zf[:, :4] ** 2, axis=1))
