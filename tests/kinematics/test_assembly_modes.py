@@ -167,7 +167,7 @@ def test_random_ups_known_pose_is_found(seed):
     check_modes(modes, spheres)
     assert contains(modes, p, R, 1e-7)
     assert modes.count % 2 == 0 and modes.count <= 40
-    assert modes.finite <= 40
+    assert modes.finite == 40     # a general 6-UPS: 40 complex assembly modes (Husty 1996)
 
 
 # ---------------------------------------------------------------------------------------- 3-RPS
@@ -179,7 +179,7 @@ def test_3rps_known_pose_is_found(seed):
     check_modes(modes, spheres, planes)
     assert contains(modes, p, R, 1e-7)
     assert modes.count % 2 == 0 and modes.count <= 16
-    assert modes.finite <= 16
+    assert modes.finite == 16     # a general 3-RPS: 16 complex assembly modes
 
 
 def test_symmetric_3rps_closed_form_modes():
@@ -233,7 +233,7 @@ def multistart(spheres, planes, rng, starts: int) -> list:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind, seed", [("ups", 11), ("rps", 13), ("rps", 14)])
+@pytest.mark.parametrize("kind, seed", [("ups", 28), ("ups", 14), ("rps", 16)])
 def test_multistart_finds_nothing_the_homotopy_misses(kind, seed):
     rng = np.random.default_rng(seed)
     if kind == "ups":
@@ -248,6 +248,7 @@ def test_multistart_finds_nothing_the_homotopy_misses(kind, seed):
         p2, R2, _ = polish(spheres, planes, p[None], R[None])
         assert contains(modes, p2[0], R2[0], 1e-6 * scale_of(spheres, planes)), (p, R)
     assert len(found) <= modes.count
+    assert modes.count >= 6       # the robots are chosen with several real modes, so the check has teeth
 
 
 def test_polish_converges_quadratically_from_nearby():
