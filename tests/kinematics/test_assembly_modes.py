@@ -281,3 +281,17 @@ GOOD = dietmaier()
 def test_bad_input_raises_pose_error(spheres, planes, match):
     with pytest.raises(PoseError, match=match):
         assembly_modes(spheres, planes)
+
+
+def test_no_real_mode_and_nearest():
+    """Legs far too short for the base and platform: 40 complex modes, none real; nearest() then raises."""
+    from pmaccuracy.errors import NoSolutionError
+    spheres = [(A, b, 0.05) for A, b, _ in dietmaier()]
+    modes = assembly_modes(spheres)
+    assert modes.count == 0 and modes.failed == 0
+    assert modes.positions.shape == (0, 3) and modes.rotations.shape == (0, 3, 3)
+    with pytest.raises(NoSolutionError, match="no real assembly mode"):
+        modes.nearest(np.zeros(3), np.eye(3))
+    ref = assembly_modes(dietmaier())
+    k = 17
+    assert ref.nearest(ref.positions[k] + 1e-3, ref.rotations[k]) == k

@@ -31,39 +31,48 @@ multiplicative, ``|w * e~|^2 = (w . w)(e . e)``, so after multiplying by ``e . e
     Study:   z^T [[0, I/2], [I/2, 0]] z = 0
 
 Seven homogeneous quadrics ``F_k(z) = z^T Q_k z`` in P^7: Bezout number 2^7 = 128. Every pose gives a solution
-with ``e != 0``; the solutions with ``e = 0`` (the "exceptional generator": there every plane quadric vanishes
-and every sphere quadric is ``4 g . g``) are no poses and are discarded. For a general 6-UPS, 40 of the 128
-paths end at poses (complex or real) and 88 at ``e = 0`` (Husty 1996; Dietmaier 1998).
+with ``e . e != 0``. Solutions with ``e . e = 0`` are no poses and are discarded: the "exceptional generator"
+``e = 0`` (there every plane quadric vanishes and every sphere quadric is ``4 g . g``, a 2-dimensional set of
+solutions) and, once planes are present, complex isotropic rotations ``e != 0, e . e = 0``. For a general 6-UPS,
+40 of the 128 paths end at poses (complex or real) and 88 at ``e = 0`` (Husty 1996); for a general 3-RPS, 16 end
+at poses and 112 on ``e . e = 0``.
 
 Homotopy (total degree, "gamma trick")::
 
     H(z, t) = (1 - t) F(z) + gamma t G(z),    G_k(z) = z_{k+1}^2 - z_0^2,   k = 0..6
     h . z = 1                                  (random complex affine patch of P^7)
 
-``gamma`` and ``h`` are random complex (``seed``); t runs from 1 (the 128 start points
+``gamma`` (on the unit circle) and ``h`` are random complex (``seed``); t runs from 1 (the 128 start points
 ``z = (1, +-1, ..., +-1) / (h . (1, +-1, ..., +-1))``) to 0. All 128 paths are tracked together, vectorized:
-batched 8x8 complex solves (``np.linalg.solve``), a Runge-Kutta-4 predictor on ``dz/dt = -H_z^-1 H_t`` and
-a Newton corrector, each path with its own adaptive step (halved when the corrector fails to converge in
-three iterations, doubled after three successes). Lengths are divided by a characteristic length (the largest
-|A|, |b| or L) before solving so the quadrics are of order one, and multiplied back after.
+batched 8x8 complex solves (``np.linalg.solve``), a Runge-Kutta-4 predictor on ``dz/dt = -H_z^-1 H_t``
+(``H_t = gamma G - F``) and a Newton corrector at the new t, each path with its own adaptive step (halved when
+three corrector iterations do not contract to ``1e-8`` relative, doubled after three accepted steps, at most
+0.1). Lengths are divided by a characteristic length ``s`` (the largest |A|, |b| or L) before solving so the
+quadrics are of order one, and multiplied back after.
 
 Completeness. For every ``gamma`` outside a finite set of real curves through the origin of C (probability one
 for a random ``gamma``) the solution set of ``H(z, t) = 0`` for ``t`` in (0, 1] consists of 128 smooth,
 non-crossing paths, and every isolated solution of the target ``F`` (here: every isolated pose, real or
 complex) is the limit of at least one of them as t -> 0 (Morgan & Sommese 1987; Sommese & Wampler, *The
 Numerical Solution of Systems of Polynomials*, 2005, Thm 8.4.1). All 128 paths are tracked, so no isolated pose
-is missed unless a path is lost. A path is *failed* when its step falls below ``1e-13`` or it exceeds the step
-budget before t = 0 without having reached the ``e = 0`` set; failed paths are re-tracked from t = 1 with a
-four-times smaller initial and maximum step and a tighter corrector, twice, and what still fails is counted in
-:attr:`AssemblyModes.failed` (0 in every case tested: a non-zero count means a pose may be missing).
-Endpoints: a path whose final ``|e| / |z|`` is below ``1e-5`` (the endpoint moves to ``e = 0`` like a
-fractional power of t, and Newton cannot converge there: singular) is at infinity; every other endpoint is
-refined by Newton on ``F`` at t = 0 and, if it converges, is a *finite* solution. It is scaled so that
-``e . e = 1`` (a complex scale ``1/sqrt(e . e)``); it is *real* when the imaginary parts are below ``1e-6``
-times the norm (a real pose has a real representative ``(e, g)`` with ``e . e = 1``; this scaling makes it real
-up to a sign). Each real one becomes ``(p, R)``, is polished by real Newton on the six original equations
-(:func:`polish`), and duplicates (the same pose from two paths, within 1e-6 mm and 1e-8 rad relative to the
-characteristic length) are removed.
+is missed unless a path is lost.
+
+Endpoints. With ``rho = |e . e| / ||z||^2`` (scale-invariant; a real pose has ``rho = 1 / (1 + |p|^2 / (4 s^2))``,
+at least 0.3 when one constraint is a sphere since then ``|p| <= |A| + L + |b| <= 3 s``), a path stops as *not a
+pose* when ``rho < 1e-7`` at ``t < 1e-6`` (along paths into ``e . e = 0`` rho falls like t or faster, and the
+endpoint is singular so Newton cannot converge there), or when its step collapses (below ``1e-13``) with
+``rho < 1e-2``. Paths that reach t = 0 get five Newton steps on ``F``; an endpoint is *finite* when they converge
+(``max |F_k| / ||z||^2 < 1e-8``) and ``rho > 1e-12``, not a pose when ``rho <= 1e-12``. Every other path is
+*failed* (step collapsed away from ``e . e = 0``, step budget exhausted, or no Newton convergence at t = 0): failed
+paths are tracked again from t = 1 with a four-times smaller initial and maximum step and a tighter corrector,
+twice, and what still fails is counted in :attr:`AssemblyModes.failed`. ``failed == 0`` (every case tested) means
+every path was accounted for, so by the theorem above every isolated real pose is in the result; a non-zero count
+means a pose may be missing (e.g. a singular, double assembly mode of a non-generic robot). A finite endpoint is
+scaled so that ``e . e = 1`` (complex factor ``1/sqrt(e . e)``: a real pose then becomes real up to a sign); it is
+*real* when its imaginary parts are below ``1e-6`` times its norm. Each real one becomes ``(p, R)``, is polished
+by real Newton on the six original equations (:func:`polish`), is kept when its residual is below ``tol * s``,
+and duplicates (the same pose from two paths: within ``max(1e-6 mm, 1e-12 s)`` in position and 1e-8 in each
+entry of R, about 1e-8 rad) are removed.
 
 References: M. L. Husty, "An algorithm for solving the direct kinematics of general Stewart-Gough platforms",
 Mech. Mach. Theory 31 (1996); P. Dietmaier, "The Stewart-Gough platform of general geometry can have 40 real
@@ -81,7 +90,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import NoSolutionError, PoseError
 
 __all__ = ["AssemblyModes", "assembly_modes", "polish", "closure_residuals", "study_quadrics",
-           "pose_to_study", "study_to_pose", "NoSolutionError"]
+           "pose_to_study", "study_to_pose"]
 
 #: A path ends on the non-pose set ``e . e = 0`` once ``rho = |e . e| / ||z||^2 <`` :data:`E_INF` at ``t <``
 #: :data:`T_INF`, or when its step collapses with ``rho <`` :data:`E_LOST`. A real pose has
@@ -423,12 +432,12 @@ def _track(system: _System, z: np.ndarray, *, h0: float, hmax: float, tol: float
         steps[active] += 1
         done = acc[t[acc] <= 0.0]
         status[done] = 0
-        e_ratio = _rho(z[active])
-        near0 = active[(e_ratio < e_tol) & (t[active] < t_inf) & (status[active] < 0)]
+        rho = _rho(z[active])
+        near0 = active[(rho < e_tol) & (t[active] < t_inf) & (status[active] < 0)]
         status[near0] = 2
         stuck = (dt[active] < 1e-13) | (steps[active] >= max_steps)
         lost = active[stuck & (status[active] < 0)]
-        status[lost] = np.where(e_ratio[stuck & (status[active] < 0)] < E_LOST, 2, 1)
+        status[lost] = np.where(rho[stuck & (status[active] < 0)] < E_LOST, 2, 1)
         active = active[status[active] < 0]
     return z, t, steps, status
 
@@ -459,8 +468,7 @@ class AssemblyModes:
 
     Attributes
     ----------
-    positions : ``(k, 3)`` mm, every real solution, distinct, sorted by the quaternion (first nonzero of ``e``
-        positive) lexicographically by position
+    positions : ``(k, 3)`` mm, every real solution, distinct, sorted lexicographically by position
     rotations : ``(k, 3, 3)`` rotation matrices platform -> base, det +1
     residuals : ``(k,)`` mm: max |residual| of the six equations after polishing (:func:`closure_residuals`:
         spheres as ``(|B - A|^2 - L^2) / (2 L)``, planes as ``n . (B - A)``)
@@ -483,6 +491,19 @@ class AssemblyModes:
     def count(self) -> int:
         """Number of real assembly modes."""
         return int(self.positions.shape[0])
+
+    def nearest(self, position, rotation, length: float = 1.0) -> int:
+        """Index of the mode nearest to a reference pose: least ``|dp|^2 + (length * angle(R_ref^T R))^2``.
+
+        position ``(3,)`` mm, rotation ``(3, 3)``, length mm per rad. Raises :class:`NoSolutionError` when there is
+        no real mode.
+        """
+        if self.count == 0:
+            raise NoSolutionError("forward kinematics has no real assembly mode for these closure equations")
+        dp = np.sum((self.positions - np.asarray(position, float)) ** 2, axis=1)
+        rel = np.swapaxes(self.rotations, 1, 2) @ np.asarray(rotation, float)
+        angle = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0))
+        return int(np.argmin(dp + (length * angle) ** 2))
 
 
 def assembly_modes(spheres: list[tuple] | None = None, planes: list[tuple] | None = None, *, seed: int = 0,
@@ -561,7 +582,7 @@ def assembly_modes(spheres: list[tuple] | None = None, planes: list[tuple] | Non
     # duplicates
     uniq = []
     for i in range(len(p)):
-        if all(np.max(np.abs(p[i] - p[j])) > 1e-6 * s or np.max(np.abs(R[i] - R[j])) > 1e-8 for j in uniq):
+        if all(np.max(np.abs(p[i] - p[j])) > max(1e-6, 1e-12 * s) or np.max(np.abs(R[i] - R[j])) > 1e-8 for j in uniq):
             uniq.append(i)
     order = sorted(uniq, key=lambda i: tuple(p[i]))
     return AssemblyModes(positions=p[order].reshape(-1, 3), rotations=R[order].reshape(-1, 3, 3),
