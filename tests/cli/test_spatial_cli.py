@@ -1,0 +1,86 @@
+"""``ik`` and ``fk`` on spatial robots: the robot's own coordinates in, JSON/CSV/table out, bad input in one line."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import run_cli
+
+import pmaccuracy as pm
+from pmaccuracy.kinematics import spatial as k
+
+
+def test_ik_hexapod_matches_the_library_in_degrees(capsys):
+    status, out, err = run_cli(["ik", "--robot", "stewart_6ups", "--pose", 5, -3, 410, 2, -1, 4, "--format", "json"],
+                               capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    robot = pm.load_robot("stewart_6ups")
+    pose = k.poses_from_coordinates([5, -3, 410, 2, -1, 4], degrees=True)
+    np.testing.assert_allclose(rec["q"], pm.inverse_kinematics(robot, pose).q, rtol=1e-12)
+    assert rec["within_limits"] is True and rec["violations"] == []
+    assert rec["yaw_deg"] == pytest.approx(4.0)
+
+
+def test_ik_3rps_reports_the_parasitic_motions(capsys):
+    status, out, err = run_cli(["ik", "--robot", "rps_3", "--pose", 350, 5, -3, "--format", "json"], capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    assert rec["z"] == pytest.approx(350.0) and rec["roll_deg"] == pytest.approx(5.0)
+    assert abs(rec["x"]) > 1e-3 and abs(rec["yaw_deg"]) > 1e-3      # parasitic, not zero
+
+
+def test_ik_csv_of_controlled_coordinates(tmp_path, capsys):
+    path = tmp_path / "p.csv"
+    path.write_text("x,y,z\n0,0,-800\n30,10,-750\n")
+    status, out, err = run_cli(["ik", "--robot", "delta_clavel", "--poses-csv", path, "--format", "csv"], capsys)
+    assert status == 0, err
+    lines = out.strip().splitlines()
+    assert lines[0].startswith("x,y,z,roll_deg,pitch_deg,yaw_deg,q1,q2,q3") and len(lines) == 3
+
+
+def test_fk_hexapod_lists_every_mode_and_the_home_pose_among_them(capsys):
+    robot = pm.load_robot("stewart_6ups")
+    q = pm.inverse_kinematics(robot, robot.home_pose).q
+    status, out, err = run_cli(["fk", "--robot", "stewart_6ups", "--joints", *q, "--format", "json"], capsys)
+    assert status == 0, err
+    data = json.loads(out)
+    assert data["complete"] is True and "homotopy" in data["method"]
+    homes = [m for m in data["modes"] if abs(m["z"] - 400.0) < 1e-6 and abs(m["x"]) < 1e-6]
+    assert len(homes) == 1 and homes[0]["within_limits"] is True
+    assert len(data["modes"]) % 2 == 0
+
+
+def test_fk_delta_in_degrees(capsys):
+    status, out, err = run_cli(["fk", "--robot", "delta_clavel", "--joints", 20, 25, 30], capsys)
+    assert status == 0, err
+    assert "+1 +1 +1" in out and "-1 -1 -1" in out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["ik", "--robot", "stewart_6ups", "--pose", 0, 0, 400], "--pose (number 1): a 6-UPS takes 6 values"),
+    (["ik", "--robot", "rps_3", "--pose", 0, 0, 400, 0], "--pose (number 1): a 3-RPS takes 3 values"),
+    (["fk", "--robot", "stewart_6ups", "--joints", 450, 450, 450], "--joints: a 6-UPS has 6 actuators"),
+    (["fk", "--robot", "delta_clavel", "--joints", 100, 20, 20], "--joints: actuator values outside their ranges"),
+    (["fk", "--robot", "stewart_6ups", "--joints", 100, 100, 100, 100, 100, 100, "--allow-outside"],
+     "no assembly mode"),
+    (["ik", "--robot", "stewart_6ups", "--pose", 0, 0, 1e12, 0, 0, 0], "beyond"),
+    (["workspace", "--robot", "stewart_6ups", "--phi-deg", 10], "--phi-deg is the orientation of a planar robot"),
+    (["workspace", "--robot", "aalborg_3ppr", "--orientation-deg", 1, 2, 3], "--orientation-deg is for spatial"),
+])
+def test_bad_input_one_line_status_2(argv, words, capsys):
+    status, out, err = run_cli(argv, capsys)
+    assert status == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], err
+    assert "Traceback" not in err
+
+
+def test_bad_robot_file_one_line(tmp_path, capsys):
+    text = (pm.load_robot("upu_3").to_toml()).replace("stroke = [", "stroke = [900.0, ", 1)
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    status, out, err = run_cli(["ik", "--robot", path, "--pose", 0, 0, 300], capsys)
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "bad.toml" in err and "legs[1].stroke" in err, err
