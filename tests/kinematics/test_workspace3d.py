@@ -177,6 +177,9 @@ def test_empty_region_and_seed_outside():
         ws.require_nonempty()
     with pytest.raises(EmptyWorkspaceError):
         find_box(ball([0, 0, 0], 1.0), [5.0, 0, 0], [1, 1, 1], [10, 10, 10])
+    for bad in ([1, 1], [0, 1, 1], "wide"):
+        with pytest.raises(ConfigError):
+            find_box(ball([0, 0, 0], 1.0), [0, 0, 0], bad, [10, 10, 10])
 
 
 @pytest.mark.parametrize("inside", [
@@ -197,7 +200,8 @@ def test_a_bad_box_is_refused(box):
         grid_workspace(ball([0, 0, 0], 1.0), box, 6)
 
 
-@pytest.mark.parametrize("kwargs", [{"n": 1}, {"n": 2.5}, {"n": (4, 4)}, {"tol": 0}, {"names": ("x", "y")}])
+@pytest.mark.parametrize("kwargs", [{"n": 1}, {"n": 2.5}, {"n": (4, 4)}, {"n": "many"}, {"tol": 0},
+                                    {"names": ("x", "y")}])
 def test_bad_options_are_refused(kwargs):
     with pytest.raises(ConfigError):
         grid_workspace(ball([0, 0, 0], 1.0), [[-1, 1]] * 3, **{"n": 6, **kwargs})

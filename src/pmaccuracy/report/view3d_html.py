@@ -94,7 +94,8 @@ _SCRIPT = r"""
     triad(); legend();
   }
   function triad() {
-    var narrow = W < 520, ox = narrow ? 34 : 46, oy = H - (narrow ? 34 : 46), len = narrow ? 22 : 30, cols = ['#d62728', '#2ca02c', '#1f77b4'];
+    var narrow = W < 520, ox = narrow ? 34 : 46, oy = H - (narrow ? 34 : 46), len = narrow ? 22 : 30;
+    var cols = ['#d62728', '#2ca02c', '#1f77b4'];
     ctx.font = (narrow ? '12px' : '13px') + ' sans-serif'; ctx.lineWidth = 2;
     for (var d = 0; d < 3; d++) {
       var e = [0, 0, 0]; e[d] = 1;
@@ -180,7 +181,8 @@ def view3d_html(ws: Workspace3D, *, title: str, robot_segments=None, max_points:
     how many). ``robot_segments`` ``(k, 2, 3)``: line segments drawing the robot at a pose, in red. The points
     are in a ``<script type="application/json" class="pm-view3d-data">`` element (key ``points``: x, y, z
     flat). ``element_id``: the ``<div>``'s id (default: from a hash of the content, so that several views on
-    one page do not clash). Axes are shown at one scale when the three units agree, else each stretched to the same size.
+    one page do not clash). Axes are shown at one scale when the three units agree, else each stretched to
+    the same size.
     An empty workspace raises :class:`~pmaccuracy.errors.EmptyWorkspaceError`.
     """
     ws.require_nonempty()
@@ -206,8 +208,8 @@ def view3d_html(ws: Workspace3D, *, title: str, robot_segments=None, max_points:
         element_id = "pm-view3d-" + hashlib.sha1(_json([title, payload]).encode()).hexdigest()[:12]
     units = "\u00b7".join(ws.units) if len(set(ws.units)) > 1 else f"{ws.units[0]}\u00b3"
     robot = " The robot at a pose is drawn in red." if len(seg) else ""
-    caption = (f"{len(shown)} of {len(ws.boundary_points)} boundary points shown"
-               f"{' (a random subset: at most ' + str(max_points) + ')' if len(shown) < len(ws.boundary_points) else ''}"
+    subset = f" (a random subset: at most {max_points})" if len(shown) < len(ws.boundary_points) else ""
+    caption = (f"{len(shown)} of {len(ws.boundary_points)} boundary points shown{subset}"
                f", coloured by {ws.names[2]}; volume {value_with_error(ws.volume, ws.volume_error)} {units}.{robot} "
                f"Drag to rotate, use the wheel or pinch to zoom.")
     script = _SCRIPT % {"id": _json(element_id)}

@@ -90,7 +90,8 @@ def slices_figure(ws: Workspace3D, values: Sequence[float], *, title: str = "wor
         (a0, a1), (b0, b1) = ws.box[a_ax], ws.box[b_ax]
     else:
         bb = ws.bounding_box
-        pad_a, pad_b = 0.06 * (bb[a_ax, 1] - bb[a_ax, 0]) + ws.cell[a_ax], 0.06 * (bb[b_ax, 1] - bb[b_ax, 0]) + ws.cell[b_ax]
+        pad_a = 0.06 * (bb[a_ax, 1] - bb[a_ax, 0]) + ws.cell[a_ax]
+        pad_b = 0.06 * (bb[b_ax, 1] - bb[b_ax, 0]) + ws.cell[b_ax]
         a0, a1, b0, b1 = bb[a_ax, 0] - pad_a, bb[a_ax, 1] + pad_a, bb[b_ax, 0] - pad_b, bb[b_ax, 1] + pad_b
     equal = ws.units[a_ax] == ws.units[b_ax]
     cols = min(MAX_COLUMNS, len(values))
@@ -163,7 +164,7 @@ def view3d_figure(ws: Workspace3D, *, title: str = "workspace", max_points: int 
     height = 6.6
     fig = Figure(figsize=(WIDTH_IN, height))
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.0, 0.15, 0.76, 0.75), projection="3d")
+    ax = fig.add_axes((0.0, 0.18, 0.76, 0.72), projection="3d")
     sc = ax.scatter(shown[:, 0], shown[:, 1], shown[:, 2], c=shown[:, 2], cmap="viridis", s=1.5,
                     depthshade=False, linewidths=0)
     bb = ws.bounding_box
@@ -174,9 +175,9 @@ def view3d_figure(ws: Workspace3D, *, title: str = "workspace", max_points: int 
                                          (ax.set_zlim, ax.zaxis))):
         set_lim(bb[d, 0], bb[d, 1])
         axis.set_major_locator(MaxNLocator(4))
-    ax.set_xlabel(axis_label(ws, 0), fontsize=FONT_PT, labelpad=10)
-    ax.set_ylabel(axis_label(ws, 1), fontsize=FONT_PT, labelpad=10)
-    ax.set_zlabel(axis_label(ws, 2), fontsize=FONT_PT, labelpad=8)
+    ax.set_xlabel(axis_label(ws, 0), fontsize=FONT_PT, labelpad=14)
+    ax.set_ylabel(axis_label(ws, 1), fontsize=FONT_PT, labelpad=16)
+    ax.set_zlabel(axis_label(ws, 2), fontsize=FONT_PT, labelpad=12)
     ax.tick_params(labelsize=FONT_PT)
     ax.view_init(elev=elev, azim=azim)
     fig.suptitle(title, fontsize=TITLE_PT + 1, y=1 - 0.2 / height, va="top")
@@ -186,7 +187,7 @@ def view3d_figure(ws: Workspace3D, *, title: str = "workspace", max_points: int 
     cb.ax.tick_params(labelsize=FONT_PT)
     cb.ax.yaxis.set_major_locator(MaxNLocator(5))
     u = "\u00b7".join(ws.units) if len(set(ws.units)) > 1 else f"{ws.units[0]}$^3$"
-    fig.text(0.5, 0.025, f"{len(shown)} of {len(pts)} boundary points shown; volume "
+    fig.text(0.5, 0.02, f"{len(shown)} of {len(pts)} boundary points shown; volume "
              f"{value_with_error(ws.volume, ws.volume_error)} {u}",
              ha="center", va="bottom", fontsize=FONT_PT)
     return fig
