@@ -283,14 +283,15 @@ def inverse_kinematics(robot: SpatialManipulator, poses, tol: float = LIMIT_TOLE
 
 
 # ---------------------------------------------------------------------------------------------- parasitic motions
-def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = NEWTON_ITERATIONS) -> np.ndarray:
+def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = NEWTON_ITERATIONS,
+                   strict: bool = True) -> np.ndarray:
     """Full poses ``(..., 6)`` from the controlled coordinates ``(..., m)`` (mm and rad; extrinsic x-y-z angles).
 
     6-UPS: ``[x, y, z, roll, pitch, yaw]``; Delta and 3-UPU: ``[x, y, z]`` with the identity orientation; 3-RPS and
     3-PRS: ``[z, roll, pitch]``, the parasitic ``x, y, yaw`` solved by Newton from 0 on the three constraint
     equations ``axis_i . (p + R b_i - base_i) = 0`` (derivatives: ``axis_i[:2]`` for x, y and
     ``axis_i . (e_z x R b_i)`` for yaw). Raises :class:`~pmaccuracy.errors.NoSolutionError` where Newton does not
-    converge.
+    converge (``strict=False``: NaN poses there instead).
     """
     c = np.asarray(controlled, dtype=float)
     m = len(CONTROLLED[robot.mobility])
@@ -320,13 +321,15 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
         Jac = np.concatenate([np.broadcast_to(axes[:, :2], g.shape + (2,)),
                               np.sum(axes * np.cross(ez, Rb), axis=-1)[..., None]], axis=-1)
         with np.errstate(invalid="ignore"):
-            try:
-                xyw = xyw - np.linalg.solve(Jac, g[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                raise NoSolutionError("the parasitic motions cannot be solved: the legs' revolute axes are "
-                                      "degenerate at these coordinates") from None
+            Jac = np.where(np.isfinite(Jac), Jac, 0.0)
+            singular = np.abs(np.linalg.det(Jac)) < 1e-12
+            Jac = np.where(singular[..., None, None], np.eye(3), Jac)
+            xyw = xyw - np.linalg.solve(Jac, np.where(np.isfinite(g), g, 0.0)[..., None])[..., 0]
+            xyw = np.where(np.abs(xyw) < 1e9, xyw, np.nan)
     bad = ~np.all(np.abs(g) < 1e-8, axis=-1)
-    if np.any(bad):
+    if not strict:
+        xyw = np.where(bad[..., None], np.nan, xyw)
+    elif np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         raise NoSolutionError(f"no pose with the coordinates {np.round(c[idx], 6).tolist()} satisfies the legs' "
                               "constraints (the parasitic motions did not converge)")
