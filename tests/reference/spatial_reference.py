@@ -59,6 +59,16 @@ Conventions this module had to choose where the document is silent
   the angular columns divided by the characteristic length ``L = rms_i |b_i|`` (platform joint points; 1 mm
   if all zero), i.e. the twist is taken as ``[v, L w]``; each row then normalized to unit length; the measure
   is its smallest singular value (0 at a parallel singularity, <= 1). 6-UPS: the 6 actuator rows only.
+  Because the Delta / 3-UPU constraint rows are the rotation vector (pure couples), this measure does not see
+  constraint singularities of those robots; :func:`screw_singularity_measure` (below) does.
+* **screw_singularity_measure**: a second derivation from screw theory, not from finite differences: per leg
+  the wrenches reciprocal to its passive joint twists (6-UPS: U at A with axes ``base_axis`` (or any axis
+  normal to the leg) and ``base_axis x leg``, S at B; 3-RPS: R at A about ``axis``, S at B; 3-PRS: R at C about
+  ``axis``, S at B; 3-UPU: outer axis ``base_axis`` at A, inner axis ``base_axis x leg`` at A and at B, outer
+  ``R platform_axis`` at B; Delta: the two rod forces, along ``(B +- R spacing/2 axis) - (C +- spacing/2 axis)``),
+  stacked (6 x 6), moments over ``L``, rows unit, smallest singular value.
+* **Delta actuators away from R = I** (used by the finite-difference inverse / constraint Jacobians): the arm
+  angle of the leg's midpoint ``B = p + R b`` (the two rods are not separately closed when R != I).
 """
 
 from __future__ import annotations
@@ -444,6 +454,87 @@ def singularity_matrix(robot, position, R, h=1e-6):
 def parallel_singularity_measure(robot, position, R, h=1e-6):
     """Smallest singular value of the row-normalized stacked [actuation; constraint] matrix (see module)."""
     return float(np.linalg.svd(singularity_matrix(robot, position, R, h), compute_uv=False)[-1])
+
+
+def _null_rows(T, tol=1e-9):
+    """Orthonormal basis (rows) of the wrenches [f, m] reciprocal to the twists [v, w] in the rows of ``T``:
+    ``f . v + m . w = 0``, i.e. the null space of ``T @ swap`` with the pairing matrix swap = identity here
+    because twists are stored as [v, w] and wrenches as [f, m] (power f.v + m.w is the plain dot product)."""
+    T = np.atleast_2d(np.asarray(T, float))
+    _, sv, Vt = np.linalg.svd(T)
+    rank = int(np.sum(sv > tol * max(1.0, sv[0])))
+    return Vt[rank:]
+
+
+def _rot_twist(point, direction, P):
+    """Unit twist [v_P, w] of a rotation about the line through ``point`` along ``direction``."""
+    s = np.asarray(direction, float) / np.linalg.norm(direction)
+    return np.concatenate([np.cross(s, P - point), s])
+
+
+def _perp_to(d):
+    d = d / np.linalg.norm(d)
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    a = a - (a @ d) * d
+    return a / np.linalg.norm(a)
+
+
+def leg_wrench_systems(robot, position, R):
+    """Per leg, an orthonormal basis (rows, moments about P) of the wrenches the leg can transmit to the
+    platform with its actuator locked: the reciprocal screws of its passive joint twists (Delta: the two rod
+    forces). Written from screw theory, independently of the finite-difference Jacobians."""
+    arch = robot["architecture"]
+    P = np.asarray(position, float)
+    q = actuators(robot, P, R)
+    out = []
+    for k, leg in enumerate(legs(robot)):
+        B = _B(leg, P, R)
+        if arch == "delta":
+            C = _delta_elbow(leg, q[k])
+            h = 0.5 * leg["spacing"] * leg["axis"]
+            rows = []
+            for sg in (1.0, -1.0):
+                Bi, Ci = B + sg * (R @ (0.5 * leg["spacing"] * leg["axis"])), C + sg * h
+                u = (Bi - Ci) / np.linalg.norm(Bi - Ci)
+                rows.append(np.concatenate([u, np.cross(Bi - P, u)]))
+            out.append(np.array(rows))
+            continue
+        twists = []
+        for e in np.eye(3):  # spherical joint at B (3-UPU: replaced below)
+            twists.append(_rot_twist(B, e, P))
+        if arch == "6-UPS":
+            A = leg["base"]
+            d = B - A
+            a = leg.get("base_axis", _perp_to(d))
+            if np.linalg.norm(np.cross(a, d)) < 1e-9:
+                a = _perp_to(d)
+            c = np.cross(a, d)
+            twists += [_rot_twist(A, a, P), _rot_twist(A, c, P)]
+        elif arch == "3-RPS":
+            twists.append(_rot_twist(leg["base"], leg["axis"], P))
+        elif arch == "3-PRS":
+            C = leg["base"] + q[k] * leg["slide"]
+            twists.append(_rot_twist(C, leg["axis"], P))
+        elif arch == "3-UPU":
+            A = leg["base"]
+            d = B - A
+            a = leg["base_axis"]
+            c = np.cross(a, d)  # the inner axes (parallel) are normal to the outer axis and to the leg
+            twists = [_rot_twist(A, a, P), _rot_twist(A, c, P), _rot_twist(B, c, P), _rot_twist(B, R @ leg["platform_axis"], P)]
+        out.append(_null_rows(np.array(twists)))
+    return out
+
+
+def screw_singularity_measure(robot, position, R):
+    """Smallest singular value of all legs' transmissible wrenches stacked (moments divided by the
+    characteristic length, rows unit): 0 when the platform can move with every actuator locked. Unlike
+    :func:`parallel_singularity_measure` it also sees the constraint singularities of the lower-mobility
+    robots (e.g. a Delta whose rods are vertical can turn about z; a 3-UPU whose constraint couples are
+    coplanar)."""
+    W = np.vstack(leg_wrench_systems(robot, position, R)).copy()
+    W[:, 3:] /= characteristic_length(robot)
+    W /= np.linalg.norm(W, axis=1)[:, None]
+    return float(np.linalg.svd(W, compute_uv=False)[min(W.shape) - 1])
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -443,3 +443,40 @@ def test_monte_carlo_3rps_in_z_roll_pitch():
     v, se = S.monte_carlo_volume(r, None, box, 300, seed=5)
     exact = (zhi - zlo) * 0.02 * 0.02
     assert abs(v - exact) < 4 * se + 0.01 * exact
+
+
+# --- screw-theory wrench systems (a second, non-FD derivation) -------------------------------------------
+
+
+@pytest.mark.parametrize("arch", ARCHS)
+def test_wrench_systems_are_reciprocal_to_the_motion(arch):
+    """A leg's transmissible wrenches (reciprocal to its passive joints) do no work on any feasible motion of
+    the robot that keeps that leg's actuator still: W_k . J[:, j] = 0 for j != k (J from finite differences
+    of the forward kinematics; wrench [f, m] on twist [v, w]: f . v + m . w)."""
+    r = S.random_robot(arch, 2)
+    p, R = S.random_pose(r, 3)
+    J = S.jacobian_fd(r, p, R)
+    systems = S.leg_wrench_systems(r, p, R)
+    assert np.vstack(systems).shape == (6, 6)
+    for k, Wk in enumerate(systems):
+        others = np.delete(J, k, axis=1)
+        scale = np.abs(Wk).max() * np.abs(others).max()
+        assert np.abs(Wk @ others).max() < 1e-6 * scale
+        assert np.abs(Wk @ J[:, k]).max() > 1e-3 * scale  # the leg's own actuator does work
+
+
+def test_screw_and_fd_measures_agree_on_the_hexapod():
+    r = S.load_reference("6-UPS")
+    for seed in range(3):
+        p, R = S.random_pose(r, seed)
+        assert S.screw_singularity_measure(r, p, R) == pytest.approx(S.parallel_singularity_measure(r, p, R), abs=1e-6)
+    assert S.screw_singularity_measure(_exact_hexapod(), [0, 0, 300.0], S.rotation([0, 0, 90])) < 1e-9
+
+
+def test_screw_measure_at_the_delta_singularity():
+    r = S.load_reference("delta")
+    for lg in r["legs"]:
+        lg["rod"], lg["angle_range_deg"] = 315.0, [-180.0, 180.0]
+    z = -350 * math.sin(math.radians(60))
+    assert S.screw_singularity_measure(r, [0, 0, z], np.eye(3)) < 1e-5
+    assert S.screw_singularity_measure(r, [0, 0, z - 100], np.eye(3)) > 0.2
