@@ -520,7 +520,8 @@ def leg_wrench_systems(robot, position, R):
             d = B - A
             a = leg["base_axis"]
             c = np.cross(a, d)  # the inner axes (parallel) are normal to the outer axis and to the leg
-            twists = [_rot_twist(A, a, P), _rot_twist(A, c, P), _rot_twist(B, c, P), _rot_twist(B, R @ leg["platform_axis"], P)]
+            twists = [_rot_twist(A, a, P), _rot_twist(A, c, P), _rot_twist(B, c, P),
+                      _rot_twist(B, R @ leg["platform_axis"], P)]
         out.append(_null_rows(np.array(twists)))
     return out
 
@@ -654,7 +655,8 @@ def limit_report(robot, position, R) -> list[str]:
                     if s1[2] > 0 and s2[2] > 0:
                         dist = segment_distance(s1[0], s1[1], s2[0], s2[1])
                         if dist < s1[2] + s2[2]:
-                            lines.append(f"legs {a + 1} and {b + 1}: interference, distance {dist:.6g} mm < {s1[2] + s2[2]:g}")
+                            lines.append(f"legs {a + 1} and {b + 1}: interference, "
+                                         f"distance {dist:.6g} mm < {s1[2] + s2[2]:g}")
     return lines
 
 

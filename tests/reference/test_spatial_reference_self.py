@@ -335,8 +335,8 @@ def test_limit_reports():
     assert any("stroke" in x for x in rep) and not S.within_limits(r, [0, 0, 500.0], R)
     r2 = copy.deepcopy(r)
     r2["legs"][0]["base_cone_deg"] = 10.0
-    assert [x for x in S.limit_report(r2, p, R)] == [x for x in S.limit_report(r2, p, R) if x.startswith("leg 1: base cone")]
-    assert S.limit_report(r2, p, R)
+    rep = S.limit_report(r2, p, R)
+    assert rep and all(x.startswith("leg 1: base cone") for x in rep)
     r3 = copy.deepcopy(r)
     for lg in r3["legs"]:
         lg["radius"] = 60.0  # adjacent platform joints are 77.6 mm apart
