@@ -47,7 +47,7 @@ def _title(robot, ws) -> str:
 
         rpy = rotvec_to_euler_xyz(ws.orientation, degrees=True)
         extra = f" at roll, pitch, yaw = {', '.join(f'{a:g}' for a in np.round(rpy, 3))} deg"
-    return f"{robot.name} ({robot.label}): {what}{extra}"
+    return f"{robot.name}, {robot.label}: {what}{extra}"
 
 
 def slice_values(ws) -> np.ndarray:
