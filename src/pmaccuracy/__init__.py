@@ -21,7 +21,11 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
 * design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
 * calibration: ``pm.plan_poses``, ``pm.identify`` (from ``pm.read_calibration_csv``), ``pm.compensate``,
   ``pm.simulate_calibration`` (a virtual experiment), ``pm.calibration_report`` (its HTML report);
-* kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``.
+* kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``;
+* spatial robots (6-UPS, Delta, 3-RPS, 3-PRS, 3-UPU): the same kinematics with poses ``(N, 6)`` [x, y, z mm,
+  rotation vector rad] (``pm.poses_from`` takes scipy ``Rotation`` objects), ``pm.complete_poses`` (controlled
+  coordinates and parasitic motions), ``pm.assembly_modes`` (every real mode), ``pm.spatial_workspace``
+  (guide: "Spatial robots").
 
 Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming the file, key or argument.
 The names are loaded lazily: ``import pmaccuracy`` itself imports nothing heavy.
@@ -51,6 +55,13 @@ _EXPORTS = {
     **{name: "kinematics" for name in ("FKSolution", "IKSolution", "forward_kinematics", "inverse_kinematics",
                                        "jacobians", "kinematic_jacobian", "singularity")},
     "constant_orientation_workspace": "kinematics.workspace",
+    # spatial robots (issue 36)
+    "SpatialManipulator": "model.spatial",
+    **{name: "kinematics.spatial" for name in ("assembly_modes", "complete_poses", "poses_from",
+                                               "poses_from_coordinates", "SpatialIK", "SpatialFK", "SpatialModes",
+                                               "SpatialJacobians", "SpatialSingularity")},
+    **{name: "kinematics.spatial_workspace" for name in ("spatial_workspace", "orientation_workspace_at",
+                                                         "SpatialWorkspace")},
     # accuracy
     "max_pose_errors": "accuracy.bounds", "PoseErrorBounds": "accuracy.bounds",
     "max_serial_errors": "model.serial",

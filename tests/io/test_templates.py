@@ -40,7 +40,10 @@ def run(argv, capsys):
 
 
 def test_every_architecture_has_both_files_and_they_are_packaged():
-    assert sorted(p.name for p in TEMPLATES.iterdir()) == sorted(a.lower() for a in ARCHITECTURES)
+    from pmaccuracy.io.templates import SPATIAL_ARCHITECTURES
+
+    assert sorted(p.name for p in TEMPLATES.iterdir()) == sorted(a.lower() for a in ARCHITECTURES
+                                                                 + SPATIAL_ARCHITECTURES)
     data = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     globs = data["tool"]["setuptools"]["package-data"]["pmaccuracy"]
     for arch in ARCHITECTURES:
@@ -123,5 +126,5 @@ def test_unknown_architecture_is_one_line_naming_the_valid_ones(capsys):
     assert code == 2 and out == "" and err.count("\n") == 1
     assert err.startswith("pmaccuracy template: error:") and "3-RRP" in err
     assert all(a in err for a in ARCHITECTURES)
-    with pytest.raises(ConfigError, match="3-PPR, 3-RPR, 3-RRR, 3-PRR, serial"):
+    with pytest.raises(ConfigError, match="3-PPR, 3-RPR, 3-RRR, 3-PRR, serial, 6-UPS, delta"):
         template_text("hexapod")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..io.templates import ARCHITECTURES, architecture_name, template_text
+from ..io.templates import ARCHITECTURES, SPATIAL_ARCHITECTURES, architecture_name, template_text
 
 HELP = "print a commented template robot file (or, with --clearances, clearance file) of an architecture"
 
@@ -18,7 +18,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "the per-joint clearance file of that architecture instead. The templates' robots reach "
                     "their home pose (0, 0, 0; for the serial arm, every joint at 0).")
     p.add_argument("arch", metavar="ARCH",
-                   help=f"the architecture: {', '.join(ARCHITECTURES)} (upper or lower case)")
+                   help=f"the architecture: {', '.join(ARCHITECTURES + SPATIAL_ARCHITECTURES)} (upper or lower case; "
+                        "the spatial ones have robot templates only so far)")
     p.add_argument("--clearances", action="store_true",
                    help="print the per-joint clearance template (mm and rad) instead of the robot template")
     p.set_defaults(func=run)

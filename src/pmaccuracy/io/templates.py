@@ -6,6 +6,8 @@ reaches its home pose, ready to be copied and edited: ``pmaccuracy template 3-RR
 >>> from pmaccuracy.io.templates import ARCHITECTURES, template_text
 >>> ARCHITECTURES
 ('3-PPR', '3-RPR', '3-RRR', '3-PRR', 'serial')
+>>> SPATIAL_ARCHITECTURES
+('6-UPS', 'delta', '3-RPS', '3-PRS', '3-UPU')
 >>> template_text("3-rrr").splitlines()[0]
 '# A 3-RRR robot file: copy it, change the numbers, then'
 """
@@ -16,22 +18,29 @@ from importlib import resources
 
 from ..errors import ConfigError
 
-#: The architectures that have templates, as the command line names them.
+#: The planar architectures that have templates (robot and clearances), as the command line names them.
 ARCHITECTURES = ("3-PPR", "3-RPR", "3-RRR", "3-PRR", "serial")
+#: The spatial architectures that have robot templates (their clearance files come with spatial accuracy).
+SPATIAL_ARCHITECTURES = ("6-UPS", "delta", "3-RPS", "3-PRS", "3-UPU")
 
 
 def architecture_name(arch: str, key: str = "ARCH") -> str:
     """The canonical spelling of ``arch`` (case does not matter), or a ConfigError listing the valid ones."""
-    names = {a.lower(): a for a in ARCHITECTURES}
+    every = ARCHITECTURES + SPATIAL_ARCHITECTURES
+    names = {a.lower(): a for a in every}
     found = names.get(str(arch).strip().lower())
     if found is None:
-        raise ConfigError(f"no template for {arch!r}: choose one of {', '.join(ARCHITECTURES)}", key=key)
+        raise ConfigError(f"no template for {arch!r}: choose one of {', '.join(every)}", key=key)
     return found
 
 
 def template_resource(arch: str, clearances: bool = False):
     """The shipped file (an :mod:`importlib.resources` traversable) of ``arch``'s robot or clearance template."""
-    folder = architecture_name(arch).lower()
+    name = architecture_name(arch)
+    if clearances and name in SPATIAL_ARCHITECTURES:
+        raise ConfigError(f"no clearance template for a {name} yet: the clearances of spatial robots come with "
+                          "their accuracy model (robot templates: pmaccuracy template ARCH)", key="--clearances")
+    folder = name.lower()
     name = "clearances.toml" if clearances else "robot.toml"
     return resources.files("pmaccuracy") / "data" / "templates" / folder / name
 

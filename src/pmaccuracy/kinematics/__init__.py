@@ -22,7 +22,7 @@ from ..model.manipulator import Manipulator, perp, unit
 from ..model.spatial import SpatialManipulator, is_spatial, is_spatial_architecture
 from ..model import _tomlio
 from . import spatial as _spatial
-from ..model.plausibility import check_orientations
+from ..model.plausibility import check_orientations, spatial_robot_messages, warn
 from ..numerics.linalg import inverse_3x3
 from ..numerics.screws import wrap
 
@@ -620,6 +620,7 @@ def resolve_robot(robot, name: str = "robot") -> Manipulator:
         data, source = _tomlio.read_spec(robot, kind="robot", folder=Manipulator.PRESET_FOLDER)
         if is_spatial_architecture(data.get("architecture")):
             loaded = SpatialManipulator.from_dict(data, source=source)
+            warn(spatial_robot_messages(loaded, source), stacklevel=3)
             _spatial.check_reachable(loaded, source)
             return loaded
         loaded = Manipulator.from_dict(data, source=source)

@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import GeometryError, NoSolutionError, PoseError
 from ..model.spatial import CONTROLLED, SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, UPSLeg
+from .assembly_modes import assembly_modes as solve_modes
 from ..numerics.spatial import displace, euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz, segment_distance
 
 #: Slack of every joint limit (mm or rad): a pose computed on the workspace boundary counts as inside.
@@ -470,8 +471,6 @@ def assembly_modes(robot: SpatialManipulator, q) -> SpatialModes:
         poses = np.concatenate([p, np.zeros_like(p)], axis=-1)
         method = "intersection of three spheres (closed form)"
     else:
-        from .assembly_modes import assembly_modes as solve_modes
-
         spheres, planes = [], []
         for leg, qi in zip(robot.legs, q):
             if leg.ARCHITECTURE == "3-PRS":

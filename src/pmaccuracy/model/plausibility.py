@@ -419,3 +419,23 @@ def degree_key_messages(data: object, where: str = "") -> list[str]:
         for i, item in enumerate(data, start=1):
             out.extend(degree_key_messages(item, f"{where}[{i}]"))
     return out
+
+
+#: A spatial robot whose every length is below this (mm) was almost surely written in metres.
+METRES_SLIP_MM = 5.0
+
+
+def spatial_robot_messages(robot, source: str | None = None) -> list[str]:
+    """Warnings for a spatial robot file whose numbers look like a unit slip: every joint centre, stroke and
+    link length below :data:`METRES_SLIP_MM` (a hexapod of 0.3 mm: metres typed for millimetres)."""
+    sizes = []
+    for leg in robot.legs:
+        sizes.extend(abs(float(v)) for v in (*leg.base, *leg.platform))
+        if leg.ACTUATOR == "P":
+            sizes.extend(abs(float(v)) for v in leg.stroke)
+        sizes.extend(float(getattr(leg, key)) for key in ("rod", "arm") if hasattr(leg, key))
+    largest = max(sizes) if sizes else 0.0
+    if 0 < largest < METRES_SLIP_MM:
+        return _prefixed(source, [f"every length of the robot is below {METRES_SLIP_MM:g} mm (largest {_g(largest)}): "
+                                  "robot files are in mm, were these metres?"])
+    return []

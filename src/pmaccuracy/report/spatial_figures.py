@@ -14,6 +14,7 @@ import numpy as np
 
 from .._savefig import DEFAULT_DPI
 from ..kinematics.spatial import inverse_kinematics, platform_points, reference_pose
+from ..numerics.spatial import rotations, rotvec_to_euler_xyz
 from .view3d_html import write_view3d_page
 from .workspace3d_figures import save_slices_figure, save_view3d_figure
 
@@ -26,8 +27,6 @@ def robot_segments(robot, pose=None) -> np.ndarray:
     bodies (a leg, a Delta's arm and both rods, a 3-PRS's rod) and the base and platform outlines."""
     pose = reference_pose(robot) if pose is None else np.asarray(pose, dtype=float)
     ik = inverse_kinematics(robot, pose)
-    from ..numerics.spatial import rotations
-
     p, R = pose[:3], rotations(pose[3:])
     segs = [leg.segments(p, R, ik.q[i]) for i, leg in enumerate(robot.legs)]
     out = [s.reshape(-1, 2, 3) for s in segs]
@@ -43,8 +42,6 @@ def _title(robot, ws) -> str:
             "z-roll-pitch": "workspace in (roll, pitch, z)"}[ws.kind]
     extra = ""
     if ws.orientation is not None and np.any(ws.orientation):
-        from ..numerics.spatial import rotvec_to_euler_xyz
-
         rpy = rotvec_to_euler_xyz(ws.orientation, degrees=True)
         extra = f" at roll, pitch, yaw = {', '.join(f'{a:g}' for a in np.round(rpy, 3))} deg"
     return f"{robot.name}, {robot.label}: {what}{extra}"
