@@ -250,3 +250,19 @@ def test_interference_between_legs_is_detected():
     assert inter
     assert all(bool(ik.limits[key][0]) for key in inter)
     assert any(not bool(ik.limits[key][1]) for key in inter)
+
+
+def test_dietmaiers_hexapod_through_the_front_door_has_forty_real_modes():
+    """Dietmaier (1998): a general 6-SPS with 40 real assembly modes (data as in test_assembly_modes.py, via
+    martyushev/fkSGP), written as a robot file in mm (x 1000) and solved by pm.forward_kinematics."""
+    import pmaccuracy as pm
+    from test_assembly_modes import DIETMAIER_BASE, DIETMAIER_LENGTHS, DIETMAIER_PLATFORM
+
+    data = {"architecture": "6-UPS", "name": "dietmaier",
+            "legs": [{"base": list(1000.0 * a), "platform": list(1000.0 * b), "stroke": [1.0, 5000.0]}
+                     for a, b in zip(DIETMAIER_BASE, DIETMAIER_PLATFORM)]}
+    robot = SpatialManipulator.from_dict(data, source="dietmaier.toml")
+    modes = pm.forward_kinematics(robot, 1000.0 * DIETMAIER_LENGTHS)
+    assert modes.complete and modes.poses.shape[0] == 40
+    q = k.inverse_kinematics(robot, modes.poses).q
+    assert np.max(np.abs(q - 1000.0 * DIETMAIER_LENGTHS)) < 1e-8

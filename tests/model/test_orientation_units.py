@@ -111,7 +111,25 @@ def _region():
         return pm.make_region(PPR, (DEG15, DEG15), (-1.0, 1.0, -1.0, 1.0))
 
 
-CALLS = _calls()
+def _spatial_calls():
+    """The spatial robots' functions: rotation vectors, roll/pitch/yaw and a Delta's arm angles in rad."""
+    hexapod, delta, head = (pm.load_robot(n) for n in ("stewart_6ups", "delta_clavel", "rps_3"))
+
+    def pose(phi):
+        return [0.0, 0.0, 400.0, 0.0, 0.0, phi]
+    return {
+        "poses_from": lambda phi: pm.poses_from([0.0, 0.0, 400.0], [0.0, 0.0, phi]),
+        "poses_from_coordinates": lambda phi: pm.poses_from_coordinates([0.0, 0.0, 400.0, 0.0, 0.0, phi]),
+        "complete_poses": lambda phi: pm.complete_poses(head, [350.0, phi, 0.0]),
+        "assembly_modes": lambda phi: pm.assembly_modes(delta, [phi, 0.4, 0.4]),
+        "spatial_workspace": lambda phi: pm.spatial_workspace(hexapod, [0.0, 0.0, phi], n=8, tilt=False),
+        "spatial_inverse_kinematics": lambda phi: pm.inverse_kinematics(hexapod, pose(phi)),
+        "spatial_jacobians": lambda phi: pm.jacobians(hexapod, pose(phi)),
+        "spatial_singularity": lambda phi: pm.singularity(hexapod, pose(phi)),
+    }
+
+
+CALLS = {**_calls(), **_spatial_calls()}
 #: Public functions of the front door that take no pose or orientation (why).
 NO_ORIENTATION = {
     "load_robot": "a robot spec", "load_clearances": "a clearance spec", "save_map": "a dataset and a path",
@@ -125,6 +143,7 @@ NO_ORIENTATION = {
     "calibration_report": "an Identification and CalibrationData (read from files)",
     "design_region_preload": "a Region, checked where it is made (make_region)",
     "certify_preload": "a Region, checked where it is made (make_region)",
+    "orientation_workspace_at": "a position (mm); the orientations are generated inside",
 }
 
 

@@ -22,7 +22,7 @@ from ..model.manipulator import Manipulator, perp, unit
 from ..model.spatial import SpatialManipulator, is_spatial, is_spatial_architecture
 from ..model import _tomlio
 from . import spatial as _spatial
-from ..model.plausibility import check_orientations, spatial_robot_messages, warn
+from ..model.plausibility import check_angle_values, check_orientations, rotation_angles, spatial_robot_messages, warn
 from ..numerics.linalg import inverse_3x3
 from ..numerics.screws import wrap
 
@@ -138,6 +138,7 @@ def inverse_kinematics(robot: Manipulator, poses: np.ndarray, tol: float = LIMIT
     """
     robot = resolve_robot(robot)  # a preset name or a TOML path too
     if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
         return _spatial.inverse_kinematics(robot, poses, tol)
     check_orientations(poses, "poses", poses=True)
     poses = as_poses(poses)
@@ -470,6 +471,7 @@ def forward_kinematics(robot: Manipulator, q: np.ndarray, tol: float = LIMIT_TOL
     """
     robot = resolve_robot(robot)  # a preset name or a TOML path too
     if is_spatial(robot):
+        check_angle_values(rotation_angles(guess), "guess[..., 3:] (rotation vectors)")
         q_arr = np.asarray(q, dtype=float)
         if guess is None and q_arr.ndim == 1:
             return _spatial.assembly_modes(robot, q_arr)
@@ -653,6 +655,7 @@ def jacobians(robot: Manipulator, poses: np.ndarray) -> tuple[np.ndarray, np.nda
     """
     robot = resolve_robot(robot)
     if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
         return _spatial.jacobians(robot, poses)
     check_orientations(poses, "poses", poses=True)
     ik = inverse_kinematics(robot, poses)
@@ -734,6 +737,7 @@ def singularity(robot: Manipulator, poses: np.ndarray) -> Singularity:
     """
     robot = resolve_robot(robot)  # a preset name or a TOML path too
     if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
         return _spatial.singularity(robot, poses)
     check_orientations(poses, "poses", poses=True)
     poses = as_poses(poses)

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import GeometryError, NoSolutionError, PoseError
+from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, UPSLeg
 from .assembly_modes import assembly_modes as solve_modes
@@ -69,6 +70,12 @@ def poses_from(positions, orientations=None) -> np.ndarray:
     >>> poses_from([[0.0, 0.0, 500.0]], Rotation.from_euler("z", [90], degrees=True)).round(4).tolist()
     [[0.0, 0.0, 500.0, 0.0, 0.0, 1.5708]]
     """
+    if orientations is not None and not isinstance(orientations, Rotation):
+        try:
+            check_angle_values(np.linalg.norm(np.asarray(orientations, dtype=float), axis=-1),
+                               "orientations (rotation vectors)")
+        except (TypeError, ValueError):
+            pass
     p = np.asarray(positions, dtype=float)
     if orientations is None:
         r = np.zeros_like(p)
@@ -83,6 +90,8 @@ def poses_from(positions, orientations=None) -> np.ndarray:
 def poses_from_coordinates(coordinates, *, degrees: bool = False) -> np.ndarray:
     """Poses ``(..., 6)`` from ``[x, y, z, roll, pitch, yaw]`` (mm; extrinsic x-y-z angles, rad or deg)."""
     c = np.asarray(coordinates, dtype=float)
+    if not degrees and c.ndim and c.shape[-1] == 6:
+        check_angle_values(c[..., 3:], "coordinates[..., 3:] (roll, pitch, yaw)")
     return np.concatenate([c[..., :3], euler_xyz_to_rotvec(c[..., 3:], degrees=degrees)], axis=-1)
 
 
@@ -296,6 +305,9 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
     """
     c = np.asarray(controlled, dtype=float)
     m = len(CONTROLLED[robot.mobility])
+    angles = [k for k, i in enumerate(CONTROLLED[robot.mobility]) if i >= 3]
+    if angles and c.ndim and c.shape[-1] == m:
+        check_angle_values(c[..., angles], "controlled coordinates (angles)")
     if c.ndim == 0 or c.shape[-1] != m:
         raise PoseError(f"a {robot.architecture} takes {m} coordinates ({', '.join(robot.controlled)}), got shape "
                         f"{c.shape}")
@@ -452,6 +464,8 @@ def assembly_modes(robot: SpatialManipulator, q) -> SpatialModes:
     (:func:`pmaccuracy.kinematics.assembly_modes.assembly_modes`; up to 40 modes for a 6-UPS, 16 for a 3-RPS).
     """
     q = np.asarray(q, dtype=float)
+    if q.shape == (robot.n_actuators,):
+        check_angle_values(q[[k == "R" for k in robot.actuated_kinds]], "q (revolute actuators)", "arm angles")
     if q.shape != (robot.n_actuators,) or not np.all(np.isfinite(q)):
         raise PoseError(f"a {robot.architecture} takes {robot.n_actuators} finite actuator values, got "
                         f"{q.tolist() if q.size < 20 else q.shape}")

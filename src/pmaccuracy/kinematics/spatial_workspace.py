@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import EmptyWorkspaceError
+from ..model.plausibility import check_angle_values
 from ..model.spatial import SpatialManipulator
 from ..numerics.spatial import rotvecs
 from .spatial import complete_poses, controlled_coordinates, inverse_kinematics, reference_pose
@@ -103,6 +104,8 @@ def spatial_workspace(robot: SpatialManipulator, orientation=None, n: int = 40, 
     >>> ws.kind, ws.region.names
     ('reachable', ('x', 'y', 'z'))
     """
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
     ref = reference_pose(robot)
     size = _size(robot)
     inside = membership(robot, orientation)

@@ -439,3 +439,29 @@ def spatial_robot_messages(robot, source: str | None = None) -> list[str]:
         return _prefixed(source, [f"every length of the robot is below {METRES_SLIP_MM:g} mm (largest {_g(largest)}): "
                                   "robot files are in mm, were these metres?"])
     return []
+
+
+def check_angle_values(values, where: str, what: str = "rotation angles") -> None:
+    """:func:`check_orientations` for spatial angles: warn when the given angles (rad, any shape: rotation
+    angles ``|r|`` of rotation vectors, roll/pitch/yaw, a Delta's arm angles) look like degrees (beyond a full
+    turn). Call it first thing in a public function (it checks only calls from user code)."""
+    if _called_from_package(2):
+        return
+    try:
+        messages = degree_slip_messages(np.asarray(values, dtype=float), where, what)
+    except (TypeError, ValueError):
+        return
+    for message in messages:
+        warnings.warn(message, PlausibilityWarning, stacklevel=3)
+
+
+def rotation_angles(poses) -> np.ndarray:
+    """``|r|`` (rad) of the rotation vectors of poses ``(..., 6)``; empty for anything else (left to the callers'
+    own checks)."""
+    try:
+        arr = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError):
+        return np.zeros(0)
+    if arr.ndim == 0 or arr.shape[-1] != 6:
+        return np.zeros(0)
+    return np.linalg.norm(arr[..., 3:], axis=-1)
