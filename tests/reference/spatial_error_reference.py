@@ -478,7 +478,7 @@ def _support(Mr, sources, U):
     return f, X
 
 
-def max_norm_sampled(M, sources, rows=slice(0, 3), n=200000, seed=0, refine=8, n_best=20, return_point=False):
+def max_norm_sampled(M, sources, rows=slice(0, 3), n=200000, seed=0, refine=30, n_best=20, return_point=False):
     """Lower bound of max |M[rows] s| over the error set: the largest support value over ``n`` random unit
     directions, refined by fixed-point ascent ``u <- grad f(u) / |grad f(u)|`` (monotone for this convex,
     homogeneous f) from the best ones; each value is attained by the point ``x(u)`` of the set (returned
