@@ -72,7 +72,8 @@ ROUND = 1e-12
 #: Relative tolerance under which ``a_j.(a_i x a_k)`` counts as zero (coplanar generators).
 _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
-_CHUNK = 1 << 15
+_CHUNK = 1 << 11
+_ZCHUNK = 1 << 9
 _DEBUG = False
 
 
@@ -114,50 +115,64 @@ def _prepare(blocks) -> tuple[tuple[int, ...], list[np.ndarray]]:
 
 
 class _Layout:
-    """All blocks' columns side by side, ``C (N, 3, ncol)``: segments first, then discs, then ellipsoids."""
+    """All blocks' columns side by side, ``C (N, 3, ncol)``: the segments, then the discs' first columns, their
+    second columns, then the ellipsoids' first, second and third columns (each group contiguous)."""
 
     def __init__(self, flat: list[np.ndarray]):
         self.dims = [b.shape[-1] for b in flat]
-        self.order = [j for d in (1, 2, 3) for j, dj in enumerate(self.dims) if dj == d]
-        self.n1 = sum(1 for d in self.dims if d == 1)
-        self.n2 = sum(1 for d in self.dims if d == 2)
-        self.n3 = sum(1 for d in self.dims if d == 3)
-        self.C = np.ascontiguousarray(np.concatenate([flat[j] for j in self.order], axis=-1))
+        seg = [j for j, d in enumerate(self.dims) if d == 1]
+        disc = [j for j, d in enumerate(self.dims) if d == 2]
+        ell = [j for j, d in enumerate(self.dims) if d == 3]
+        self.n1, self.n2, self.n3 = len(seg), len(disc), len(ell)
+        self.cols = [(j, 0) for j in seg] + [(j, c) for c in range(2) for j in disc] \
+            + [(j, c) for c in range(3) for j in ell]
+        self.C = np.ascontiguousarray(np.stack([flat[j][:, :, c] for j, c in self.cols], axis=-1))
         self.s2 = self.n1 + 2 * self.n2  # end of the disc columns
+
+    def _groups(self):
+        n1, n2, n3, s2 = self.n1, self.n2, self.n3, self.s2
+        if n2:
+            yield n1, n2, 2
+        if n3:
+            yield s2, n3, 3
 
     def h(self, Y: np.ndarray) -> np.ndarray:
         """``h`` from the products ``Y = p^T C`` (``(..., ncol)``)."""
-        n1, s2 = self.n1, self.s2
-        out = np.abs(Y[..., :n1]).sum(-1)
-        if self.n2:
-            q = Y[..., n1:s2] ** 2
-            out = out + np.sqrt(q.reshape(q.shape[:-1] + (self.n2, 2)).sum(-1)).sum(-1)
-        if self.n3:
-            q = Y[..., s2:] ** 2
-            out = out + np.sqrt(q.reshape(q.shape[:-1] + (self.n3, 3)).sum(-1)).sum(-1)
+        out = np.abs(Y[..., :self.n1]).sum(-1)
+        for lo, n, d in self._groups():
+            q = Y[..., lo:lo + n] ** 2
+            for c in range(1, d):
+                q += Y[..., lo + c * n:lo + (c + 1) * n] ** 2
+            out += np.sqrt(q).sum(-1)
+        return out
+
+    def h0(self, Y: np.ndarray) -> np.ndarray:
+        """``h`` from the products laid out with the columns first, ``Y (ncol, ...)``."""
+        out = np.abs(Y[:self.n1]).sum(0)
+        for lo, n, d in self._groups():
+            q = Y[lo:lo + n] ** 2
+            for c in range(1, d):
+                q += Y[lo + c * n:lo + (c + 1) * n] ** 2
+            out += np.sqrt(q, out=q).sum(0)
         return out
 
     def unit_config(self, Y: np.ndarray) -> np.ndarray:
-        """The unit-ball points ``x`` attaining ``h`` (side by side like the columns), ``0`` at a null block."""
-        n1, s2 = self.n1, self.s2
+        """The unit-ball points ``x`` attaining ``h`` (laid out like the columns), ``0`` at a null block."""
+        n1 = self.n1
         X = np.empty_like(Y)
         X[..., :n1] = np.where(Y[..., :n1] >= 0, 1.0, -1.0)
-        for lo, hi, d in ((n1, s2, 2), (s2, Y.shape[-1], 3)):
-            if hi > lo:
-                q = Y[..., lo:hi].reshape(Y.shape[:-1] + ((hi - lo) // d, d))
-                nrm = np.sqrt((q ** 2).sum(-1, keepdims=True))
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    x = np.where(nrm > 0, q / nrm, 0.0)
-                X[..., lo:hi] = x.reshape(Y.shape[:-1] + (hi - lo,))
+        for lo, n, d in self._groups():
+            q = Y[..., lo:lo + d * n]
+            nrm = np.sqrt(sum(q[..., c * n:(c + 1) * n] ** 2 for c in range(d)))
+            inv = np.where(nrm > 0, 1.0 / np.where(nrm > 0, nrm, 1.0), 0.0)
+            X[..., lo:lo + d * n] = q * np.tile(inv, d)
         return X
 
     def split(self, X: np.ndarray) -> list[np.ndarray]:
-        """Side-by-side configuration ``(N, ncol)`` back to the blocks' order: list of ``(N, d_j)``."""
-        out: list[np.ndarray] = [None] * len(self.dims)  # type: ignore[list-item]
-        col = 0
-        for j in self.order:
-            out[j] = X[:, col:col + self.dims[j]]
-            col += self.dims[j]
+        """Configuration laid out like the columns ``(N, ncol)`` back to the blocks: list of ``(N, d_j)``."""
+        out = [np.empty((X.shape[0], d)) for d in self.dims]
+        for k, (j, c) in enumerate(self.cols):
+            out[j][:, c] = X[:, k]
         return out
 
 
@@ -182,12 +197,18 @@ def support(blocks, u) -> np.ndarray:
 
 
 def _zonotope(G: np.ndarray) -> np.ndarray:
-    """Exact maximizing sign vector ``(N, s)`` of ``|sum_j s_j g_j|`` for generators ``G (N, s, 3)`` (F6)."""
+    """Exact maximizing sign vector ``(N, s)`` of ``|sum_j s_j g_j|`` for generators ``G (N, s, 3)`` (F6).
+
+    Candidates, each a sign vector (so a point of S): the rank-1 one ``sign(g_j . g_max)``, and for every
+    pair ``i < k`` and ``(s_i, s_k)`` the vertex at the corner ``n = g_i x g_k`` (ties by ``sign(g_j . w)``).
+    Arrays are laid out with the poses last, so every operation runs along the poses.
+    """
     N, s, _ = G.shape
-    gn = np.sqrt((G ** 2).sum(-1))  # (N, s)
+    Gt = np.ascontiguousarray(G.transpose(2, 1, 0))                  # (3, s, N)
+    gn = np.sqrt((Gt ** 2).sum(0))                                  # (s, N)
     # rank-1 candidate: aligned with the largest generator
-    m = np.argmax(gn, axis=1)
-    am = G[np.arange(N), m]
+    m = np.argmax(gn, axis=0)
+    am = G[np.arange(N), m]                                         # (N, 3)
     best_S = np.where(np.einsum("nsc,nc->ns", G, am) >= 0, 1.0, -1.0)
     v = np.einsum("ns,nsc->nc", best_S, G)
     best = (v ** 2).sum(-1)
@@ -195,48 +216,54 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
         return best_S
     I, K = np.triu_indices(s, 1)
     p = I.size
-    own = np.zeros((p, s), dtype=bool)
-    own[np.arange(p), I] = True
-    own[np.arange(p), K] = True
-    ai, ak = G[:, I], G[:, K]                                   # (N, p, 3)
-    n = np.cross(ai, ak)
-    nn = np.sqrt((n ** 2).sum(-1))                              # (N, p)
-    T = np.matmul(n, G.transpose(0, 2, 1))                      # (N, p, s)
-    tie = (np.abs(T) <= _TIE * nn[..., None] * gn[:, None, :]) & ~own
-    S0 = np.where(tie | own, 0.0, np.sign(T))
-    v0 = np.matmul(S0, G)                                       # (N, p, 3)
-    ci = (v0 * ai).sum(-1)
-    ck = (v0 * ak).sum(-1)
-    gik = (ai * ak).sum(-1)
-    base = (v0 ** 2).sum(-1) + (ai ** 2).sum(-1) + (ak ** 2).sum(-1)
+    notown = np.ones((p, s, 1))
+    notown[np.arange(p), I] = 0.0
+    notown[np.arange(p), K] = 0.0
+    Gh = Gt / np.where(gn > 0, gn, 1.0)                              # unit generators (0 for a zero one)
+    ai, ak = Gt[:, I], Gt[:, K]                                     # (3, p, N)
+    n = np.stack([ai[1] * ak[2] - ai[2] * ak[1], ai[2] * ak[0] - ai[0] * ak[2], ai[0] * ak[1] - ai[1] * ak[0]])
+    nn = np.sqrt((n ** 2).sum(0))                                   # (p, N)
+    nh = n / np.where(nn > 0, nn, 1.0)
+    T = nh[0][:, None] * Gh[0][None]                                # (p, s, N): cosines to the normal
+    T += nh[1][:, None] * Gh[1][None]
+    T += nh[2][:, None] * Gh[2][None]
+    S0 = np.sign(T)
+    S0 *= np.abs(T) > _TIE                                          # ties (coplanar with the pair) -> 0
+    S0 *= notown                                                    # the pair's own signs come below
+    zeros = (S0 == 0).sum(1)                                        # (p, N): 2 + the ties
+    v0 = np.stack([(S0 * Gt[c][None]).sum(1) for c in range(3)])    # (3, p, N)
+    ci = (v0 * ai).sum(0)
+    ck = (v0 * ak).sum(0)
+    gik = (ai * ak).sum(0)
+    base = (v0 ** 2).sum(0) + (ai ** 2).sum(0) + (ak ** 2).sum(0)
     sig = np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]])
-    vals = base[..., None] + 2.0 * (sig[:, 0] * ci[..., None] + sig[:, 1] * ck[..., None]
-                                    + sig[:, 0] * sig[:, 1] * gik[..., None])   # (N, p, 4)
-    # entries with ties besides the pair: full candidates with the tie rule sign(a_j . w)
-    hard = np.flatnonzero(tie.any(-1).ravel())
-    if hard.size:
-        hn, hp = np.divmod(hard, p)
-        n_h, ai_h, ak_h = n[hn, hp], ai[hn, hp], ak[hn, hp]
+    vals = base[None] + 2.0 * (sig[:, 0, None, None] * ci[None] + sig[:, 1, None, None] * ck[None]
+                               + (sig[:, 0] * sig[:, 1])[:, None, None] * gik[None])   # (4, p, N)
+    # pairs with ties besides their own: full candidates with the tie rule sign(g_j . w)
+    hp, hn = np.nonzero(zeros > 2)
+    tie_of = lambda pp, nn_: (np.abs(T[pp, :, nn_]) <= _TIE) & (notown[pp, :, 0] > 0)  # noqa: E731
+    if hp.size:
+        n_h, ai_h, ak_h = n[:, hp, hn].T, ai[:, hp, hn].T, ak[:, hp, hn].T
         w1, w2 = np.cross(ak_h, n_h), np.cross(n_h, ai_h)
-        Gh = G[hn]                                              # (h, s, 3)
-        tie_h = tie[hn, hp]
+        Gh_ = G[hn]                                                 # (h, s, 3)
+        tie_h = tie_of(hp, hn)
         for q in range(4):
             w = sig[q, 0] * w1 + sig[q, 1] * w2
-            st = np.where(tie_h, np.sign(np.einsum("hsc,hc->hs", Gh, w)), 0.0)
-            vq = v0[hn, hp] + sig[q, 0] * ai_h + sig[q, 1] * ak_h + np.einsum("hs,hsc->hc", st, Gh)
-            vals[hn, hp, q] = (vq ** 2).sum(-1)
-    flat = vals.reshape(N, -1)
-    arg = np.argmax(flat, axis=1)
-    val = flat[np.arange(N), arg]
-    bp, bq = np.divmod(arg, 4)
+            st = np.where(tie_h, np.sign(np.einsum("hsc,hc->hs", Gh_, w)), 0.0)
+            vq = v0[:, hp, hn].T + sig[q, 0] * ai_h + sig[q, 1] * ak_h + np.einsum("hs,hsc->hc", st, Gh_)
+            vals[q, hp, hn] = (vq ** 2).sum(-1)
+    flat = vals.reshape(4 * p, N)
+    arg = np.argmax(flat, axis=0)
     rows = np.arange(N)
-    S = S0[rows, bp].copy()
+    val = flat[arg, rows]
+    bq, bp = np.divmod(arg, p)
+    S = S0[bp, :, rows].copy()                                      # (N, s)
     S[rows, I[bp]] = sig[bq, 0]
     S[rows, K[bp]] = sig[bq, 1]
-    tb = tie[rows, bp]
+    tb = tie_of(bp, rows)
     if tb.any():
-        nb = n[rows, bp]
-        w = sig[bq, 0, None] * np.cross(ak[rows, bp], nb) + sig[bq, 1, None] * np.cross(nb, ai[rows, bp])
+        nb, aib, akb = n[:, bp, rows].T, ai[:, bp, rows].T, ak[:, bp, rows].T
+        w = sig[bq, 0, None] * np.cross(akb, nb) + sig[bq, 1, None] * np.cross(nb, aib)
         S = np.where(tb, np.sign(np.einsum("nsc,nc->ns", G, w)), S)
     use = val > best
     return np.where(use[:, None], S, best_S)
@@ -281,51 +308,73 @@ def _segmax(values: np.ndarray, pose: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-# face a: the point (x, y, 1) of the face's square goes to coordinates  [a] = 1, [a+1] = x, [a+2] = y
-_PERM = np.array([[2, 0, 1], [1, 2, 0], [0, 1, 2]])
+# face a: the point (x, y, 1) of the face's square goes to coordinates  [a] = 1, [a+1] = x, [a+2] = y;
+# _ROWS[a] lists the rows of C multiplying x, y and 1
+_ROWS = np.array([[1, 2, 0], [2, 0, 1], [0, 1, 2]])
 _G3 = np.array([0.0, 0.5, 1.0])
 _GX = np.repeat(_G3, 3)          # grid point k = 3*i + j at (x0 + w*_G3[i], y0 + w*_G3[j])
 _GY = np.tile(_G3, 3)
+_OLD = np.array([0, 2, 6, 8])    # the cell's corners (known from the level above)
+_NEW = np.array([1, 3, 4, 5, 7])
 _CHILD = np.array([[0, 0], [0, 1], [1, 0], [1, 1]])
 _CORNERS = np.array([[3 * (i + a) + (j + b) for a in (0, 1) for b in (0, 1)] for i, j in _CHILD])  # (4, 4)
 
 
+def _h_grid(lay: _Layout, R: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``h(p)`` at ``p = x e_x' + y e_y' + e_1'`` (``x, y (n, k)``) with the rows of C in the face's order,
+    laid out columns first ``R (3, m, n)`` (so every operation runs along the cells)."""
+    out = np.empty(x.shape)
+    for i in range(x.shape[1]):
+        Y = R[0] * x[:, i]
+        Y += R[1] * y[:, i]
+        Y += R[2]
+        out[:, i] = lay.h0(Y)
+    return out
+
+
 def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, ascent: int):
     """Branch and bound over the three cube faces for one chunk of poses (F1-F5)."""
-    N = C.shape[0]
-    # start: the 27 points of the faces' 3x3 grids, then the ascent from the best
+    N, _, m = C.shape
+    # rows of C multiplying (x, y, 1) on each face, columns first, cells (pose, face) last: (3, m, 3 N)
+    CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N))
     pose = np.repeat(np.arange(N), 3)
     face = np.tile(np.arange(3), N)
     x0 = np.full(pose.size, -1.0)
     y0 = np.full(pose.size, -1.0)
     w = 2.0
+    hc = _h_grid(lay, CF, x0[:, None] + 2.0 * _GX[_OLD], y0[:, None] + 2.0 * _GY[_OLD])
     lower = np.zeros(N)
     dirn = np.tile(np.array([0.0, 0.0, 1.0]), (N, 1))
     upruned = np.full(N, -np.inf)
+    ulive = np.zeros(0)
     first = True
     for _level in range(max_levels):
         if pose.size == 0:
             break
-        Cc = C[pose]                                                        # (n, 3, m)
-        if _DEBUG: print("level", _level, pose.size / N)
-        loc = np.empty((pose.size, 9, 3))
-        loc[..., 0] = x0[:, None] + w * _GX
-        loc[..., 1] = y0[:, None] + w * _GY
-        loc[..., 2] = 1.0
-        P = np.take_along_axis(loc, _PERM[face][:, None, :], axis=2)       # (n, 9, 3)
-        hv = lay.h(np.matmul(P, Cc))                                        # (n, 9)
-        pn = np.sqrt((loc ** 2).sum(-1))
+        if _DEBUG:
+            print("level", _level, pose.size / N)
+        n = pose.size
+        xg = x0[:, None] + w * _GX                                          # (n, 9)
+        yg = y0[:, None] + w * _GY
+        hv = np.empty((n, 9))
+        hv[:, _OLD] = hc
+        hv[:, _NEW] = _h_grid(lay, CF[:, :, 3 * pose + face], xg[:, _NEW], yg[:, _NEW])
+        pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
         lv = hv / pn                                                        # h at unit directions (F1)
         # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
         k = np.argmax(lv, axis=1)
-        cell_best = lv[np.arange(pose.size), k]
+        rows = np.arange(n)
+        cell_best = lv[rows, k]
         pbest = _segmax(cell_best, pose, N)
         cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
         if cand.size:
             keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
             cand = cand[keep]
             ps = pose[cand]
-            u0 = P[cand, k[cand]] / pn[cand, k[cand], None]
+            loc = np.stack([xg[cand, k[cand]], yg[cand, k[cand]], np.ones(cand.size)], axis=-1)
+            u0 = np.empty_like(loc)
+            u0[np.arange(cand.size)[:, None], _ROWS[face[cand]]] = loc
+            u0 /= pn[cand, k[cand], None]
             u1, l1 = _ascend(lay, C[ps], u0, ascent if first else max(2, ascent // 4))
             better = l1 > lower[ps]
             lower[ps[better]] = l1[better]
@@ -335,8 +384,7 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
         h4 = hv[:, _CORNERS]                                                # (n, 4 children, 4 corners)
         cx = x0[:, None] + w * (_CHILD[:, 0] + 0.5) / 2.0                   # (n, 4)
         cy = y0[:, None] + w * (_CHILD[:, 1] + 0.5) / 2.0
-        lc = loc[:, _CORNERS]                                               # (n, 4, 4, 3)
-        dots = lc[..., 0] * cx[..., None] + lc[..., 1] * cy[..., None] + 1.0
+        dots = xg[:, _CORNERS] * cx[..., None] + yg[:, _CORNERS] * cy[..., None] + 1.0
         cnorm = np.sqrt(cx ** 2 + cy ** 2 + 1.0)
         ub = (h4 / dots).max(-1) * cnorm * (1.0 + ROUND)                    # (n, 4)
         live = ub > lower[pose, None] * (1.0 + gap)
@@ -346,6 +394,7 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
         x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
         y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
         face = np.broadcast_to(face[:, None], ub.shape)[live]
+        hc = h4[live]
         ulive = ub[live]
         pose = cpose[live]
         w = w / 2.0
@@ -380,8 +429,9 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 2
     direction = np.zeros((N, 3))
     upper = np.zeros(N)
     exact = lay.n2 == 0 and lay.n3 == 0
-    for a in range(0, N, _CHUNK):
-        b = min(N, a + _CHUNK)
+    chunk = _ZCHUNK if exact else _CHUNK
+    for a in range(0, N, chunk):
+        b = min(N, a + chunk)
         Cc = C[a:b]
         if exact:
             G = Cc.transpose(0, 2, 1)
