@@ -84,3 +84,54 @@ def test_bad_robot_file_one_line(tmp_path, capsys):
     path.write_text(text)
     status, out, err = run_cli(["ik", "--robot", path, "--pose", 0, 0, 300], capsys)
     assert status == 2 and len(err.strip().splitlines()) == 1 and "bad.toml" in err and "legs[1].stroke" in err, err
+
+
+def test_bounds_on_a_spatial_robot_with_its_default_sources(capsys):
+    status, out, err = run_cli(["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--pose",
+                                10, 5, 390, 2, -1, 5, "--format", "json"], capsys)
+    assert status == 0, err
+    assert "clearances: ups_typical (default)" in err
+    rows = json.loads(out)
+    from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
+    from pmaccuracy.model.spatial_sources import SpatialErrorSources
+
+    robot = pm.load_robot("stewart_6ups")
+    b = spatial_pose_errors(robot, SpatialErrorSources.load("ups_typical", robot),
+                            k.poses_from_coordinates([[0, 0, 400, 0, 0, 0], [10, 5, 390, 2, -1, 5]], degrees=True))
+    for row, comp, dp in zip(rows, b.components, b.dp_upper):
+        assert row["dx_max"] == pytest.approx(comp[0], rel=1e-12)
+        assert row["drz_max_deg"] == pytest.approx(np.degrees(comp[5]), rel=1e-12)
+        assert row["dp_max"] == pytest.approx(dp, rel=1e-12) and row["dp_attained"] <= row["dp_max"]
+
+
+def test_map_of_a_spatial_robot_writes_netcdf_and_a_figure(tmp_path, capsys):
+    import xarray as xr
+
+    out, fig = tmp_path / "m.nc", tmp_path / "m.png"
+    status, text, err = run_cli(["map", "--robot", "upu_3", "--grid", 8, "--out", out, "--plot", fig,
+                                 "--format", "json"], capsys)
+    assert status == 0, err
+    ds = xr.open_dataset(out)
+    assert set(ds.sizes) == {"x", "y", "z"} and ds.dp_max.attrs["units"] == "mm"
+    rows = {r["quantity"]: r for r in json.loads(text)}
+    assert rows["dp_max"]["max"] == pytest.approx(float(ds.dp_max.max()))
+    assert fig.stat().st_size > 10_000
+    ds.close()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--certified"], "--certified is not"),
+    (["bounds", "--robot", "stewart_6ups", "--clearances", "nope.toml", "--pose", 0, 0, 400, 0, 0, 0],
+     "--clearances: nope.toml"),
+    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 90], "singularity"),
+    (["bounds", "--robot", "aalborg_3ppr", "--pose", 0, 0], "a planar robot takes three values"),
+    (["map", "--robot", "upu_3", "--grid", 8, "--out", "x.csv"], "a spatial map is written as .nc or .zarr"),
+    (["map", "--robot", "upu_3", "--grid", 500, "--out", "x.nc"], "--grid: 500"),
+    (["map", "--robot", "aalborg_3ppr", "--grid", 8, "--out", "x.nc"], "required: --phi-deg"),
+])
+def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, out, err = run_cli(argv, capsys)
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], err

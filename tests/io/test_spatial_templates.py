@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from conftest import run_cli
 
-from pmaccuracy.errors import ConfigError
 from pmaccuracy.io.templates import SPATIAL_ARCHITECTURES, template_text
 from pmaccuracy.kinematics import resolve_robot
 from pmaccuracy.kinematics import spatial as k
@@ -33,8 +32,16 @@ def test_template_is_the_preset_it_copies_and_reaches_home(arch, tmp_path, capsy
             assert "#" in line, line
 
 
-def test_no_clearance_template_for_spatial_yet(capsys):
-    with pytest.raises(ConfigError, match="no clearance template for a 6-UPS"):
-        template_text("6-UPS", clearances=True)
-    status, out, err = run_cli(["template", "delta", "--clearances"], capsys)
-    assert status == 2 and err.count("\n") == 1 and "--clearances" in err
+@pytest.mark.parametrize("arch", SPATIAL_ARCHITECTURES)
+def test_clearance_template_is_the_typical_preset(arch, tmp_path, capsys):
+    from pmaccuracy.model.spatial_sources import DEFAULT_PRESET, SpatialErrorSources
+
+    status, out, err = run_cli(["template", arch, "--clearances"], capsys)
+    assert status == 0
+    path = tmp_path / "c.toml"
+    path.write_text(out)
+    robot = resolve_robot(PRESET[arch])
+    mine = SpatialErrorSources.load(str(path), robot)
+    preset = SpatialErrorSources.load(DEFAULT_PRESET[arch], robot)
+    assert mine.legs == preset.legs and mine.name.startswith("my_")
+    assert any(v for leg in mine.legs for j in leg for _, v in j.items())

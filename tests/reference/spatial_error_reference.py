@@ -67,8 +67,10 @@ Sources (the half-width ``h`` of each; a key with value 0 or absent gives no sou
   a universal's own axes are free, so only the ``n`` component of ``direction`` matters at first order
   (the same for either axis of the joint).
 * prismatic ``actuator``, ``backlash`` (two independent segments), ``length``: translation along the slide;
-  ``lateral``: disc, translation, ``normals(slide)``; ``tilt`` and ``direction``: disc, rotation about
-  ``normals(slide)`` about the CARRIAGE CENTRE (the document's "joint centre" of a slide).
+  ``lateral``: disc, translation, ``normals(slide)``; ``tilt``: disc, rotation about ``normals(slide)`` about
+  the CARRIAGE CENTRE; ``direction``: the same rotations about the SLIDE'S ORIGIN (the document, as revised
+  after this module was first written: the base joint centre of a leg, ``base`` of a 3-PRS), applied as the
+  turn about the carriage centre plus the translation ``(Rot - I)(c - O)``.
 * ``length``: segment, translation of the distal part along the link from this joint to the next one:
   6-UPS / 3-RPS / 3-UPU base joint and prismatic: along the leg; 3-PRS prismatic: along the slide, revolute:
   along the rod ``B - C``; Delta arm: along ``C - A`` (``C`` the elbow midpoint); Delta elbow ball: along its
@@ -205,7 +207,8 @@ def joints_at(robot, position, R):
         if arch in ("6-UPS", "3-RPS", "3-UPU"):
             d = _unit(B - A)
             M = 0.5 * (A + B)
-            pri = {"kind": "prismatic", "centre": M, "rot_centre": M, "slide": d, "passive": None, "ldir": d}
+            pri = {"kind": "prismatic", "centre": M, "rot_centre": M, "slide": d, "passive": None, "ldir": d,
+                   "origin": A}
             sph = {"kind": "spherical", "centre": B, "rot_centre": B, "passive": "S3", "ldir": None}
             if arch == "6-UPS":
                 u1 = leg["base_axis"] if "base_axis" in leg else _home_u1(leg, robot)
@@ -225,7 +228,8 @@ def joints_at(robot, position, R):
         elif arch == "3-PRS":
             s = leg["slide"]
             C = A + q[k] * s
-            pri = {"kind": "prismatic", "centre": C, "rot_centre": C, "slide": s, "passive": None, "ldir": s}
+            pri = {"kind": "prismatic", "centre": C, "rot_centre": C, "slide": s, "passive": None, "ldir": s,
+                   "origin": A}
             rev = {"kind": "revolute", "centre": C, "rot_centre": C, "axis": leg["axis"], "passive": "R",
                    "ldir": _unit(B - C)}
             sph = {"kind": "spherical", "centre": B, "rot_centre": B, "passive": "S3", "ldir": None}
@@ -303,7 +307,7 @@ def _joint_sources(j, key, h):
     nn = list(normals(s))
     return {"actuator": [("segment", "translation", [s], None)], "backlash": [("segment", "translation", [s], None)],
             "lateral": [("disc", "translation", nn, None)], "tilt": [("disc", "rotation", nn, None)],
-            "direction": [("disc", "rotation", nn, None)]}[key]
+            "direction": [("disc", "rotation about origin", nn, None)]}[key]
 
 
 def build_sources(robot, clearances, joints):
@@ -330,7 +334,8 @@ def build_sources(robot, clearances, joints):
                     m = SHAPE_DIM[shape]
                     sources.append({"leg": i, "joint": jj, "key": key, "part": part, "shape": shape, "type": typ,
                                     "half_width": h, "directions": [np.asarray(d, float) for d in dirs],
-                                    "centre": j["rot_centre"], "columns": slice(col, col + m)})
+                                    "centre": j["origin"] if typ == "rotation about origin" else j["rot_centre"],
+                                    "columns": slice(col, col + m)})
                     col += m
     return sources
 
@@ -387,6 +392,12 @@ class ErrorModel:
             v = sum(x * d for x, d in zip(s[src["columns"]], src["directions"]))
             tgt = trans if src["type"] == "translation" else rot
             tgt[src["leg"]][src["joint"]] = tgt[src["leg"]][src["joint"]] + v
+            if src["type"] == "rotation about origin":
+                # a turn about the slide's origin O = the same turn about the joint's centre c plus the
+                # translation (Rot - I)(c - O)
+                c = self.joints[src["leg"]][0][src["joint"]]["rot_centre"]
+                trans[src["leg"]][src["joint"]] = trans[src["leg"]][src["joint"]] + \
+                    _rot_minus_identity(v) @ (c - src["centre"])
         out = []
         for i, (js, _) in enumerate(self.joints):
             out.append([_about(rot[i][jj], j["rot_centre"], trans[i][jj]) for jj, j in enumerate(js)])

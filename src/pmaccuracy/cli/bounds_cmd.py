@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError, PmAccuracyError
 from . import _common
+from .spatial_cmd import POSE_HELP
 
 #: Poses per call of the library when a progress bar is shown (a multiple of its internal block of 8192,
 #: so the first pose outside the ranges or singular is still the one reported).
@@ -28,9 +29,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Poses: x mm, y mm, phi deg.")
     _common.add_robot(p)
     add_clearances(p)
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
-                   help="a pose: x mm, y mm, phi deg (repeatable)")
-    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    p.add_argument("--pose", nargs="+", type=_common.finite_float, action="append", metavar="V",
+                   help=POSE_HELP)
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg (spatial robots: their "
+                   "coordinates, e.g. x,y,z,roll_deg,pitch_deg,yaw_deg for a 6-UPS)")
     p.add_argument("--joints", nargs="+", type=_common.finite_float, action="append", metavar="Q",
                    help="serial arms (architecture = \"serial\", preset planar_3r_arm) instead of --pose: the joint "
                         "values base to tip, deg for R, mm for P (repeatable)")
@@ -130,6 +132,15 @@ def run(args: argparse.Namespace) -> int:
         return serial_cmd.run(args)
     serial_cmd.refuse_joints(args)
     robot = _common.load_robot(args)
+    from ..model.spatial import is_spatial
+
+    if is_spatial(robot):
+        from . import spatial_cmd
+
+        return spatial_cmd.run_bounds(args, robot)
+    from .kinematics_cmd import _three
+
+    _three(args.pose, "--pose", "X Y PHI_DEG (mm, mm, deg)")
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     poses = _common.poses_from_args(args.pose, args.poses_csv)
     per_joint = isinstance(clearances, ErrorSources)

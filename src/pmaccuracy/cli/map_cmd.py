@@ -32,9 +32,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Prints the ranges.")
     _common.add_robot(p)
     add_clearances(p)
-    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", required=True, metavar="PHI",
+    p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", default=None, metavar="PHI",
                    help="platform orientation(s) in degrees: several values (--phi-deg 0 15) and/or the option "
-                        "repeated, each value once")
+                        "repeated, each value once (required for planar robots)")
+    p.add_argument("--orientation-deg", type=_common.angle_deg, nargs=3, metavar=("ROLL", "PITCH", "YAW"),
+                   help="spatial 6-UPS: the orientation of its constant-orientation workspace map, roll pitch yaw "
+                        "in deg as extrinsic x-y-z rotations (default 0 0 0); spatial robots map their whole "
+                        "workspace on a --grid^3 grid (.nc or .zarr)")
     p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
     add_shape(p)
     p.add_argument("--out", required=True, metavar="FILE",
@@ -79,6 +83,17 @@ def run(args: argparse.Namespace) -> int:
     from ..accuracy import maps
     from ..io.resolve import load_clearances
 
+    from ..model.spatial import is_spatial
+
+    robot = _common.load_robot(args)
+    if is_spatial(robot):
+        from . import spatial_cmd
+
+        return spatial_cmd.run_map(args, robot)
+    if args.phi_deg is None:
+        raise ConfigError("the following arguments are required: --phi-deg")
+    if args.orientation_deg is not None:
+        raise ConfigError(f"is for spatial robots; {robot.name} is planar (use --phi-deg)", key="--orientation-deg")
     out = Path(args.out)
     suffix = out.suffix.lower()
     if suffix not in OUT_TYPES:
@@ -100,7 +115,6 @@ def run(args: argparse.Namespace) -> int:
     if shape is not None and suffix == ".zarr":
         raise ConfigError("a region applies to in-memory maps (.nc, .csv), not to .zarr maps", key=shape_key(args))
     args.shape = shape
-    robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     phis = np.radians(args.phi_deg)
     n_phi = len(phis)

@@ -164,3 +164,98 @@ def run_workspace(args: argparse.Namespace, robot) -> int:
     record = {k: v for k, v in data.items() if not isinstance(v, (dict, list))}
     _common.emit(data, args.format, records=[record])
     return 0
+
+
+def run_bounds(args: argparse.Namespace, robot) -> int:
+    """``bounds`` on a spatial robot: exact worst components, certified |dp| and |dtheta| at poses."""
+    from ..accuracy.spatial_bounds import spatial_pose_errors
+
+    for option, value in (("--method", args.method != "exact"), ("--certified", args.certified),
+                          ("--nonlinear", args.nonlinear), ("--tolerances", args.tolerances),
+                          ("--details", args.details), ("--max-pieces", args.max_pieces is not None),
+                          ("--allow-outside", args.allow_outside)):
+        if value:
+            raise PmAccuracyError(f"{option} is not available for spatial robots yet ({robot.name} is a "
+                                  f"{robot.architecture}): their first-order bounds are exact, |dp| certified")
+    sources = _sources(args, robot)
+    gap = 1e-3 if args.gap_pct is None else args.gap_pct / 100.0
+    if not 0 < gap < 1:
+        raise PmAccuracyError(f"--gap-pct: {args.gap_pct} must be above 0 and below 100")
+    full = poses(robot, args.pose, args.poses_csv)
+    b = spatial_pose_errors(robot, sources, full, gap=gap)
+    rows = []
+    for k in range(full.shape[0]):
+        row = _pose_record(robot, full[k])
+        comp = b.components[k]
+        row.update({"dx_max": comp[0], "dy_max": comp[1], "dz_max": comp[2],
+                    "drx_max_deg": float(np.degrees(comp[3])), "dry_max_deg": float(np.degrees(comp[4])),
+                    "drz_max_deg": float(np.degrees(comp[5])),
+                    "dp_max": float(b.dp_upper[k]), "dp_attained": float(b.dp_lower[k]),
+                    "dtheta_max_deg": float(np.degrees(b.dtheta_upper[k])),
+                    "dtheta_attained_deg": float(np.degrees(b.dtheta_lower[k]))})
+        rows.append(row)
+    _common.emit(rows, args.format)
+    return 0
+
+
+def _sources(args: argparse.Namespace, robot):
+    """The error sources of ``--clearances`` (default: the architecture's typical preset, said on stderr)."""
+    from ..model.spatial_sources import DEFAULT_PRESET, SpatialErrorSources
+
+    if args.clearances is None:
+        args.clearances = DEFAULT_PRESET[robot.architecture]
+        _common.announce_default_clearances(args.clearances, args)
+    try:
+        return SpatialErrorSources.load(args.clearances, robot)
+    except PmAccuracyError as exc:
+        if "--clearances" in str(exc):
+            raise
+        raise type(exc)(f"--clearances: {exc}") from None
+
+
+#: Output types of a spatial map.
+MAP_TYPES = (".nc", ".zarr")
+
+
+def run_map(args: argparse.Namespace, robot) -> int:
+    """``map`` on a spatial robot: the worst first-order errors over its workspace's grid (NetCDF or Zarr)."""
+    from pathlib import Path
+
+    from ..accuracy.spatial_maps import spatial_error_map
+
+    for option, value in (("--phi-deg", args.phi_deg), ("--certified", args.certified), ("--dask", args.dask),
+                          ("--scheduler", args.scheduler), ("--workers", args.workers), ("--tile", args.tile),
+                          ("--gap-pct", args.gap_pct)):
+        if value:
+            raise PmAccuracyError(f"{option} is not available for spatial robots' maps yet ({robot.name} is a "
+                                  f"{robot.architecture})")
+    if getattr(args, "shape", None) or any(getattr(args, k, None) for k in ("disc", "box", "polygon")):
+        raise PmAccuracyError("a region (--disc, --box, --polygon) applies to planar maps; a spatial map covers "
+                              "the whole workspace")
+    out = Path(args.out)
+    if out.suffix.lower() not in MAP_TYPES:
+        raise PmAccuracyError(f"--out: {out}: a spatial map is written as .nc or .zarr")
+    if not 4 <= args.grid <= 200:
+        raise PmAccuracyError(f"--grid: {args.grid} points per axis of a 3D grid; give 4 to 200")
+    _common.prepare_output(out, "--out", MAP_TYPES)
+    _common.check_plot_options(args)
+    _common.check_plot(args)
+    sources = _sources(args, robot)
+    orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
+    ds = spatial_error_map(robot, sources, n=args.grid, orientation=orientation)
+    if out.suffix.lower() == ".zarr":
+        ds.to_zarr(out, mode="w")
+    else:
+        ds.to_netcdf(out)
+    if args.plot:
+        from ..report.spatial_figures import save_map_slices_figure
+
+        save_map_slices_figure(robot, ds, args.plot, dpi=args.dpi, vmin=args.vmin, vmax=args.vmax)
+    rows = []
+    for name, var in ds.data_vars.items():
+        unit = var.attrs.get("units", "")
+        scale = np.degrees(1.0) if unit == "rad" else 1.0
+        rows.append({"quantity": name if unit != "rad" else f"{name}_deg", "min": float(var.min()) * scale,
+                     "max": float(var.max()) * scale, "unit": "deg" if unit == "rad" else unit})
+    _common.emit(rows, args.format)
+    return 0

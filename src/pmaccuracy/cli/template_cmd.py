@@ -18,8 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "the per-joint clearance file of that architecture instead. The templates' robots reach "
                     "their home pose (0, 0, 0; for the serial arm, every joint at 0).")
     p.add_argument("arch", metavar="ARCH",
-                   help=f"the architecture: {', '.join(ARCHITECTURES + SPATIAL_ARCHITECTURES)} (upper or lower case; "
-                        "the spatial ones have robot templates only so far)")
+                   help=f"the architecture: {', '.join(ARCHITECTURES + SPATIAL_ARCHITECTURES)} (upper or lower case)")
     p.add_argument("--clearances", action="store_true",
                    help="print the per-joint clearance template (mm and rad) instead of the robot template")
     p.set_defaults(func=run)

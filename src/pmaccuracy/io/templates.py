@@ -20,7 +20,7 @@ from ..errors import ConfigError
 
 #: The planar architectures that have templates (robot and clearances), as the command line names them.
 ARCHITECTURES = ("3-PPR", "3-RPR", "3-RRR", "3-PRR", "serial")
-#: The spatial architectures that have robot templates (their clearance files come with spatial accuracy).
+#: The spatial architectures that have templates (robot and per-joint error sources).
 SPATIAL_ARCHITECTURES = ("6-UPS", "delta", "3-RPS", "3-PRS", "3-UPU")
 
 
@@ -36,11 +36,7 @@ def architecture_name(arch: str, key: str = "ARCH") -> str:
 
 def template_resource(arch: str, clearances: bool = False):
     """The shipped file (an :mod:`importlib.resources` traversable) of ``arch``'s robot or clearance template."""
-    name = architecture_name(arch)
-    if clearances and name in SPATIAL_ARCHITECTURES:
-        raise ConfigError(f"no clearance template for a {name} yet: the clearances of spatial robots come with "
-                          "their accuracy model (robot templates: pmaccuracy template ARCH)", key="--clearances")
-    folder = name.lower()
+    folder = architecture_name(arch).lower()
     name = "clearances.toml" if clearances else "robot.toml"
     return resources.files("pmaccuracy") / "data" / "templates" / folder / name
 

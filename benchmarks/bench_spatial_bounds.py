@@ -1,0 +1,82 @@
+"""Benchmark: first-order worst cases of a hexapod against the floor, a plain vectorized inverse kinematics.
+
+The floor is the leg lengths ``|p + R b_i - A_i|`` of the same poses in plain numpy (rotation matrices from the
+poses' rotation vectors with scipy), as in ``bench_spatial_kinematics.py``. Printed, in the same run (process
+CPU time, best of ``--repeats``):
+
+* the exact components (dx, dy, dz and the three small rotations) of ``--poses`` poses: the error set built
+  from the legs' closure (issue 37's target: within 3x the floor);
+* with ``|dp|`` and ``|dtheta|`` certified at 0.1 % (issue 37's target: within 10x the floor);
+* a map of the hexapod's constant-orientation workspace on a ``--grid``^3 grid (issue 37: 100^3 in seconds).
+
+    .venv/bin/python benchmarks/bench_spatial_bounds.py [--poses 1000000] [--grid 100] [--repeats 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def floor_leg_lengths(base: np.ndarray, platform: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """``|p + R b_i - A_i|`` ``(N, 6)`` in plain numpy: the floor."""
+    R = Rotation.from_rotvec(poses[:, 3:]).as_matrix()
+    B = poses[:, None, :3] + np.einsum("nij,kj->nki", R, platform)
+    return np.sqrt(np.sum((B - base) ** 2, axis=-1))
+
+
+def _best(fn, repeats: int) -> float:
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - t0)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--poses", type=int, default=1_000_000)
+    ap.add_argument("--grid", type=int, default=100)
+    ap.add_argument("--repeats", type=int, default=2)
+    args = ap.parse_args()
+
+    import pmaccuracy as pm
+    from pmaccuracy.accuracy.spatial_bounds import error_sources_at, spatial_pose_errors
+    from pmaccuracy.accuracy.spatial_maps import spatial_error_map
+    from pmaccuracy.model.spatial_sources import SpatialErrorSources
+
+    robot = pm.load_robot("stewart_6ups")
+    sources = SpatialErrorSources.load("ups_typical", robot)
+    base = np.array([leg.base for leg in robot.legs])
+    platform = np.array([leg.platform for leg in robot.legs])
+    rng = np.random.default_rng(0)
+    n = args.poses
+    poses = robot.home_pose + np.concatenate([rng.uniform(-30, 30, (n, 3)), rng.uniform(-0.05, 0.05, (n, 3))], 1)
+
+    def components():
+        blocks, _ = error_sources_at(robot, sources, poses, keep=False)
+        return sum(np.linalg.norm(b, axis=-1) for b in blocks)
+
+    t_floor = _best(lambda: floor_leg_lengths(base, platform, poses), args.repeats)
+    t_comp = _best(components, args.repeats)
+    t_all = _best(lambda: spatial_pose_errors(robot, sources, poses, details=False), 1)
+    print(f"6-UPS stewart_6ups with ups_typical, {n:,} poses (CPU time)")
+    print(f"  floor: leg lengths in plain numpy            {t_floor:7.3f} s")
+    print(f"  exact components (dx ... drz)                {t_comp:7.3f} s   ratio {t_comp / t_floor:5.1f} x floor "
+          "(target <= 3)")
+    print(f"  + |dp|, |dtheta| certified at 0.1 %          {t_all:7.3f} s   ratio {t_all / t_floor:5.1f} x floor "
+          "(target <= 10)")
+    t0 = time.perf_counter()
+    ds = spatial_error_map(robot, sources, n=args.grid)
+    t_map = time.perf_counter() - t0
+    inside = int(ds.dp_max.notnull().sum())
+    print(f"  map {args.grid}^3 grid ({inside:,} points inside)      {t_map:7.2f} s wall (workspace search and "
+          "grid included)")
+
+
+if __name__ == "__main__":
+    main()
