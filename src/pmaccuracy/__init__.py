@@ -25,7 +25,8 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
 * spatial robots (6-UPS, Delta, 3-RPS, 3-PRS, 3-UPU): the same kinematics with poses ``(N, 6)`` [x, y, z mm,
   rotation vector rad] (``pm.poses_from`` takes scipy ``Rotation`` objects), ``pm.complete_poses`` (controlled
   coordinates and parasitic motions), ``pm.assembly_modes`` (every real mode), ``pm.spatial_workspace``
-  (guide: "Spatial robots").
+  (guide: "Spatial robots"); their first-order worst cases ``pm.spatial_pose_errors`` and maps
+  ``pm.spatial_error_map`` with ``pm.load_clearances(spec, robot)`` (guide: "Spatial error sources").
 
 Every mistake in an input raises a subclass of :class:`PmAccuracyError` naming the file, key or argument.
 The names are loaded lazily: ``import pmaccuracy`` itself imports nothing heavy.
@@ -62,6 +63,9 @@ _EXPORTS = {
                                                "SpatialJacobians", "SpatialSingularity")},
     **{name: "kinematics.spatial_workspace" for name in ("spatial_workspace", "orientation_workspace_at",
                                                          "SpatialWorkspace")},
+    "SpatialErrorSources": "model.spatial_sources", "SpatialJointErrors": "model.spatial_sources",
+    "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
+    "spatial_error_map": "accuracy.spatial_maps",
     # accuracy
     "max_pose_errors": "accuracy.bounds", "PoseErrorBounds": "accuracy.bounds",
     "max_serial_errors": "model.serial",

@@ -19,6 +19,8 @@ from .io.resolve import load_clearances as _load_clearances
 from .io.resolve import robot_arg
 from .model.manipulator import Manipulator
 from .model.serial import SerialArm, is_serial_spec, load_serial_sources
+from .model.spatial import SpatialManipulator, is_spatial
+from .model.spatial_sources import SpatialErrorSources
 
 __all__ = ["load_robot", "load_clearances"]
 
@@ -35,7 +37,7 @@ def load_robot(spec: Any):
     >>> load_robot("planar_3r_arm").kinds
     'RRR'
     """
-    if isinstance(spec, (Manipulator, SerialArm)):
+    if isinstance(spec, (Manipulator, SerialArm, SpatialManipulator)):
         return spec
     if not isinstance(spec, (str, os.PathLike)):
         raise ConfigError(f"expected a robot, a preset name or a robot TOML path, got {type(spec).__name__}",
@@ -56,4 +58,6 @@ def load_clearances(spec: Any, robot: Any):
     robot = load_robot(robot)
     if isinstance(robot, SerialArm):
         return load_serial_sources(spec, robot)
+    if is_spatial(robot):
+        return SpatialErrorSources.load(spec, robot)
     return _load_clearances(spec, robot)

@@ -126,6 +126,10 @@ def _spatial_calls():
         "spatial_inverse_kinematics": lambda phi: pm.inverse_kinematics(hexapod, pose(phi)),
         "spatial_jacobians": lambda phi: pm.jacobians(hexapod, pose(phi)),
         "spatial_singularity": lambda phi: pm.singularity(hexapod, pose(phi)),
+        "spatial_pose_errors": lambda phi: pm.spatial_pose_errors(hexapod, pm.load_clearances("ups_typical", hexapod),
+                                                                  pose(phi)),
+        "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
+                                                              n=5, orientation=[0.0, 0.0, phi]),
     }
 
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError, OutsideJointLimitsError, SingularPoseError
 from ..kinematics.spatial import as_spatial_poses, closure, inverse_kinematics, reference_pose
+from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
 from ..model.spatial_sources import JOINTS, SpatialErrorSources
@@ -368,6 +369,7 @@ def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources,
     ``strict=False`` gives NaN at those poses instead (maps). ``details=False`` keeps no per-source data
     (:attr:`SpatialPoseErrors.sources` empty, :meth:`~SpatialPoseErrors.shares` unavailable): large batches.
     """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
     if not (isinstance(gap, (int, float)) and 0 < gap < 1):
         raise ConfigError(f"gap must be a fraction in (0, 1), got {gap!r}", key="gap")
     if sources.architecture != robot.architecture:

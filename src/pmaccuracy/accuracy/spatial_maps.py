@@ -16,6 +16,7 @@ import xarray as xr
 
 from ..kinematics.spatial import complete_poses
 from ..kinematics.spatial_workspace import spatial_workspace
+from ..model.plausibility import check_angle_values
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_sources import SpatialErrorSources
 from .spatial_bounds import COMPONENTS, DEFAULT_GAP, spatial_pose_errors
@@ -45,6 +46,8 @@ def spatial_error_map(robot: SpatialManipulator, sources: SpatialErrorSources, *
     >>> sorted(ds.sizes.items()), float(ds.dp_max.max()) > 0
     ([('x', 8), ('y', 8), ('z', 8)], True)
     """
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
     ws = spatial_workspace(robot, orientation=orientation, n=n, tilt=False)
     region = ws.region
     axes = region.axes
