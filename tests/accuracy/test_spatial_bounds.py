@@ -112,3 +112,25 @@ def test_bad_sources_and_poses():
     with pytest.raises(OutsideJointLimitsError):
         spatial_pose_errors(SpatialManipulator.preset("delta_clavel"), _sources(SpatialManipulator.preset(
             "delta_clavel"), {}), [0, 0, -5000, 0, 0, 0])
+
+
+def test_hexapod_closed_form_blocks_equal_the_general_construction():
+    """The 6-UPS's closed-form segments (used for large batches) against the general source-by-source
+    construction, on random poses and every key of every joint."""
+    from pmaccuracy.accuracy.spatial_bounds import error_sources_at
+
+    robot = SpatialManipulator.preset("stewart_6ups")
+    rng = np.random.default_rng(4)
+    per = {j: {key: float(rng.uniform(0.001, 0.02)) for key in allowed_keys("6-UPS", j)} for j in range(3)}
+    src = _sources(robot, per)
+    poses = k.reference_pose(robot) + np.concatenate([rng.uniform(-30, 30, (50, 3)), rng.uniform(-0.08, 0.08, (50, 3))],
+                                                     axis=1)
+    fast, _ = error_sources_at(robot, src, poses, keep=False)
+    general, info = error_sources_at(robot, src, poses, keep=True)
+    comp_fast = sum(np.linalg.norm(b, axis=-1) for b in fast)
+    comp_general = sum(np.linalg.norm(s.matrix, axis=-1) for s in info["sources"])
+    np.testing.assert_allclose(comp_fast, comp_general, rtol=1e-10)
+    a = spatial_pose_errors(robot, src, poses, details=False)
+    b = spatial_pose_errors(robot, src, poses, details=True)
+    np.testing.assert_allclose(a.components, b.components, rtol=1e-10)
+    np.testing.assert_allclose(a.dp_upper, b.dp_upper, rtol=2e-3)

@@ -33,6 +33,8 @@ from ..numerics.support import max_norm
 
 #: Names of the six error components: position (mm) then small rotations (rad) about the base axes.
 COMPONENTS = ("dx", "dy", "dz", "drx", "dry", "drz")
+#: Poses per chunk of a large batch without details (cache-sized arrays).
+CHUNK = 1 << 15
 #: Default relative gap of the certified |dp| and |dtheta| (0.1 %).
 DEFAULT_GAP = 1e-3
 #: Poses whose homogenized closure matrix has a larger (1-norm) condition number are refused as near-singular.
@@ -319,6 +321,9 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
         Winv = np.where(valid[..., None, None], Winv, np.nan)
     p, R = poses[..., :3], rotations(poses[..., 3:])
     ref = reference_pose(robot)
+    if robot.architecture == "6-UPS" and not keep:
+        return _hexapod_blocks(robot, sources, p, R, ref, Winv), {"Winv": Winv, "condition": cond, "valid": valid,
+                                                                  "sources": []}
     blocks, kept = [], []
     row0 = 0
     for i, leg in enumerate(robot.legs):
@@ -358,6 +363,35 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
     return blocks, {"Winv": Winv, "condition": cond, "valid": valid, "sources": kept}
 
 
+def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
+    """The six segments of a 6-UPS's error set in closed form: leg ``i``'s sources act only through its length
+    ``u . (B - A)``, so each adds ``h |u . xi|`` (maximized over its own set) to the segment ``rho_i`` along
+    column ``i`` of ``W^-1``. With ``c = |u . u1|`` (``u1`` the universal joint's fixed axis): a universal
+    joint's radial plays give ``h (sqrt(1 - c^2) + 1)`` (the disc normal to ``u1``, and the one normal to
+    ``u2``, which contains the leg), its axial plays ``h c``; every ball, position tolerance, actuator error,
+    backlash and length ``h``; rotations about the base joint centre (tilt, direction) and the slide's lateral
+    play and tilt 0 (they move ``B`` normal to the leg, or turn the rod about its own line). The same as the
+    general construction (``keep=True``), which the tests compare with it."""
+    blocks = []
+    for i, leg in enumerate(robot.legs):
+        A = np.asarray(leg.base, dtype=float)
+        u = normalize(leg.platform_point(p, R) - A)
+        ref_dir = normalize(leg.platform_point(ref[:3], rotations(ref[3:])) - A)
+        u1 = _universal_axes(leg, A, ref_dir[None], ref_dir, leg.base_axis)[0][0]
+        c = np.abs(u @ u1)
+        rho = 0.0
+        for j, joint in enumerate(sources.legs[i]):
+            for key, h in joint.items():
+                if j == 0 and key == "radial":
+                    rho = rho + h * (np.sqrt(np.maximum(1.0 - c * c, 0.0)) + 1.0)
+                elif j == 0 and key == "axial":
+                    rho = rho + h * c
+                elif key in ("radial", "position", "actuator", "backlash", "length"):
+                    rho = rho + h
+        blocks.append(Winv[..., :, i:i + 1] * np.asarray(rho)[..., None, None])
+    return blocks
+
+
 def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *,
                         gap: float = DEFAULT_GAP, strict: bool = True, details: bool = True
                         ) -> SpatialPoseErrors:
@@ -376,6 +410,14 @@ def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources,
         raise ConfigError(f"the error sources are of a {sources.architecture}, the robot a {robot.architecture}",
                           key="clearances")
     poses = as_spatial_poses(poses)
+    if not details and poses.ndim == 2 and poses.shape[0] > CHUNK:
+        # large batches in cache-sized chunks (the same numbers)
+        parts = [spatial_pose_errors(robot, sources, poses[k:k + CHUNK], gap=gap, strict=strict, details=False)
+                 for k in range(0, poses.shape[0], CHUNK)]
+        cat = {f: np.concatenate([getattr(part, f) for part in parts]) for f in
+               ("components", "dp_upper", "dp_lower", "dtheta_upper", "dtheta_lower", "dp_certified",
+                "dtheta_certified", "dp_direction")}
+        return SpatialPoseErrors(poses=poses, sources=[], gap=gap, **cat)
     blocks, info = error_sources_at(robot, sources, poses, strict=strict, keep=details)
     shape = poses.shape[:-1]
     if not blocks:
