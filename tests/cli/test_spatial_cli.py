@@ -135,3 +135,21 @@ def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch)
     assert status == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and words in lines[0], err
+
+
+@pytest.mark.parametrize("argv", [
+    ["worst", "--robot", "stewart_6ups"],
+    ["synthesize", "--robot", "upu_3", "--target", "dp=0.1"],
+    ["load", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--force", 1, 0, 0],
+    ["preload", "--robot", "rps_3", "--pose", 350, 0, 0],
+    ["compare-designs", "--robot", "aalborg_3ppr", "stewart_6ups"],
+    ["experiment", "simulate", "--robot", "prs_3", "--out", "x.csv"],
+    ["calibrate", "plan", "--robot", "stewart_6ups", "--out", "p.csv"],
+])
+def test_commands_without_spatial_support_refuse_in_one_line(argv, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, out, err = run_cli(argv, capsys)
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1, err
+    assert "spatial robot" in lines[0] or "error:" in lines[0], err
+    assert "internal error" not in err and "Traceback" not in err

@@ -238,8 +238,27 @@ def add_format(parser: argparse.ArgumentParser) -> None:
                         help="output format on stdout (default: table)")
 
 
+#: The commands that take spatial robots so far (the others refuse them in one line).
+SPATIAL_COMMANDS = ("ik", "fk", "workspace", "bounds", "map")
+
+
 def load_robot(args: argparse.Namespace) -> Manipulator:
-    return robot_arg(args.robot)
+    """The robot of ``--robot``; a spatial robot only for :data:`SPATIAL_COMMANDS` (one line otherwise)."""
+    robot = robot_arg(args.robot)
+    refuse_spatial(robot, args)
+    return robot
+
+
+def refuse_spatial(robot: Any, args: argparse.Namespace) -> None:
+    """One line (PmAccuracyError) when ``robot`` is spatial and the command does not take spatial robots yet."""
+    from ..model.spatial import is_spatial
+
+    command = getattr(args, "command", None)
+    if is_spatial(robot) and command not in SPATIAL_COMMANDS:
+        sub = next((v for k, v in sorted(vars(args).items()) if k.endswith("_command") and isinstance(v, str)), "")
+        name = f"{command} {sub}".strip()
+        raise PmAccuracyError(f"--robot: {robot.name} is a spatial robot ({robot.architecture}); '{name}' takes "
+                              f"planar robots only so far (spatial robots: {', '.join(SPATIAL_COMMANDS)})")
 
 
 def _plain(value: Any) -> Any:

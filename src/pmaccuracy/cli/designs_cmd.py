@@ -95,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
                           f"--grid {args.grid} ({len(args.robot)} robots x {len(args.phi_deg)} orientations)",
                           limit=LONG_RUN_S)
     robots = [robot_arg(spec) for spec in args.robot]
+    for robot in robots:
+        _common.refuse_spatial(robot, args)
     if args.clearances is None:   # the default rule, robot by robot, said once
         from ..io.resolve import default_clearances
 
