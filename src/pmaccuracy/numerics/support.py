@@ -54,9 +54,16 @@ Facts used (each proved here in one line)
      candidate ``u = `` the largest generator. Every candidate is a point of ``S`` (a sign vector), so the
      best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators.
 
-Rounding: ``h`` is evaluated as ``|A_j^T p|`` from the columns (not from ``A_j A_j^T``, whose square root
-loses half the digits near a null direction); the cell bounds are widened by the relative ``ROUND``
-(far above the rounding of a few hundred terms).
+(F7) *Rounding*: the cells' corner values are computed in floating point of unit roundoff ``eps``
+     (float32, ``eps = 2^-24``, when ``gap >= 1e-5``, else float64) at corners ``p = (x, y, 1)`` (permuted)
+     whose coordinates are dyadic, hence exact. Each product ``Y = p^T C`` is off by at most
+     ``gamma_5 sum_c |p_c| |C_c,col|`` (``gamma_n = n eps / (1 - n eps)``; the rounding of C included),
+     so a block's ``|A_j^T p|`` by at most ``gamma_5 |p| ||A_j||_F`` (triangle and Cauchy-Schwarz
+     inequalities), and the sums of ``m`` positive terms and the square roots add a relative
+     ``gamma_(m+6)``; the bound (F4) uses ``h_hat (1 + gamma_(m+6)) + gamma_5 (1 + gamma_(m+6)) |p|
+     sum_j ||A_j||_F``, never below the exact ``h(p)``. The lower bound (F2) is recomputed in float64 from
+     the columns ``A_j`` (never from ``A_j A_j^T``, whose square root loses half the digits near a null
+     direction): ``|point|`` is exact up to the float64 rounding of one 3-vector's norm.
 """
 
 from __future__ import annotations
@@ -67,8 +74,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-#: Relative widening of every upper bound, above the rounding of the evaluation of ``h``.
-ROUND = 1e-12
+#: Gaps from which the cells are evaluated in float32 (F7: its rounding is then below 1 % of the gap).
+_FLOAT32_GAP = 1e-5
 #: Relative tolerance under which ``a_j.(a_i x a_k)`` counts as zero (coplanar generators).
 _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
@@ -81,7 +88,7 @@ _DEBUG = False
 class MaxNorm:
     """Certified bounds on ``R = max_{x in S} |x|`` at each pose (shapes: the blocks' leading shape ``(...)``).
 
-    * ``upper``: never below ``R`` (up to the widening :data:`ROUND`); ``lower``: ``= |point| <= R``;
+    * ``upper``: never below ``R`` (rounding accounted for, F7); ``lower``: ``= |point| <= R``;
     * ``direction``: unit ``u*`` at which the configuration attains ``h`` (``(..., 3)``);
     * ``point``: ``sum_j A_j x_j`` (``(..., 3)``), ``x_j = configuration[j]`` (``(..., d_j)``, ``|x_j| <= 1``);
     * ``certified``: ``upper - lower <= gap * lower``; ``exact``: the zonotope case, ``upper == lower``.
@@ -324,6 +331,8 @@ def _h_grid(lay: _Layout, R: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.nda
     """``h(p)`` at ``p = x e_x' + y e_y' + e_1'`` (``x, y (n, k)``) with the rows of C in the face's order,
     laid out columns first ``R (3, m, n)`` (so every operation runs along the cells)."""
     out = np.empty(x.shape)
+    x = x.astype(R.dtype)
+    y = y.astype(R.dtype)
     for i in range(x.shape[1]):
         Y = R[0] * x[:, i]
         Y += R[1] * y[:, i]
@@ -336,7 +345,14 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
     """Branch and bound over the three cube faces for one chunk of poses (F1-F5)."""
     N, _, m = C.shape
     # rows of C multiplying (x, y, 1) on each face, columns first, cells (pose, face) last: (3, m, 3 N)
-    CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N))
+    dtype = np.float32 if gap >= _FLOAT32_GAP else np.float64
+    CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N), dtype=dtype)
+    # rounding of the corner values (F7): h <= h_hat (1 + g1) + g2 |p| F
+    eps = float(np.finfo(dtype).eps) / 2.0
+    gam = lambda k: k * eps / (1.0 - k * eps)  # noqa: E731
+    g1 = gam(m + 6)
+    g2 = gam(5) * (1.0 + g1)
+    F = lay.h0(np.sqrt((C ** 2).sum(1)).T)                                  # sum_j ||A_j||_F, (N,)
     pose = np.repeat(np.arange(N), 3)
     face = np.tile(np.arange(3), N)
     x0 = np.full(pose.size, -1.0)
@@ -360,6 +376,7 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
         hv[:, _OLD] = hc
         hv[:, _NEW] = _h_grid(lay, CF[:, :, 3 * pose + face], xg[:, _NEW], yg[:, _NEW])
         pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
+        hup = hv * (1.0 + g1) + g2 * pn * F[pose, None]                    # >= h at the grid points (F7)
         lv = hv / pn                                                        # h at unit directions (F1)
         # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
         k = np.argmax(lv, axis=1)
@@ -381,20 +398,20 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
             dirn[ps[better]] = u1[better]
         first = False
         # children and their bounds (F4)
-        h4 = hv[:, _CORNERS]                                                # (n, 4 children, 4 corners)
+        h4 = hup[:, _CORNERS]                                               # (n, 4 children, 4 corners)
         cx = x0[:, None] + w * (_CHILD[:, 0] + 0.5) / 2.0                   # (n, 4)
         cy = y0[:, None] + w * (_CHILD[:, 1] + 0.5) / 2.0
         dots = xg[:, _CORNERS] * cx[..., None] + yg[:, _CORNERS] * cy[..., None] + 1.0
         cnorm = np.sqrt(cx ** 2 + cy ** 2 + 1.0)
-        ub = (h4 / dots).max(-1) * cnorm * (1.0 + ROUND)                    # (n, 4)
-        live = ub > lower[pose, None] * (1.0 + gap)
+        ub = (h4 / dots).max(-1) * cnorm * (1.0 + 4 * 2.0 ** -53)           # (n, 4)
+        live = ub > lower[pose, None] * ((1.0 + gap) * (1.0 - 1e-12))
         cpose = np.broadcast_to(pose[:, None], ub.shape)
         dead = ~live
         upruned = np.maximum(upruned, _segmax(ub[dead], cpose[dead], N))
         x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
         y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
         face = np.broadcast_to(face[:, None], ub.shape)[live]
-        hc = h4[live]
+        hc = hv[:, _CORNERS][live]
         ulive = ub[live]
         pose = cpose[live]
         w = w / 2.0
