@@ -163,6 +163,21 @@ class _Layout:
             out += np.sqrt(q, out=q).sum(0)
         return out
 
+    def unit_config0(self, Y: np.ndarray) -> np.ndarray:
+        """:meth:`unit_config` for products laid out with the columns first, ``Y (ncol, n)``."""
+        n1 = self.n1
+        X = np.empty_like(Y)
+        X[:n1] = np.where(Y[:n1] >= 0, 1.0, -1.0)
+        for lo, n, d in self._groups():
+            nrm = Y[lo:lo + n] ** 2
+            for c in range(1, d):
+                nrm += Y[lo + c * n:lo + (c + 1) * n] ** 2
+            np.sqrt(nrm, out=nrm)
+            inv = np.where(nrm > 0, 1.0 / np.where(nrm > 0, nrm, 1.0), 0.0)
+            for c in range(d):
+                X[lo + c * n:lo + (c + 1) * n] = Y[lo + c * n:lo + (c + 1) * n] * inv
+        return X
+
     def unit_config(self, Y: np.ndarray) -> np.ndarray:
         """The unit-ball points ``x`` attaining ``h`` (laid out like the columns), ``0`` at a null block."""
         n1 = self.n1
@@ -292,18 +307,21 @@ def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------- general
 
 
-def _ascend(lay: _Layout, C: np.ndarray, u: np.ndarray, iters: int) -> tuple[np.ndarray, np.ndarray]:
-    """``iters`` steps of ``u <- g(u)/|g(u)|`` (F3) from ``u (n, 3)``; returns ``(u, |g(u)|)`` of the last."""
-    for _ in range(iters):
-        Y = np.einsum("nc,ncm->nm", u, C)
-        X = lay.unit_config(Y)
-        g = np.einsum("ncm,nm->nc", C, X)
-        gn = np.sqrt((g ** 2).sum(-1))
+def _ascend(lay: _Layout, Ct: np.ndarray, u: np.ndarray, iters: int) -> tuple[np.ndarray, np.ndarray]:
+    """``iters`` steps of ``u <- g(u)/|g(u)|`` (F3) from ``u (3, n)`` with the columns ``Ct (3, m, n)``;
+    returns ``(u, |g(u)|)`` of the last ``u`` (``|g(u)| >= h(u)``, F2)."""
+    for it in range(iters + 1):
+        Y = Ct[0] * u[0]
+        Y += Ct[1] * u[1]
+        Y += Ct[2] * u[2]
+        X = lay.unit_config0(Y)
+        g = np.stack([(Ct[c] * X).sum(0) for c in range(3)])
+        gn = np.sqrt((g ** 2).sum(0))
+        if it == iters:
+            return u, gn
         ok = gn > 0
-        u = np.where(ok[:, None], g / np.where(ok, gn, 1.0)[:, None], u)
-    Y = np.einsum("nc,ncm->nm", u, C)
-    g = np.einsum("ncm,nm->nc", C, lay.unit_config(Y))
-    return u, np.sqrt((g ** 2).sum(-1))
+        u = np.where(ok, g / np.where(ok, gn, 1.0), u)
+    raise AssertionError  # pragma: no cover
 
 
 def _segmax(values: np.ndarray, pose: np.ndarray, n: int) -> np.ndarray:
@@ -342,11 +360,16 @@ def _h_grid(lay: _Layout, R: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.nda
 
 
 def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, ascent: int):
-    """Branch and bound over the three cube faces for one chunk of poses (F1-F5)."""
+    """Branch and bound over the three cube faces for one chunk of poses (F1-F5, F7).
+
+    Cells are flat arrays (pose, face, corner ``x0, y0``, width ``w``), sorted by pose; per-cell values are
+    laid out with the cells last (``(9, n)`` grid values, ``(4, n)`` children) so numpy runs along the cells.
+    """
     N, _, m = C.shape
     # rows of C multiplying (x, y, 1) on each face, columns first, cells (pose, face) last: (3, m, 3 N)
     dtype = np.float32 if gap >= _FLOAT32_GAP else np.float64
     CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N), dtype=dtype)
+    CT = np.ascontiguousarray(C.transpose(1, 2, 0))                         # (3, m, N) for the ascent
     # rounding of the corner values (F7): h <= h_hat (1 + g1) + g2 |p| F
     eps = float(np.finfo(dtype).eps) / 2.0
     gam = lambda k: k * eps / (1.0 - k * eps)  # noqa: E731
@@ -358,9 +381,9 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
     x0 = np.full(pose.size, -1.0)
     y0 = np.full(pose.size, -1.0)
     w = 2.0
-    hc = _h_grid(lay, CF, x0[:, None] + 2.0 * _GX[_OLD], y0[:, None] + 2.0 * _GY[_OLD])
+    hc = _h_grid(lay, CF, x0[:, None] + 2.0 * _GX[_OLD], y0[:, None] + 2.0 * _GY[_OLD]).T   # (4, n)
     lower = np.zeros(N)
-    dirn = np.tile(np.array([0.0, 0.0, 1.0]), (N, 1))
+    dirn = np.tile(np.array([[0.0], [0.0], [1.0]]), (1, N))               # (3, N)
     upruned = np.full(N, -np.inf)
     ulive = np.zeros(0)
     first = True
@@ -370,53 +393,56 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
         if _DEBUG:
             print("level", _level, pose.size / N)
         n = pose.size
-        xg = x0[:, None] + w * _GX                                          # (n, 9)
-        yg = y0[:, None] + w * _GY
-        hv = np.empty((n, 9))
-        hv[:, _OLD] = hc
-        hv[:, _NEW] = _h_grid(lay, CF[:, :, 3 * pose + face], xg[:, _NEW], yg[:, _NEW])
+        xg = x0 + w * _GX[:, None]                                          # (9, n)
+        yg = y0 + w * _GY[:, None]
+        hv = np.empty((9, n))
+        hv[_OLD] = hc
+        hv[_NEW] = _h_grid(lay, np.take(CF, 3 * pose + face, axis=2), xg[_NEW].T, yg[_NEW].T).T
         pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
-        hup = hv * (1.0 + g1) + g2 * pn * F[pose, None]                    # >= h at the grid points (F7)
         lv = hv / pn                                                        # h at unit directions (F1)
         # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
-        k = np.argmax(lv, axis=1)
-        rows = np.arange(n)
-        cell_best = lv[rows, k]
+        k = np.argmax(lv, axis=0)
+        cols = np.arange(n)
+        cell_best = lv[k, cols]
         pbest = _segmax(cell_best, pose, N)
         cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
         if cand.size:
             keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
             cand = cand[keep]
             ps = pose[cand]
-            loc = np.stack([xg[cand, k[cand]], yg[cand, k[cand]], np.ones(cand.size)], axis=-1)
+            kc = k[cand]
+            loc = np.stack([xg[kc, cand], yg[kc, cand], np.ones(cand.size)]) / pn[kc, cand]
             u0 = np.empty_like(loc)
-            u0[np.arange(cand.size)[:, None], _ROWS[face[cand]]] = loc
-            u0 /= pn[cand, k[cand], None]
-            u1, l1 = _ascend(lay, C[ps], u0, ascent if first else max(2, ascent // 4))
+            u0[_ROWS[face[cand]].T, np.arange(cand.size)] = loc
+            u1, l1 = _ascend(lay, np.take(CT, ps, axis=2), u0, ascent if first else max(2, ascent // 4))
             better = l1 > lower[ps]
             lower[ps[better]] = l1[better]
-            dirn[ps[better]] = u1[better]
+            dirn[:, ps[better]] = u1[:, better]
         first = False
-        # children and their bounds (F4)
-        h4 = hup[:, _CORNERS]                                               # (n, 4 children, 4 corners)
-        cx = x0[:, None] + w * (_CHILD[:, 0] + 0.5) / 2.0                   # (n, 4)
-        cy = y0[:, None] + w * (_CHILD[:, 1] + 0.5) / 2.0
-        dots = xg[:, _CORNERS] * cx[..., None] + yg[:, _CORNERS] * cy[..., None] + 1.0
-        cnorm = np.sqrt(cx ** 2 + cy ** 2 + 1.0)
-        ub = (h4 / dots).max(-1) * cnorm * (1.0 + 4 * 2.0 ** -53)           # (n, 4)
-        live = ub > lower[pose, None] * ((1.0 + gap) * (1.0 - 1e-12))
+        # children and their bounds (F4, F7): ub[c] = max_k h+(p_k) |centre| / (p_k . centre)
+        hup = hv * (1.0 + g1)
+        hup += (g2 * F[pose]) * pn                                          # >= h at the grid points
+        cx = x0 + (w * (_CHILD[:, 0] + 0.5) / 2.0)[:, None]                 # (4, n)
+        cy = y0 + (w * (_CHILD[:, 1] + 0.5) / 2.0)[:, None]
+        ub = np.full((4, n), -np.inf)
+        for c in range(4):
+            for kk in _CORNERS[c]:
+                np.maximum(ub[c], hup[kk] / (xg[kk] * cx[c] + yg[kk] * cy[c] + 1.0), out=ub[c])
+        ub *= np.sqrt(cx ** 2 + cy ** 2 + 1.0) * (1.0 + 8 * 2.0 ** -53)
+        ub = ub.T                                                           # (n, 4): children by pose
+        live = ub > (lower[pose] * ((1.0 + gap) * (1.0 - 1e-12)))[:, None]
         cpose = np.broadcast_to(pose[:, None], ub.shape)
         dead = ~live
         upruned = np.maximum(upruned, _segmax(ub[dead], cpose[dead], N))
         x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
         y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
         face = np.broadcast_to(face[:, None], ub.shape)[live]
-        hc = hv[:, _CORNERS][live]
+        hc = hv[_CORNERS].transpose(2, 0, 1)[live].T                       # (4 corners, n live)
         ulive = ub[live]
         pose = cpose[live]
         w = w / 2.0
     upper = np.maximum(upruned, _segmax(ulive, pose, N)) if pose.size else upruned
-    return upper, dirn
+    return upper, dirn.T
 
 
 def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 20) -> MaxNorm:
