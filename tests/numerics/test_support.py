@@ -115,6 +115,40 @@ def test_ball_plus_segment_closed_form():
     assert res.certified.all()
 
 
+def random_rotations(rng, n):
+    q, r = np.linalg.qr(rng.normal(size=(n, 3, 3)))
+    return q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
+
+
+def test_balls_and_segments_exact():
+    # isotropic balls r_j Q_j (any orthogonal Q_j) and segments: R = sum r_j + the zonotope's R, exactly
+    rng = np.random.default_rng(8)
+    n = 100
+    r = rng.uniform(0.05, 0.5, size=(3, n))
+    balls = [r[j][:, None, None] * random_rotations(rng, n) for j in range(3)]
+    G = rng.normal(size=(n, 3, 5))
+    blocks = balls + [G[..., j:j + 1] for j in range(5)]
+    res = max_norm(blocks)
+    exact = r.sum(0) + brute_zonotope(G)
+    np.testing.assert_allclose(res.upper, exact, rtol=1e-12)
+    np.testing.assert_allclose(res.lower, exact, rtol=1e-12)
+    assert res.exact.all() and res.certified.all()
+    check_point(res, blocks)
+    # a ball made slightly anisotropic goes through the branch and bound: same R up to the gap
+    squashed = [balls[0] * np.array([1.0, 1.0, 1.0 - 1e-6])] + blocks[1:]
+    res2 = max_norm(squashed)
+    assert not res2.exact.any() and res2.certified.all()
+    assert np.all(res2.upper >= exact * (1 - 1e-5)) and np.all(res2.lower <= exact * (1 + 1e-12))
+    check_point(res2, squashed)
+
+
+def test_only_balls():
+    res = max_norm([2.0 * np.eye(3), 0.5 * np.eye(3)[None].repeat(4, 0)])
+    np.testing.assert_allclose(res.upper, 2.5, rtol=1e-14)
+    np.testing.assert_allclose(res.lower, 2.5, rtol=1e-14)
+    assert res.exact.all()
+
+
 def test_two_orthogonal_discs():
     # disc of radius 1 in the xy-plane + disc of radius 2 in the yz-plane: R = 3 (along y)
     d1 = np.array([[[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]])

@@ -11,6 +11,20 @@ support function is ``h(u) = max_{x in S} u.x = sum_j |A_j^T u|`` and the quanti
 
 (``|x| = max_{|u|=1} u.x``; exchange the two maxima). ``S`` is centrally symmetric, so ``h(-u) = h(u)``.
 
+Method
+------
+Balls are taken out (F8). If the rest are segments, the vertices of the zonotope are enumerated (F6): exact.
+Otherwise, per chunk of poses, a branch and bound over the sphere: the cells are the three faces
+``x_a = +1`` of the cube ``[-1, 1]^3`` (F5), each split 2x2 at every level; ``h`` is evaluated on each live
+cell's 3x3 grid (its 4 corners are known from the level above), which gives the 4 children's bounds (F4,
+F7) and lower bounds at the grid directions (F1); from the best grid direction of each pose whose lower
+bound it beats, a few steps of the ascent (F3) give the lower bound ``|g(u)|`` (F2). A child whose bound is
+at most ``lower (1 + gap)`` is pruned (its bound kept in the pose's running maximum); the upper bound is
+the maximum over pruned and still-live cells (F5). All poses and all their live cells sit in flat arrays
+(a loop over the levels only); after ``max_levels`` the bounds stay valid and ``certified`` says whether the
+gap is reached. Finally ``u = point/|point|`` and every block's unit-ball point is taken at ``u`` (this
+only increases ``|point|``, F3).
+
 Facts used (each proved here in one line)
 ----------------------------------------
 (F1) *Every sampled direction is a lower bound*: ``R >= h(u)`` for every unit ``u`` (definition of R).
@@ -54,6 +68,12 @@ Facts used (each proved here in one line)
      candidate ``u = `` the largest generator. Every candidate is a point of ``S`` (a sign vector), so the
      best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators.
 
+(F8) *Balls come out exactly*: a block with ``A A^T = r^2 I`` is the ball ``r B``, and for
+     ``S = r B + S'``, ``R = r + R'``: ``|x' + r b| <= R' + r``, with equality at ``x'`` farthest in ``S'``
+     and ``b = x'/|x'|``. Such blocks (tested at ``1e-12``; the upper bound uses
+     ``sqrt(r^2 + ||A A^T - r^2 I||_F) >= ||A||_2``) are removed before the search and added back along
+     the final direction, so balls and segments together are solved exactly (F6).
+
 (F7) *Rounding*: the cells' corner values are computed in floating point of unit roundoff ``eps``
      (float32, ``eps = 2^-24``, when ``gap >= 1e-5``, else float64) at corners ``p = (x, y, 1)`` (permuted)
      whose coordinates are dyadic, hence exact. Each product ``Y = p^T C`` is off by at most
@@ -81,7 +101,6 @@ _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
 _CHUNK = 1 << 11
 _ZCHUNK = 1 << 9
-_DEBUG = False
 
 
 @dataclass(frozen=True)
@@ -390,8 +409,6 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
     for _level in range(max_levels):
         if pose.size == 0:
             break
-        if _DEBUG:
-            print("level", _level, pose.size / N)
         n = pose.size
         xg = x0 + w * _GX[:, None]                                          # (9, n)
         yg = y0 + w * _GY[:, None]
@@ -445,12 +462,12 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
     return upper, dirn.T
 
 
-def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 20) -> MaxNorm:
-    """Certified ``R = max_{x in S} |x|`` for ``S = sum_j A_j B_j`` at every pose (module docstring, F1-F6).
+def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 10) -> MaxNorm:
+    """Certified ``R = max_{x in S} |x|`` for ``S = sum_j A_j B_j`` at every pose (module docstring, F1-F8).
 
     ``blocks``: list of arrays ``(..., 3, d_j)`` (leading shapes broadcast together; the results have the
-    broadcast shape ``(...)``). When every block is a segment the vertex enumeration (F6) gives ``R`` exactly
-    (``upper == lower``, ``exact``); otherwise the branch and bound over the cube's faces stops when
+    broadcast shape ``(...)``). When every block is a segment or a ball the vertex enumeration (F6, F8) gives
+    ``R`` exactly (``upper == lower`` up to rounding, ``exact``); otherwise the branch and bound over the cube's faces stops when
     ``upper <= lower * (1 + gap)`` or after ``max_levels`` subdivisions (``certified`` False, bounds valid).
     The lower bound is ``|point|`` with ``point = sum_j A_j x_j`` for the returned configuration.
 
@@ -465,38 +482,56 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 2
     """
     lead, flat = _prepare(blocks)
     N = flat[0].shape[0]
-    lay = _Layout(flat)
-    C = lay.C
-    m = C.shape[-1]
-    X = np.zeros((N, m))
-    direction = np.zeros((N, 3))
+    # balls (A A^T = r^2 I up to 1e-12 at every pose) come out of the search exactly (F8)
+    radius, radius_up = {}, np.zeros(N)
+    for j, A in enumerate(flat):
+        if A.shape[-1] == 3:
+            M = np.matmul(A, A.transpose(0, 2, 1))
+            r2 = np.trace(M, axis1=1, axis2=2) / 3.0
+            dev = np.sqrt(((M - r2[:, None, None] * np.eye(3)) ** 2).sum((1, 2)))
+            if np.all(dev <= 1e-12 * r2):
+                radius[j] = np.sqrt(r2)
+                radius_up += np.sqrt(r2 + dev) * (1.0 + 2.0 ** -50)      # >= the largest singular value
+    rest = [j for j in range(len(flat)) if j not in radius]
+    exact = all(flat[j].shape[-1] == 1 for j in rest)
     upper = np.zeros(N)
-    exact = lay.n2 == 0 and lay.n3 == 0
-    chunk = _ZCHUNK if exact else _CHUNK
-    for a in range(0, N, chunk):
-        b = min(N, a + chunk)
-        Cc = C[a:b]
+    u = np.tile([0.0, 0.0, 1.0], (N, 1))
+    config: list[np.ndarray] = [None] * len(flat)  # type: ignore[list-item]
+    point = np.zeros((N, 3))
+    if rest:
+        lay = _Layout([flat[j] for j in rest])
+        C = lay.C
+        X = np.zeros((N, C.shape[-1]))
+        chunk = _ZCHUNK if exact else _CHUNK
+        for a in range(0, N, chunk):
+            b = min(N, a + chunk)
+            Cc = C[a:b]
+            if exact:
+                G = Cc.transpose(0, 2, 1)
+                X[a:b] = _polish_signs(_zonotope(G), G)
+            else:
+                up, u[a:b] = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
+                upper[a:b] = up
+                X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", u[a:b], Cc))
+        point = np.einsum("ncm,nm->nc", C, X)
+        pn = np.sqrt((point ** 2).sum(-1))
+        # final direction u = point / |point|: h(u) >= |point| (F3), and every block attains h at u
+        u = np.where(pn[:, None] > 0, point / np.where(pn > 0, pn, 1.0)[:, None], u)
         if exact:
-            G = Cc.transpose(0, 2, 1)
-            S = _polish_signs(_zonotope(G), G)
-            X[a:b] = S
-            v = np.einsum("ns,nsc->nc", S, G)
-            vn = np.sqrt((v ** 2).sum(-1))
-            direction[a:b] = np.where(vn[:, None] > 0, v / np.where(vn > 0, vn, 1.0)[:, None], [0.0, 0.0, 1.0])
+            upper = pn
         else:
-            up, u = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
-            upper[a:b] = up
-            direction[a:b] = u
-            X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", u, Cc))
-    point = np.einsum("ncm,nm->nc", C, X)
+            X = lay.unit_config(np.einsum("nc,ncm->nm", u, C))
+            point = np.einsum("ncm,nm->nc", C, X)
+        for j, x in zip(rest, lay.split(X)):
+            config[j] = x
+    for j, r in radius.items():
+        x = np.einsum("ncd,nc->nd", flat[j], u) / np.where(r > 0, r, 1.0)[:, None]
+        config[j] = np.where(r[:, None] > 0, x, 0.0)
+        point = point + np.einsum("ncd,nd->nc", flat[j], config[j])
     lower = np.sqrt((point ** 2).sum(-1))
-    if exact:
-        upper = lower.copy()
-    else:
-        upper = np.maximum(upper, lower)
-    certified = (upper - lower) <= gap * lower if not exact else np.ones(N, dtype=bool)
-    config = [x.reshape(lead + (x.shape[-1],)) for x in lay.split(X)]
+    upper = np.maximum(upper + radius_up, lower)
+    certified = np.full(N, True) if exact else (upper - lower) <= gap * lower
     return MaxNorm(upper=upper.reshape(lead), lower=lower.reshape(lead),
-                   direction=direction.reshape(lead + (3,)), point=point.reshape(lead + (3,)),
-                   configuration=config, certified=certified.reshape(lead),
-                   exact=np.full(lead, exact, dtype=bool))
+                   direction=u.reshape(lead + (3,)), point=point.reshape(lead + (3,)),
+                   configuration=[x.reshape(lead + (x.shape[-1],)) for x in config],
+                   certified=certified.reshape(lead), exact=np.full(lead, exact, dtype=bool))
