@@ -152,8 +152,12 @@ class _Layout:
         self.n1, self.n2, self.n3 = len(seg), len(disc), len(ell)
         self.cols = [(j, 0) for j in seg] + [(j, c) for c in range(2) for j in disc] \
             + [(j, c) for c in range(3) for j in ell]
-        self.C = np.ascontiguousarray(np.stack([flat[j][:, :, c] for j, c in self.cols], axis=-1))
+        self.flat = flat
         self.s2 = self.n1 + 2 * self.n2  # end of the disc columns
+
+    def columns(self, a: int = 0, b: int | None = None) -> np.ndarray:
+        """The columns ``C (b - a, 3, ncol)`` of the poses ``a:b`` (built per chunk: no copy of all poses)."""
+        return np.stack([self.flat[j][a:b, :, c] for j, c in self.cols], axis=-1)
 
     def _groups(self):
         n1, n2, n3, s2 = self.n1, self.n2, self.n3, self.s2
@@ -230,7 +234,7 @@ def support(blocks, u) -> np.ndarray:
     lead, flat = _prepare([np.asarray(b, dtype=float) + np.zeros(u.shape[:-1] + (1, 1)) for b in blocks])
     lay = _Layout(flat)
     uu = np.broadcast_to(u, lead + (3,)).reshape(-1, 3)
-    Y = np.einsum("nc,ncm->nm", uu, lay.C)
+    Y = np.einsum("nc,ncm->nm", uu, lay.columns())
     return lay.h(Y).reshape(lead)
 
 
@@ -500,28 +504,27 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 1
     point = np.zeros((N, 3))
     if rest:
         lay = _Layout([flat[j] for j in rest])
-        C = lay.C
-        X = np.zeros((N, C.shape[-1]))
+        X = np.zeros((N, len(lay.cols)))
         chunk = _ZCHUNK if exact else _CHUNK
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
-            Cc = C[a:b]
+            Cc = lay.columns(a, b)
             if exact:
                 G = Cc.transpose(0, 2, 1)
                 X[a:b] = _polish_signs(_zonotope(G), G)
             else:
-                up, u[a:b] = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
-                upper[a:b] = up
+                upper[a:b], ua = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
+                X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", ua, Cc))
+            pt = np.einsum("ncm,nm->nc", Cc, X[a:b])
+            pn = np.sqrt((pt ** 2).sum(-1))
+            # final direction u = point / |point|: h(u) >= |point| (F3), and every block attains h at u
+            u[a:b] = np.where(pn[:, None] > 0, pt / np.where(pn > 0, pn, 1.0)[:, None], u[a:b])
+            if exact:
+                upper[a:b] = pn
+            else:
                 X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", u[a:b], Cc))
-        point = np.einsum("ncm,nm->nc", C, X)
-        pn = np.sqrt((point ** 2).sum(-1))
-        # final direction u = point / |point|: h(u) >= |point| (F3), and every block attains h at u
-        u = np.where(pn[:, None] > 0, point / np.where(pn > 0, pn, 1.0)[:, None], u)
-        if exact:
-            upper = pn
-        else:
-            X = lay.unit_config(np.einsum("nc,ncm->nm", u, C))
-            point = np.einsum("ncm,nm->nc", C, X)
+                pt = np.einsum("ncm,nm->nc", Cc, X[a:b])
+            point[a:b] = pt
         for j, x in zip(rest, lay.split(X)):
             config[j] = x
     for j, r in radius.items():
