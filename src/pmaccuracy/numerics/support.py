@@ -46,8 +46,9 @@ Facts used (each proved here in one line)
 
          h(u) = h(q)/|q| <= h(q) <= max_k h(q_k) = max_k h(p_k) / (p_k.u0).
 
-     The bound exceeds the cell's maximum by ``O(|grad h| rho + rho^2)`` (``rho`` the cell's angular radius),
-     second order at the maximum, so the cells around the optimum need only ``rho ~ sqrt(gap)``.
+     Since ``h(q_k) = h(p_k/|p_k|) / cos(p_k, u0)``, the bound is at most ``max_cell h / cos(rho)``
+     (``rho`` the cell's angular radius): a relative excess ``rho^2/2``, second order, so the cells around
+     the optimum need only ``rho ~ sqrt(2 gap)`` (about 5 levels for ``gap = 1e-3``).
 
 (F5) *Covering*: the three faces ``x_a = +1`` (squares ``[-1, 1]^2``) cover one of ``u, -u`` for every unit
      ``u`` (its largest component in absolute value, with the sign made positive), and ``h(-u) = h(u)``;
@@ -66,7 +67,9 @@ Facts used (each proved here in one line)
      arises this way; ``-n`` gives the vertices ``-v`` (same norm), so ``+n`` suffices. A zonotope of
      rank 2 (a zonogon: all generators coplanar, all ties) is covered the same way; rank 1 by the extra
      candidate ``u = `` the largest generator. Every candidate is a point of ``S`` (a sign vector), so the
-     best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators.
+     best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators. Ties are
+     decided on the cosine ``|a_j.n| / (|a_j| |n|) <= 1e-10`` (rounding of exactly coplanar data); the
+     lower bound is a point of ``S`` whatever the decision.
 
 (F8) *Balls come out exactly*: a block with ``A A^T = r^2 I`` is the ball ``r B``, and for
      ``S = r B + S'``, ``R = r + R'``: ``|x' + r b| <= R' + r``, with equality at ``x'`` farthest in ``S'``
@@ -247,6 +250,10 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
     Candidates, each a sign vector (so a point of S): the rank-1 one ``sign(g_j . g_max)``, and for every
     pair ``i < k`` and ``(s_i, s_k)`` the vertex at the corner ``n = g_i x g_k`` (ties by ``sign(g_j . w)``).
     Arrays are laid out with the poses last, so every operation runs along the poses.
+
+    >>> G = np.array([[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [1.0, 1.0, 0.0]]])   # a hexagon in the xy-plane
+    >>> _zonotope(G)                                                            # |(2, 3, 0)|^2 = 13
+    array([[1., 1., 1.]])
     """
     N, s, _ = G.shape
     Gt = np.ascontiguousarray(G.transpose(2, 1, 0))                  # (3, s, N)
@@ -315,7 +322,11 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
 
 
 def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Replace the zero signs one by one by ``sign(v.g_j)`` (never decreases ``|v|``: ``|v+-g|^2 >= |v|^2``)."""
+    """Replace the zero signs one by one by ``sign(v.g_j)`` (never decreases ``|v|``: ``|v+-g|^2 >= |v|^2``).
+
+    >>> _polish_signs(np.array([[1.0, 0.0]]), np.array([[[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]]))
+    array([[1., 1.]])
+    """
     S = S.copy()
     v = np.einsum("ns,nsc->nc", S, G)
     for j in range(S.shape[1]):
@@ -332,7 +343,13 @@ def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
 
 def _ascend(lay: _Layout, Ct: np.ndarray, u: np.ndarray, iters: int) -> tuple[np.ndarray, np.ndarray]:
     """``iters`` steps of ``u <- g(u)/|g(u)|`` (F3) from ``u (3, n)`` with the columns ``Ct (3, m, n)``;
-    returns ``(u, |g(u)|)`` of the last ``u`` (``|g(u)| >= h(u)``, F2)."""
+    returns ``(u, |g(u)|)`` of the last ``u`` (``|g(u)| >= h(u)``, F2).
+
+    >>> lay = _Layout([np.diag([1.0, 2.0, 3.0])[None]])                    # an ellipsoid: R = 3
+    >>> u, g = _ascend(lay, lay.columns().transpose(1, 2, 0), np.array([[0.6], [0.0], [0.8]]), 30)
+    >>> round(float(g[0]), 9)
+    3.0
+    """
     for it in range(iters + 1):
         Y = Ct[0] * u[0]
         Y += Ct[1] * u[1]
@@ -348,7 +365,11 @@ def _ascend(lay: _Layout, Ct: np.ndarray, u: np.ndarray, iters: int) -> tuple[np
 
 
 def _segmax(values: np.ndarray, pose: np.ndarray, n: int) -> np.ndarray:
-    """Max of ``values`` per pose (``pose`` sorted), ``-inf`` for poses absent."""
+    """Max of ``values`` per pose (``pose`` sorted), ``-inf`` for poses absent.
+
+    >>> _segmax(np.array([1.0, 3.0, 2.0]), np.array([0, 0, 2]), 3)
+    array([  3., -inf,   2.])
+    """
     out = np.full(n, -np.inf)
     if values.size:
         starts = np.flatnonzero(np.r_[True, pose[1:] != pose[:-1]])
