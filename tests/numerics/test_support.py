@@ -274,3 +274,14 @@ def test_adding_a_block_never_decreases_r(dims, extra, seed):
     a = max_norm(blocks)
     b = max_norm(blocks + random_mix(rng, 3, (extra,)))
     assert np.all(b.upper >= a.lower * (1 - 1e-12))
+
+
+@settings(max_examples=60, deadline=None)
+@given(G=st.lists(st.tuples(*[st.integers(-2, 2)] * 3), min_size=1, max_size=7))
+def test_zonotope_small_integer_generators_exact(G):
+    # small integer generators: many parallel, coplanar and zero generators, exact ties everywhere
+    A = np.array(G, dtype=float).T[None]                      # (1, 3, s)
+    res = max_norm([A[..., j:j + 1] for j in range(A.shape[-1])])
+    ref = brute_zonotope(A)
+    np.testing.assert_allclose(res.upper, ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(res.lower, ref, rtol=1e-12, atol=1e-12)
