@@ -81,7 +81,7 @@ Facts used (each proved here in one line)
      the final direction, so balls and segments together are solved exactly (F6).
 
 (F7) *Rounding*: the cells' corner values are computed in floating point of unit roundoff ``eps``
-     (float32, ``eps = 2^-24``, when ``gap >= 1e-5``, else float64) at corners ``p = (x, y, 1)`` (permuted)
+     (float32, ``eps = 2^-24``, when ``gap >= 1e-4``, else float64) at corners ``p = (x, y, 1)`` (permuted)
      whose coordinates are dyadic, hence exact. Each product ``Y = p^T C`` is off by at most
      ``gamma_5 sum_c |p_c| |C_c,col|`` (``gamma_n = n eps / (1 - n eps)``; the rounding of C included),
      so a block's ``|A_j^T p|`` by at most ``gamma_5 |p| ||A_j||_F`` (triangle and Cauchy-Schwarz
@@ -100,8 +100,9 @@ import numpy as np
 
 from ..errors import ConfigError
 
-#: Gaps from which the cells are evaluated in float32 (F7: its rounding is then below 1 % of the gap).
-_FLOAT32_GAP = 1e-5
+#: Gaps from which the cells are evaluated in float32 (F7: its rounding widens the bounds by a relative
+#: ``(m + 6) 2^-24 + 9 2^-24 sum_j ||A_j||_F / R``, about 3e-6 for 6 ellipsoids and 12 segments).
+_FLOAT32_GAP = 1e-4
 #: Relative tolerance under which ``a_j.(a_i x a_k)`` counts as zero (coplanar generators).
 _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
@@ -116,7 +117,8 @@ class MaxNorm:
     * ``upper``: never below ``R`` (rounding accounted for, F7); ``lower``: ``= |point| <= R``;
     * ``direction``: unit ``u*`` at which the configuration attains ``h`` (``(..., 3)``);
     * ``point``: ``sum_j A_j x_j`` (``(..., 3)``), ``x_j = configuration[j]`` (``(..., d_j)``, ``|x_j| <= 1``);
-    * ``certified``: ``upper - lower <= gap * lower``; ``exact``: the zonotope case, ``upper == lower``.
+    * ``certified``: ``upper - lower <= gap * lower``; ``exact``: every block a segment or a ball (F6, F8),
+      ``upper == lower`` up to rounding.
     """
 
     upper: np.ndarray
