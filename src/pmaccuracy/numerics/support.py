@@ -506,9 +506,11 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 1
     """Certified ``R = max_{x in S} |x|`` for ``S = sum_j A_j B_j`` at every pose (module docstring, F1-F8).
 
     ``blocks``: list of arrays ``(..., 3, d_j)`` (leading shapes broadcast together; the results have the
-    broadcast shape ``(...)``). When every block is a segment or a ball the vertex enumeration (F6, F8) gives
-    ``R`` exactly (``upper == lower`` up to rounding, ``exact``); otherwise the branch and bound over the cube's faces stops when
-    ``upper <= lower * (1 + gap)`` or after ``max_levels`` subdivisions (``certified`` False, bounds valid).
+    broadcast shape ``(...)``). When every block is a segment or a ball the vertex enumeration (F6, F8)
+    gives ``R`` exactly (``upper == lower`` up to rounding, ``exact``); otherwise the branch and bound over
+    the cube's faces stops when ``upper <= lower * (1 + gap)`` or after ``max_levels`` subdivisions
+    (``certified`` False, bounds still valid). ``ascent``: steps of (F3) from the first grid's best
+    direction (a quarter of them at later levels).
     The lower bound is ``|point|`` with ``point = sum_j A_j x_j`` for the returned configuration.
 
     >>> ball = np.eye(3)[None]                  # unit ball
