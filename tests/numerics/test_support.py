@@ -285,3 +285,18 @@ def test_zonotope_small_integer_generators_exact(G):
     ref = brute_zonotope(A)
     np.testing.assert_allclose(res.upper, ref, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(res.lower, ref, rtol=1e-12, atol=1e-12)
+
+
+def test_many_live_cells_split_between_poses(monkeypatch):
+    # a nearly round set keeps most cells alive: the refinement splits them between poses (bounded memory)
+    import pmaccuracy.numerics.support as support_module
+
+    rng = np.random.default_rng(12)
+    n = 40
+    blocks = [np.eye(3) * np.array([1.0, 1.0, 1.0 - 1e-4]), 0.01 * rng.normal(size=(n, 3, 1))]
+    whole = max_norm(blocks)
+    monkeypatch.setattr(support_module, "_MAX_CELLS", 64)
+    split = max_norm(blocks)
+    assert whole.certified.all() and split.certified.all()
+    assert np.all(split.upper >= whole.lower * (1 - 1e-12)) and np.all(whole.upper >= split.lower * (1 - 1e-12))
+    check_point(split, blocks)

@@ -108,6 +108,8 @@ _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
 _CHUNK = 1 << 11
 _ZCHUNK = 1 << 9
+#: Live cells of one chunk refined at once, at most (more are split between poses: bounded memory).
+_MAX_CELLS = 1 << 17
 
 
 @dataclass(frozen=True)
@@ -434,72 +436,79 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
     lower = np.zeros(N)
     dirn = np.tile(np.array([[0.0], [0.0], [1.0]]), (1, N))               # (3, N)
     upruned = np.full(N, -np.inf)
-    ulive = np.zeros(0)
-    first = True
-    for _level in range(max_levels):
-        if pose.size == 0:
-            break
-        n = pose.size
-        xg = x0 + w * _GX[:, None]                                          # (9, n)
-        yg = y0 + w * _GY[:, None]
-        hv = np.empty((9, n))
-        hv[_OLD] = hc
-        hv[_NEW] = _h_grid(lay, np.take(CF, 3 * pose + face, axis=2), xg[_NEW].T, yg[_NEW].T).T
-        pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
-        lv = hv / pn                                                        # h at unit directions (F1)
-        # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
-        cell_best = lv.max(0)
-        pbest = _segmax(cell_best, pose, N)
-        cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
-        if cand.size:
-            keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
-            cand = cand[keep]
-            ps = pose[cand]
-            kc = np.argmax(lv[:, cand], axis=0)
-            loc = np.stack([xg[kc, cand], yg[kc, cand], np.ones(cand.size)]) / pn[kc, cand]
-            u0 = np.empty_like(loc)
-            u0[_ROWS[face[cand]].T, np.arange(cand.size)] = loc
-            u1, l1 = _ascend(lay, np.take(CT, ps, axis=2), u0, ascent if first else max(2, ascent // 4))
-            better = l1 > lower[ps]
-            lower[ps[better]] = l1[better]
-            dirn[:, ps[better]] = u1[:, better]
-        first = False
-        # children and their bounds (F4, F7): ub = max_k h+(p_k) |e| / (p_k . e) for two choices of the plane's
-        # normal e: the child's centre, and halfway from it to the corner of largest h (better where h slopes)
-        hup = hv * (1.0 + g1)
-        hup += (g2 * F[pose]) * pn                                          # >= h at the grid points
-        H = hup[_CORNERS]                                                   # (4 children, 4 corners, n)
-        XK = xg[_CORNERS]
-        YK = yg[_CORNERS]
-        cx = x0 + (w * (_CHILD[:, 0] + 0.5) / 2.0)[:, None]                 # (4, n) centres
-        cy = y0 + (w * (_CHILD[:, 1] + 0.5) / 2.0)[:, None]
-        ub = (H / (XK * cx[:, None] + YK * cy[:, None] + 1.0)).max(1) * np.sqrt(cx ** 2 + cy ** 2 + 1.0)
-        L4 = lv[_CORNERS]
-        best = L4[:, 0].copy()
-        kb = np.zeros((4, 1, n), dtype=np.intp)                             # corner of largest h
-        for c in range(1, 4):
-            gt = L4[:, c] > best
-            np.maximum(best, L4[:, c], out=best)
-            kb[:, 0][gt] = c
-        ex = 0.5 * (cx + np.take_along_axis(XK, kb, axis=1)[:, 0])
-        ey = 0.5 * (cy + np.take_along_axis(YK, kb, axis=1)[:, 0])
-        ub1 = (H / (XK * ex[:, None] + YK * ey[:, None] + 1.0)).max(1) * np.sqrt(ex ** 2 + ey ** 2 + 1.0)
-        np.minimum(ub, ub1, out=ub)
-        ub *= 1.0 + 8 * 2.0 ** -53
-        ub = ub.T                                                           # (n, 4): children by pose
-        live = ub > (lower[pose] * ((1.0 + gap) * (1.0 - 1e-12)))[:, None]
-        cpose = np.broadcast_to(pose[:, None], ub.shape)
-        dead = ~live
-        upruned = np.maximum(upruned, _segmax(ub[dead], cpose[dead], N))
-        x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
-        y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
-        face = np.broadcast_to(face[:, None], ub.shape)[live]
-        hc = hv[_CORNERS].transpose(2, 0, 1)[live].T                       # (4 corners, n live)
-        ulive = ub[live]
-        pose = cpose[live]
-        w = w / 2.0
-    upper = np.maximum(upruned, _segmax(ulive, pose, N)) if pose.size else upruned
-    return upper, dirn.T
+    def run(pose, face, x0, y0, w, hc, ulive, level):
+        """Refine the cells from ``level`` on; split them (between poses) when they exceed ``_MAX_CELLS``."""
+        while level < max_levels and pose.size:
+            if pose.size > _MAX_CELLS and pose[0] != pose[-1]:
+                cut = np.searchsorted(pose, pose[pose.size // 2])
+                cut = cut if cut > 0 else np.searchsorted(pose, pose[0], side="right")
+                for sl in (slice(0, cut), slice(cut, None)):
+                    run(pose[sl], face[sl], x0[sl], y0[sl], w, hc[:, sl], ulive[sl], level)
+                return
+            n = pose.size
+            xg = x0 + w * _GX[:, None]                                          # (9, n)
+            yg = y0 + w * _GY[:, None]
+            hv = np.empty((9, n))
+            hv[_OLD] = hc
+            hv[_NEW] = _h_grid(lay, np.take(CF, 3 * pose + face, axis=2), xg[_NEW].T, yg[_NEW].T).T
+            pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
+            lv = hv / pn                                                        # h at unit directions (F1)
+            # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
+            cell_best = lv.max(0)
+            pbest = _segmax(cell_best, pose, N)
+            cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
+            if cand.size:
+                keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
+                cand = cand[keep]
+                ps = pose[cand]
+                kc = np.argmax(lv[:, cand], axis=0)
+                loc = np.stack([xg[kc, cand], yg[kc, cand], np.ones(cand.size)]) / pn[kc, cand]
+                u0 = np.empty_like(loc)
+                u0[_ROWS[face[cand]].T, np.arange(cand.size)] = loc
+                u1, l1 = _ascend(lay, np.take(CT, ps, axis=2), u0, ascent if level == 0 else max(2, ascent // 4))
+                better = l1 > lower[ps]
+                lower[ps[better]] = l1[better]
+                dirn[:, ps[better]] = u1[:, better]
+            # children and their bounds (F4, F7): ub = max_k h+(p_k) |e| / (p_k . e) for two choices of the plane's
+            # normal e: the child's centre, and halfway from it to the corner of largest h (better where h slopes)
+            hup = hv * (1.0 + g1)
+            hup += (g2 * F[pose]) * pn                                          # >= h at the grid points
+            H = hup[_CORNERS]                                                   # (4 children, 4 corners, n)
+            XK = xg[_CORNERS]
+            YK = yg[_CORNERS]
+            cx = x0 + (w * (_CHILD[:, 0] + 0.5) / 2.0)[:, None]                 # (4, n) centres
+            cy = y0 + (w * (_CHILD[:, 1] + 0.5) / 2.0)[:, None]
+            ub = (H / (XK * cx[:, None] + YK * cy[:, None] + 1.0)).max(1) * np.sqrt(cx ** 2 + cy ** 2 + 1.0)
+            L4 = lv[_CORNERS]
+            best = L4[:, 0].copy()
+            kb = np.zeros((4, 1, n), dtype=np.intp)                             # corner of largest h
+            for c in range(1, 4):
+                gt = L4[:, c] > best
+                np.maximum(best, L4[:, c], out=best)
+                kb[:, 0][gt] = c
+            ex = 0.5 * (cx + np.take_along_axis(XK, kb, axis=1)[:, 0])
+            ey = 0.5 * (cy + np.take_along_axis(YK, kb, axis=1)[:, 0])
+            ub1 = (H / (XK * ex[:, None] + YK * ey[:, None] + 1.0)).max(1) * np.sqrt(ex ** 2 + ey ** 2 + 1.0)
+            np.minimum(ub, ub1, out=ub)
+            ub *= 1.0 + 8 * 2.0 ** -53
+            ub = ub.T                                                           # (n, 4): children by pose
+            live = ub > (lower[pose] * ((1.0 + gap) * (1.0 - 1e-12)))[:, None]
+            cpose = np.broadcast_to(pose[:, None], ub.shape)
+            dead = ~live
+            np.maximum(upruned, _segmax(ub[dead], cpose[dead], N), out=upruned)
+            x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
+            y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
+            face = np.broadcast_to(face[:, None], ub.shape)[live]
+            hc = hv[_CORNERS].transpose(2, 0, 1)[live].T                       # (4 corners, n live)
+            ulive = ub[live]
+            pose = cpose[live]
+            w = w / 2.0
+            level += 1
+
+        np.maximum(upruned, _segmax(ulive, pose, N), out=upruned)
+
+    run(pose, face, x0, y0, w, hc, np.full(pose.size, np.inf), 0)
+    return upruned, dirn.T
 
 
 def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 10) -> MaxNorm:
