@@ -3,7 +3,8 @@
 Two random hexapod-like mixes per pose, timed in process CPU time (the kernels are single-threaded numpy):
 
 * general: 6 balls (ellipsoids, d = 3) and 12 segments, branch and bound at ``--gap`` (default 1e-3);
-* zonotope: 12 segments only, solved exactly by vertex enumeration.
+* zonotope: 12 segments only, solved exactly by vertex enumeration;
+* isotropic: 6 true balls ``r_j I`` and 12 segments (exact: the balls come out, then the zonotope).
 
 Printed: total seconds, microseconds per pose, the share of certified poses and the largest relative gap.
 
@@ -51,6 +52,10 @@ def main(argv=None) -> None:
               f"certified {r.certified.mean():.4f}  max gap {rel:.2e}")
         t, r = _time(lambda: max_norm(segs), args.repeats)
         print(f"zonotope 12 segments (exact),      N = {n:>8}: {t:8.2f} s  {1e6 * t / n:8.2f} us/pose  "
+              f"exact {r.exact.mean():.4f}")
+        iso = [np.broadcast_to(0.3 * np.eye(3), (n, 3, 3)) for _ in range(6)]
+        t, r = _time(lambda: max_norm(iso + segs), args.repeats)
+        print(f"isotropic 6 r I + 12 segments,     N = {n:>8}: {t:8.2f} s  {1e6 * t / n:8.2f} us/pose  "
               f"exact {r.exact.mean():.4f}")
 
 

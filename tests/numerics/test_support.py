@@ -115,6 +115,40 @@ def test_ball_plus_segment_closed_form():
     assert res.certified.all()
 
 
+def random_rotations(rng, n):
+    q, r = np.linalg.qr(rng.normal(size=(n, 3, 3)))
+    return q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
+
+
+def test_balls_and_segments_exact():
+    # isotropic balls r_j Q_j (any orthogonal Q_j) and segments: R = sum r_j + the zonotope's R, exactly
+    rng = np.random.default_rng(8)
+    n = 100
+    r = rng.uniform(0.05, 0.5, size=(3, n))
+    balls = [r[j][:, None, None] * random_rotations(rng, n) for j in range(3)]
+    G = rng.normal(size=(n, 3, 5))
+    blocks = balls + [G[..., j:j + 1] for j in range(5)]
+    res = max_norm(blocks)
+    exact = r.sum(0) + brute_zonotope(G)
+    np.testing.assert_allclose(res.upper, exact, rtol=1e-12)
+    np.testing.assert_allclose(res.lower, exact, rtol=1e-12)
+    assert res.exact.all() and res.certified.all()
+    check_point(res, blocks)
+    # a ball made slightly anisotropic goes through the branch and bound: same R up to the gap
+    squashed = [balls[0] * np.array([1.0, 1.0, 1.0 - 1e-6])] + blocks[1:]
+    res2 = max_norm(squashed)
+    assert not res2.exact.any() and res2.certified.all()
+    assert np.all(res2.upper >= exact * (1 - 1e-5)) and np.all(res2.lower <= exact * (1 + 1e-12))
+    check_point(res2, squashed)
+
+
+def test_only_balls():
+    res = max_norm([2.0 * np.eye(3), 0.5 * np.eye(3)[None].repeat(4, 0)])
+    np.testing.assert_allclose(res.upper, 2.5, rtol=1e-14)
+    np.testing.assert_allclose(res.lower, 2.5, rtol=1e-14)
+    assert res.exact.all()
+
+
 def test_two_orthogonal_discs():
     # disc of radius 1 in the xy-plane + disc of radius 2 in the yz-plane: R = 3 (along y)
     d1 = np.array([[[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]])
@@ -240,3 +274,29 @@ def test_adding_a_block_never_decreases_r(dims, extra, seed):
     a = max_norm(blocks)
     b = max_norm(blocks + random_mix(rng, 3, (extra,)))
     assert np.all(b.upper >= a.lower * (1 - 1e-12))
+
+
+@settings(max_examples=60, deadline=None)
+@given(G=st.lists(st.tuples(*[st.integers(-2, 2)] * 3), min_size=1, max_size=7))
+def test_zonotope_small_integer_generators_exact(G):
+    # small integer generators: many parallel, coplanar and zero generators, exact ties everywhere
+    A = np.array(G, dtype=float).T[None]                      # (1, 3, s)
+    res = max_norm([A[..., j:j + 1] for j in range(A.shape[-1])])
+    ref = brute_zonotope(A)
+    np.testing.assert_allclose(res.upper, ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(res.lower, ref, rtol=1e-12, atol=1e-12)
+
+
+def test_many_live_cells_split_between_poses(monkeypatch):
+    # a nearly round set keeps most cells alive: the refinement splits them between poses (bounded memory)
+    import pmaccuracy.numerics.support as support_module
+
+    rng = np.random.default_rng(12)
+    n = 40
+    blocks = [np.eye(3) * np.array([1.0, 1.0, 1.0 - 1e-4]), 0.01 * rng.normal(size=(n, 3, 1))]
+    whole = max_norm(blocks)
+    monkeypatch.setattr(support_module, "_MAX_CELLS", 64)
+    split = max_norm(blocks)
+    assert whole.certified.all() and split.certified.all()
+    assert np.all(split.upper >= whole.lower * (1 - 1e-12)) and np.all(whole.upper >= split.lower * (1 - 1e-12))
+    check_point(split, blocks)

@@ -11,6 +11,20 @@ support function is ``h(u) = max_{x in S} u.x = sum_j |A_j^T u|`` and the quanti
 
 (``|x| = max_{|u|=1} u.x``; exchange the two maxima). ``S`` is centrally symmetric, so ``h(-u) = h(u)``.
 
+Method
+------
+Balls are taken out (F8). If the rest are segments, the vertices of the zonotope are enumerated (F6): exact.
+Otherwise, per chunk of poses, a branch and bound over the sphere: the cells are the three faces
+``x_a = +1`` of the cube ``[-1, 1]^3`` (F5), each split 2x2 at every level; ``h`` is evaluated on each live
+cell's 3x3 grid (its 4 corners are known from the level above), which gives the 4 children's bounds (F4,
+F7) and lower bounds at the grid directions (F1); from the best grid direction of each pose whose lower
+bound it beats, a few steps of the ascent (F3) give the lower bound ``|g(u)|`` (F2). A child whose bound is
+at most ``lower (1 + gap)`` is pruned (its bound kept in the pose's running maximum); the upper bound is
+the maximum over pruned and still-live cells (F5). All poses and all their live cells sit in flat arrays
+(a loop over the levels only); after ``max_levels`` the bounds stay valid and ``certified`` says whether the
+gap is reached. Finally ``u = point/|point|`` and every block's unit-ball point is taken at ``u`` (this
+only increases ``|point|``, F3).
+
 Facts used (each proved here in one line)
 ----------------------------------------
 (F1) *Every sampled direction is a lower bound*: ``R >= h(u)`` for every unit ``u`` (definition of R).
@@ -25,15 +39,19 @@ Facts used (each proved here in one line)
 
 (F4) *Cell bound from convexity* (the upper bound used by the branch and bound): a cell is the central
      projection onto the sphere of a square ``Q`` on a face ``{x_a = 1}`` of the cube, with corners
-     ``p_1..p_4``. Let ``u0`` be a unit vector with ``p_k.u0 > 0`` (the normalized centre). Every unit
+     ``p_1..p_4``. Let ``u0`` be a unit vector with ``p_k.u0 > 0`` (any point of the cell: the corners of
+     a dyadic square inside ``[-1, 0]^2`` or ``[0, 1]^2`` have ``p_k.p_l >= 1``). Every unit
      ``u`` of the cell is ``q/|q|`` for a ``q`` of the quadrilateral ``conv{q_k}``, ``q_k = p_k/(p_k.u0)``
      (the cone over Q cut by the plane ``{x.u0 = 1}``; central projection maps segments to segments), and
      ``|q| >= q.u0 = 1``. As ``h`` is convex, positively homogeneous and >= 0:
 
          h(u) = h(q)/|q| <= h(q) <= max_k h(q_k) = max_k h(p_k) / (p_k.u0).
 
-     The bound exceeds the cell's maximum by ``O(|grad h| rho + rho^2)`` (``rho`` the cell's angular radius),
-     second order at the maximum, so the cells around the optimum need only ``rho ~ sqrt(gap)``.
+     Since ``h(q_k) = h(p_k/|p_k|) / cos(p_k, u0)``, the bound is at most ``max_cell h / cos(rho)``
+     (``rho`` the cell's angular radius): a relative excess ``rho^2/2``, second order, so the cells around
+     the optimum need only ``rho ~ sqrt(2 gap)`` (about 5 levels for ``gap = 1e-3``). The bound is taken
+     for two ``u0`` (the centre, and halfway to the corner of largest ``h``) and the smaller kept: a
+     third fewer cells where ``h`` slopes across the cell.
 
 (F5) *Covering*: the three faces ``x_a = +1`` (squares ``[-1, 1]^2``) cover one of ``u, -u`` for every unit
      ``u`` (its largest component in absolute value, with the sign made positive), and ``h(-u) = h(u)``;
@@ -52,11 +70,26 @@ Facts used (each proved here in one line)
      arises this way; ``-n`` gives the vertices ``-v`` (same norm), so ``+n`` suffices. A zonotope of
      rank 2 (a zonogon: all generators coplanar, all ties) is covered the same way; rank 1 by the extra
      candidate ``u = `` the largest generator. Every candidate is a point of ``S`` (a sign vector), so the
-     best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators.
+     best candidate is ``R`` exactly: ``O(s^3)`` operations per pose for ``s`` generators. Ties are
+     decided on the cosine ``|a_j.n| / (|a_j| |n|) <= 1e-10`` (rounding of exactly coplanar data); the
+     lower bound is a point of ``S`` whatever the decision.
 
-Rounding: ``h`` is evaluated as ``|A_j^T p|`` from the columns (not from ``A_j A_j^T``, whose square root
-loses half the digits near a null direction); the cell bounds are widened by the relative ``ROUND``
-(far above the rounding of a few hundred terms).
+(F8) *Balls come out exactly*: a block with ``A A^T = r^2 I`` is the ball ``r B``, and for
+     ``S = r B + S'``, ``R = r + R'``: ``|x' + r b| <= R' + r``, with equality at ``x'`` farthest in ``S'``
+     and ``b = x'/|x'|``. Such blocks (tested at ``1e-12``; the upper bound uses
+     ``sqrt(r^2 + ||A A^T - r^2 I||_F) >= ||A||_2``) are removed before the search and added back along
+     the final direction, so balls and segments together are solved exactly (F6).
+
+(F7) *Rounding*: the cells' corner values are computed in floating point of unit roundoff ``eps``
+     (float32, ``eps = 2^-24``, when ``gap >= 1e-4``, else float64) at corners ``p = (x, y, 1)`` (permuted)
+     whose coordinates are dyadic, hence exact. Each product ``Y = p^T C`` is off by at most
+     ``gamma_5 sum_c |p_c| |C_c,col|`` (``gamma_n = n eps / (1 - n eps)``; the rounding of C included),
+     so a block's ``|A_j^T p|`` by at most ``gamma_5 |p| ||A_j||_F`` (triangle and Cauchy-Schwarz
+     inequalities), and the sums of ``m`` positive terms and the square roots add a relative
+     ``gamma_(m+6)``; the bound (F4) uses ``h_hat (1 + gamma_(m+6)) + gamma_5 (1 + gamma_(m+6)) |p|
+     sum_j ||A_j||_F``, never below the exact ``h(p)``. The lower bound (F2) is recomputed in float64 from
+     the columns ``A_j`` (never from ``A_j A_j^T``, whose square root loses half the digits near a null
+     direction): ``|point|`` is exact up to the float64 rounding of one 3-vector's norm.
 """
 
 from __future__ import annotations
@@ -67,24 +100,27 @@ import numpy as np
 
 from ..errors import ConfigError
 
-#: Relative widening of every upper bound, above the rounding of the evaluation of ``h``.
-ROUND = 1e-12
+#: Gaps from which the cells are evaluated in float32 (F7: its rounding widens the bounds by a relative
+#: ``(m + 6) 2^-24 + 9 2^-24 sum_j ||A_j||_F / R``, about 3e-6 for 6 ellipsoids and 12 segments).
+_FLOAT32_GAP = 1e-4
 #: Relative tolerance under which ``a_j.(a_i x a_k)`` counts as zero (coplanar generators).
 _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
 _CHUNK = 1 << 11
 _ZCHUNK = 1 << 9
-_DEBUG = False
+#: Live cells of one chunk refined at once, at most (more are split between poses: bounded memory).
+_MAX_CELLS = 1 << 17
 
 
 @dataclass(frozen=True)
 class MaxNorm:
     """Certified bounds on ``R = max_{x in S} |x|`` at each pose (shapes: the blocks' leading shape ``(...)``).
 
-    * ``upper``: never below ``R`` (up to the widening :data:`ROUND`); ``lower``: ``= |point| <= R``;
+    * ``upper``: never below ``R`` (rounding accounted for, F7); ``lower``: ``= |point| <= R``;
     * ``direction``: unit ``u*`` at which the configuration attains ``h`` (``(..., 3)``);
     * ``point``: ``sum_j A_j x_j`` (``(..., 3)``), ``x_j = configuration[j]`` (``(..., d_j)``, ``|x_j| <= 1``);
-    * ``certified``: ``upper - lower <= gap * lower``; ``exact``: the zonotope case, ``upper == lower``.
+    * ``certified``: ``upper - lower <= gap * lower``; ``exact``: every block a segment or a ball (F6, F8),
+      ``upper == lower`` up to rounding.
     """
 
     upper: np.ndarray
@@ -126,8 +162,12 @@ class _Layout:
         self.n1, self.n2, self.n3 = len(seg), len(disc), len(ell)
         self.cols = [(j, 0) for j in seg] + [(j, c) for c in range(2) for j in disc] \
             + [(j, c) for c in range(3) for j in ell]
-        self.C = np.ascontiguousarray(np.stack([flat[j][:, :, c] for j, c in self.cols], axis=-1))
+        self.flat = flat
         self.s2 = self.n1 + 2 * self.n2  # end of the disc columns
+
+    def columns(self, a: int = 0, b: int | None = None) -> np.ndarray:
+        """The columns ``C (b - a, 3, ncol)`` of the poses ``a:b`` (built per chunk: no copy of all poses)."""
+        return np.stack([self.flat[j][a:b, :, c] for j, c in self.cols], axis=-1)
 
     def _groups(self):
         n1, n2, n3, s2 = self.n1, self.n2, self.n3, self.s2
@@ -155,6 +195,21 @@ class _Layout:
                 q += Y[lo + c * n:lo + (c + 1) * n] ** 2
             out += np.sqrt(q, out=q).sum(0)
         return out
+
+    def unit_config0(self, Y: np.ndarray) -> np.ndarray:
+        """:meth:`unit_config` for products laid out with the columns first, ``Y (ncol, n)``."""
+        n1 = self.n1
+        X = np.empty_like(Y)
+        X[:n1] = np.where(Y[:n1] >= 0, 1.0, -1.0)
+        for lo, n, d in self._groups():
+            nrm = Y[lo:lo + n] ** 2
+            for c in range(1, d):
+                nrm += Y[lo + c * n:lo + (c + 1) * n] ** 2
+            np.sqrt(nrm, out=nrm)
+            inv = np.where(nrm > 0, 1.0 / np.where(nrm > 0, nrm, 1.0), 0.0)
+            for c in range(d):
+                X[lo + c * n:lo + (c + 1) * n] = Y[lo + c * n:lo + (c + 1) * n] * inv
+        return X
 
     def unit_config(self, Y: np.ndarray) -> np.ndarray:
         """The unit-ball points ``x`` attaining ``h`` (laid out like the columns), ``0`` at a null block."""
@@ -189,7 +244,7 @@ def support(blocks, u) -> np.ndarray:
     lead, flat = _prepare([np.asarray(b, dtype=float) + np.zeros(u.shape[:-1] + (1, 1)) for b in blocks])
     lay = _Layout(flat)
     uu = np.broadcast_to(u, lead + (3,)).reshape(-1, 3)
-    Y = np.einsum("nc,ncm->nm", uu, lay.C)
+    Y = np.einsum("nc,ncm->nm", uu, lay.columns())
     return lay.h(Y).reshape(lead)
 
 
@@ -202,6 +257,10 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
     Candidates, each a sign vector (so a point of S): the rank-1 one ``sign(g_j . g_max)``, and for every
     pair ``i < k`` and ``(s_i, s_k)`` the vertex at the corner ``n = g_i x g_k`` (ties by ``sign(g_j . w)``).
     Arrays are laid out with the poses last, so every operation runs along the poses.
+
+    >>> G = np.array([[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [1.0, 1.0, 0.0]]])   # a hexagon in the xy-plane
+    >>> _zonotope(G)                                                            # |(2, 3, 0)|^2 = 13
+    array([[1., 1., 1.]])
     """
     N, s, _ = G.shape
     Gt = np.ascontiguousarray(G.transpose(2, 1, 0))                  # (3, s, N)
@@ -270,7 +329,11 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
 
 
 def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Replace the zero signs one by one by ``sign(v.g_j)`` (never decreases ``|v|``: ``|v+-g|^2 >= |v|^2``)."""
+    """Replace the zero signs one by one by ``sign(v.g_j)`` (never decreases ``|v|``: ``|v+-g|^2 >= |v|^2``).
+
+    >>> _polish_signs(np.array([[1.0, 0.0]]), np.array([[[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]]))
+    array([[1., 1.]])
+    """
     S = S.copy()
     v = np.einsum("ns,nsc->nc", S, G)
     for j in range(S.shape[1]):
@@ -285,22 +348,35 @@ def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------- general
 
 
-def _ascend(lay: _Layout, C: np.ndarray, u: np.ndarray, iters: int) -> tuple[np.ndarray, np.ndarray]:
-    """``iters`` steps of ``u <- g(u)/|g(u)|`` (F3) from ``u (n, 3)``; returns ``(u, |g(u)|)`` of the last."""
-    for _ in range(iters):
-        Y = np.einsum("nc,ncm->nm", u, C)
-        X = lay.unit_config(Y)
-        g = np.einsum("ncm,nm->nc", C, X)
-        gn = np.sqrt((g ** 2).sum(-1))
+def _ascend(lay: _Layout, Ct: np.ndarray, u: np.ndarray, iters: int) -> tuple[np.ndarray, np.ndarray]:
+    """``iters`` steps of ``u <- g(u)/|g(u)|`` (F3) from ``u (3, n)`` with the columns ``Ct (3, m, n)``;
+    returns ``(u, |g(u)|)`` of the last ``u`` (``|g(u)| >= h(u)``, F2).
+
+    >>> lay = _Layout([np.diag([1.0, 2.0, 3.0])[None]])                    # an ellipsoid: R = 3
+    >>> u, g = _ascend(lay, lay.columns().transpose(1, 2, 0), np.array([[0.6], [0.0], [0.8]]), 30)
+    >>> round(float(g[0]), 9)
+    3.0
+    """
+    for it in range(iters + 1):
+        Y = Ct[0] * u[0]
+        Y += Ct[1] * u[1]
+        Y += Ct[2] * u[2]
+        X = lay.unit_config0(Y)
+        g = np.stack([(Ct[c] * X).sum(0) for c in range(3)])
+        gn = np.sqrt((g ** 2).sum(0))
+        if it == iters:
+            return u, gn
         ok = gn > 0
-        u = np.where(ok[:, None], g / np.where(ok, gn, 1.0)[:, None], u)
-    Y = np.einsum("nc,ncm->nm", u, C)
-    g = np.einsum("ncm,nm->nc", C, lay.unit_config(Y))
-    return u, np.sqrt((g ** 2).sum(-1))
+        u = np.where(ok, g / np.where(ok, gn, 1.0), u)
+    raise AssertionError  # pragma: no cover
 
 
 def _segmax(values: np.ndarray, pose: np.ndarray, n: int) -> np.ndarray:
-    """Max of ``values`` per pose (``pose`` sorted), ``-inf`` for poses absent."""
+    """Max of ``values`` per pose (``pose`` sorted), ``-inf`` for poses absent.
+
+    >>> _segmax(np.array([1.0, 3.0, 2.0]), np.array([0, 0, 2]), 3)
+    array([  3., -inf,   2.])
+    """
     out = np.full(n, -np.inf)
     if values.size:
         starts = np.flatnonzero(np.r_[True, pose[1:] != pose[:-1]])
@@ -324,6 +400,8 @@ def _h_grid(lay: _Layout, R: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.nda
     """``h(p)`` at ``p = x e_x' + y e_y' + e_1'`` (``x, y (n, k)``) with the rows of C in the face's order,
     laid out columns first ``R (3, m, n)`` (so every operation runs along the cells)."""
     out = np.empty(x.shape)
+    x = x.astype(R.dtype)
+    y = y.astype(R.dtype)
     for i in range(x.shape[1]):
         Y = R[0] * x[:, i]
         Y += R[1] * y[:, i]
@@ -333,82 +411,115 @@ def _h_grid(lay: _Layout, R: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.nda
 
 
 def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, ascent: int):
-    """Branch and bound over the three cube faces for one chunk of poses (F1-F5)."""
+    """Branch and bound over the three cube faces for one chunk of poses (F1-F5, F7).
+
+    Cells are flat arrays (pose, face, corner ``x0, y0``, width ``w``), sorted by pose; per-cell values are
+    laid out with the cells last (``(9, n)`` grid values, ``(4, n)`` children) so numpy runs along the cells.
+    """
     N, _, m = C.shape
     # rows of C multiplying (x, y, 1) on each face, columns first, cells (pose, face) last: (3, m, 3 N)
-    CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N))
+    dtype = np.float32 if gap >= _FLOAT32_GAP else np.float64
+    CF = np.ascontiguousarray(C[:, _ROWS].transpose(2, 3, 0, 1).reshape(3, m, 3 * N), dtype=dtype)
+    CT = np.ascontiguousarray(C.transpose(1, 2, 0))                         # (3, m, N) for the ascent
+    # rounding of the corner values (F7): h <= h_hat (1 + g1) + g2 |p| F
+    eps = float(np.finfo(dtype).eps) / 2.0
+    gam = lambda k: k * eps / (1.0 - k * eps)  # noqa: E731
+    g1 = gam(m + 6)
+    g2 = gam(5) * (1.0 + g1)
+    F = lay.h0(np.sqrt((C ** 2).sum(1)).T)                                  # sum_j ||A_j||_F, (N,)
     pose = np.repeat(np.arange(N), 3)
     face = np.tile(np.arange(3), N)
     x0 = np.full(pose.size, -1.0)
     y0 = np.full(pose.size, -1.0)
     w = 2.0
-    hc = _h_grid(lay, CF, x0[:, None] + 2.0 * _GX[_OLD], y0[:, None] + 2.0 * _GY[_OLD])
+    hc = _h_grid(lay, CF, x0[:, None] + 2.0 * _GX[_OLD], y0[:, None] + 2.0 * _GY[_OLD]).T   # (4, n)
     lower = np.zeros(N)
-    dirn = np.tile(np.array([0.0, 0.0, 1.0]), (N, 1))
+    dirn = np.tile(np.array([[0.0], [0.0], [1.0]]), (1, N))               # (3, N)
     upruned = np.full(N, -np.inf)
-    ulive = np.zeros(0)
-    first = True
-    for _level in range(max_levels):
-        if pose.size == 0:
-            break
-        if _DEBUG:
-            print("level", _level, pose.size / N)
-        n = pose.size
-        xg = x0[:, None] + w * _GX                                          # (n, 9)
-        yg = y0[:, None] + w * _GY
-        hv = np.empty((n, 9))
-        hv[:, _OLD] = hc
-        hv[:, _NEW] = _h_grid(lay, CF[:, :, 3 * pose + face], xg[:, _NEW], yg[:, _NEW])
-        pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
-        lv = hv / pn                                                        # h at unit directions (F1)
-        # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
-        k = np.argmax(lv, axis=1)
-        rows = np.arange(n)
-        cell_best = lv[rows, k]
-        pbest = _segmax(cell_best, pose, N)
-        cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
-        if cand.size:
-            keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
-            cand = cand[keep]
-            ps = pose[cand]
-            loc = np.stack([xg[cand, k[cand]], yg[cand, k[cand]], np.ones(cand.size)], axis=-1)
-            u0 = np.empty_like(loc)
-            u0[np.arange(cand.size)[:, None], _ROWS[face[cand]]] = loc
-            u0 /= pn[cand, k[cand], None]
-            u1, l1 = _ascend(lay, C[ps], u0, ascent if first else max(2, ascent // 4))
-            better = l1 > lower[ps]
-            lower[ps[better]] = l1[better]
-            dirn[ps[better]] = u1[better]
-        first = False
-        # children and their bounds (F4)
-        h4 = hv[:, _CORNERS]                                                # (n, 4 children, 4 corners)
-        cx = x0[:, None] + w * (_CHILD[:, 0] + 0.5) / 2.0                   # (n, 4)
-        cy = y0[:, None] + w * (_CHILD[:, 1] + 0.5) / 2.0
-        dots = xg[:, _CORNERS] * cx[..., None] + yg[:, _CORNERS] * cy[..., None] + 1.0
-        cnorm = np.sqrt(cx ** 2 + cy ** 2 + 1.0)
-        ub = (h4 / dots).max(-1) * cnorm * (1.0 + ROUND)                    # (n, 4)
-        live = ub > lower[pose, None] * (1.0 + gap)
-        cpose = np.broadcast_to(pose[:, None], ub.shape)
-        dead = ~live
-        upruned = np.maximum(upruned, _segmax(ub[dead], cpose[dead], N))
-        x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
-        y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
-        face = np.broadcast_to(face[:, None], ub.shape)[live]
-        hc = h4[live]
-        ulive = ub[live]
-        pose = cpose[live]
-        w = w / 2.0
-    upper = np.maximum(upruned, _segmax(ulive, pose, N)) if pose.size else upruned
-    return upper, dirn
+    def run(pose, face, x0, y0, w, hc, ulive, level):
+        """Refine the cells from ``level`` on; split them (between poses) when they exceed ``_MAX_CELLS``."""
+        while level < max_levels and pose.size:
+            if pose.size > _MAX_CELLS and pose[0] != pose[-1]:
+                cut = np.searchsorted(pose, pose[pose.size // 2])
+                cut = cut if cut > 0 else np.searchsorted(pose, pose[0], side="right")
+                for sl in (slice(0, cut), slice(cut, None)):
+                    run(pose[sl], face[sl], x0[sl], y0[sl], w, hc[:, sl], ulive[sl], level)
+                return
+            n = pose.size
+            xg = x0 + w * _GX[:, None]                                          # (9, n)
+            yg = y0 + w * _GY[:, None]
+            hv = np.empty((9, n))
+            hv[_OLD] = hc
+            hv[_NEW] = _h_grid(lay, np.take(CF, 3 * pose + face, axis=2), xg[_NEW].T, yg[_NEW].T).T
+            pn = np.sqrt(xg ** 2 + yg ** 2 + 1.0)
+            lv = hv / pn                                                        # h at unit directions (F1)
+            # best grid direction per pose; ascent (F2, F3) where it beats the current lower bound
+            cell_best = lv.max(0)
+            pbest = _segmax(cell_best, pose, N)
+            cand = np.flatnonzero((cell_best >= pbest[pose]) & (cell_best > lower[pose]))
+            if cand.size:
+                keep = np.r_[True, pose[cand][1:] != pose[cand][:-1]]
+                cand = cand[keep]
+                ps = pose[cand]
+                kc = np.argmax(lv[:, cand], axis=0)
+                loc = np.stack([xg[kc, cand], yg[kc, cand], np.ones(cand.size)]) / pn[kc, cand]
+                u0 = np.empty_like(loc)
+                u0[_ROWS[face[cand]].T, np.arange(cand.size)] = loc
+                u1, l1 = _ascend(lay, np.take(CT, ps, axis=2), u0, ascent if level == 0 else max(2, ascent // 4))
+                better = l1 > lower[ps]
+                lower[ps[better]] = l1[better]
+                dirn[:, ps[better]] = u1[:, better]
+            # children and their bounds (F4, F7): ub = max_k h+(p_k) |e| / (p_k . e) for two choices of the plane's
+            # normal e: the child's centre, and halfway from it to the corner of largest h (better where h slopes)
+            hup = hv * (1.0 + g1)
+            hup += (g2 * F[pose]) * pn                                          # >= h at the grid points
+            H = hup[_CORNERS]                                                   # (4 children, 4 corners, n)
+            XK = xg[_CORNERS]
+            YK = yg[_CORNERS]
+            cx = x0 + (w * (_CHILD[:, 0] + 0.5) / 2.0)[:, None]                 # (4, n) centres
+            cy = y0 + (w * (_CHILD[:, 1] + 0.5) / 2.0)[:, None]
+            ub = (H / (XK * cx[:, None] + YK * cy[:, None] + 1.0)).max(1) * np.sqrt(cx ** 2 + cy ** 2 + 1.0)
+            L4 = lv[_CORNERS]
+            best = L4[:, 0].copy()
+            kb = np.zeros((4, 1, n), dtype=np.intp)                             # corner of largest h
+            for c in range(1, 4):
+                gt = L4[:, c] > best
+                np.maximum(best, L4[:, c], out=best)
+                kb[:, 0][gt] = c
+            ex = 0.5 * (cx + np.take_along_axis(XK, kb, axis=1)[:, 0])
+            ey = 0.5 * (cy + np.take_along_axis(YK, kb, axis=1)[:, 0])
+            ub1 = (H / (XK * ex[:, None] + YK * ey[:, None] + 1.0)).max(1) * np.sqrt(ex ** 2 + ey ** 2 + 1.0)
+            np.minimum(ub, ub1, out=ub)
+            ub *= 1.0 + 8 * 2.0 ** -53
+            ub = ub.T                                                           # (n, 4): children by pose
+            live = ub > (lower[pose] * ((1.0 + gap) * (1.0 - 1e-12)))[:, None]
+            cpose = np.broadcast_to(pose[:, None], ub.shape)
+            dead = ~live
+            np.maximum(upruned, _segmax(ub[dead], cpose[dead], N), out=upruned)
+            x0 = (x0[:, None] + w / 2.0 * _CHILD[:, 0])[live]
+            y0 = (y0[:, None] + w / 2.0 * _CHILD[:, 1])[live]
+            face = np.broadcast_to(face[:, None], ub.shape)[live]
+            hc = hv[_CORNERS].transpose(2, 0, 1)[live].T                       # (4 corners, n live)
+            ulive = ub[live]
+            pose = cpose[live]
+            w = w / 2.0
+            level += 1
+
+        np.maximum(upruned, _segmax(ulive, pose, N), out=upruned)
+
+    run(pose, face, x0, y0, w, hc, np.full(pose.size, np.inf), 0)
+    return upruned, dirn.T
 
 
-def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 20) -> MaxNorm:
-    """Certified ``R = max_{x in S} |x|`` for ``S = sum_j A_j B_j`` at every pose (module docstring, F1-F6).
+def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 10) -> MaxNorm:
+    """Certified ``R = max_{x in S} |x|`` for ``S = sum_j A_j B_j`` at every pose (module docstring, F1-F8).
 
     ``blocks``: list of arrays ``(..., 3, d_j)`` (leading shapes broadcast together; the results have the
-    broadcast shape ``(...)``). When every block is a segment the vertex enumeration (F6) gives ``R`` exactly
-    (``upper == lower``, ``exact``); otherwise the branch and bound over the cube's faces stops when
-    ``upper <= lower * (1 + gap)`` or after ``max_levels`` subdivisions (``certified`` False, bounds valid).
+    broadcast shape ``(...)``). When every block is a segment or a ball the vertex enumeration (F6, F8)
+    gives ``R`` exactly (``upper == lower`` up to rounding, ``exact``); otherwise the branch and bound over
+    the cube's faces stops when ``upper <= lower * (1 + gap)`` or after ``max_levels`` subdivisions
+    (``certified`` False, bounds still valid). ``ascent``: steps of (F3) from the first grid's best
+    direction (a quarter of them at later levels).
     The lower bound is ``|point|`` with ``point = sum_j A_j x_j`` for the returned configuration.
 
     >>> ball = np.eye(3)[None]                  # unit ball
@@ -422,38 +533,55 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 2
     """
     lead, flat = _prepare(blocks)
     N = flat[0].shape[0]
-    lay = _Layout(flat)
-    C = lay.C
-    m = C.shape[-1]
-    X = np.zeros((N, m))
-    direction = np.zeros((N, 3))
+    # balls (A A^T = r^2 I up to 1e-12 at every pose) come out of the search exactly (F8)
+    radius, radius_up = {}, np.zeros(N)
+    for j, A in enumerate(flat):
+        if A.shape[-1] == 3:
+            M = np.matmul(A, A.transpose(0, 2, 1))
+            r2 = np.trace(M, axis1=1, axis2=2) / 3.0
+            dev = np.sqrt(((M - r2[:, None, None] * np.eye(3)) ** 2).sum((1, 2)))
+            if np.all(dev <= 1e-12 * r2):
+                radius[j] = np.sqrt(r2)
+                radius_up += np.sqrt(r2 + dev) * (1.0 + 2.0 ** -50)      # >= the largest singular value
+    rest = [j for j in range(len(flat)) if j not in radius]
+    exact = all(flat[j].shape[-1] == 1 for j in rest)
     upper = np.zeros(N)
-    exact = lay.n2 == 0 and lay.n3 == 0
-    chunk = _ZCHUNK if exact else _CHUNK
-    for a in range(0, N, chunk):
-        b = min(N, a + chunk)
-        Cc = C[a:b]
-        if exact:
-            G = Cc.transpose(0, 2, 1)
-            S = _polish_signs(_zonotope(G), G)
-            X[a:b] = S
-            v = np.einsum("ns,nsc->nc", S, G)
-            vn = np.sqrt((v ** 2).sum(-1))
-            direction[a:b] = np.where(vn[:, None] > 0, v / np.where(vn > 0, vn, 1.0)[:, None], [0.0, 0.0, 1.0])
-        else:
-            up, u = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
-            upper[a:b] = up
-            direction[a:b] = u
-            X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", u, Cc))
-    point = np.einsum("ncm,nm->nc", C, X)
+    u = np.tile([0.0, 0.0, 1.0], (N, 1))
+    config: list[np.ndarray] = [None] * len(flat)  # type: ignore[list-item]
+    point = np.zeros((N, 3))
+    if rest:
+        lay = _Layout([flat[j] for j in rest])
+        X = np.zeros((N, len(lay.cols)))
+        chunk = _ZCHUNK if exact else _CHUNK
+        for a in range(0, N, chunk):
+            b = min(N, a + chunk)
+            Cc = lay.columns(a, b)
+            if exact:
+                G = Cc.transpose(0, 2, 1)
+                X[a:b] = _polish_signs(_zonotope(G), G)
+            else:
+                upper[a:b], ua = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
+                X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", ua, Cc))
+            pt = np.einsum("ncm,nm->nc", Cc, X[a:b])
+            pn = np.sqrt((pt ** 2).sum(-1))
+            # final direction u = point / |point|: h(u) >= |point| (F3), and every block attains h at u
+            u[a:b] = np.where(pn[:, None] > 0, pt / np.where(pn > 0, pn, 1.0)[:, None], u[a:b])
+            if exact:
+                upper[a:b] = pn
+            else:
+                X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", u[a:b], Cc))
+                pt = np.einsum("ncm,nm->nc", Cc, X[a:b])
+            point[a:b] = pt
+        for j, x in zip(rest, lay.split(X)):
+            config[j] = x
+    for j, r in radius.items():
+        x = np.einsum("ncd,nc->nd", flat[j], u) / np.where(r > 0, r, 1.0)[:, None]
+        config[j] = np.where(r[:, None] > 0, x, 0.0)
+        point = point + np.einsum("ncd,nd->nc", flat[j], config[j])
     lower = np.sqrt((point ** 2).sum(-1))
-    if exact:
-        upper = lower.copy()
-    else:
-        upper = np.maximum(upper, lower)
-    certified = (upper - lower) <= gap * lower if not exact else np.ones(N, dtype=bool)
-    config = [x.reshape(lead + (x.shape[-1],)) for x in lay.split(X)]
+    upper = np.maximum(upper + radius_up, lower)
+    certified = np.full(N, True) if exact else (upper - lower) <= gap * lower
     return MaxNorm(upper=upper.reshape(lead), lower=lower.reshape(lead),
-                   direction=direction.reshape(lead + (3,)), point=point.reshape(lead + (3,)),
-                   configuration=config, certified=certified.reshape(lead),
-                   exact=np.full(lead, exact, dtype=bool))
+                   direction=u.reshape(lead + (3,)), point=point.reshape(lead + (3,)),
+                   configuration=[x.reshape(lead + (x.shape[-1],)) for x in config],
+                   certified=certified.reshape(lead), exact=np.full(lead, exact, dtype=bool))
