@@ -299,8 +299,13 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
                                   f"{', '.join(QUANTITIES)}")
     full = poses(robot, [args.pose], None)[0]
     sources = _sources(args, robot)
-    result = spatial_pose_statistics(robot, sources, full, samples=samples, seed=args.seed, distribution=law,
-                                     percentiles=args.percentile or (95.0, 99.0), thresholds=thresholds)
+    try:
+        result = spatial_pose_statistics(robot, sources, full, samples=samples, seed=args.seed, distribution=law,
+                                         percentiles=args.percentile or (95.0, 99.0), thresholds=thresholds)
+    except PoseError as exc:    # unreachable, near-singular: name the option, plain numbers
+        import re
+
+        raise type(exc)("--pose: " + re.sub(r"np\.float64\(([^)]*)\)", r"\1", str(exc))) from None
     data = result.to_dict()
     data["pose"] = _pose_record(robot, full)
     if args.format == "json":
