@@ -259,3 +259,69 @@ def run_map(args: argparse.Namespace, robot) -> int:
                      "max": float(var.max()) * scale, "unit": "deg" if unit == "rad" else unit})
     _common.emit(rows, args.format)
     return 0
+
+
+#: Columns of the statistics table (json and csv have every statistic), after the percentiles' place.
+_STAT_TABLE = ("quantity", "unit", "mean_abs", "rms", "rss", "max_abs", "worst", "exceed", "se_exceed", "threshold")
+
+
+def run_statistics(args: argparse.Namespace, robot) -> int:
+    """``statistics`` on a spatial robot at one pose (its own coordinates): Monte Carlo statistics of the
+    first-order error twist beside the exact RSS and the worst case
+    (:func:`pmaccuracy.accuracy.spatial_statistics.spatial_pose_statistics`); one row per quantity, with its
+    ``unit`` (mm or deg)."""
+    from ..accuracy.spatial_statistics import LAWS, MIN_SAMPLES, QUANTITIES, spatial_pose_statistics
+
+    unavailable = (("--phi-deg", args.phi_deg), ("--out", args.out), ("--plot", args.plot),
+                   ("--exact-samples", args.exact_samples),
+                   ("--box/--disc/--polygon/--region", any(getattr(args, k, None) is not None
+                                                           for k in ("box", "disc", "polygon", "region"))))
+    for option, value in unavailable:
+        if value:
+            raise PmAccuracyError(f"{option} is not available for spatial robots' statistics yet ({robot.name} is "
+                                  f"a {robot.architecture}): give one --pose")
+    names = robot.controlled
+    if args.pose is None:
+        raise PmAccuracyError(f"--pose: give one pose {' '.join(n.upper() for n in names)} (mm, deg) of the "
+                              f"{robot.architecture}")
+    samples = 100_000 if args.samples is None else args.samples
+    if samples < MIN_SAMPLES:
+        raise PmAccuracyError(f"--samples: {samples} is too few for a spatial robot's statistics; give at least "
+                              f"{MIN_SAMPLES}")
+    law = args.distribution or "uniform"
+    if law not in LAWS:
+        raise PmAccuracyError(f"--distribution: spatial robots take one law for every source, uniform or normal "
+                              f"(truncated Gaussian, sigma = half-width / 3), got {law!r}")
+    thresholds = dict(args.threshold or [])
+    for key in thresholds:
+        if key not in QUANTITIES:
+            raise PmAccuracyError(f"--threshold: {key} is a planar quantity; a spatial robot's: "
+                                  f"{', '.join(QUANTITIES)}")
+    full = poses(robot, [args.pose], None)[0]
+    sources = _sources(args, robot)
+    try:
+        result = spatial_pose_statistics(robot, sources, full, samples=samples, seed=args.seed, distribution=law,
+                                         percentiles=args.percentile or (95.0, 99.0), thresholds=thresholds)
+    except PoseError as exc:    # unreachable, near-singular: name the option, plain numbers
+        import re
+
+        raise type(exc)("--pose: " + re.sub(r"np\.float64\(([^)]*)\)", r"\1", str(exc))) from None
+    data = result.to_dict()
+    data["pose"] = _pose_record(robot, full)
+    if args.format == "json":
+        _common.emit(data, "json")
+        return 0
+    rows = [{"quantity": q, "unit": "deg" if q.endswith("_deg") else "mm", **stats}
+            for q, stats in data["quantities"].items()]
+    if args.format == "table":
+        def order(key):
+            if key[:1] == "p" and key[1:2].isdigit():
+                return (1, float(key[1:]))
+            k = _STAT_TABLE.index(key)
+            return (0 if k < 5 else 2, k)
+
+        rows = [{k: r[k] for k in sorted((k for k in r if k in _STAT_TABLE or (k[:1] == "p" and k[1:2].isdigit()
+                                                                                 and "_" not in k)), key=order)}
+                for r in rows]
+    _common.emit(rows, args.format)
+    return 0

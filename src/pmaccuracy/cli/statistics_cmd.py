@@ -1,6 +1,7 @@
 """``pmaccuracy statistics``: the distribution of the pose error beside its worst case (Monte Carlo and RSS).
 
-At one pose (``--pose X Y PHI_DEG``): mean, standard deviation, percentiles of
+At one pose (``--pose X Y PHI_DEG``; a spatial robot: its own coordinates, see
+:func:`pmaccuracy.cli.spatial_cmd.run_statistics`): mean, standard deviation, percentiles of
 ``|dq|`` with their 95 % order-statistic interval, exceedance probabilities with
 their binomial standard error, the analytic RSS and the worst case, per
 quantity. Over a region (``--phi-deg ... --grid N --out map.nc``): percentile
@@ -15,6 +16,7 @@ import math
 from ..errors import ConfigError, EmptyWorkspaceError
 from . import _common
 from .bounds_cmd import add_clearances
+from .spatial_cmd import POSE_HELP
 from .worst_cmd import add_shape, parse_shape, shape_key
 
 HELP = "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"
@@ -32,14 +34,22 @@ def _table_order(key: str) -> tuple[int, float]:
     return (0 if order[key] < 3 else 4, order[key])
 
 
+#: Quantities of a threshold: planar robots, spatial robots.
+PLANAR_THRESHOLDS = ("dx", "dy", "dp", "dphi_deg")
+SPATIAL_THRESHOLDS = ("dx", "dy", "dz", "drx_deg", "dry_deg", "drz_deg", "dp", "dtheta_deg")
+
+
 def _threshold(text: str) -> tuple[str, float]:
-    """argparse type: ``QUANTITY=VALUE`` (dx, dy, dp in mm; dphi_deg in deg)."""
+    """argparse type: ``QUANTITY=VALUE`` (dx, dy, dp in mm; dphi_deg in deg; spatial robots: also dz mm and
+    drx_deg, dry_deg, drz_deg, dtheta_deg in deg; each command checks its robot's quantities)."""
     key, sep, value = text.partition("=")
     if not sep:
         raise argparse.ArgumentTypeError(f"expected QUANTITY=VALUE (e.g. dp=0.2), got {text!r}")
     key = key.strip()
-    if key not in ("dx", "dy", "dp", "dphi_deg"):
-        raise argparse.ArgumentTypeError(f"unknown quantity {key!r} (dx, dy, dp in mm; dphi_deg in deg)")
+    if key not in PLANAR_THRESHOLDS + SPATIAL_THRESHOLDS:
+        raise argparse.ArgumentTypeError(f"unknown quantity {key!r} (dx, dy, dp in mm; dphi_deg in deg; spatial "
+                                         "robots: dx, dy, dz, dp in mm; drx_deg, dry_deg, drz_deg, dtheta_deg "
+                                         "in deg)")
     return key, _common.finite_float(value)
 
 
@@ -60,8 +70,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "deg. Percentiles are of |dq|.")
     _common.add_robot(p)
     add_clearances(p)
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, metavar=("X", "Y", "PHI_DEG"),
-                   help="one pose: x mm, y mm, phi deg")
+    p.add_argument("--pose", nargs="+", type=_common.finite_float, metavar="V",
+                   help="one pose, not repeatable: " + POSE_HELP.removeprefix("a pose (repeatable). "))
     p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", action="extend", metavar="PHI",
                    help="orientation(s) of a percentile map in degrees: several values and/or the option repeated "
                         "(needs --out)")
@@ -95,8 +105,16 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..accuracy import distributions
+    from ..model.spatial import is_spatial
     from ..report import statistics_report
+    from .kinematics_cmd import _three
 
+    robot = _common.load_robot(args)
+    if is_spatial(robot):
+        from . import spatial_cmd
+
+        return spatial_cmd.run_statistics(args, robot)
+    _three([args.pose] if args.pose is not None else None, "--pose", "X Y PHI_DEG (mm, mm, deg)")
     if (args.pose is None) == (args.phi_deg is None):
         raise ConfigError("give either --pose X Y PHI_DEG or --phi-deg PHI (with --out) for a map",
                           key="--pose/--phi-deg")
@@ -113,8 +131,11 @@ def run(args: argparse.Namespace) -> int:
     if shape is not None and args.pose is not None:
         raise ConfigError("a region goes with a map (--phi-deg), not with --pose", key=shape_key(args))
     thresholds = dict(args.threshold or [])
+    for key in thresholds:
+        if key not in PLANAR_THRESHOLDS:
+            raise ConfigError(f"{key} is a quantity of spatial robots; a planar robot's: "
+                              f"{', '.join(PLANAR_THRESHOLDS)}", key="--threshold")
     distribution = distributions.Distribution.load(args.distribution)
-    robot = _common.load_robot(args)
     _common.clearances_or_default(args, robot)
     if args.pose is not None:
         pose = np.array([args.pose[0], args.pose[1], math.radians(args.pose[2])])
