@@ -66,6 +66,8 @@ _EXPORTS = {
     "SpatialErrorSources": "model.spatial_sources", "SpatialJointErrors": "model.spatial_sources",
     "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
     "spatial_error_map": "accuracy.spatial_maps",
+    "spatial_pose_statistics": "accuracy.spatial_statistics",
+    "SpatialPoseStatistics": "accuracy.spatial_statistics",
     # accuracy
     "max_pose_errors": "accuracy.bounds", "PoseErrorBounds": "accuracy.bounds",
     "max_serial_errors": "model.serial",

@@ -123,7 +123,7 @@ def test_map_of_a_spatial_robot_writes_netcdf_and_a_figure(tmp_path, capsys):
     (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--certified"], "--certified is not"),
     (["bounds", "--robot", "stewart_6ups", "--clearances", "nope.toml", "--pose", 0, 0, 400, 0, 0, 0],
      "--clearances: nope.toml"),
-    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 90], "singularity"),
+    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 90, "--allow-outside"], "singularity"),
     (["bounds", "--robot", "aalborg_3ppr", "--pose", 0, 0], "a planar robot takes three values"),
     (["map", "--robot", "upu_3", "--grid", 8, "--out", "x.csv"], "a spatial map is written as .nc or .zarr"),
     (["map", "--robot", "upu_3", "--grid", 500, "--out", "x.nc"], "--grid: 500"),
@@ -153,3 +153,13 @@ def test_commands_without_spatial_support_refuse_in_one_line(argv, capsys, tmp_p
     assert status == 2 and len(lines) == 1, err
     assert "spatial robot" in lines[0] or "error:" in lines[0], err
     assert "internal error" not in err and "Traceback" not in err
+
+
+def test_bounds_refuses_a_pose_outside_the_strokes_unless_asked(capsys):
+    argv = ["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 560, 0, 0, 0]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert "--pose: pose 1 (x, y, z, roll, pitch, yaw) = (0, 0, 560, 0, 0, 0) is outside the joint limits" in err
+    assert "np.float64" not in err and "--allow-outside" in err
+    status, out, err = run_cli(argv + ["--allow-outside"], capsys)
+    assert status == 0, err

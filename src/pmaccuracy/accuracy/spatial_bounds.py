@@ -28,7 +28,7 @@ from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
 from ..model.spatial_sources import JOINTS, SpatialErrorSources
-from ..numerics.spatial import normalize, rotations
+from ..numerics.spatial import normalize, rotations, rotvec_to_euler_xyz
 from ..numerics.support import max_norm
 
 #: Names of the six error components: position (mm) then small rotations (rad) about the base axes.
@@ -285,8 +285,14 @@ def _condition(robot: SpatialManipulator, W: np.ndarray) -> tuple[np.ndarray, np
     return np.where(np.isfinite(cond), cond, np.inf), Winv
 
 
+def _shown(pose: np.ndarray) -> str:
+    """A pose in words: ``(x, y, z mm, roll, pitch, yaw deg)``."""
+    c = np.concatenate([pose[:3], rotvec_to_euler_xyz(pose[3:], degrees=True)])
+    return "(x, y, z, roll, pitch, yaw) = (" + ", ".join(f"{float(v):.6g}" for v in c) + ")"
+
+
 def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *, strict: bool = True,
-                     keep: bool = True) -> tuple[list, dict]:
+                     keep: bool = True, allow_outside: bool = False) -> tuple[list, dict]:
     """The error set at the poses, as blocks of Eq. 1, and the closure data used.
 
     Returns ``(blocks, info)``: ``blocks`` a list of ``(..., 6, d)`` matrices whose unit-ball images sum to the
@@ -294,7 +300,8 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
     its column of ``W^-1``: they can only change that equation); ``info`` holds ``Winv`` ``(..., 6, 6)``,
     ``condition``, ``valid`` (reachable and regular) and, with ``keep``, the :class:`Source` list (each
     source's own contribution, for shares and configurations). ``strict``: raise for a pose that is
-    unreachable or near-singular; else its blocks are NaN and ``valid`` False.
+    unreachable, outside the joint limits (unless ``allow_outside``: then only unreachable ones) or
+    near-singular; else its blocks are NaN and ``valid`` False.
     """
     poses = as_spatial_poses(poses)
     ik = inverse_kinematics(robot, poses)
@@ -303,9 +310,11 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
         # evaluate the unreachable poses at a reachable one and blank them at the end
         poses = np.where(reach[..., None], poses, reference_pose(robot))
         ik = inverse_kinematics(robot, poses)
-    if strict and not np.all(ik.reachable):
-        bad = tuple(int(i) for i in np.argwhere(~np.asarray(ik.reachable))[0]) if poses.ndim > 1 else ()
-        raise OutsideJointLimitsError(f"pose {list(np.round(poses[bad], 6))} cannot be reached: "
+    if strict and not np.all(ik.reachable if allow_outside else ik.within_limits):
+        ok = np.asarray(ik.reachable if allow_outside else ik.within_limits)
+        bad = tuple(int(i) for i in np.argwhere(~ok)[0]) if poses.ndim > 1 else ()
+        where = f"pose {bad[0] + 1} " if bad else "the pose "
+        raise OutsideJointLimitsError(f"{where}{_shown(poses[bad])} is outside the joint limits: "
                                       + "; ".join(ik.violations(bad)))
     cl = closure(robot, poses, ik.q)
     W = cl.wrenches
@@ -313,7 +322,8 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
     valid = reach & (cond <= MAX_CONDITION)
     if strict and np.any(~valid):
         bad = tuple(int(v) for v in np.argwhere(~valid)[0]) if poses.ndim > 1 else ()
-        raise SingularPoseError(f"pose {list(np.round(poses[bad], 6))} is at or near a parallel or constraint "
+        where = f"pose {bad[0] + 1} " if bad else "the pose "
+        raise SingularPoseError(f"{where}{_shown(poses[bad])} is at or near a parallel or constraint "
                                 f"singularity (condition number {float(np.asarray(cond)[bad]):.3g} > {MAX_CONDITION:g})")
     if not np.all(valid):
         Winv = np.linalg.inv(np.where(valid[..., None, None], W, np.eye(6)))
@@ -393,12 +403,13 @@ def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
 
 
 def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *,
-                        gap: float = DEFAULT_GAP, strict: bool = True, details: bool = True
-                        ) -> SpatialPoseErrors:
+                        gap: float = DEFAULT_GAP, strict: bool = True, details: bool = True,
+                        allow_outside: bool = False) -> SpatialPoseErrors:
     """The worst first-order pose errors of ``robot`` with its error ``sources`` at ``poses`` ``(..., 6)``
     (Eq. 1 and the module text): exact components, ``|dp|`` and ``|dtheta|`` certified to ``gap``.
 
-    Raises :class:`~pmaccuracy.errors.OutsideJointLimitsError` for a pose no leg reaches and
+    Raises :class:`~pmaccuracy.errors.OutsideJointLimitsError` for a pose outside the joint limits (with
+    ``allow_outside``: only where a leg cannot reach at all) and
     :class:`~pmaccuracy.errors.SingularPoseError` near a singularity (the first-order model is undefined there);
     ``strict=False`` gives NaN at those poses instead (maps). ``details=False`` keeps no per-source data
     (:attr:`SpatialPoseErrors.sources` empty, :meth:`~SpatialPoseErrors.shares` unavailable): large batches.
@@ -412,13 +423,13 @@ def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources,
     poses = as_spatial_poses(poses)
     if not details and poses.ndim == 2 and poses.shape[0] > CHUNK:
         # large batches in cache-sized chunks (the same numbers)
-        parts = [spatial_pose_errors(robot, sources, poses[k:k + CHUNK], gap=gap, strict=strict, details=False)
-                 for k in range(0, poses.shape[0], CHUNK)]
+        parts = [spatial_pose_errors(robot, sources, poses[k:k + CHUNK], gap=gap, strict=strict, details=False,
+                                     allow_outside=allow_outside) for k in range(0, poses.shape[0], CHUNK)]
         cat = {f: np.concatenate([getattr(part, f) for part in parts]) for f in
                ("components", "dp_upper", "dp_lower", "dtheta_upper", "dtheta_lower", "dp_certified",
                 "dtheta_certified", "dp_direction")}
         return SpatialPoseErrors(poses=poses, sources=[], gap=gap, **cat)
-    blocks, info = error_sources_at(robot, sources, poses, strict=strict, keep=details)
+    blocks, info = error_sources_at(robot, sources, poses, strict=strict, keep=details, allow_outside=allow_outside)
     shape = poses.shape[:-1]
     if not blocks:
         z = np.zeros(shape)

@@ -172,8 +172,7 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
 
     for option, value in (("--method", args.method != "exact"), ("--certified", args.certified),
                           ("--nonlinear", args.nonlinear), ("--tolerances", args.tolerances),
-                          ("--details", args.details), ("--max-pieces", args.max_pieces is not None),
-                          ("--allow-outside", args.allow_outside)):
+                          ("--details", args.details), ("--max-pieces", args.max_pieces is not None)):
         if value:
             raise PmAccuracyError(f"{option} is not available for spatial robots yet ({robot.name} is a "
                                   f"{robot.architecture}): their first-order bounds are exact, |dp| certified")
@@ -182,7 +181,11 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
     if not 0 < gap < 1:
         raise PmAccuracyError(f"--gap-pct: {args.gap_pct} must be above 0 and below 100")
     full = poses(robot, args.pose, args.poses_csv)
-    b = spatial_pose_errors(robot, sources, full, gap=gap)
+    try:
+        b = spatial_pose_errors(robot, sources, full, gap=gap, allow_outside=args.allow_outside)
+    except PoseError as exc:
+        raise type(exc)(f"--pose: {exc}" + ("" if args.allow_outside or "outside" not in str(exc) else
+                                             " (--allow-outside to evaluate it anyway)")) from None
     rows = []
     for k in range(full.shape[0]):
         row = _pose_record(robot, full[k])
