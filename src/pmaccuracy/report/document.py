@@ -31,7 +31,7 @@ nav.toc ul { margin: .3em 0; padding-left: 0; list-style: none; }
 footer { margin-top: 3em; padding-top: .5em; border-top: 1px solid #bbb; font-size: 0.9em; color: #444; }
 .ok { color: #1a7f37; font-weight: bold; } .bad { color: #b42318; font-weight: bold; }
 .failed { border: 2px solid #b42318; background: #fef3f2; padding: .6em 1em; margin: 1em 0; }
-code { background: #f4f4f4; padding: 0 .2em; }
+code { background: #f4f4f4; padding: 0 .2em; } td code { white-space: nowrap; }
 @media (max-width: 600px) { body { margin: 1em auto; padding: 0 .6em; } h1 { font-size: 1.4em; } }
 """
 

@@ -30,7 +30,8 @@ from ..model.spatial_sources import ACTUATED, DEFAULT_PRESET, JOINT_WORDS, JOINT
 from ..errors import ConfigError
 from .document import Document, provenance
 from .sections import ReportDependencyError, Section, SectionRunner, estimate
-from .spatial_figures import robot_segments, save_map_slices_figure, save_spatial_workspace_figure
+from .spatial_figures import (robot_segments, save_map_slices_figure, save_spatial_workspace_figure,
+                              write_spatial_workspace_page)
 from .view3d_html import view3d_html
 from .workspace3d_figures import FONT_PT, TITLE_PT, WIDTH_IN, value_with_error
 
@@ -43,9 +44,9 @@ TITLES = {"summary": "Summary", "robot": "The robot", "workspace": "Workspace", 
           "sources": "Error sources", "method": "Method"}
 #: Seconds per grid point (workspace, map) and fixed seconds of each section, measured on the project's 2-core
 #: machine: the estimates printed before the report runs (never used for a decision).
-MAP_SECONDS_PER_POINT = 6e-5
-WORKSPACE_SECONDS_PER_POINT = 2e-5
-FIXED_SECONDS = {"summary": 0.5, "robot": 1.0, "workspace": 2.5, "maps": 2.0, "sources": 0.3, "method": 0.1}
+MAP_SECONDS_PER_POINT = 3e-5
+WORKSPACE_SECONDS_PER_POINT = 1e-5
+FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "method": 0.1}
 #: Joint roles of each architecture, base to platform (the sources' table says which joint a label is).
 ROLES = {"6-UPS": ("base", "actuated", "platform"), "3-RPS": ("base", "actuated", "platform"),
          "3-PRS": ("actuated slide", "carriage", "platform"), "3-UPU": ("base", "actuated", "platform"),
@@ -55,6 +56,8 @@ KEY_WORDS = {"radial": "radial play", "axial": "axial play", "tilt": "tilt", "ac
              "backlash": "backlash", "lateral": "lateral play", "position": "position tolerance",
              "direction": "direction tolerance", "length": "length tolerance"}
 _UNITS = ("mm", "mm", "mm", "deg", "deg", "deg")
+#: Rows of the table of single sources (the rest summed in one row; all of them in results.json).
+MAX_SOURCE_ROWS = 18
 
 
 def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator, sources=None, *,
@@ -257,11 +260,11 @@ def _robot_section(doc, robot, state, out, results, figure) -> None:
     doc.paragraph(f"{robot.n_legs} legs; the actuated joint of each is its {actuated} ({unit}). The robot controls "
                   f"{what}. Base joint centres in the base frame, platform joint centres in the platform frame "
                   f"(mm); cones are the largest angle of a passive joint about its axis (- : no limit).")
-    doc.table(["leg", "base joint [mm]", "platform joint [mm]", f"actuated range", "at reference",
+    doc.table(["leg", "base joint [mm]", "platform joint [mm]", "actuated range", "at reference",
                "base cone [deg]", "platform cone [deg]", "other"], rows)
     path = _save_robot_figure(robot, ref, out / "robot.png")
     n = figure(path, f"{robot.name} at its reference pose ({_pose_text(robot, ref)}): legs in blue, base in grey, "
-                     f"platform in red (mm).")
+                     f"platform in red, the platform point P marked x (mm).")
     doc.paragraph(f"At the reference pose (Figure {n}) the closure matrix's condition number is "
                   f"{_g(float(sing.condition))} (dexterity {_g(float(sing.dexterity), 3)}; 1 is isotropic, 0 "
                   "singular).")
@@ -270,7 +273,6 @@ def _robot_section(doc, robot, state, out, results, figure) -> None:
 def _save_robot_figure(robot, pose, path: Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the 3d projection)
 
     seg = robot_segments(robot, pose)
     n_ring = 2 * robot.n_legs
@@ -309,7 +311,7 @@ def _workspace_section(doc, robot, grid, state, out, results, figure) -> None:
             "reachable": "the positions of the platform point P (x, y, z) it reaches",
             "z-roll-pitch": "the values of its controlled coordinates (roll, pitch, z) it reaches, the parasitic "
                             "motions solved at every point"}[ws.kind]
-    unit = summ["volume_units"].replace("*", " ")
+    unit = f"{r.units[0]}\u00b3" if len(set(r.units)) == 1 else "\u00b7".join(r.units)
     doc.paragraph(f"The {ws.kind} workspace: {what}, with every leg on its working mode, every actuated joint "
                   f"within its range, every passive joint within its cone or angle range and no two legs "
                   f"interfering. Sampled on a {grid} x {grid} x {grid} grid in a box found around the reference "
@@ -326,8 +328,6 @@ def _workspace_section(doc, robot, grid, state, out, results, figure) -> None:
     figure(view, "The workspace's boundary in 3D (static view).")
     segments = robot_segments(robot) if r.units == ("mm", "mm", "mm") else None
     fragment = view3d_html(r, title=f"{robot.name}: {ws.kind} workspace (interactive)", robot_segments=segments)
-    from .spatial_figures import write_spatial_workspace_page
-
     page = write_spatial_workspace_page(robot, ws, out / "workspace_3d.html")
     results["interactive_view"] = page.name
     doc.paragraph("The interactive view below turns with the mouse or a finger; it works offline (plain "
@@ -348,16 +348,26 @@ def _maps_section(doc, robot, sources, ds, out, results, figure) -> None:
     results["map"] = {"file": "map.nc", "ranges": js, "dims": list(ds["dp_max"].dims),
                       "points": int(np.isfinite(ds["dp_max"].values).sum())}
     dims = ds["dp_max"].dims
-    doc.paragraph(f"The worst first-order errors at every point of the workspace's grid ({' x '.join(str(ds.sizes[d]) for d in dims)}"
+    size = " x ".join(str(ds.sizes[d]) for d in dims)
+    doc.paragraph(f"The worst first-order errors at every point of the workspace's grid ({size}"
                   f" points over {', '.join(dims)}; blank outside the workspace or where the closure is near-"
                   "singular). `*_max` of the components are exact; `dp_max` and `dtheta_max` are certified upper "
                   "bounds and `*_attained` values that a configuration of the sources reaches. The map is saved as "
                   "`map.nc` (NetCDF, `xarray.open_dataset`).")
     doc.table(["quantity", "min", "max", "unit"], rows)
-    p1 = save_map_slices_figure(robot, ds, out / "map_dp.png", variable="dp_max")
-    figure(p1, f"Worst |dp| (mm) in slices along {dims[2]}.")
-    p2 = save_map_slices_figure(robot, ds, out / "map_dtheta.png", variable="dtheta_max")
-    figure(p2, f"Worst |dtheta| (deg) in slices along {dims[2]}.")
+    # slices drawn among the layers holding at least a tenth of the fullest layer's points (the tips of the
+    # workspace, a few cells, say little); the colour scale stays the whole map's
+    counts = np.isfinite(ds["dp_max"].values).sum(axis=(0, 1))
+    keep = np.flatnonzero(counts >= max(1, 0.1 * counts.max()))
+    shown = ds.isel({dims[2]: keep})
+    note = "" if len(keep) == len(counts) or counts[np.setdiff1d(np.arange(len(counts)), keep)].sum() == 0 else \
+        " Layers with fewer than a tenth of the fullest layer's points (the workspace's tips) are not drawn."
+    for variable, name, unit, scale, file in (("dp_max", "|dp|", "mm", 1.0, "map_dp.png"),
+                                               ("dtheta_max", "|dtheta|", "deg", np.degrees(1.0), "map_dtheta.png")):
+        lo, hi = float(ds[variable].min()) * scale, float(ds[variable].max()) * scale
+        path = save_map_slices_figure(robot, shown, out / file, variable=variable, vmin=lo, vmax=hi)
+        figure(path, f"Worst {name} ({unit}) in slices along {dims[2]}; one colour scale, the whole map's range "
+                     f"{_g(lo)} - {_g(hi)} {unit}.{note}")
 
 
 def source_description(architecture: str, label: str) -> str:
@@ -382,14 +392,21 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
     items = sorted(((label, s[0] * scale) for label, s in shares.items()), key=lambda t: -t[1][k])
     total = comp[k]
     rows, js = [], []
-    for label, s in items:
+    for n, (label, s) in enumerate(items):
         frac = 100 * s[k] / total if total > 0 else 0.0
-        rows.append([f"`{label}`", source_description(robot.architecture, label), *[_share(v) for v in s],
-                     f"{frac:.3g} %"])
+        if n < MAX_SOURCE_ROWS or len(items) == MAX_SOURCE_ROWS + 1:
+            rows.append([source_description(robot.architecture, label), f"`{label}`", *[_share(v) for v in s],
+                         _percent(frac)])
         js.append({"source": label, "description": source_description(robot.architecture, label),
                    **{c + ("_deg" if i >= 3 else ""): float(s[i]) for i, c in enumerate(COMPONENTS)},
                    f"percent_of_{COMPONENTS[k]}": float(frac)})
     # the same grouped by kind (joint and key, summed over the legs: the components' shares add up)
+    if len(items) > len(rows):
+        rest = items[len(rows):]
+        rest_sum = sum(v for _, v in rest)
+        rows.append([f"the {len(rest)} other sources together (each at most "
+                     f"{_percent(100 * rest[0][1][k] / total if total else 0.0)})", "-",
+                     *[_share(v) for v in rest_sum], _percent(100 * rest_sum[k] / total if total else 0.0)])
     kinds: dict[str, np.ndarray] = {}
     for label, s in items:
         m = re.fullmatch(r"legs\[\d+\]\.joints\[(\d+)\]\.(\w+)", label.split("[pin")[0])
@@ -405,22 +422,29 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
     head = [f"{c} [{u}]" for c, u in zip(COMPONENTS, _UNITS)]
     if kind_items and total > 0:
         top, top_v = kind_items[0]
-        second = f"; then {kind_items[1][0]} ({100 * kind_items[1][1][k] / total:.3g} %)" if len(kind_items) > 1 else ""
+        second = f"; then {kind_items[1][0]} ({_percent(100 * kind_items[1][1][k] / total)})" \
+            if len(kind_items) > 1 else ""
         lead, lead_v = items[0]
         doc.paragraph(f"Each source's share of each component's worst case at the reference pose (the shares add "
                       f"up to the component: {COMPONENTS[k]} = {_g(total)} mm, the largest position component "
                       f"there). By kind, summed over the legs, **{top}** dominates with "
-                      f"{100 * top_v[k] / total:.3g} % of {COMPONENTS[k]}{second}. The single largest source is "
+                      f"{_percent(100 * top_v[k] / total)} of {COMPONENTS[k]}{second}. The single largest source is "
                       f"`{lead}` ({source_description(robot.architecture, lead)}, "
-                      f"{100 * lead_v[k] / total:.3g} %).")
+                      f"{_percent(100 * lead_v[k] / total)}).")
     else:
         doc.paragraph("Every error source is zero: the robot has no pose error at first order.")
     doc.table(["kind of source (all legs)", *head, f"share of {COMPONENTS[k]}"],
-              [[name, *[_share(x) for x in v], f"{100 * v[k] / total:.3g} %" if total else "-"]
+              [[name, *[_share(x) for x in v], _percent(100 * v[k] / total) if total else "-"]
                for name, v in kind_items])
-    doc.paragraph(f"Every source, sorted by its share of {COMPONENTS[k]} (labels as in the error sources' "
-                  "file: `legs[i].joints[j].key`):")
-    doc.table(["source", "what", *head, f"share of {COMPONENTS[k]}"], rows)
+    shown = "Every source" if len(rows) == len(items) else f"The {MAX_SOURCE_ROWS} largest of the {len(items)} sources"
+    doc.paragraph(f"{shown}, sorted by its share of {COMPONENTS[k]} (labels as in the error sources' file: "
+                  "`legs[i].joints[j].key`; all of them in `results.json`):")
+    doc.table(["source", "label", *head, f"share of {COMPONENTS[k]}"], rows)
+
+
+def _percent(value: float) -> str:
+    """A share in percent: 3 significant digits, ``0 %`` for a rounding residue."""
+    return "0 %" if abs(value) < 1e-9 else f"{value:.3g} %"
 
 
 def _share(value: float) -> str:
