@@ -50,7 +50,7 @@ FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "s
 #: Joint roles of each architecture, base to platform (the sources' table says which joint a label is).
 ROLES = {"6-UPS": ("base", "actuated", "platform"), "3-RPS": ("base", "actuated", "platform"),
          "3-PRS": ("actuated slide", "carriage", "platform"), "3-UPU": ("base", "actuated", "platform"),
-         "delta": ("actuated arm", "elbow, rod 1", "platform, rod 1", "elbow, rod 2", "platform, rod 2")}
+         "delta": ("arm", "elbow, rod 1", "platform, rod 1", "elbow, rod 2", "platform, rod 2")}
 #: Words of the source keys.
 KEY_WORDS = {"radial": "radial play", "axial": "axial play", "tilt": "tilt", "actuator": "actuator error",
              "backlash": "backlash", "lateral": "lateral play", "position": "position tolerance",
@@ -206,6 +206,8 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
                   f"non-zero half-widths). It controls {', '.join(robot.controlled)}. Lengths in mm, angles in "
                   "degrees; every value is a worst case over all the sources acting at once.")
     worst_axis = int(np.argmax(comp[:3]))
+    on_edge = _on_edge(finite, np.unravel_index(int(np.nanargmax(ds["dp_max"].values)), finite.shape))
+    results["headline"]["dp_max_on_edge"] = on_edge
     doc.bullets([
         f"Over the workspace ({n_in} of the {finite.size} points of a {grid} x {grid} x {grid} grid): worst "
         f"position error **|dp| = {_g(dp_max)} mm** (at {_where_text(ds, dp_where)}), worst rotation "
@@ -213,9 +215,21 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
         f"At the reference pose ({_pose_text(robot, ref)}): **|dp| = {_g(ref_json['dp_max'])} mm**, "
         f"**|dtheta| = {_g(ref_json['dtheta_max_deg'])} deg**; its largest component is "
         f"{COMPONENTS[worst_axis]} = {_g(comp[worst_axis])} mm.",
-        f"The map's worst |dp| is {_g(dp_max / ref_json['dp_max'], 3)} times the reference pose's: the errors grow "
-        "towards the workspace's edge, where the legs lose transmission.",
+        f"The map's worst |dp| is {_g(dp_max / ref_json['dp_max'], 3)} times the reference pose's; it is reached "
+        + ("on the edge of the workspace (a neighbouring grid point is outside it)." if on_edge else
+           "inside the workspace (every neighbouring grid point is inside it)."),
     ])
+
+
+def _on_edge(inside: np.ndarray, index: tuple) -> bool:
+    """Whether a grid point has a neighbour (along an axis) outside ``inside`` or outside the grid."""
+    for axis in range(inside.ndim):
+        for step in (-1, 1):
+            j = list(index)
+            j[axis] += step
+            if not 0 <= j[axis] < inside.shape[axis] or not inside[tuple(j)]:
+                return True
+    return False
 
 
 def _robot_section(doc, robot, state, out, results, figure) -> None:
@@ -273,6 +287,7 @@ def _robot_section(doc, robot, state, out, results, figure) -> None:
 def _save_robot_figure(robot, pose, path: Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     seg = robot_segments(robot, pose)
     n_ring = 2 * robot.n_legs
@@ -293,6 +308,8 @@ def _save_robot_figure(robot, pose, path: Path) -> Path:
     for setter, name in ((ax.set_xlabel, "x"), (ax.set_ylabel, "y"), (ax.set_zlabel, "z")):
         setter(f"{name} [mm]", fontsize=FONT_PT, labelpad=8)
     ax.tick_params(labelsize=FONT_PT - 1)
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):      # few ticks: a wide robot's labels must not run together
+        axis.set_major_locator(MaxNLocator(4))
     ax.view_init(elev=22, azim=-60)
     fig.suptitle(f"{robot.name}, {robot.label}, at its reference pose", fontsize=TITLE_PT + 1, y=0.97)
     out = save_figure(fig, path, dpi=DEFAULT_DPI)
@@ -437,7 +454,7 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
               [[name, *[_share(x) for x in v], _percent(100 * v[k] / total) if total else "-"]
                for name, v in kind_items])
     shown = "Every source" if len(rows) == len(items) else f"The {MAX_SOURCE_ROWS} largest of the {len(items)} sources"
-    doc.paragraph(f"{shown}, sorted by its share of {COMPONENTS[k]} (labels as in the error sources' file: "
+    doc.paragraph(f"{shown}, sorted by their share of {COMPONENTS[k]} (labels as in the error sources' file: "
                   "`legs[i].joints[j].key`; all of them in `results.json`):")
     doc.table(["source", "label", *head, f"share of {COMPONENTS[k]}"], rows)
 
