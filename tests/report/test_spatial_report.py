@@ -168,3 +168,29 @@ def test_cli_report_of_a_users_robot_file(tmp_path, capsys):
     assert status == 0, err
     results = json.loads((tmp_path / "r" / "results.json").read_text())
     assert results["robot"] == "my_6ups" and "failed_sections" not in results
+
+
+@pytest.mark.parametrize("width", [1280, 400])
+def test_the_page_fits_the_screen_with_readable_text(hexapod_report, width, tmp_path):
+    """As the planar reports (tests/report/test_report_layout.py): no horizontal page scroll at 1280 and 400 px,
+    no text under 12 px, the interactive view included."""
+    from test_report_layout import CHROMIUM, measure
+
+    if CHROMIUM is None:
+        pytest.skip("Chromium is not installed")
+    out, _ = hexapod_report
+    got = measure((out / "report.html").read_text(encoding="utf-8"), width, tmp_path)
+    assert got["width"] == width
+    assert got["scroll"] <= width, got
+    assert got["font"] >= 12.0, got
+
+
+def test_raw_html_is_embedded_as_is_and_the_markdown_gets_its_note():
+    from pmaccuracy.report.document import Document
+
+    doc = Document("t")
+    doc.raw_html("<div id='x'><canvas></canvas></div>", markdown="The view is in `report.html`.")
+    doc.raw_html("<p>only in html</p>")
+    assert "<div id='x'><canvas></canvas></div>" in doc.to_html() and "<p>only in html</p>" in doc.to_html()
+    md = doc.to_markdown()
+    assert "The view is in `report.html`." in md and "canvas" not in md and "only in html" not in md
