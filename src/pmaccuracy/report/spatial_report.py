@@ -44,7 +44,7 @@ TITLES = {"summary": "Summary", "robot": "The robot", "workspace": "Workspace", 
           "sources": "Error sources", "method": "Method"}
 #: Seconds per grid point (workspace, map) and fixed seconds of each section, measured on the project's 2-core
 #: machine: the estimates printed before the report runs (never used for a decision).
-MAP_SECONDS_PER_POINT = 3e-5
+MAP_SECONDS_PER_POINT = {"6": 3e-5, "3T": 4e-5, "2R1T": 7.5e-5}      # by mobility (2R1T: parasitic motions solved)
 WORKSPACE_SECONDS_PER_POINT = 1e-5
 FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "method": 0.1}
 #: Joint roles of each architecture, base to platform (the sources' table says which joint a label is).
@@ -106,7 +106,8 @@ def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator
     points = float(grid) ** 3
     sections = [
         Section(TITLES["summary"], lambda: _summary(doc, robot, sources, grid, out, state, results),
-                estimate(points, seconds_per_point=MAP_SECONDS_PER_POINT, fixed=FIXED_SECONDS["summary"]),
+                estimate(points, seconds_per_point=MAP_SECONDS_PER_POINT[robot.mobility],
+                         fixed=FIXED_SECONDS["summary"]),
                 short="map"),
         Section(TITLES["robot"], lambda: _robot_section(doc, robot, state, out, results, figure),
                 FIXED_SECONDS["robot"], short="robot"),
@@ -292,19 +293,26 @@ def _save_robot_figure(robot, pose, path: Path) -> Path:
     seg = robot_segments(robot, pose)
     n_ring = 2 * robot.n_legs
     legs, base, plat = seg[:-n_ring], seg[-n_ring:-robot.n_legs], seg[-robot.n_legs:]
-    fig = Figure(figsize=(WIDTH_IN, 5.6))
+    fig = Figure(figsize=(WIDTH_IN, 5.8))
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.02, 0.02, 0.96, 0.88), projection="3d")
+    ax = fig.add_axes((0.02, 0.07, 0.96, 0.84), projection="3d")
     for group, colour, width in ((base, "#666666", 2.0), (plat, "#c0392b", 2.5), (legs, "#1f5fa8", 2.0)):
         for a, b in group:
             ax.plot(*np.stack([a, b]).T, color=colour, lw=width)
-    pts = seg.reshape(-1, 3)
-    ax.scatter(*pts.T, s=8, color="#222222", depthshade=False)
+    rails = []
+    if robot.architecture == "3-PRS":      # the slides' guides (robot_segments draws the rods from the carriages)
+        for leg in robot.legs:
+            lo, hi = leg.stroke
+            rails.append(np.stack([leg.carriage(lo), leg.carriage(hi)]).reshape(2, 3))
+        for a, b in rails:
+            ax.plot(*np.stack([a, b]).T, color="#666666", lw=3.0, ls="--")
+    pts = np.concatenate([seg.reshape(-1, 3)] + [r for r in rails])
+    ax.scatter(*seg.reshape(-1, 3).T, s=8, color="#222222", depthshade=False)
     ax.scatter(*pose[:3], s=30, color="#c0392b", marker="x", depthshade=False)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     span = np.maximum(hi - lo, 1e-6 * max(1.0, float((hi - lo).max())))
     ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(span))
+    ax.set_box_aspect(tuple(span), zoom=0.88)     # room for the axis labels of a tall robot
     for setter, name in ((ax.set_xlabel, "x"), (ax.set_ylabel, "y"), (ax.set_zlabel, "z")):
         setter(f"{name} [mm]", fontsize=FONT_PT, labelpad=8)
     ax.tick_params(labelsize=FONT_PT - 1)
