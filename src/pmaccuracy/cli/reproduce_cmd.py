@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import _common
+from . import _common, spatial_cmd
 from .worst_cmd import add_shape, parse_shape, shape_key
 
 
@@ -14,10 +14,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "reproduce", help="reproduce the paper: workspace, error maps, paper check, sources, design comparison",
         description="Writes DIR/report.html (self-contained), DIR/report.md, DIR/results.json, PNG figures and "
-                    "NetCDF maps for the robot (default: the paper's prototype, aalborg_3ppr).")
+                    "NetCDF maps for the robot (default: the paper's prototype, aalborg_3ppr); for a spatial robot "
+                    "(stewart_6ups, delta_clavel, rps_3, prs_3, upu_3 or a spatial robot file) its accuracy report: "
+                    "its legs, workspace with an interactive 3D view, error maps and error sources.")
     p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out); created with its missing parents")
     _common.add_robot(p)
-    p.add_argument("--grid", type=_common.positive_int, default=101, metavar="N", help="grid points per axis")
+    p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
+                   help="grid points per axis (default 101; a spatial robot: 30, at most 80)")
     p.add_argument("--seed", type=_common.nonnegative_int, default=0, help="seed of the virtual experiment's camera noise")
     p.add_argument("--no-experiment", action="store_true", help="skip the virtual experiment section")
     p.add_argument("--clearances", metavar="C",
@@ -65,16 +68,46 @@ def _check_region(robot, shape, args: argparse.Namespace) -> None:
                           f"(or --no-design)", key=shape_key(args)) from None
 
 
+def run_spatial(args: argparse.Namespace, robot) -> int:
+    """``reproduce`` on a spatial robot: its accuracy report (:mod:`pmaccuracy.report.spatial_report`)."""
+    from ..errors import ConfigError
+    from ..report.spatial_report import DEFAULT_GRID, MAX_GRID, spatial_accuracy_report
+
+    planar_only = (("--phi-deg", args.phi_deg), ("--target", args.target), ("--phi-range-deg", args.phi_range_deg),
+                   ("--box", args.box), ("--disc", args.disc), ("--polygon", args.polygon),
+                   ("--region", args.region), ("--workspace", args.workspace))
+    for option, value in planar_only:
+        if value:
+            raise ConfigError(f"applies to planar robots' reports; {robot.name} is a spatial {robot.architecture} "
+                              "(its report covers its whole workspace)", key=option)
+    grid = DEFAULT_GRID if args.grid is None else args.grid
+    if not 4 <= grid <= MAX_GRID:
+        raise ConfigError(f"{grid} points per axis of a 3D grid: give 4 to {MAX_GRID} for a spatial robot",
+                          key="--grid")
+    sources = spatial_cmd._sources(args, robot)   # default: the architecture's preset, said on stderr
+    _common.prepare_output(args.out, "--out", folder=True)
+    results = spatial_accuracy_report(Path(args.out), robot, sources, grid=grid, strict=args.strict,
+                                      command=_common.command_line(args), stream=sys.stderr)
+    print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s): {robot.name} with "
+          f"{results['clearances']}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
+    from ..model.spatial import is_spatial
 
+    robot = _common.load_robot(args)
+    if is_spatial(robot):
+        return run_spatial(args, robot)
+    if args.grid is None:
+        args.grid = 101
     _common.check_grid_memory(1, args.grid, "--grid")  # (the library checks again with every orientation)
     targets = _targets(args.target)
     shape = parse_shape(args)
     phi_range = tuple(args.phi_range_deg) if args.phi_range_deg else None
     if phi_range is not None and not phi_range[0] < phi_range[1]:
         raise ConfigError(f"needs LO < HI, got {phi_range[0]:g} {phi_range[1]:g}", key="--phi-range-deg")
-    robot = _common.load_robot(args)
     if shape is not None and not args.no_design:
         _check_region(robot, shape, args)
     if args.clearances is not None or not robot.is_3ppr:

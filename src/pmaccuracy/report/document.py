@@ -31,7 +31,7 @@ nav.toc ul { margin: .3em 0; padding-left: 0; list-style: none; }
 footer { margin-top: 3em; padding-top: .5em; border-top: 1px solid #bbb; font-size: 0.9em; color: #444; }
 .ok { color: #1a7f37; font-weight: bold; } .bad { color: #b42318; font-weight: bold; }
 .failed { border: 2px solid #b42318; background: #fef3f2; padding: .6em 1em; margin: 1em 0; }
-code { background: #f4f4f4; padding: 0 .2em; }
+code { background: #f4f4f4; padding: 0 .2em; } td code { white-space: nowrap; }
 @media (max-width: 600px) { body { margin: 1em auto; padding: 0 .6em; } h1 { font-size: 1.4em; } }
 """
 
@@ -88,6 +88,12 @@ class Document:
         self.blocks.append(("figure", (Path(path), f"Figure {self._figures}. {caption}")))
         return self._figures
 
+    def raw_html(self, fragment: str, markdown: str = "") -> None:
+        """Embed an HTML fragment as is in the HTML (e.g. an offline interactive view,
+        :func:`pmaccuracy.report.view3d_html.view3d_html`); the Markdown shows ``markdown`` in its place (nothing
+        when empty). The fragment is trusted: it must be self-contained (no network resources)."""
+        self.blocks.append(("html", (fragment, markdown)))
+
     def failure(self, section: str, reason: str, *, seconds: float | None = None) -> None:
         """A box in place of a section (or part) that could not be computed: its name and the reason."""
         took = "" if seconds is None else f" (after {seconds:.1f} s)"
@@ -122,6 +128,9 @@ class Document:
             elif kind == "failure":
                 head, reason = payload
                 out += [f"> **{head}** {reason}", ""]
+            elif kind == "html":
+                if payload[1]:
+                    out += [payload[1], ""]
             elif kind == "figure":
                 path, caption = payload
                 shown = path.relative_to(relative_to) if relative_to and path.is_relative_to(relative_to) else path
@@ -160,6 +169,8 @@ class Document:
                              + "".join(f"<th>{_inline(h)}</th>" for h in header) + "</tr></thead><tbody>")
                 parts += ["<tr>" + "".join(f"<td>{_inline(_cell(c))}</td>" for c in row) + "</tr>" for row in rows]
                 parts.append("</tbody></table></div>")
+            elif kind == "html":
+                parts.append(payload[0])
             elif kind == "failure":
                 head, reason = payload
                 parts.append(f"<div class='failed' role='note'><b>{html.escape(head)}</b> {_inline(reason)}</div>")

@@ -37,7 +37,7 @@ _SCRIPT = r"""
   var scale = data.scale;          // per-axis factors that bring the axes to a common scale
   var radius = 0.5 * Math.sqrt([0, 1, 2].reduce(function (s, d) {
     var w = (hi[d] - lo[d]) * scale[d]; return s + w * w; }, 0)) || 1;
-  var pal = data.palette, zlo = lo[2], zhi = hi[2];
+  var pal = data.palette, zlo = data.zrange[0], zhi = data.zrange[1];   // the points' colours: the region's z only
   var colour = new Array(n);
   for (var i = 0; i < n; i++) {
     var f = zhi > zlo ? (P[3 * i + 2] - zlo) / (zhi - zlo) : 0.5;
@@ -202,7 +202,8 @@ def view3d_html(ws: Workspace3D, *, title: str, robot_segments=None, max_points:
         "segments": np.round(seg, digits).tolist(),
         "lo": lo.tolist(), "hi": hi.tolist(), "scale": scale.tolist(),
         "labels": labels, "palette": PALETTE,
-        "zticks": [f"{lo[2]:.4g}", f"{hi[2]:.4g}"],
+        "zrange": bb[2].tolist(),     # the colour scale: the region's third coordinate (not the robot's)
+        "zticks": [f"{bb[2][0]:.4g}", f"{bb[2][1]:.4g}"],
     }
     if element_id is None:           # the same view gets the same id; different views, different ids
         element_id = "pm-view3d-" + hashlib.sha1(_json([title, payload]).encode()).hexdigest()[:12]
