@@ -494,7 +494,8 @@ def _method_section(doc, robot, grid) -> None:
         "nonlinear chains, the pose solved again): components to 1e-6 relative on random robots of every "
         "architecture.",
         "**Not included yet for spatial robots:** certified bounds of the nonlinear model (here the errors are "
-        "first order), the certified global worst case over a region, tolerance synthesis, statistics, errors "
-        "under loads and calibration. They exist for planar robots and will come for spatial ones; this report "
-        "does not claim them.",
+        "first order), the certified global worst case over a region, tolerance synthesis, errors under loads "
+        "and calibration. They exist for planar robots and will come for spatial ones; this report does not "
+        "claim them. The error's distribution at a pose is available from `pmaccuracy statistics` (not in this "
+        "report yet).",
     ])
