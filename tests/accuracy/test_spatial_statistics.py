@@ -63,7 +63,7 @@ def _rms_from_cov(cov):
             "dp": math.sqrt(var[:3].sum()), "dtheta_deg": math.sqrt(var[3:].sum()) * DEG}
 
 
-@pytest.mark.parametrize("arch", ["6-UPS", "delta"])
+@pytest.mark.parametrize("arch", ["6-UPS", pytest.param("delta", marks=pytest.mark.slow)])
 def test_analytic_and_monte_carlo_against_the_independent_reference(arch):
     robot_dict, cl_dict, robot, sources, p, R, pose = _library(arch)
     M, ref_sources = eref.sensitivity(robot_dict, cl_dict, p, R)

@@ -92,7 +92,8 @@ def _ref_coords(robot, c):
     return (c[2], c[0], c[1]) if robot.mobility == "2R1T" else c
 
 
-@pytest.mark.parametrize("arch", ["6-UPS", "3-UPU", pytest.param("delta", marks=pytest.mark.slow),
+@pytest.mark.parametrize("arch", ["6-UPS", pytest.param("3-UPU", marks=pytest.mark.slow),
+                                  pytest.param("delta", marks=pytest.mark.slow),
                                   pytest.param("3-RPS", marks=pytest.mark.slow)])
 def test_workspace_volume_against_monte_carlo(arch):
     data = ref.load_reference(arch)

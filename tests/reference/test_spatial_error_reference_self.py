@@ -114,7 +114,7 @@ def test_zero_clearances_give_zero_errors(arch):
     assert np.all(model.solve(np.zeros(model.m)) == 0.0)
 
 
-@pytest.mark.parametrize("arch", ARCHS)
+@pytest.mark.parametrize("arch", [a if a == "6-UPS" else pytest.param(a, marks=pytest.mark.slow) for a in ARCHS])
 def test_fd_columns_are_linear(arch):
     rob, p, R = _robot_pose(arch)
     cl = E.load_clearances(arch)

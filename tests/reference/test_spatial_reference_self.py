@@ -408,6 +408,7 @@ def _one_shell_3upu(lo, hi):
     return r, centre
 
 
+@pytest.mark.slow
 def test_monte_carlo_volume_of_a_spherical_shell():
     lo, hi = 100.0, 200.0
     r, c = _one_shell_3upu(lo, hi)
@@ -418,6 +419,7 @@ def test_monte_carlo_volume_of_a_spherical_shell():
     assert se / exact < 0.03
 
 
+@pytest.mark.slow
 def test_monte_carlo_standard_error_shrinks_like_sqrt_n():
     r = S.load_reference("3-UPU")
     box = np.array([[-150, 150], [-150, 150], [200, 450.0]])
