@@ -71,13 +71,21 @@ class Source:
 class SpatialPoseErrors:
     """Worst-case first-order errors at a batch of poses.
 
-    components : ``(..., 6)`` the largest ``|dx|, |dy|, |dz|`` (mm) and ``|drx|, |dry|, |drz|`` (rad): exact
-    dp_upper, dp_lower : ``(...)`` the largest position error ``|dp|`` (mm): an upper bound and an attained value
-        (equal for a zonotope); ``dtheta_upper``, ``dtheta_lower`` (rad) the same for the rotation angle
-    dp_certified, dtheta_certified : bool ``(...)``: the gap reached
-    dp_direction : ``(..., 3)`` the direction of the attained worst position error
-    sources : the :class:`Source` list (their matrices give per-source shares)
-    gap : the relative gap asked for
+    Attributes
+    ----------
+    components : ``(..., 6)``
+        The largest ``|dx|, |dy|, |dz|`` (mm) and ``|drx|, |dry|, |drz|`` (rad): exact.
+    dp_upper, dp_lower : ``(...)``
+        The largest position error ``|dp|`` (mm): an upper bound and an attained value (equal for a
+        zonotope); ``dtheta_upper``, ``dtheta_lower`` (rad) the same for the rotation angle.
+    dp_certified, dtheta_certified : bool ``(...)``
+        Whether the gap was reached.
+    dp_direction : ``(..., 3)``
+        The direction of the attained worst position error.
+    sources : list
+        The :class:`Source` list (their matrices give per-source shares); empty without details.
+    gap : float
+        The relative gap asked for.
     """
 
     poses: np.ndarray

@@ -128,10 +128,16 @@ def _actuate(robot: SpatialManipulator, p: np.ndarray, R: np.ndarray) -> np.ndar
 class Closure:
     """The six closure equations at poses for actuated values ``q``.
 
-    residuals : ``(..., 6)`` ``e`` (mm, or rad for a 3-UPU's orientation equations), leg by leg
-    wrenches : ``(..., 6, 6)`` ``W``: row ``k`` is the derivative of ``e_k`` along a twist (``de = W t``)
-    gains : ``(..., 6, n)`` ``G``: ``-de_k/dq_i`` so that ``W t = G q_dot`` keeps ``e = 0``
-    leg_of_row : ``(6,)`` the leg (0-based) of each equation
+    Attributes
+    ----------
+    residuals : ``(..., 6)``
+        ``e`` (mm, or rad for a 3-UPU's orientation equations), leg by leg.
+    wrenches : ``(..., 6, 6)``
+        ``W``: row ``k`` is the derivative of ``e_k`` along a twist (``de = W t``).
+    gains : ``(..., 6, n)``
+        ``G``: ``-de_k/dq_i`` so that ``W t = G q_dot`` keeps ``e = 0``.
+    leg_of_row : ``(6,)``
+        The leg (0-based) of each equation.
     """
 
     residuals: np.ndarray
@@ -173,14 +179,21 @@ def closure(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray) -> Clos
 class SpatialIK:
     """Inverse kinematics of a batch of poses.
 
-    poses : ``(..., 6)`` the poses
-    q : ``(..., n)`` actuated joint values (mm; rad for a Delta's arms), NaN where a leg cannot reach
-    constraint_residual : ``(...)`` largest |constraint equation| of a lower-mobility robot at the pose (mm or rad;
-        0 for a 6-UPS): a full pose that the legs' constraints forbid is not attainable
-    limits : ``{(leg, name): bool (...)}`` each joint limit (``reach``, ``stroke``, ``base_cone``,
-        ``platform_cone``, ``revolute_range``) and ``(i, j), "interference"`` for pairs of legs; computed on first
-        use
-    within_limits : bool ``(...)``: attainable and every limit satisfied (first use computes :attr:`limits`)
+    Attributes
+    ----------
+    poses : ``(..., 6)``
+        The poses.
+    q : ``(..., n)``
+        Actuated joint values (mm; rad for a Delta's arms), NaN where a leg cannot reach.
+    constraint_residual : ``(...)``
+        Largest absolute constraint equation of a lower-mobility robot at the pose (mm or rad; 0 for a
+        6-UPS): a full pose that the legs' constraints forbid is not attainable.
+    limits : dict
+        ``{(leg, name): bool (...)}`` for each joint limit (``reach``, ``stroke``, ``base_cone``,
+        ``platform_cone``, ``revolute_range``) and ``{((i, j), "interference"): ...}`` for pairs of legs;
+        computed on first use.
+    within_limits : bool ``(...)``
+        Attainable and every limit satisfied (first use computes :attr:`limits`).
     """
 
     robot: SpatialManipulator = field(repr=False)
@@ -360,10 +373,16 @@ def controlled_coordinates(robot: SpatialManipulator, poses) -> np.ndarray:
 class SpatialFK:
     """Forward kinematics by Newton from guesses.
 
-    poses : ``(..., 6)`` the poses reached (NaN where Newton did not converge)
+    Attributes
+    ----------
+    poses : ``(..., 6)``
+        The poses reached (NaN where Newton did not converge).
     converged : bool ``(...)``
-    residual : ``(...)`` largest |closure equation| at the end (mm or rad)
-    iterations : Newton steps taken
+        Whether Newton converged.
+    residual : ``(...)``
+        Largest absolute closure equation at the end (mm or rad).
+    iterations : int
+        Newton steps taken.
     """
 
     poses: np.ndarray
@@ -416,10 +435,18 @@ def forward_kinematics(robot: SpatialManipulator, q, guess=None, *, iterations: 
 class SpatialModes:
     """Every real assembly mode for one set of actuator values.
 
-    poses : ``(k, 6)`` the modes, by increasing z; within_limits : bool ``(k,)``: every leg on the file's working
-    mode and every joint limit satisfied; working_modes : ``(k, n)`` each leg's branch (:func:`working_modes`);
-    method : how they were found (one line); complete : the method finds every mode (``False`` only if a
-    homotopy path failed, said in ``method``)
+    Attributes
+    ----------
+    poses : ``(k, 6)``
+        The modes, by increasing z.
+    within_limits : bool ``(k,)``
+        Every leg on the file's working mode and every joint limit satisfied.
+    working_modes : ``(k, n)``
+        Each leg's branch (:func:`working_modes`).
+    method : str
+        How they were found (one line).
+    complete : bool
+        The method finds every mode (``False`` only if a homotopy path failed, said in ``method``).
     """
 
     poses: np.ndarray
@@ -551,13 +578,19 @@ def rotvecs_of(matrices: np.ndarray) -> np.ndarray:
 class SpatialJacobians:
     """Jacobians of poses from the legs' wrenches (screw theory).
 
-    wrenches, gains : ``W`` ``(..., 6, 6)`` and ``G`` ``(..., 6, n)`` of the closure (:class:`Closure`)
-    actuation : ``(..., n, 6)`` actuation wrenches ``a_i``: ``a_i . t = q_dot_i`` for every twist the robot can
-        make (the rows of the inverse Jacobian)
-    constraint : ``(..., 6 - n, 6)`` constraint wrenches ``c``: ``c . t = 0`` for every twist it can make (none
-        for a 6-UPS)
-    overall : ``(..., 6, 6)`` ``J_x = [actuation; constraint]``, ``J_x t = [q_dot; 0]``
-    forward : ``(..., 6, n)`` ``J = W^-1 G``: the platform twist ``t = J q_dot`` (NaN at a parallel singularity)
+    Attributes
+    ----------
+    wrenches, gains : ``(..., 6, 6)`` and ``(..., 6, n)``
+        ``W`` and ``G`` of the closure (:class:`Closure`).
+    actuation : ``(..., n, 6)``
+        Actuation wrenches ``a_i``: ``a_i . t = q_dot_i`` for every twist the robot can make (the rows of the
+        inverse Jacobian).
+    constraint : ``(..., 6 - n, 6)``
+        Constraint wrenches ``c``: ``c . t = 0`` for every twist it can make (none for a 6-UPS).
+    overall : ``(..., 6, 6)``
+        ``J_x = [actuation; constraint]``, ``J_x t = [q_dot; 0]``.
+    forward : ``(..., 6, n)``
+        ``J = W^-1 G``: the platform twist ``t = J q_dot`` (NaN at a parallel singularity).
     """
 
     wrenches: np.ndarray
@@ -637,14 +670,20 @@ def _solve_or_nan(W: np.ndarray, G: np.ndarray) -> np.ndarray:
 class SpatialSingularity:
     """Distances to the three kinds of singularity at poses, each dimensionless, 0 at the singularity.
 
-    parallel : ``(...)`` smallest singular value of the homogenized, row-normalized ``W`` (moments divided by the
-        characteristic length ``L``): 0 where the platform gains a motion with the actuators locked
-    constraint : ``(...)`` the same for the constraint wrenches alone (lower-mobility robots; 1 for a 6-UPS): 0
-        where the legs' constraints lose rank (the platform gains a motion it should not have)
-    serial : ``(..., n)`` each leg's transmission ``|g| / g_max`` in [0, 1] (a Delta arm's gain over its length,
-        a 3-PRS rod's sine to the slide): 0 where an actuator loses control of its leg
-    condition : ``(...)`` condition number of the homogenized ``W`` (>= 1, ``inf`` when singular)
-    dexterity : ``(...)`` ``1 / condition`` in [0, 1]
+    Attributes
+    ----------
+    parallel : ``(...)``
+        Smallest singular value of the homogenized, row-normalized ``W`` (moments divided by the
+        characteristic length ``L``): 0 where the platform gains a motion with the actuators locked.
+    constraint : ``(...)``
+        The same for the constraint wrenches alone (lower-mobility robots; 1 for a 6-UPS): 0 where the legs'
+        constraints lose rank (the platform gains a motion it should not have).
+    serial : ``(..., n)``
+        Each leg's transmission ``|g| / g_max`` in [0, 1] (a Delta arm's gain over its length, a 3-PRS rod's
+        sine to the slide): 0 where an actuator loses control of its leg.
+    condition : ``(...)``
+        Condition number of the homogenized ``W`` (>= 1, ``inf`` when singular); :attr:`dexterity` is its
+        inverse.
     """
 
     parallel: np.ndarray

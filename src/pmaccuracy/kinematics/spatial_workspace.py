@@ -32,12 +32,18 @@ class SpatialWorkspace:
     """A spatial robot's workspace: the 3D region, what it is, and the orientation workspace at its reference
     point (6-UPS only).
 
-    kind : ``"constant-orientation"``, ``"reachable"`` or ``"z-roll-pitch"``
-    orientation : ``(3,)`` rotation vector (rad) of a 6-UPS's fixed orientation, else ``None``
-    region : :class:`~pmaccuracy.kinematics.workspace3d.Workspace3D` (coordinates and units in its ``names``,
-        ``units``)
-    reference : ``(3,)`` the point of the region the search started from (the home pose's coordinates)
-    orientations : the tilt-and-torsion workspace at ``reference`` (6-UPS), else ``None``
+    Attributes
+    ----------
+    kind : str
+        ``"constant-orientation"``, ``"reachable"`` or ``"z-roll-pitch"``.
+    orientation : ``(3,)`` or None
+        Rotation vector (rad) of a 6-UPS's fixed orientation.
+    region : :class:`~pmaccuracy.kinematics.workspace3d.Workspace3D`
+        The region (coordinates and units in its ``names``, ``units``).
+    reference : ``(3,)``
+        The point of the region the search started from (the home pose's coordinates).
+    orientations : :class:`~pmaccuracy.kinematics.workspace3d.OrientationWorkspace` or None
+        The tilt-and-torsion workspace at ``reference`` (6-UPS).
     """
 
     kind: str
