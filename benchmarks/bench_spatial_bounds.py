@@ -18,23 +18,8 @@ import argparse
 import time
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-
-def floor_leg_lengths(base: np.ndarray, platform: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """``|p + R b_i - A_i|`` ``(N, 6)`` in plain numpy: the floor."""
-    R = Rotation.from_rotvec(poses[:, 3:]).as_matrix()
-    B = poses[:, None, :3] + np.einsum("nij,kj->nki", R, platform)
-    return np.sqrt(np.sum((B - base) ** 2, axis=-1))
-
-
-def _best(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t0)
-    return best
+from bench_spatial_kinematics import _best, floor_leg_lengths   # the same floor, in the same folder
 
 
 def main() -> None:

@@ -162,6 +162,19 @@ _SHAPES = {1: "segment", 2: "disc", 3: "ball"}
 _BASIS = [np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])]
 
 
+def _revolute(key: str, axis: np.ndarray, centre: np.ndarray, p: np.ndarray) -> _Generators:
+    """A revolute's sources about its pin (axis ``axis`` through ``centre``): radial (a disc of translations
+    normal to the axis), axial (along it), tilt and direction (rotations about the two normals)."""
+    n1, n2 = _normals(axis)
+    if key == "radial":
+        return _translation([n1, n2])
+    if key == "axial":
+        return _translation([axis])
+    if key in ("tilt", "direction"):
+        return _rotation([n1, n2], centre, p)
+    raise ConfigError(f"no {key!r} source on a revolute")
+
+
 def _universal_axes(leg, A, d, ref_dir, fixed_axis):
     """The axes of a universal joint at ``A`` on a leg along ``d``: ``u1`` (fixed to its body), ``u2`` normal to
     ``u1`` and to the leg, and the normal of the cross ``u1 x u2``."""
@@ -198,14 +211,7 @@ def _joint_generators(robot, leg_index, leg, joint, key, p, R, q, ref, ctx):
             if joint == 0:
                 return _translation([leg.arm_direction(q)]), rows
             return _translation([normalize(Bs[..., rod, :] - C[..., rod, :])]), rows
-        n1, n2 = _normals(axis)
-        if key == "radial":
-            return _translation([n1, n2]), rows
-        if key == "axial":
-            return _translation([axis]), rows
-        if key in ("tilt", "direction"):
-            return _rotation([n1, n2], centre, p), rows
-        raise ConfigError(f"no {key!r} source on this joint")
+        return _revolute(key, axis, centre, p), rows
     d = ctx["d"]
     ref_dir = normalize(leg.platform_point(ref[:3], rotations(ref[3:])) - A)
     if key == "length":          # the link after a base joint or a slide: the leg (a 3-PRS: the slide, the rod)
@@ -234,20 +240,8 @@ def _joint_generators(robot, leg_index, leg, joint, key, p, R, q, ref, ctx):
         if key == "direction":
             return _rotation([n1, n2], origin, p), rows
     if kind == "R":
-        if isinstance(leg, PRSLeg):
-            centre = leg.carriage(q)
-            if key == "length":
-                return _translation([normalize(B - centre)]), rows
-        else:
-            centre = np.broadcast_to(A, B.shape)
-        axis = np.broadcast_to(np.asarray(leg.axis), B.shape)
-        n1, n2 = _normals(axis)
-        if key == "radial":
-            return _translation([n1, n2]), rows
-        if key == "axial":
-            return _translation([axis]), rows
-        if key in ("tilt", "direction"):
-            return _rotation([n1, n2], centre, p), rows
+        centre = leg.carriage(q) if isinstance(leg, PRSLeg) else np.broadcast_to(A, B.shape)
+        return _revolute(key, np.broadcast_to(np.asarray(leg.axis), B.shape), centre, p), rows
     if kind == "U":
         at_base = joint == 0
         if at_base:

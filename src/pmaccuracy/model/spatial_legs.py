@@ -84,6 +84,15 @@ def _angle_range(table, key, *, source, where) -> tuple[float, float] | None:
     return math.radians(lo), math.radians(hi)
 
 
+def _length_stroke(table, *, source, where) -> tuple[float, float]:
+    """The ``stroke`` of an actuated leg length: an interval of lengths >= 0 (mm)."""
+    stroke = _tomlio.interval(table, "stroke", source=source, where=where)
+    if stroke[0] < 0:
+        raise ConfigError(f"a leg length must not be negative, got {stroke[0]}", source=source,
+                          key=f"{where}.stroke")
+    return stroke
+
+
 def _deg(angle: float) -> float:
     return _tomlio.round_trip_degrees(angle)
 
@@ -243,10 +252,7 @@ class UPSLeg(SpatialLeg):
     @classmethod
     def from_table(cls, table, *, source, where):
         c = cls.common(table, source=source, where=where)
-        stroke = _tomlio.interval(table, "stroke", source=source, where=where)
-        if stroke[0] < 0:
-            raise ConfigError(f"a leg length must not be negative, got {stroke[0]}", source=source,
-                              key=f"{where}.stroke")
+        stroke = _length_stroke(table, source=source, where=where)
         axis = vector(table, "base_axis", source=source, where=where, unit=True) if "base_axis" in table else None
         return cls(length_range=stroke, base_axis=axis, **c)
 
@@ -291,10 +297,7 @@ class UPULeg(UPSLeg):
     @classmethod
     def from_table(cls, table, *, source, where):
         c = cls.common(table, source=source, where=where)
-        stroke = _tomlio.interval(table, "stroke", source=source, where=where)
-        if stroke[0] < 0:
-            raise ConfigError(f"a leg length must not be negative, got {stroke[0]}", source=source,
-                              key=f"{where}.stroke")
+        stroke = _length_stroke(table, source=source, where=where)
         u1 = vector(table, "base_axis", source=source, where=where, unit=True)
         u4 = vector(table, "platform_axis", source=source, where=where, unit=True)
         if abs(abs(float(np.dot(u1, u4))) - 1.0) > ORTHOGONALITY_TOL:
@@ -341,10 +344,7 @@ class RPSLeg(UPSLeg):
     @classmethod
     def from_table(cls, table, *, source, where):
         c = cls.common(table, source=source, where=where)
-        stroke = _tomlio.interval(table, "stroke", source=source, where=where)
-        if stroke[0] < 0:
-            raise ConfigError(f"a leg length must not be negative, got {stroke[0]}", source=source,
-                              key=f"{where}.stroke")
+        stroke = _length_stroke(table, source=source, where=where)
         axis = vector(table, "axis", source=source, where=where, unit=True)
         _perpendicular(axis, c["base_normal"], source=source, where=where, key="base_normal",
                        what="base_normal must be perpendicular to the revolute axis")
