@@ -50,6 +50,10 @@ bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_maps.py
 	$(BIN)/python benchmarks/bench_scale.py
 	$(BIN)/python benchmarks/bench_calibration.py
+	$(BIN)/python benchmarks/bench_spatial_kinematics.py --first-call
+	$(BIN)/python benchmarks/bench_assembly_modes.py
+	$(BIN)/python benchmarks/bench_support.py
+	$(BIN)/python benchmarks/bench_spatial_bounds.py
 
 clean:
 	rm -rf $(VENV) $(OUT) build src/*.egg-info .pytest_cache docs/_build docs/generated
