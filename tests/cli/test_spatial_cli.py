@@ -69,6 +69,7 @@ def test_fk_delta_in_degrees(capsys):
     (["ik", "--robot", "stewart_6ups", "--pose", 0, 0, 1e12, 0, 0, 0], "beyond"),
     (["workspace", "--robot", "stewart_6ups", "--phi-deg", 10], "--phi-deg is the orientation of a planar robot"),
     (["workspace", "--robot", "aalborg_3ppr", "--orientation-deg", 1, 2, 3], "--orientation-deg is for spatial"),
+    (["workspace", "--robot", "rps_3", "--orientation-deg", 1, 2, 3], "--orientation-deg is for a 6-UPS"),
 ])
 def test_bad_input_one_line_status_2(argv, words, capsys):
     status, out, err = run_cli(argv, capsys)

@@ -145,6 +145,10 @@ def run_workspace(args: argparse.Namespace, robot) -> int:
     if getattr(args, "phi_deg", None):
         raise PmAccuracyError(f"--phi-deg is the orientation of a planar robot; {robot.name} is a "
                               f"{robot.architecture}: give --orientation-deg ROLL PITCH YAW")
+    if args.orientation_deg is not None and robot.mobility != "6":
+        raise PmAccuracyError(f"--orientation-deg is for a 6-UPS; a {robot.architecture} "
+                              f"{'keeps its orientation' if robot.mobility == '3T' else 'maps roll and pitch'} "
+                              "in its workspace")
     plot = Path(args.plot) if args.plot else None
     _common.check_plot(args)
     html = Path(args.html) if getattr(args, "html", None) else None
@@ -243,6 +247,9 @@ def run_map(args: argparse.Namespace, robot) -> int:
     _common.prepare_output(out, "--out", MAP_TYPES)
     _common.check_plot_options(args)
     _common.check_plot(args)
+    if args.orientation_deg is not None and robot.mobility != "6":
+        raise PmAccuracyError(f"--orientation-deg is for a 6-UPS; a {robot.architecture}'s map covers its whole "
+                              "workspace")
     sources = _sources(args, robot)
     orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
     ds = spatial_error_map(robot, sources, n=args.grid, orientation=orientation)
