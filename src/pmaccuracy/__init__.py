@@ -67,6 +67,7 @@ _EXPORTS = {
     "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
     "spatial_error_map": "accuracy.spatial_maps",
     "spatial_pose_statistics": "accuracy.spatial_statistics",
+    "spatial_synthesize": "accuracy.spatial_synthesis", "SpatialSynthesis": "accuracy.spatial_synthesis",
     "SpatialPoseStatistics": "accuracy.spatial_statistics",
     # accuracy
     "max_pose_errors": "accuracy.bounds", "PoseErrorBounds": "accuracy.bounds",

@@ -130,6 +130,8 @@ def _spatial_calls():
                                                                   pose(phi)),
         "spatial_pose_statistics": lambda phi: pm.spatial_pose_statistics(hexapod, "ups_typical", pose(phi),
                                                                           samples=1000),
+        "spatial_synthesize": lambda phi: pm.spatial_synthesize(hexapod, pm.load_clearances("ups_typical", hexapod),
+                                                                {"dp": 0.1}, n=5, orientation=[0.0, 0.0, phi]),
         "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                               n=5, orientation=[0.0, 0.0, phi]),
     }

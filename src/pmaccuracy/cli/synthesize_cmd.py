@@ -53,6 +53,13 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
     from ..accuracy.synthesis import clearance_toml, parse_targets, synthesize
 
+    from ..model.spatial import is_spatial
+
+    robot0 = _common.load_robot(args)
+    if is_spatial(robot0):
+        from . import spatial_cmd
+
+        return spatial_cmd.run_synthesize(args, robot0)
     targets = parse_targets(args.target)
     mode = args.mode or ("min-cost" if args.cost else "uniform")
     if args.cost and mode != "min-cost":
@@ -60,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else None
     if out is not None:
         _common.prepare_output(out, "--out", (".toml",))
-    robot = _common.load_robot(args)
+    robot = robot0
     _common.clearances_or_default(args, robot)
     region = parse_region(robot, args)
     from ..errors import EmptyWorkspaceError
