@@ -494,8 +494,9 @@ def _method_section(doc, robot, grid) -> None:
         "nonlinear chains, the pose solved again): components to 1e-6 relative on random robots of every "
         "architecture.",
         "**Not included yet for spatial robots:** certified bounds of the nonlinear model (here the errors are "
-        "first order), the certified global worst case over a region, tolerance synthesis, errors under loads "
-        "and calibration. They exist for planar robots and will come for spatial ones; this report does not "
-        "claim them. The error's distribution at a pose is available from `pmaccuracy statistics` (not in this "
-        "report yet).",
+        "first order), the certified global worst case over a region, certified tolerance synthesis over a "
+        "region, errors under loads and calibration. They exist for planar robots and will come for spatial "
+        "ones; this report does not claim them. The error's distribution at a pose (`pmaccuracy statistics`) "
+        "and the scaling of the sources that meets targets on the workspace grid (`pmaccuracy synthesize`) are "
+        "available from their commands (not in this report yet).",
     ])
