@@ -175,8 +175,9 @@ def _revolute(key: str, axis: np.ndarray, centre: np.ndarray, p: np.ndarray) -> 
     raise ConfigError(f"no {key!r} source on a revolute")
 
 
-def _universal_axes(leg, A, d, ref_dir, fixed_axis):
-    """The axes of a universal joint at ``A`` on a leg along ``d``: ``u1`` (fixed to its body), ``u2`` normal to
+def _universal_axes(d, ref_dir, fixed_axis):
+    """The axes of a universal joint on a leg along ``d`` ``(..., 3)``: ``u1`` (fixed to its body; without one,
+    a 6-UPS's horizontal axis normal to the leg's direction ``ref_dir`` at the reference pose), ``u2`` normal to
     ``u1`` and to the leg, and the normal of the cross ``u1 x u2``."""
     if fixed_axis is None:      # a 6-UPS without base_axis: horizontal, normal to the leg at the reference pose
         u = np.cross([0.0, 0.0, 1.0], ref_dir)
@@ -246,7 +247,7 @@ def _joint_generators(robot, leg_index, leg, joint, key, p, R, q, ref, ctx):
         at_base = joint == 0
         if at_base:
             centre = np.broadcast_to(A, B.shape)
-            u1, u2, m = _universal_axes(leg, A, d, ref_dir, leg.base_axis)
+            u1, u2, m = _universal_axes(d, ref_dir, leg.base_axis)
             fixed = u1
         else:   # the platform joint of a 3-UPU: its leg-side axis u3 normal to the leg and the platform's u4
             centre = B
@@ -389,7 +390,7 @@ def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
         A = np.asarray(leg.base, dtype=float)
         u = normalize(leg.platform_point(p, R) - A)
         ref_dir = normalize(leg.platform_point(ref[:3], rotations(ref[3:])) - A)
-        u1 = _universal_axes(leg, A, ref_dir[None], ref_dir, leg.base_axis)[0][0]
+        u1 = _universal_axes(ref_dir[None], ref_dir, leg.base_axis)[0][0]
         c = np.abs(u @ u1)
         rho = 0.0
         for j, joint in enumerate(sources.legs[i]):

@@ -611,9 +611,12 @@ def check_reachable(robot: Manipulator, samples: int = 256) -> None:
 
 
 def resolve_robot(robot, name: str = "robot") -> Manipulator:
-    """A :class:`~pmaccuracy.model.manipulator.Manipulator` from an instance (returned as it is), a preset name or a
-    TOML path: the one place where a robot file is read for the public functions. A file's robot must assemble
-    somewhere within its joint ranges (:func:`check_reachable`), else :class:`GeometryError` naming the file.
+    """A :class:`~pmaccuracy.model.manipulator.Manipulator` (or, for a file whose ``architecture`` is spatial, a
+    :class:`~pmaccuracy.model.spatial.SpatialManipulator`) from an instance (returned as it is), a preset name or
+    a TOML path: the one place where a robot file is read for the public functions. A file's robot must
+    assemble somewhere within its joint ranges (:func:`check_reachable`; a spatial robot: its home pose within
+    its limits, :func:`pmaccuracy.kinematics.spatial.check_reachable`), else :class:`GeometryError` naming the
+    file.
 
     >>> resolve_robot("aalborg_3ppr").architecture
     '3-PPR'
