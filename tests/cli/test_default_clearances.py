@@ -144,7 +144,7 @@ def test_reproduce_on_another_architecture_uses_the_default(robot, capsys, monke
     assert err.splitlines() == [f"clearances: {EXPECTED[robot]} (default)"]
 
 
-@pytest.mark.parametrize("robot", ["symmetric_3rrr", "aalborg_3ppr"])
+@pytest.mark.parametrize("robot", [pytest.param("symmetric_3rrr", marks=pytest.mark.slow), "aalborg_3ppr"])
 def test_calibrate_steps_name_the_same_default_as_bounds(robot, capsys, tmp_path):
     """Every calibrate step that takes clearances (simulate, identify, compensate, report from a simulation and
     from measurements) uses the default that bounds names for the same robot, says it once on stderr, and gives

@@ -95,6 +95,7 @@ def test_hexapod_numbers_are_the_librarys(hexapod_report):
     assert f"**{top}** dominates" in md
 
 
+@pytest.mark.slow
 def test_delta_report(tmp_path):
     results = sr.spatial_accuracy_report(tmp_path, "delta_clavel", grid=8)
     md, _ = _check_files(tmp_path, results)
