@@ -30,7 +30,8 @@ from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, UPSLeg
 from .assembly_modes import assembly_modes as solve_modes
-from ..numerics.spatial import displace, euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz, segment_distance
+from ..numerics.spatial import (displace, euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz, rotvecs,
+                                segment_distance)
 
 #: Slack of every joint limit (mm or rad): a pose computed on the workspace boundary counts as inside.
 LIMIT_TOLERANCE = 1e-9
@@ -525,7 +526,7 @@ def assembly_modes(robot: SpatialManipulator, q) -> SpatialModes:
             if leg.ARCHITECTURE in ("3-RPS", "3-PRS"):
                 planes.append((np.asarray(leg.axis), np.asarray(leg.base), np.asarray(leg.platform)))
         found = solve_modes(spheres, planes or None)
-        poses = np.concatenate([found.positions, rotvecs_of(found.rotations)], axis=-1) if found.count else \
+        poses = np.concatenate([found.positions, rotvecs(found.rotations)], axis=-1) if found.count else \
             np.zeros((0, 6))
         method = found.method
         if found.failed:
@@ -566,11 +567,6 @@ def working_modes(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray) -
             v = np.ones(B.shape[:-1])
         out.append(np.where(v >= 0, 1, -1))
     return np.stack(out, axis=-1)
-
-
-def rotvecs_of(matrices: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``(k, 3)`` of matrices ``(k, 3, 3)``."""
-    return Rotation.from_matrix(matrices).as_rotvec() if len(matrices) else np.zeros((0, 3))
 
 
 # ---------------------------------------------------------------------------------------------- Jacobians
@@ -636,8 +632,8 @@ def jacobians(robot: SpatialManipulator, poses) -> SpatialJacobians:
     ((6, 3), (3, 6))
     """
     poses = as_spatial_poses(poses)
-    ik = inverse_kinematics(robot, poses)
-    cl = closure(robot, poses, ik.q)
+    p, R, _ = _split(poses)
+    cl = closure(robot, poses, _actuate(robot, p, R))   # the actuated values only: no constraint residuals
     a, c = _split_leg_rows(cl.wrenches, cl.gains, cl.leg_of_row, robot.n_actuators)
     with np.errstate(invalid="ignore", divide="ignore"):
         try:
