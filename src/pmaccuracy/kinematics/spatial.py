@@ -329,6 +329,8 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
         raise PoseError("coordinates must be finite")
     if robot.mobility == "6":
         return poses_from_coordinates(c)
+    if robot.is_chain:
+        return _complete_chain(robot, c, iterations=iterations, strict=strict)
     if robot.mobility == "3T":
         return np.concatenate([c, np.zeros_like(c)], axis=-1)
     z, roll, pitch = c[..., 0], c[..., 1], c[..., 2]
@@ -362,6 +364,67 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
                               "constraints (the parasitic motions did not converge)")
     angles = np.stack([roll, pitch, xyw[..., 2]], axis=-1)
     return np.concatenate([np.stack([xyw[..., 0], xyw[..., 1], z], -1), euler_xyz_to_rotvec(angles)], axis=-1)
+
+
+def _angle_rates(angles: np.ndarray) -> np.ndarray:
+    """Angular velocities ``(..., 3, 3)`` (columns) per unit rate of extrinsic x-y-z roll, pitch, yaw:
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)`` turns with ``Rz Ry e_x``, ``Rz e_y`` and ``e_z``."""
+    pitch, yaw = angles[..., 1], angles[..., 2]
+    cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    z, o = np.zeros_like(pitch), np.ones_like(pitch)
+    return np.stack([np.stack([cy * cp, sy * cp, -sp], -1), np.stack([-sy, cy, z], -1), np.stack([z, z, o], -1)],
+                    axis=-1)
+
+
+def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int, strict: bool) -> np.ndarray:
+    """Parasitic coordinates of a chain robot by Newton on its constraint equations (the closure rows with no
+    actuator gain, reciprocal to every joint of their leg), from the home pose's values: the derivative of a
+    constraint row ``w`` along coordinate ``k`` is ``w . t_k`` with ``t_k`` the twist of a unit rate of ``k``
+    (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles, :func:`_angle_rates`)."""
+    fixed = list(CONTROLLED[robot.mobility])
+    free = [k for k in range(6) if k not in fixed]
+    coords = np.array(np.broadcast_to(coordinates(_home_or_zero(robot)), c.shape[:-1] + (6,)))
+    coords[..., fixed] = c
+    e = np.full(c.shape[:-1] + (len(free),), np.inf)
+    for _ in range(iterations):
+        poses = poses_from_coordinates(coords)
+        p, R, _ = _split(poses)
+        cl = closure(robot, poses, _actuate(robot, p, R))
+        rows = np.all(cl.gains == 0, axis=-1)
+        if rows.ndim > 1:
+            rows = rows.reshape(-1, 6)[0]
+        e = cl.residuals[..., rows]
+        if np.all(np.abs(e) < NEWTON_TOL):
+            break
+        T = np.zeros(c.shape[:-1] + (6, 6))
+        T[..., :3, :3] = np.eye(3)
+        T[..., 3:, 3:] = _angle_rates(coords[..., 3:])
+        Jac = (cl.wrenches[..., rows, :] @ T)[..., free]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            step = _solve_rows(Jac, e)
+        coords[..., free] -= np.where(np.isfinite(step), step, 0.0)
+    bad = ~np.all(np.abs(e) < 1e-8, axis=-1)
+    out = poses_from_coordinates(coords)
+    if not strict:
+        return np.where(bad[..., None], np.nan, out)
+    if np.any(bad):
+        idx = tuple(int(i) for i in np.argwhere(np.atleast_1d(bad))[0]) if np.ndim(bad) else ()
+        shown = np.round(np.asarray(c)[idx], 6).tolist()
+        raise NoSolutionError(f"the parasitic motions at the controlled coordinates {shown} do not converge (the "
+                              "legs' constraints cannot be met there)")
+    return out
+
+
+def _solve_rows(Jac: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """``Jac^-1 e`` batched, NaN where ``Jac`` is singular."""
+    singular = ~(np.abs(np.linalg.det(Jac)) > 1e-300)
+    safe = np.where(singular[..., None, None], np.eye(Jac.shape[-1]), Jac)
+    return np.where(singular[..., None], np.nan, np.linalg.solve(safe, e[..., None])[..., 0])
+
+
+def _home_or_zero(robot: SpatialManipulator) -> np.ndarray:
+    """The file's home pose, else zero ``(6,)``."""
+    return robot.home_pose if robot.home_pose is not None else np.zeros(6)
 
 
 def controlled_coordinates(robot: SpatialManipulator, poses) -> np.ndarray:
@@ -498,7 +561,10 @@ def assembly_modes(robot: SpatialManipulator, q) -> SpatialModes:
         raise PoseError(f"a {robot.architecture} takes {robot.n_actuators} finite actuator values, got "
                         f"{q.tolist() if q.size < 20 else q.shape}")
     complete = True
-    if robot.mobility == "3T":
+    if robot.is_chain:
+        poses, method = _chain_modes(robot, q)
+        complete = False
+    elif robot.mobility == "3T":
         centres, radii = [], []
         for leg, qi in zip(robot.legs, q):
             if isinstance(leg, DeltaLeg):
@@ -544,10 +610,45 @@ def assembly_modes(robot: SpatialManipulator, q) -> SpatialModes:
     modes = working_modes(robot, poses, q)
     ik = inverse_kinematics(robot, poses)
     own = np.all(modes == np.array([getattr(leg, "mode", 1) for leg in robot.legs]), axis=-1)
+    if robot.is_chain:
+        # a chain's inverse kinematics follows its legs' branch from home: other branches give other values
+        scale = np.maximum(1.0, np.abs(q))
+        own &= np.all(np.abs(np.nan_to_num(ik.q, nan=np.inf) - q) <= 1e-6 * scale, axis=-1)
     within = own & np.asarray(ik.within_limits)
     order = np.lexsort((poses[:, 0], poses[:, 1], poses[:, 2]))
     return SpatialModes(poses=poses[order], within_limits=within[order], working_modes=modes[order], method=method,
                         complete=complete)
+
+
+#: Starts of the Newton search for a chain robot's assembly modes.
+CHAIN_MODE_STARTS = 32
+
+
+def _chain_modes(robot: SpatialManipulator, q: np.ndarray) -> tuple[np.ndarray, str]:
+    """Assembly modes of a chain robot: Newton from :data:`CHAIN_MODE_STARTS` starts (the home pose, its mirror
+    image through the base plane and seeded random poses within the legs' reach), distinct converged poses kept.
+    Not a proof of completeness (the designer leg types have one; chains have no closed-form equations)."""
+    home = _home_or_zero(robot)
+    reach = max(float(np.max(np.linalg.norm(np.array([leg.base for leg in robot.legs]), axis=-1))),
+                float(np.linalg.norm(home[:3])), 1.0)
+    rng = np.random.default_rng(0)
+    m = len(CONTROLLED[robot.mobility])
+    starts = np.zeros((CHAIN_MODE_STARTS, 6))
+    starts[0] = home
+    starts[1] = home * np.array([1, 1, -1, -1, -1, 1])
+    starts[2:, :3] = home[:3] + rng.uniform(-reach, reach, (CHAIN_MODE_STARTS - 2, 3))
+    if m > 3 or robot.mobility == "2R1T":
+        starts[2:, 3:] = rng.normal(0.0, 0.5, (CHAIN_MODE_STARTS - 2, 3))
+    fk = forward_kinematics(robot, np.broadcast_to(q, (CHAIN_MODE_STARTS, robot.n_actuators)), starts)
+    found = fk.poses[fk.converged]
+    kept: list[np.ndarray] = []
+    for pose in found:
+        if all(np.max(np.abs(pose[:3] - k[:3])) > 1e-6 * reach or
+               np.max(np.abs(rotations(pose[3:]) - rotations(k[3:]))) > 1e-6 for k in kept):
+            kept.append(pose)
+    poses = np.array(kept) if kept else np.zeros((0, 6))
+    return poses, (f"Newton from {CHAIN_MODE_STARTS} starts ({len(kept)} distinct modes; not a proof that none is "
+                   "missing)")
 
 
 def working_modes(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -746,6 +847,8 @@ def reference_pose(robot: SpatialManipulator) -> np.ndarray:
     reachable heights (:func:`check_reachable` finds it)."""
     if robot.home_pose is not None:
         home = robot.home_pose
+        if robot.is_chain:
+            return home
         if robot.mobility == "2R1T":
             return complete_poses(robot, controlled_coordinates(robot, home))
         if robot.mobility == "3T":

@@ -82,6 +82,15 @@ def membership(robot: SpatialManipulator, orientation=None):
                 out[ok] = inverse_kinematics(robot, poses[ok]).within_limits
             return out
         return inside
+    if robot.is_chain and robot.mobility == "3T":
+        def inside(points):           # a chain's orientation follows from its constraints
+            poses = complete_poses(robot, np.asarray(points, dtype=float), strict=False)
+            ok = np.all(np.isfinite(poses), axis=-1)
+            out = np.zeros(ok.shape, dtype=bool)
+            if np.any(ok):
+                out[ok] = inverse_kinematics(robot, poses[ok]).within_limits
+            return out
+        return inside
     r = np.zeros(3) if orientation is None or robot.mobility == "3T" else np.asarray(orientation, dtype=float)
 
     def inside(points):
@@ -92,6 +101,9 @@ def membership(robot: SpatialManipulator, orientation=None):
 
 
 def _size(robot: SpatialManipulator) -> float:
+    if robot.is_chain:       # the farthest joint centre from the home position
+        centres = np.array([j.centre for leg in robot.legs for j in leg.joints])
+        return float(np.max(np.linalg.norm(centres - robot.home_pose[:3], axis=-1)))
     size = max(max(np.linalg.norm(leg.base), np.linalg.norm(leg.platform)) for leg in robot.legs)
     strokes = robot.strokes
     span = float(np.max(strokes[:, 1])) if robot.actuated_kinds[0] == "P" else \
