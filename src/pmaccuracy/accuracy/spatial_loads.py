@@ -473,8 +473,9 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
         if not np.linalg.norm(g0) > 0 or np.any(gn == 0):
             angles[src.label], held[src.label] = 180.0, False
             continue
-        cos = np.clip(g @ g0 / (gn * np.linalg.norm(g0)), -1.0, 1.0)
-        ang = float(np.degrees(np.max(np.arccos(cos))))
+        u0 = g0 / np.linalg.norm(g0)
+        along = g @ u0
+        ang = float(np.degrees(np.max(np.arctan2(np.linalg.norm(g - along[:, None] * u0, axis=-1), along))))
         angles[src.label] = ang
         held[src.label] = bool(ang < 90.0)
     worst = spatial_pose_errors(robot, sources, pose).components
