@@ -191,7 +191,6 @@ def _check_load(load) -> None:
 def _prepare(robot: SpatialManipulator, sources: SpatialErrorSources, poses):
     """Poses checked (limits, singularities: :func:`~pmaccuracy.accuracy.spatial_bounds.error_sources_at`), the
     closure there and the sources' matrices."""
-    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
     poses = as_spatial_poses(poses)
     _, info = error_sources_at(robot, sources, poses, keep=True)
     q = inverse_kinematics(robot, poses).q
@@ -242,6 +241,7 @@ def spatial_statics(robot: SpatialManipulator | str, poses, load: SpatialLoad) -
     >>> bool(np.allclose(st.leg_wrench.sum(axis=-2), [0, 0, 100, 0, 0, 0]))
     True
     """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
     robot = _robot(robot)
     _check_load(load)
     poses, q, cl, info = _prepare(robot, SpatialErrorSources.zero(robot), poses)
@@ -340,6 +340,7 @@ def spatial_loaded_error(robot: SpatialManipulator | str, clearances, poses, loa
     >>> bool(r.error[2] < 0)      # the platform yields downwards under a downward push
     True
     """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
     robot = _robot(robot)
     sources = _sources(robot, clearances)
     _check_load(load)
@@ -424,6 +425,7 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
     With ``direction`` ``(6,)``: ``P = alpha direction``, the smallest ``alpha >= 0`` (closed form per pattern).
     Then each clearance is checked over the box's 64 corners (:class:`SpatialPreload`).
     """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
     robot = _robot(robot)
     sources = _sources(robot, clearances)
     c, h = _box(center, half)
