@@ -232,3 +232,30 @@ def test_bad_input_is_refused_with_the_package_errors():
     with pytest.raises(ConfigError) as exc:
         spatial_design_preload(robot, "ups_typical", home, np.zeros(6), np.ones(6), direction=[np.nan] * 6)
     assert exc.value.key == "direction"
+
+
+@pytest.mark.parametrize("arch", ["6-UPS", "delta", "3-RPS", "3-PRS", "3-UPU"])
+def test_random_robots_every_key(arch):
+    """Random robots with every applicable key of every joint (reference generators): intensities, efforts,
+    the loaded error and the tolerances' worst case against the reference."""
+    rdict = ref.random_robot(arch, 21)
+    cl = eref.random_clearances(rdict, 21)
+    p, R = ref.random_pose(rdict, 21)
+    robot = SpatialManipulator.from_dict(rdict, source="r.toml")
+    from pmaccuracy.model.spatial_sources import SpatialErrorSources
+
+    sources = SpatialErrorSources.from_dict(cl, robot, source="c.toml")
+    load = SpatialLoad(force=(12.0, -7.0, -40.0), moment=(900.0, -400.0, 250.0), mass=1.5, com=(3.0, -4.0, 20.0))
+    F = lref.load_wrench(load.force, load.moment, load.mass, load.com, load.gravity, R)
+    pose = np.concatenate([p, rotvecs(R)])
+    ours = spatial_loaded_error(robot, sources, pose, load)
+    lam = lref.member_forces(rdict, p, R, F)
+    assert np.max(np.abs(ours.statics.intensity - lam)) <= 1e-9 * np.max(np.abs(lam))
+    tau = lref.actuator_efforts(rdict, p, R, F)
+    assert np.max(np.abs(ours.statics.actuator - tau)) <= 1e-9 * np.max(np.abs(tau))
+    dX, s, src = lref.loaded_first_order(rdict, cl, p, R, F)
+    assert np.max(np.abs(ours.error - dX)) <= 1e-6 * np.max(np.abs(dX))
+    M, _ = eref.sensitivity(rdict, cl, p, R)
+    fixed = [x for x in src if x["key"] not in lref.CLEARANCE_KEYS]
+    support = sum(x["half_width"] * np.linalg.norm(M[:, x["columns"]], axis=1) for x in fixed)
+    assert np.allclose(ours.tolerance, support, rtol=1e-6, atol=1e-12)
