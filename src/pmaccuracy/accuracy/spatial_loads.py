@@ -59,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linprog
 
+from .._display import html_table, summary, value_range
 from ..errors import ConfigError
 from ..io.resolve import robot_arg
 from ..kinematics.spatial import as_spatial_poses, closure, coordinates, inverse_kinematics
@@ -161,6 +162,11 @@ class SpatialStatics:
     leg_wrench: np.ndarray
     centres: np.ndarray
     reactions: np.ndarray
+
+    def __repr__(self) -> str:
+        return summary("SpatialStatics", int(np.prod(self.poses.shape[:-1])), [
+            f"row intensity {value_range(np.abs(self.intensity), 'N or N mm')}",
+            f"actuators {value_range(np.abs(self.actuator), 'N or N mm')}"])
 
 
 def _robot(robot) -> SpatialManipulator:
@@ -293,6 +299,16 @@ class SpatialLoadedError:
             rec["undetermined"] = ",".join(name for name, v in und.items() if v[k]) or "-"
             out.append(rec)
         return out
+
+    def __repr__(self) -> str:
+        n = int(np.prod(self.error.shape[:-1]))
+        return summary("SpatialLoadedError", n, [
+            f"|dp| {value_range(np.linalg.norm(self.error[..., :3], axis=-1), 'mm')}",
+            f"|dtheta| {value_range(np.degrees(np.linalg.norm(self.error[..., 3:], axis=-1)), 'deg')}",
+            f"{sum(int(np.sum(v)) for v in self.undetermined.values())} undetermined sources"])
+
+    def _repr_html_(self) -> str:
+        return html_table("Loaded pose error of a spatial robot (mm, deg, N)", self.records())
 
 
 def _is_rotation(robot: SpatialManipulator, src) -> bool:
