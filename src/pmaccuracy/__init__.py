@@ -87,6 +87,9 @@ _EXPORTS = {
                                            "WrenchSetErrors", "wrench_set_errors", "Preload", "design_preload",
                                            "loaded_error_map", "wrench_set_map", "RegionPreload",
                                            "design_region_preload", "certify_preload")},
+    **{name: "accuracy.spatial_loads" for name in ("SpatialLoad", "SpatialStatics", "spatial_statics",
+                                                   "SpatialLoadedError", "spatial_loaded_error", "SpatialPreload",
+                                                   "spatial_design_preload")},
     **{name: "accuracy.serial_loads" for name in ("serial_statics", "SerialStatics", "loaded_serial_error",
                                                   "SerialLoadedError")},
     # calibration and compensation (issue 23)

@@ -103,6 +103,9 @@ from .nonlinear import _closure_residual, closure_state
 from .global_worst import Region, SingularRegionError, _check_regular, leg_branches
 from .interval import leg_box_state
 from .regions import OUTSIDE, Disc, Polygon, Rect
+from . import spatial_loads as _spatial
+from ..model.plausibility import check_angle_values, rotation_angles
+from ..model.spatial import is_spatial
 
 #: Standard gravity (m/s^2): a mass in kg weighs ``G0 * mass`` N.
 G0 = 9.80665
@@ -212,9 +215,15 @@ def statics(robot: Manipulator | str, poses, load: Load) -> Statics:
     >>> st = statics("symmetric_3rpr", [0.0, 0.0, 0.0], Load(fx=3.0))
     >>> bool(np.allclose(np.einsum("ij,i->j", wrench_rows("symmetric_3rpr", [0.0, 0.0, 0.0]), st.intensity), [-3, 0, 0]))
     True
+
+    A spatial robot (:class:`~pmaccuracy.model.spatial.SpatialManipulator`) takes poses ``(..., 6)`` and a
+    :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`: :func:`pmaccuracy.accuracy.spatial_loads.spatial_statics`.
     """
-    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+        return _spatial.spatial_statics(robot, poses, load)
+    plausibility.check_orientations(poses, "poses", poses=True)
     poses = as_poses(poses)
     if not isinstance(load, Load):
         raise ConfigError(f"expected a Load, got {type(load).__name__}", key="load")
@@ -338,9 +347,16 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     >>> b = max_pose_errors("aalborg_3ppr", "case1", [0.0, 0.0, 0.0])
     >>> bool(np.isclose(r.first_order[0], b.dx_max))     # a push along +x reaches +dx_max
     True
+
+    A spatial robot takes poses ``(..., 6)``, its error sources and a
+    :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`
+    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_loaded_error`; ``exact`` does not apply: first order).
     """
-    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+        return _spatial.spatial_loaded_error(robot, clearances, poses, load, threshold=threshold)
+    plausibility.check_orientations(poses, "poses", poses=True)
     clearances = clearances_arg(clearances, robot)
     sources = clearances.check(robot) if isinstance(clearances, ErrorSources) else \
         ErrorSources.from_clearance_set(clearances)
@@ -532,9 +548,15 @@ def design_preload(robot: Manipulator | str, clearances, pose, center, half, *,
     ``center +- half``: for a pattern ``s`` the linear program ``min z`` subject to ``s_i L_i (P + W) >= margin for all
     W in the box`` (``s_i L_i P >= margin - s_i L_i center + sum_j |L_ij| half_j``, ``|P_j| / scale_j <= z``;
     scipy HiGHS), the best of the eight patterns.
+
+    A spatial robot takes a pose ``(6,)`` and a box of six-component wrenches
+    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_design_preload`).
     """
-    plausibility.check_orientations(pose, "pose", poses=True)
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
+        return _spatial.spatial_design_preload(robot, clearances, pose, center, half, margin=margin)
+    plausibility.check_orientations(pose, "pose", poses=True)
     c, h = _box(center, half)
     if not (np.any(c) or np.any(h)):
         raise ConfigError("the box of process wrenches is the zero wrench alone: no load to hold a contact "

@@ -25,12 +25,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fx", type=_common.finite_float, default=0.0, help="force on the platform along x (N)")
     p.add_argument("--fy", type=_common.finite_float, default=0.0, help="force on the platform along y (N)")
     p.add_argument("--m", type=_common.finite_float, default=0.0, metavar="M",
-                   help="moment on the platform about its centre (N mm, counter-clockwise)")
+                   help="planar robots: moment on the platform about its centre (N mm, counter-clockwise)")
+    p.add_argument("--fz", type=_common.finite_float, default=0.0, help="spatial robots: force along z (N)")
+    for axis in "xyz":
+        p.add_argument(f"--m{axis}", type=_common.finite_float, default=0.0,
+                       help=f"spatial robots: moment about the base {axis}-axis through the platform's reference "
+                            "point P (N mm)")
     p.add_argument("--mass", type=_common.finite_float, default=0.0, help="platform mass (kg; 0: no weight)")
-    p.add_argument("--com", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("X", "Y"),
-                   help="centre of mass in the platform frame (mm)")
+    p.add_argument("--com", nargs="+", type=_common.finite_float, default=None, metavar="V",
+                   help="centre of mass in the platform frame (mm): X Y (planar), X Y Z (spatial; default the "
+                        "reference point)")
     p.add_argument("--gravity-deg", type=_common.finite_float, default=-90.0,
-                   help="direction of gravity in the base plane (deg from x; default -90: along -y)")
+                   help="planar robots: direction of gravity in the base plane (deg from x; default -90: along -y)")
+    p.add_argument("--gravity", nargs=3, type=_common.finite_float, default=None, metavar=("GX", "GY", "GZ"),
+                   help="spatial robots: direction of gravity in the base frame (default 0 0 -1)")
     p.add_argument("--unloaded-below", type=_common.finite_float, default=1e-6, metavar="N",
                    help="a leg whose wrench intensity is at most this (N) is unloaded: its state is undetermined")
     p.add_argument("--details", action="store_true",
@@ -125,9 +133,12 @@ def add_robot_clearances_poses(p: argparse.ArgumentParser, serial: bool = False)
     ``preload`` (``serial``: the command also takes serial arms)."""
     _common.add_robot(p)
     p.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
-    p.add_argument("--pose", nargs=3, type=_common.finite_float, action="append", metavar=("X", "Y", "PHI_DEG"),
-                   help="a commanded pose (repeatable)")
-    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg")
+    from .spatial_cmd import POSE_HELP
+
+    p.add_argument("--pose", nargs="+", type=_common.finite_float, action="append", metavar="V",
+                   help="a commanded pose: " + POSE_HELP)
+    p.add_argument("--poses-csv", metavar="FILE", help="CSV with header x,y,phi_deg (spatial robots: their "
+                   "controlled coordinates, e.g. x,y,z,roll_deg,pitch_deg,yaw_deg)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -139,7 +150,15 @@ def run(args: argparse.Namespace) -> int:
     from . import serial_cmd
 
     if serial_cmd.is_serial_robot(args.robot):   # architecture = "serial": joint values instead of poses
+        _planar_com(args)
         return run_serial(args)
+    robot = _common.load_robot(args)
+    if _spatial(robot):
+        from . import spatial_load_cmd
+
+        args.com = (0.0, 0.0, 0.0) if args.com is None else args.com
+        return spatial_load_cmd.run_load(args, robot)
+    _planar_com(args)
     serial_cmd.refuse_joints(args)
     check_map_options(args)
     if args.exact and not args.map:
@@ -151,7 +170,6 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"must be a factor > 0, got {args.magnify:g}", key="--magnify")
     if args.magnify is not None and not plot:
         raise ConfigError("goes with --plot", key="--magnify")
-    robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     warn(force_messages({"--fx": args.fx, "--fy": args.fy, "--mass (weight)": G0 * args.mass}, {"--m": args.m},
                         robot.characteristic_length))
@@ -196,6 +214,28 @@ def run(args: argparse.Namespace) -> int:
                               magnify=args.magnify), plot, dpi=args.dpi, option="--plot")
     _common.emit(records, args.format)
     return 0
+
+
+def _spatial(robot) -> bool:
+    from ..model.spatial import is_spatial
+
+    return is_spatial(robot)
+
+
+def _planar_com(args: argparse.Namespace) -> None:
+    """A planar robot's ``--pose`` (three values) and ``--com`` (two, default the centre); no spatial options."""
+    from ..errors import ConfigError
+    from .kinematics_cmd import _three
+    from .spatial_load_cmd import refuse_spatial_options
+
+    if getattr(args, "pose", None):
+        _three(args.pose, "--pose", "X Y PHI_DEG (mm, mm, deg)")
+    refuse_spatial_options(args)
+    if args.com is None:
+        args.com = (0.0, 0.0)
+    elif len(args.com) != 2:
+        raise ConfigError(f"a planar robot's centre of mass takes two values X Y (mm), got {len(args.com)}",
+                          key="--com")
 
 
 def contact_states(robot, sources, config, k: int) -> dict:

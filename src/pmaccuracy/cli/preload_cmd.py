@@ -19,9 +19,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "L the robot's size) that keeps every leg's contact on one side for every wrench of the box, so "
                     "the clearance error becomes a constant offset that calibration removes (linear programs).")
     add_robot_clearances_poses(p)
-    for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm")):
+    for key, unit in (("fx", "N"), ("fy", "N"), ("m", "N mm; planar robots"), ("fz", "N; spatial robots"),
+                      ("mx", "N mm about P; spatial robots"), ("my", "N mm about P; spatial robots"),
+                      ("mz", "N mm about P; spatial robots")):
         p.add_argument(f"--{key}", nargs=2, type=_common.finite_float, default=(0.0, 0.0), metavar=("LO", "HI"),
                        help=f"range of the process {key} ({unit}; default 0 0)")
+    p.add_argument("--direction", nargs=6, type=_common.finite_float, default=None,
+                   metavar=("FX", "FY", "FZ", "MX", "MY", "MZ"),
+                   help="spatial robots: the preload along this wrench (N, N mm about P): its smallest multiple")
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
@@ -49,6 +54,20 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..model.plausibility import force_messages, warn
 
+    from .spatial_load_cmd import refuse_spatial_options
+
+    robot = _common.load_robot(args)
+    from ..model.spatial import is_spatial
+
+    if is_spatial(robot):
+        from . import spatial_load_cmd
+
+        return spatial_load_cmd.run_preload(args, robot)
+    if args.pose:
+        from .kinematics_cmd import _three
+
+        _three(args.pose, "--pose", "X Y PHI_DEG (mm, mm, deg)")
+    refuse_spatial_options(args)
     check_map_options(args, region_design=True)
     if args.phi_deg is not None and not args.map and len(args.phi_deg) > 2:
         raise ConfigError(f"the region's orientations: expected PHI or LO HI in degrees, got {len(args.phi_deg)} "
@@ -56,7 +75,6 @@ def run(args: argparse.Namespace) -> int:
     plot = _common.check_plot(args)
     if plot and not (args.pose or args.poses_csv or args.map):
         raise ConfigError("draws one pose (--pose) or a map (--map), not a region's preload", key="--plot")
-    robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     lo = np.array([args.fx[0], args.fy[0], args.m[0]])
     hi = np.array([args.fx[1], args.fy[1], args.m[1]])

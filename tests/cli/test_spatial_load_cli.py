@@ -1,0 +1,82 @@
+"""``load`` and ``preload`` on spatial robots: the library's numbers in degrees, the preload checked with the
+independent member forces (tests/reference/spatial_load_reference.py), bad input in one line."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import spatial_load_reference as lref
+import spatial_reference as ref
+from conftest import run_cli
+
+import pmaccuracy as pm
+from pmaccuracy.kinematics import spatial as k
+
+
+def test_load_hexapod_matches_the_library(capsys):
+    argv = ["load", "--robot", "stewart_6ups", "--pose", 5, -3, 410, 2, -1, 4, "--fx", 20, "--fz", -100, "--my", 500,
+            "--mass", 2, "--com", 0, 10, 50, "--details", "--format", "json"]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    robot = pm.load_robot("stewart_6ups")
+    pose = k.poses_from_coordinates([5, -3, 410, 2, -1, 4], degrees=True)
+    load = pm.SpatialLoad(force=(20, 0, -100), moment=(0, 500, 0), mass=2.0, com=(0, 10, 50))
+    lib = pm.loaded_pose_error(robot, "ups_typical", pose, load)
+    assert rec["dz"] == pytest.approx(lib.error[2], rel=1e-12)
+    assert rec["dry_deg"] == pytest.approx(math.degrees(lib.error[4]), rel=1e-12, abs=1e-15)
+    assert [rec[f"lambda{i}"] for i in range(1, 7)] == pytest.approx(lib.statics.intensity, rel=1e-12)
+    assert rec["leg1.joint3.fz_N"] == pytest.approx(lib.statics.reactions[0, 2, 2], rel=1e-12)
+    assert rec["yaw_deg"] == pytest.approx(4.0) and rec["undetermined"] == "-"
+    assert "clearances: ups_typical (default)" in err
+
+
+def test_preload_holds_the_rows_signs_per_the_reference(capsys):
+    argv = ["preload", "--robot", "rps_3", "--pose", 350, 2, -1, "--fz", -40, -10, "--mx", -800, 800,
+            "--format", "json"]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    keys = ("fx_N", "fy_N", "fz_N", "mx_Nmm", "my_Nmm", "mz_Nmm")
+    P = np.array([rec[f"preload_{key}"] for key in keys])
+    pattern = np.array([1.0 if c == "+" else -1.0 for c in rec["pattern"]])
+    rdict = ref.load(Path(__file__).resolve().parents[2] / "src" / "pmaccuracy" / "data" / "robots" / "rps_3.toml")
+    p = np.array([rec["x"], rec["y"], rec["z"]])
+    R = ref.rotation([rec["roll_deg"], rec["pitch_deg"], rec["yaw_deg"]])
+    lo = np.array([0, 0, -40, -800, 0, 0.0])
+    hi = np.array([0, 0, -10, 800, 0, 0.0])
+    for corner in np.array(np.meshgrid(*zip(lo, hi))).reshape(6, -1).T:
+        lam = lref.member_forces(rdict, p, R, P + corner)
+        assert np.all(lam * pattern >= 1e-6 * (1 - 1e-6)), lam
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--mass", -1], "--mass"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 900, 0, 0, 0, "--fz", -1], "--pose: pose 1"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0], "the load is zero"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--m", 3], "--m: stewart_6ups is a spatial"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, "--fz", 1], "takes 6 values"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", "nan"], "--fz"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", 1, "--com", 1, 2], "--com"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", 1, "--gravity", 0, 0, 0],
+     "--gravity"),
+    (["load", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", 1, "--map"], "--map"),
+    (["load", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fz", 1], "--fz: is for spatial robots"),
+    (["load", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, 0, "--fx", 1], "three values"),
+    (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", 1, -1], "--fz: needs LO <= HI"),
+    (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0], "a single wrench"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1], "--pose"),
+    (["preload", "--robot", "upu_3", "--pose", 0, 0, 300, "--fz", -30, -10, "--direction", 0, 0, -1, 0, 0, 0],
+     "--direction"),
+    (["preload", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fx", -1, 1, "--fz", -1, 1], "--fz"),
+])
+def test_bad_input_one_line(argv, words, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, out, err = run_cli(argv, capsys)
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and words in lines[0], err
+    assert "Traceback" not in err
