@@ -86,6 +86,7 @@ def test_cylindrical_joints_against_closed_form_and_finite_differences():
         assert np.max(np.abs(back - np.eye(6)[k])) < 1e-6
 
 
+@pytest.mark.slow
 def test_chain_modes_include_the_home_pose():
     robot, lines = _cps()
     q = _cps_lengths(robot, lines, robot.home_pose)

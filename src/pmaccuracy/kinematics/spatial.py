@@ -39,6 +39,8 @@ LIMIT_TOLERANCE = 1e-9
 CONSTRAINT_TOLERANCE = 1e-6
 #: Newton iterations of forward kinematics and of the parasitic motions.
 NEWTON_ITERATIONS = 30
+#: Newton iterations of a chain robot's parasitic motions (they converge in a few where the legs close).
+CHAIN_ITERATIONS = 12
 #: Newton stops when every residual is below this (mm, mm or rad).
 NEWTON_TOL = 1e-11
 
@@ -330,7 +332,7 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
     if robot.mobility == "6":
         return poses_from_coordinates(c)
     if robot.is_chain:
-        return _complete_chain(robot, c, iterations=iterations, strict=strict)
+        return _complete_chain(robot, c, iterations=min(iterations, CHAIN_ITERATIONS), strict=strict)
     if robot.mobility == "3T":
         return np.concatenate([c, np.zeros_like(c)], axis=-1)
     z, roll, pitch = c[..., 0], c[..., 1], c[..., 2]
@@ -380,31 +382,38 @@ def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int
     """Parasitic coordinates of a chain robot by Newton on its constraint equations (the closure rows with no
     actuator gain, reciprocal to every joint of their leg), from the home pose's values: the derivative of a
     constraint row ``w`` along coordinate ``k`` is ``w . t_k`` with ``t_k`` the twist of a unit rate of ``k``
-    (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles, :func:`_angle_rates`)."""
+    (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles, :func:`_angle_rates`). Only the poses not yet
+    converged are iterated."""
     fixed = list(CONTROLLED[robot.mobility])
     free = [k for k in range(6) if k not in fixed]
-    coords = np.array(np.broadcast_to(coordinates(_home_or_zero(robot)), c.shape[:-1] + (6,)))
-    coords[..., fixed] = c
-    e = np.full(c.shape[:-1] + (len(free),), np.inf)
+    shape = c.shape[:-1]
+    coords = np.array(np.broadcast_to(coordinates(_home_or_zero(robot)), shape + (6,))).reshape(-1, 6)
+    coords[:, fixed] = c.reshape(-1, len(fixed))
+    converged = np.zeros(coords.shape[0], dtype=bool)
+    active = np.arange(coords.shape[0])
     for _ in range(iterations):
-        poses = poses_from_coordinates(coords)
-        p, R, _ = _split(poses)
-        cl = closure(robot, poses, _actuate(robot, p, R))
-        rows = np.all(cl.gains == 0, axis=-1)
-        if rows.ndim > 1:
-            rows = rows.reshape(-1, 6)[0]
-        e = cl.residuals[..., rows]
-        if np.all(np.abs(e) < NEWTON_TOL):
+        if not active.size:
             break
-        T = np.zeros(c.shape[:-1] + (6, 6))
-        T[..., :3, :3] = np.eye(3)
-        T[..., 3:, 3:] = _angle_rates(coords[..., 3:])
-        Jac = (cl.wrenches[..., rows, :] @ T)[..., free]
+        p, R, _ = _split(poses_from_coordinates(coords[active]))
+        parts = [leg.solve_closure(p, R) for leg in robot.legs]          # one solve per leg
+        gains = np.concatenate([part[3] for part in parts], axis=-1)
+        rows = np.all(gains == 0, axis=0)
+        e = np.concatenate([part[1] for part in parts], axis=-1)[:, rows]
+        wrenches = np.concatenate([part[2] for part in parts], axis=-2)
+        done = np.all(np.abs(e) < NEWTON_TOL, axis=-1) & np.all([part[0] for part in parts], axis=0)
+        finite = np.all(np.isfinite(e), axis=-1)
+        converged[active[done]] = True
+        keep = ~done & finite
+        T = np.zeros((keep.sum(), 6, 6))
+        T[:, :3, :3] = np.eye(3)
+        T[:, 3:, 3:] = _angle_rates(coords[active[keep]][:, 3:])
+        Jac = (wrenches[keep][:, rows, :] @ T)[..., free]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            step = _solve_rows(Jac, e)
-        coords[..., free] -= np.where(np.isfinite(step), step, 0.0)
-    bad = ~np.all(np.abs(e) < 1e-8, axis=-1)
-    out = poses_from_coordinates(coords)
+            step = _solve_rows(Jac, e[keep])
+        coords[active[keep][:, None], free] -= np.where(np.isfinite(step), step, 0.0)
+        active = active[keep]
+    bad = ~converged.reshape(shape)
+    out = poses_from_coordinates(coords.reshape(shape + (6,)))
     if not strict:
         return np.where(bad[..., None], np.nan, out)
     if np.any(bad):

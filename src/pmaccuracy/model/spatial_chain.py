@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
@@ -50,8 +51,10 @@ JOINT_KEYS = {"type", "centre", "axis", "axes", "range_deg", "stroke", "home", "
               "cone_deg", "normal", "stem"}
 #: Gauss-Newton iterations per continuation stage, and the stages from the home pose.
 STAGES = (0.25, 0.5, 0.75, 1.0)
-STAGE_ITERATIONS = 5
+STAGE_ITERATIONS = 4
 POLISH_ITERATIONS = 12
+#: Gauss-Newton stops when every step is below this times the leg's length.
+STEP_TOL = 1e-13
 #: A chain whose residual stays above this (mm, and rad times the leg's length) does not reach the pose.
 REACH_TOL = 1e-7
 
@@ -267,20 +270,20 @@ class ChainLeg(SpatialLeg):
     def ACTUATOR(self) -> str:  # noqa: N802 - the leg types' class attribute, per leg here
         return self.joints[self._actuated_joint].kind
 
-    @property
+    @cached_property
     def _actuated_joint(self) -> int:
         return next(i for i, j in enumerate(self.joints) if j.actuated)
 
-    @property
+    @cached_property
     def _columns(self) -> list[tuple[int, int]]:
         """``(joint, freedom)`` of each Jacobian column."""
         return [(i, k) for i, j in enumerate(self.joints) for k in range(j.dof)]
 
-    @property
+    @cached_property
     def _actuated_column(self) -> int:
         return self._columns.index((self._actuated_joint, 0))
 
-    @property
+    @cached_property
     def length_scale(self) -> float:
         """Weight of rotations in the residual (mm): the leg's span at home, at least 1."""
         pts = np.array([j.centre for j in self.joints])
@@ -291,13 +294,21 @@ class ChainLeg(SpatialLeg):
         """``6 - rank`` of the passive freedoms' twists at home."""
         return 6 - self._passive_rank
 
-    @property
+    @cached_property
     def _passive_rank(self) -> int:
         J = self._home_jacobian()
         keep = [c for c in range(J.shape[1]) if c != self._actuated_column]
         Jp = J[:, keep] * self._metric()[:, None]
         s = np.linalg.svd(Jp, compute_uv=False)
         return int(np.sum(s > 1e-9 * max(1.0, s[0])))
+
+    def _column_weights(self) -> np.ndarray:
+        """mm per unit of each freedom: 1 for translations, the leg's length for rotations."""
+        out = []
+        for j in self.joints:
+            out.extend([1.0 if pr else self.length_scale for pr in j.prismatic()] if j.kind != "S"
+                       else [self.length_scale] * 3)
+        return np.array(out)
 
     def _metric(self) -> np.ndarray:
         return np.array([1.0, 1.0, 1.0] + [self.length_scale] * 3)
@@ -409,7 +420,8 @@ class ChainLeg(SpatialLeg):
             delta = np.einsum("...ij,...j->...i", np.linalg.pinv(Jw, rcond=1e-10), xi * w)
         full = np.zeros(theta.shape[:-1] + (J.shape[-1],))
         full[..., free] = np.where(np.isfinite(delta), delta, np.nan)
-        return self._apply(theta, Q, full), xi
+        size = np.max(np.abs(full * self._column_weights()), axis=-1)
+        return self._apply(theta, Q, full), size
 
     def _apply(self, theta, Q, delta):
         theta = theta.copy()
@@ -434,46 +446,73 @@ class ChainLeg(SpatialLeg):
                 sc += j.dof
         raise AssertionError  # pragma: no cover
 
+    def _newton(self, theta, Q, target, free, iterations: int):
+        """Gauss-Newton steps until every step is below :data:`STEP_TOL` times the leg's length (or
+        ``iterations``); returns the state and which rows converged."""
+        done = np.zeros(theta.shape[:-1], dtype=bool)
+        for _ in range(iterations):
+            (theta, Q), size = self._step(theta, Q, target, free)
+            done = size <= STEP_TOL * self.length_scale
+            if np.all(done | ~np.isfinite(size)):
+                break
+        return theta, Q, done
+
     def solve(self, p: np.ndarray, R: np.ndarray, q: np.ndarray | None = None):
         """The chain's freedoms at poses: ``theta`` ``(..., m)`` (scalar freedoms from home), ``Q`` (each S
-        joint's rotation ``(..., 3, 3)``) and the residual ``xi`` ``(..., 6)``; with ``q`` the actuated value is
-        held there (passive freedoms only)."""
+        joint's rotation ``(..., 3, 3)``), the residual ``xi`` ``(..., 6)``, the Jacobian ``(..., 6, m)`` and each
+        joint's prefix displacement; with ``q`` the actuated value is held there (passive freedoms only).
+
+        Gauss-Newton from the home configuration; where it does not converge, again by continuation along the
+        platform's displacement from home (:data:`STAGES`), so that the leg stays on the branch of its home."""
         p = np.asarray(p, dtype=float)
         R = np.asarray(R, dtype=float)
         shape = np.broadcast_shapes(p.shape[:-1], R.shape[:-2])
-        p = np.broadcast_to(p, shape + (3,))
-        R = np.broadcast_to(R, shape + (3, 3))
+        N = int(np.prod(shape, dtype=int))
+        p = np.broadcast_to(p, shape + (3,)).reshape(N, 3)
+        R = np.broadcast_to(R, shape + (3, 3)).reshape(N, 3, 3)
         n_s = sum(j.kind == "S" for j in self.joints)
-        theta = np.zeros(shape + (self._scalar_count(),))
-        Q = [np.broadcast_to(np.eye(3), shape + (3, 3)).copy() for _ in range(n_s)]
+
+        def home(n):
+            return np.zeros((n, self._scalar_count())), [np.tile(np.eye(3), (n, 1, 1)) for _ in range(n_s)]
         Rd, td = self._target(p, R)
-        r = rotvecs(Rd)
-        m = len(self._columns)
-        free = np.ones(m, dtype=bool)
-        for s in STAGES:
-            target = (rotations(s * r), s * td)
-            for _ in range(STAGE_ITERATIONS):
-                theta, Q = self._step(theta, Q, target, free)[0]
-        target = (Rd, td)
+        free = np.ones(len(self._columns), dtype=bool)
+        theta, Q = home(N)
+        theta, Q, done = self._newton(theta, Q, (Rd, td), free, POLISH_ITERATIONS)
+        bad = np.flatnonzero(~done)
+        if bad.size:
+            tb, Qb = home(bad.size)
+            r = rotvecs(Rd[bad])
+            for s in STAGES:
+                tb, Qb, _ = self._newton(tb, Qb, (rotations(s * r), s * td[bad]), free, STAGE_ITERATIONS)
+            tb, Qb, _ = self._newton(tb, Qb, (Rd[bad], td[bad]), free, POLISH_ITERATIONS)
+            theta[bad] = tb
+            for k in range(n_s):
+                Q[k][bad] = Qb[k]
         if q is not None:
             a = self._scalar_of_actuated()
-            theta[..., a] = np.asarray(q, dtype=float) - self.joints[self._actuated_joint].home[0]
+            theta[:, a] = np.broadcast_to(np.asarray(q, dtype=float), shape).reshape(N) - \
+                self.joints[self._actuated_joint].home[0]
             free[self._actuated_column] = False
-        for _ in range(POLISH_ITERATIONS):
-            theta, Q = self._step(theta, Q, target, free)[0]
+            theta, Q, _ = self._newton(theta, Q, (Rd, td), free, POLISH_ITERATIONS)
         D, J, prefixes = self._chain(theta, Q)
-        xi = self._residual(target, D)
-        return theta, Q, xi, J, prefixes
+        xi = self._residual((Rd, td), D)
+        back = lambda a, tail: a.reshape(shape + tail)   # noqa: E731
+        return (back(theta, theta.shape[1:]), [back(x, (3, 3)) for x in Q], back(xi, (6,)), back(J, J.shape[1:]),
+                [(back(P[0], (3, 3)), back(P[1], (3,))) for P in prefixes])
 
     # ------------------------------------------------------------------ the leg's interface
     def actuate(self, p, R):
-        theta, Q, xi, _, _ = self.solve(p, R)
+        theta, _, xi, _, _ = self.solve(p, R)
+        return self._actuated_value(theta, xi)
+
+    def _actuated_value(self, theta, xi):
         joint = self.joints[self._actuated_joint]
         q = theta[..., self._scalar_of_actuated()] + joint.home[0]
-        if self._passive_rank + 1 >= 6:
-            # a leg of full mobility reaches every pose it can: a residual left means it cannot
-            err = np.max(np.abs(xi * self._metric()), axis=-1)
-            q = np.where(err <= REACH_TOL * self.length_scale, q, np.nan)
+        # a residual left at the least-squares solution: the leg cannot reach the pose (for a leg of lower
+        # mobility also where the pose breaks its constraints; its closure rows alone cannot tell at a stretched,
+        # singular configuration)
+        err = np.max(np.abs(xi * self._metric()), axis=-1)
+        q = np.where(err <= REACH_TOL * self.length_scale, q, np.nan)
         if joint.kind == "R":
             rng = joint.ranges[0]
             lo = rng[0] if rng is not None else -math.pi
@@ -481,7 +520,18 @@ class ChainLeg(SpatialLeg):
         return q
 
     def closure(self, p, R, r, q):
-        theta, Q, xi, J, _ = self.solve(p, R, q)
+        _, _, xi, J, _ = self.solve(p, R, q)
+        return self._rows(p, xi, J)
+
+    def solve_closure(self, p, R):
+        """The closure at the least-squares solution of the whole chain (one solve): ``(closes, e, W, g)``, with
+        ``closes`` True where the chain reaches the pose (no residual) and ``e, W, g`` as :meth:`closure`."""
+        _, _, xi, J, _ = self.solve(p, R)
+        closes = np.max(np.abs(xi * self._metric()), axis=-1) <= REACH_TOL * self.length_scale
+        return (closes, *self._rows(p, xi, J))
+
+    def _rows(self, p, xi, J):
+        """The closure rows ``(e, W, g)`` from the residual and the Jacobian at the solution (module text)."""
         k = self.ROWS
         a = self._actuated_column
         keep = [c for c in range(J.shape[-1]) if c != a]
