@@ -22,9 +22,10 @@ so over a box with centre pose ``c``, position half-widths ``r`` and angle half-
   normalization's derivative has norm ``1 / |d|``), the moment ``R b_i x u_i`` within
   ``alpha |b_i| + |b_i| r_u``; so every ``W`` of the box lies in ``W_c +- Rad`` (entrywise) and ``c_i`` in
   ``c_c +- r_u``, giving ``rho_i in [rho_lo, rho_hi]`` (it is monotone in ``c``);
-* with ``C = W_c^-1`` and ``D = |I - C W_c| + |C| Rad`` (``|I - C W| <= D`` for every ``W`` of the box),
-  ``beta = ||D||_inf < 1`` proves every ``W`` of the box regular and ``|W^-1 - C| <= Y = D|C| + D 1 y^T``
-  with ``y_j = max_i (D|C|)_ij / (1 - beta)`` (from ``W^-1 = C + (I - C W) W^-1``);
+* with ``C = W_c^-1`` and ``D = |I - C W_c| + |C| Rad`` (``|I - C W| <= D`` for every ``W`` of the box) and
+  weights ``w > 0`` (a few power iterations towards ``D``'s Perron vector), ``beta = max_i (D w)_i / w_i < 1``
+  proves every ``W`` of the box regular (``D^k w <= beta^k w``) and, from ``W^-1 = sum_k (I - C W)^k C``,
+  ``|W^-1 - C| <= Y = E + (D w) e^T`` with ``E = D|C|`` and ``e_j = max_i (E_ij / w_i) / (1 - beta)``;
 * so each entry of ``M = W^-1 diag(rho)`` lies in a known interval: ``dx_max <= sum_j (|C_0j| + Y_0j) rho_hi_j``
   (and so on), and ``|dp|_max = max over the 32 sign vectors s of |sum_j s_j M[:3, j]|`` is bounded by the
   norm of the interval sums' magnitudes (``dtheta`` the same with rows 3-5).
@@ -72,6 +73,8 @@ DEFAULT_MAX_BOXES = 400_000
 ROUNDING = 1e-9
 #: Absolute tolerance (mm; rad times the characteristic length): bounds this small certify a maximum of 0.
 ATOL = 1e-12
+#: Power iterations for the weights of the regularity test of a box's W.
+WEIGHT_ITERATIONS = 8
 #: Region kinds.
 KINDS = ("box", "cylinder", "sphere", "workspace")
 #: Why the upper bound of an architecture is not certified.
@@ -443,12 +446,20 @@ def _hexapod_box_bounds(robot: SpatialManipulator, terms, boxes: np.ndarray):
     C[ok] = np.linalg.inv(Wc[ok])
     absC = np.abs(C)
     D = np.abs(np.eye(6) - C @ Wc) + absC @ Rad
-    beta = np.max(np.sum(D, axis=2), axis=1)
-    regular = ok & (beta < 1.0)
-    DC = D @ absC
+    # weights w > 0 near D's Perron vector (power iterations from the twist's units): beta = max_i (D w)_i / w_i
+    # bounds D's spectral radius, and beta < 1 proves every W of the box regular
+    w0 = np.array([1.0, 1.0, 1.0] + [1.0 / robot.characteristic_length] * 3)
+    w = np.broadcast_to(w0, (n, 6)).copy()
+    for _ in range(WEIGHT_ITERATIONS):
+        w = np.einsum("nij,nj->ni", D, w) + 1e-6 * np.max(w, axis=1, keepdims=True) * w0
+        w = w / np.max(w, axis=1, keepdims=True)
+    Dw = np.einsum("nij,nj->ni", D, w)
+    beta = np.max(Dw / w, axis=1)
+    regular = ok & (beta < 1.0) & np.all(np.isfinite(D), axis=(1, 2))
+    DC = D @ absC                                                                      # E = D |C|
     with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.max(DC, axis=1) / (1.0 - beta)[:, None]                                  # (n, 6)
-    Y = DC + np.sum(D, axis=2)[:, :, None] * y[:, None, :]
+        e = np.max(DC / w[:, :, None], axis=1) / (1.0 - beta)[:, None]                 # (n, 6)
+    Y = DC + Dw[:, :, None] * e[:, None, :]
     mag = absC + Y
     upper = np.full((n, len(QUANTITIES)), np.inf)
     comp = np.einsum("nkj,nj->nk", mag, rho_hi)
@@ -463,9 +474,144 @@ def _hexapod_box_bounds(robot: SpatialManipulator, terms, boxes: np.ndarray):
         shi = np.where(pos[None, :, None, :], hi_[:, None], -lo_[:, None]).sum(-1)
         m = np.maximum(np.abs(slo), np.abs(shi))
         norms.append(np.max(np.sqrt(np.sum(m * m, axis=2)), axis=1))
-    vals = np.column_stack([comp, norms[0], norms[1]]) * (1 + ROUNDING)
+    vals = np.column_stack([comp, norms[0], norms[1]])
+    if np.any(regular):
+        g = (uc, ru, Ld, delta, Rb, np.minimum(alpha, 2.0)[:, None] * nb, C, Y,
+             const + radial * (np.sqrt(1.0 - cc ** 2) + 1.0) + axial * cc,
+             _of_interval(rho_lo, rho_hi), cc, clo, chi)
+        sel = np.flatnonzero(regular)
+        mv = _mean_value_bounds(robot, terms, boxes[sel], tuple(x[sel] for x in g[:9]) + (
+            (g[9][0][sel], g[9][1][sel]),) + tuple(x[sel] for x in g[10:]))
+        vals[sel] = np.minimum(vals[sel], mv)
+    vals = vals * (1 + ROUNDING)
     upper[regular] = vals[regular]
     return upper, out, ~regular
+
+
+# midpoint-radius arithmetic: a pair (m, r) stands for every value within r of m (entrywise)
+def _mul(a, b):
+    return a[0] * b[0], np.abs(a[0]) * b[1] + a[1] * np.abs(b[0]) + a[1] * b[1]
+
+
+def _add(a, b):
+    return a[0] + b[0], a[1] + b[1]
+
+
+def _matmul(a, b):
+    return a[0] @ b[0], np.abs(a[0]) @ b[1] + a[1] @ np.abs(b[0]) + a[1] @ b[1]
+
+
+def _cross(a, b):
+    """Cross products of midpoint-radius 3-vectors (last axis)."""
+    out_m, out_r = [], []
+    for i, j in ((1, 2), (2, 0), (0, 1)):
+        p = _mul((a[0][..., i], a[1][..., i]), (b[0][..., j], b[1][..., j]))
+        q = _mul((a[0][..., j], a[1][..., j]), (b[0][..., i], b[1][..., i]))
+        out_m.append(p[0] - q[0])
+        out_r.append(p[1] + q[1])
+    return np.stack(out_m, axis=-1), np.stack(out_r, axis=-1)
+
+
+def _dot(a, b):
+    p = _mul(a, b)
+    return np.sum(p[0], axis=-1), np.sum(p[1], axis=-1)
+
+
+def _sgn(a):
+    """An enclosure of the sign (the derivative of ``|x|``, ``[-1, 1]`` where ``a`` may contain 0)."""
+    fixed = np.abs(a[0]) > a[1]
+    return np.where(fixed, np.sign(a[0]), 0.0), np.where(fixed, 0.0, 1.0)
+
+
+def _of_interval(lo, hi):
+    return 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+
+def _mag(a):
+    return np.abs(a[0]) + a[1]
+
+
+def _mean_value_bounds(robot, terms, boxes, geo):
+    """Mean-value upper bounds ``(n, 8)`` over 6-UPS boxes: ``Q(c) + sum_l r_l max |dQ/dx_l|`` with the
+    derivatives enclosed over the box in midpoint-radius arithmetic (``dW^-1 = -W^-1 dW W^-1``, ``W^-1`` in its
+    enclosure); for ``dp`` and ``dtheta``, per sign vector ``s`` with ``v_s = W^-1 (s rho)`` rows 0-2 (3-5):
+    ``|v_s(x)|^2 <= |v_s(c)|^2 + 2 sum_l r_l |v_s(c) . dv_s/dx_l| + (sum_l r_l |dv_s/dx_l|)^2``."""
+    const, radial, axial, u1 = terms
+    n = boxes.shape[0]
+    half = 0.5 * (boxes[:, :, 1] - boxes[:, :, 0])
+    mid = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
+    uc, ru, Ld, delta, Rb, rRb, C, Y, rho_c, rho_iv, cc, clo, chi = geo
+    u = (uc, np.repeat(ru[..., None], 3, axis=2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_L = (1.0 / Ld, np.where(Ld > delta, delta / (Ld * (Ld - delta)), np.inf))
+    Rbv = (Rb, np.repeat(rRb[..., None], 3, axis=2))
+    Winv = (C, Y)
+    rho = rho_iv
+    uu1 = (np.einsum("nki,ki->nk", uc, u1), ru * 1.0)    # |u1| = 1
+    sg = _sgn(uu1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = lambda c: c / np.sqrt(1.0 - c * c)             # noqa: E731  d sqrt(1 - c^2) / dc = -f(c)
+        fc = _of_interval(f(clo), f(chi))
+    fc = (np.where(chi < 1 - 1e-9, fc[0], 0.0), np.where(chi < 1 - 1e-9, fc[1], np.inf))
+    # the angle axes: yaw about z, pitch about Rz(yaw) y, roll about Rz(yaw) Ry(pitch) x
+    roll, pitch, yaw = mid[:, 3], mid[:, 4], mid[:, 5]
+    cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    zeros = np.zeros(n)
+    axes = {5: (np.column_stack([zeros, zeros, zeros + 1.0]), zeros),
+            4: (np.column_stack([-sy, cy, zeros]), half[:, 5]),
+            3: (np.column_stack([cy * cp, sy * cp, -sp]), half[:, 5] + half[:, 4])}
+    SIG = _SIGNS.T                                                                  # (6, 32)
+    comp_var = np.zeros((n, 6))
+    norm_lin = [np.zeros((n, 32)), np.zeros((n, 32))]
+    norm_quad = [np.zeros((n, 32)), np.zeros((n, 32))]
+    vc = C @ (rho_c[:, :, None] * SIG)                                              # (n, 6, 32)
+    for l in range(6):
+        r_l = half[:, l]
+        if not np.any(r_l > 0):
+            continue
+        if l < 3:
+            e = np.zeros((n, 6, 3))
+            e[:, :, l] = 1.0
+            dd = (e, np.zeros((n, 6, 3)))
+            dRb = None
+        else:
+            w, rw = axes[l]
+            wv = (np.repeat(w[:, None, :], 6, axis=1), np.repeat(np.repeat(rw[:, None, None], 6, axis=1), 3, axis=2))
+            dd = _cross(wv, Rbv)
+            dRb = dd
+        t = _dot(u, dd)
+        ut = _mul(u, (t[0][..., None], t[1][..., None]))
+        du = _mul(_add(dd, (-ut[0], ut[1])), (inv_L[0][..., None], inv_L[1][..., None]))
+        dm = _cross(Rbv, du)
+        if dRb is not None:
+            dm = _add(dm, _cross(dRb, u))
+        dW = (np.concatenate([du[0], dm[0]], axis=2), np.concatenate([du[1], dm[1]], axis=2))
+        dWinv = _matmul(_matmul(Winv, dW), Winv)
+        dWinv = (-dWinv[0], dWinv[1])
+        dc = _mul(sg, _dot((np.broadcast_to(u1, du[0].shape), np.zeros_like(du[1])), du))
+        ds = _mul(fc, dc)
+        drho = (-radial * ds[0] + axial * dc[0], radial * ds[1] + axial * dc[1])
+        # components: d/dx sum_j |Winv_kj| rho_j
+        a = _mul(_mul(_sgn(Winv), dWinv), (rho[0][:, None, :], rho[1][:, None, :]))
+        absW = _of_interval(np.maximum(np.abs(C) - Y, 0.0), np.abs(C) + Y)
+        b = _mul(absW, (drho[0][:, None, :], drho[1][:, None, :]))
+        dq = (np.sum(a[0] + b[0], axis=2), np.sum(a[1] + b[1], axis=2))
+        comp_var += r_l[:, None] * _mag(dq)
+        # sign vectors: dv = dWinv (s rho) + Winv (s drho)
+        srho = (rho[0][:, :, None] * SIG, rho[1][:, :, None] * np.abs(SIG))
+        sdrho = (drho[0][:, :, None] * SIG, drho[1][:, :, None] * np.abs(SIG))
+        dv = _add(_matmul(dWinv, srho), _matmul(Winv, sdrho))                       # (n, 6, 32)
+        for k, rows in enumerate((slice(0, 3), slice(3, 6))):
+            proj = (np.sum(vc[:, rows] * dv[0][:, rows], axis=1), np.sum(np.abs(vc[:, rows]) * dv[1][:, rows], axis=1))
+            norm_lin[k] += r_l[:, None] * _mag(proj)
+            norm_quad[k] += r_l[:, None] * np.linalg.norm(_mag((dv[0][:, rows], dv[1][:, rows])), axis=1)
+    qc = np.einsum("nkj,nj->nk", np.abs(C), rho_c)
+    out = [qc + comp_var]
+    for k, rows in enumerate((slice(0, 3), slice(3, 6))):
+        v2 = np.sum(vc[:, rows] ** 2, axis=1)
+        out.append(np.max(np.sqrt(v2 + 2 * norm_lin[k] + norm_quad[k] ** 2), axis=1)[:, None])
+    res = np.concatenate(out, axis=1)
+    return np.where(np.isfinite(res), res, np.inf)
 
 
 #: The 32 sign vectors of six segments up to a global sign.
