@@ -132,6 +132,8 @@ def _spatial_calls():
                                                                           samples=1000),
         "spatial_synthesize": lambda phi: pm.spatial_synthesize(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                                 {"dp": 0.1}, n=5, orientation=[0.0, 0.0, phi]),
+        "spatial_region": lambda phi: pm.spatial_region(hexapod, box=(-1.0, 1.0, -1.0, 1.0, 399.0, 401.0),
+                                                        orientation=[0.0, 0.0, phi]),
         "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                               n=5, orientation=[0.0, 0.0, phi]),
     }
@@ -152,6 +154,7 @@ NO_ORIENTATION = {
     "design_region_preload": "a Region, checked where it is made (make_region)",
     "certify_preload": "a Region, checked where it is made (make_region)",
     "orientation_workspace_at": "a position (mm); the orientations are generated inside",
+    "spatial_global_worst": "a SpatialRegion, checked where it is made (spatial_region)",
 }
 
 

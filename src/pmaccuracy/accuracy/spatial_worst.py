@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
+from ..io.resolve import robot_arg
 from ..kinematics.spatial import complete_poses, inverse_kinematics, reference_pose
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values
@@ -211,6 +212,13 @@ def spatial_region(robot: SpatialManipulator, *, box=None, cylinder=None, sphere
     >>> spatial_region(robot, sphere=(0.0, 0.0, 400.0, 10.0), orientation=(0.0, 0.0, 0.0)).describe()
     'the sphere of centre (0, 0, 400) mm and radius 10 mm, roll 0 deg, pitch 0 deg, yaw 0 deg'
     """
+    if orientation is not None:
+        check_angle_values(orientation, "orientation (roll, pitch, yaw)")
+    robot = robot_arg(robot)
+    if box is not None and getattr(robot, "mobility", None) == "2R1T":
+        check_angle_values(np.ravel(box)[2:] if np.size(box) == 6 else [], "box (roll, pitch)")
+    if not isinstance(robot, SpatialManipulator):
+        raise ConfigError(f"{robot.name} is a planar robot: its region is made by make_region", key="robot")
     given = [k for k, v in (("box", box), ("cylinder", cylinder), ("sphere", sphere)) if v is not None]
     if len(given) > 1:
         raise ConfigError(f"give one region, got {' and '.join(given)}", key=given[1])
@@ -230,7 +238,6 @@ def spatial_region(robot: SpatialManipulator, *, box=None, cylinder=None, sphere
                                   key="orientation")
             if np.any(o[:, 0] > o[:, 1]):
                 raise ConfigError("an orientation range is reversed (lo > hi)", key="orientation")
-            check_angle_values(o, "orientation (roll, pitch, yaw)")
             if np.any(np.abs(o) > np.pi):
                 raise ConfigError("roll, pitch, yaw must lie within [-180, 180] deg", key="orientation")
     elif orientation is not None:
@@ -244,8 +251,8 @@ def spatial_region(robot: SpatialManipulator, *, box=None, cylinder=None, sphere
         b = b.reshape(3, 2)
         if np.any(b[:, 0] > b[:, 1]):
             raise ConfigError(f"the box is reversed: {b.tolist()}", key="box")
-        if robot.mobility == "2R1T":
-            check_angle_values(b[1:], "box (roll, pitch)")
+        if robot.mobility == "2R1T" and np.any(np.abs(b[1:]) >= np.pi / 2):
+            raise ConfigError("roll and pitch must lie within (-90, 90) deg", key="box")
         return SpatialRegion("box", names, b, o)
     if cylinder is not None:
         c = _finite(cylinder, 5, "cylinder", "x, y, radius, z0, z1 in mm")
@@ -475,17 +482,18 @@ def _hexapod_box_bounds(robot: SpatialManipulator, terms, boxes: np.ndarray):
         m = np.maximum(np.abs(slo), np.abs(shi))
         norms.append(np.max(np.sqrt(np.sum(m * m, axis=2)), axis=1))
     vals = np.column_stack([comp, norms[0], norms[1]])
+    share = np.full((n, 6), np.nan)
     if np.any(regular):
         g = (uc, ru, Ld, delta, Rb, np.minimum(alpha, 2.0)[:, None] * nb, C, Y,
              const + radial * (np.sqrt(1.0 - cc ** 2) + 1.0) + axial * cc,
              _of_interval(rho_lo, rho_hi), cc, clo, chi)
         sel = np.flatnonzero(regular)
-        mv = _mean_value_bounds(robot, terms, boxes[sel], tuple(x[sel] for x in g[:9]) + (
+        mv, share[sel] = _mean_value_bounds(robot, terms, boxes[sel], tuple(x[sel] for x in g[:9]) + (
             (g[9][0][sel], g[9][1][sel]),) + tuple(x[sel] for x in g[10:]))
         vals[sel] = np.minimum(vals[sel], mv)
     vals = vals * (1 + ROUNDING)
     upper[regular] = vals[regular]
-    return upper, out, ~regular
+    return upper, out, ~regular, share
 
 
 # midpoint-radius arithmetic: a pair (m, r) stands for every value within r of m (entrywise)
@@ -562,6 +570,8 @@ def _mean_value_bounds(robot, terms, boxes, geo):
             3: (np.column_stack([cy * cp, sy * cp, -sp]), half[:, 5] + half[:, 4])}
     SIG = _SIGNS.T                                                                  # (6, 32)
     comp_var = np.zeros((n, 6))
+    share = np.zeros((n, 6))
+    qc = np.einsum("nkj,nj->nk", np.abs(C), rho_c)
     norm_lin = [np.zeros((n, 32)), np.zeros((n, 32))]
     norm_quad = [np.zeros((n, 32)), np.zeros((n, 32))]
     vc = C @ (rho_c[:, :, None] * SIG)                                              # (n, 6, 32)
@@ -597,6 +607,8 @@ def _mean_value_bounds(robot, terms, boxes, geo):
         b = _mul(absW, (drho[0][:, None, :], drho[1][:, None, :]))
         dq = (np.sum(a[0] + b[0], axis=2), np.sum(a[1] + b[1], axis=2))
         comp_var += r_l[:, None] * _mag(dq)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share[:, l] = np.max(r_l[:, None] * _mag(dq) / qc, axis=1)
         # sign vectors: dv = dWinv (s rho) + Winv (s drho)
         srho = (rho[0][:, :, None] * SIG, rho[1][:, :, None] * np.abs(SIG))
         sdrho = (drho[0][:, :, None] * SIG, drho[1][:, :, None] * np.abs(SIG))
@@ -605,13 +617,12 @@ def _mean_value_bounds(robot, terms, boxes, geo):
             proj = (np.sum(vc[:, rows] * dv[0][:, rows], axis=1), np.sum(np.abs(vc[:, rows]) * dv[1][:, rows], axis=1))
             norm_lin[k] += r_l[:, None] * _mag(proj)
             norm_quad[k] += r_l[:, None] * np.linalg.norm(_mag((dv[0][:, rows], dv[1][:, rows])), axis=1)
-    qc = np.einsum("nkj,nj->nk", np.abs(C), rho_c)
     out = [qc + comp_var]
     for k, rows in enumerate((slice(0, 3), slice(3, 6))):
         v2 = np.sum(vc[:, rows] ** 2, axis=1)
         out.append(np.max(np.sqrt(v2 + 2 * norm_lin[k] + norm_quad[k] ** 2), axis=1)[:, None])
     res = np.concatenate(out, axis=1)
-    return np.where(np.isfinite(res), res, np.inf)
+    return np.where(np.isfinite(res), res, np.inf), np.where(np.isfinite(share), share, np.nan)
 
 
 #: The 32 sign vectors of six segments up to a global sign.
@@ -644,6 +655,9 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
     >>> res.certified and res["dp"].lower <= res["dp"].upper <= 1.01 * res["dp"].lower
     True
     """
+    robot = robot_arg(robot)
+    if not isinstance(robot, SpatialManipulator):
+        raise ConfigError(f"{robot.name} is a planar robot (global_worst)", key="robot")
     if not isinstance(region, SpatialRegion):
         raise ConfigError(f"the region of a spatial robot is a SpatialRegion (spatial_region), got "
                           f"{type(region).__name__}", key="region")
@@ -700,9 +714,10 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
             if not boxes.shape[0]:
                 break
             n_boxes += boxes.shape[0]
-            upper, outside, unproven = _hexapod_box_bounds(robot, terms, boxes)
+            upper, outside, unproven, share = _hexapod_box_bounds(robot, terms, boxes)
             keep = ~outside
-            boxes, active, upper, unproven = boxes[keep], active[keep], upper[keep], unproven[keep]
+            boxes, active, upper, unproven, share = (boxes[keep], active[keep], upper[keep], unproven[keep],
+                                                     share[keep])
             if not boxes.shape[0]:
                 break
             centres = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
@@ -720,14 +735,18 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
             closed = np.maximum(closed, np.max(np.where(done, upper, 0.0), axis=0))
             active &= ~done
             alive = np.any(active, axis=1)
-            boxes, active, sizes, upper = boxes[alive], active[alive], sizes[alive], upper[alive]
+            boxes, active, sizes, upper, share = (boxes[alive], active[alive], sizes[alive], upper[alive],
+                                                  share[alive])
             if not boxes.shape[0]:
                 break
             if n_boxes + 2 * boxes.shape[0] > max_boxes:
                 closed = np.maximum(closed, np.max(np.where(active, upper, 0.0), axis=0))
                 converged = ~np.any(active, axis=0)
                 break
-            axis = np.argmax(sizes, axis=1)
+            # split the side with the largest share of the mean-value bound's slack, else the widest
+            known = np.all(np.isfinite(share), axis=1) & np.any(share > 0, axis=1)
+            axis = np.where(known, np.argmax(np.where(np.isfinite(share), share, 0.0), axis=1),
+                            np.argmax(sizes, axis=1))
             rows = np.arange(boxes.shape[0])
             m = 0.5 * (boxes[rows, axis, 0] + boxes[rows, axis, 1])
             left, right = boxes.copy(), boxes.copy()
