@@ -239,7 +239,8 @@ def add_format(parser: argparse.ArgumentParser) -> None:
 
 
 #: The commands that take spatial robots so far (the others refuse them in one line).
-SPATIAL_COMMANDS = ("ik", "fk", "workspace", "bounds", "map", "statistics", "synthesize", "reproduce", "template")
+SPATIAL_COMMANDS = ("ik", "fk", "workspace", "bounds", "map", "statistics", "synthesize", "reproduce", "template",
+                    "worst")
 
 
 def load_robot(args: argparse.Namespace) -> Manipulator:
