@@ -139,7 +139,6 @@ def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize("argv", [
-    ["worst", "--robot", "stewart_6ups"],
     ["load", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--force", 1, 0, 0],
     ["preload", "--robot", "rps_3", "--pose", 350, 0, 0],
     ["compare-designs", "--robot", "aalborg_3ppr", "stewart_6ups"],
