@@ -56,7 +56,7 @@ import numpy as np
 
 from ..errors import ConfigError, EmptyWorkspaceError, SingularPoseError
 from ..io.resolve import robot_arg
-from ..kinematics.spatial import complete_poses, inverse_kinematics, reference_pose
+from ..kinematics.spatial import LIMIT_TOLERANCE, complete_poses, inverse_kinematics, reference_pose
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, POSE_NAMES, SpatialManipulator
@@ -433,14 +433,15 @@ def _hexapod_box_bounds(robot: SpatialManipulator, terms, boxes: np.ndarray):
     mc = np.cross(Rb, uc)
     rm = np.minimum(alpha, 2.0)[:, None] * nb + nb * ru
     # the workspace: a length interval outside the stroke, or the leg outside the base cone, on the whole box
-    tol = 1e-9 * max(1.0, robot.characteristic_length)
+    # (with twice the tolerances of the limit checks, kinematics.spatial.LIMIT_TOLERANCE)
     out = np.zeros(n, dtype=bool)
     for i, leg in enumerate(robot.legs):
         lo, hi = leg.stroke
+        tol = 2 * LIMIT_TOLERANCE * max(1.0, hi - lo, abs(hi), abs(lo))
         out |= (Ld[:, i] - delta[:, i] > hi + tol) | (Ld[:, i] + delta[:, i] < lo - tol)
         if leg.base_cone is not None:
             cosmax = uc[:, i] @ np.asarray(leg.base_normal, dtype=float) + ru[:, i]
-            out |= cosmax < np.cos(leg.base_cone) - 1e-9
+            out |= cosmax < np.cos(leg.base_cone) - 2 * LIMIT_TOLERANCE
     Wc = np.concatenate([uc, mc], axis=2)                                              # (n, 6, 6)
     Rad = np.concatenate([np.repeat(ru[..., None], 3, axis=2), np.repeat(rm[..., None], 3, axis=2)], axis=2)
     cc = np.abs(np.einsum("nki,ki->nk", uc, u1))
