@@ -322,9 +322,11 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     if not res.certified:
         warn([f"{res.reason}; the lower values are attained"])
     elif not all(r["certified"] for r in records):
-        worst_gap = max(r["gap_pct"] for r in records)
+        gaps = [r["gap_pct"] for r in records if r["gap_pct"] is not None]
+        apart = f"{max(gaps):.3g} % apart" if len(gaps) == len(records) else \
+            "some upper values empty (boxes whose W could not be proven regular: near a singularity?)"
         warn([f"the worst case is not certified within --gap-pct {gap_pct:g} (box budget spent): the bounds hold, "
-              f"{worst_gap:.3g} % apart"])
+              f"{apart}; raise --max-boxes or narrow the region"])
     data = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
             "model": "first-order", "region": region.describe(), "target_gap_pct": gap_pct,
             "upper_certified": res.certified, "boxes": res.boxes, "iterations": res.iterations,
