@@ -482,16 +482,19 @@ def _hexapod_box_bounds(robot: SpatialManipulator, terms, boxes: np.ndarray):
         shi = np.where(pos[None, :, None, :], hi_[:, None], -lo_[:, None]).sum(-1)
         m = np.maximum(np.abs(slo), np.abs(shi))
         norms.append(np.max(np.sqrt(np.sum(m * m, axis=2)), axis=1))
-    vals = np.column_stack([comp, norms[0], norms[1]])
+    vals = np.where(regular[:, None], np.column_stack([comp, norms[0], norms[1]]), np.inf)
     share = np.full((n, 6), np.nan)
-    if np.any(regular):
-        g = (uc, ru, Ld, delta, Rb, np.minimum(alpha, 2.0)[:, None] * nb, C, Y,
+    sel = np.flatnonzero(ok & np.all(Ld > delta, axis=1))
+    if sel.size:
+        g = (uc, ru, Ld, delta, Rb, np.minimum(alpha, 2.0)[:, None] * nb, C,
+             np.where(regular[:, None, None], Y, np.inf),
              const + radial * (np.sqrt(1.0 - cc ** 2) + 1.0) + axial * cc,
              _of_interval(rho_lo, rho_hi), cc, clo, chi)
-        sel = np.flatnonzero(regular)
-        mv, share[sel] = _mean_value_bounds(robot, terms, boxes[sel], tuple(x[sel] for x in g[:9]) + (
-            (g[9][0][sel], g[9][1][sel]),) + tuple(x[sel] for x in g[10:]))
+        with np.errstate(invalid="ignore", over="ignore"):   # inf * 0 in unproven boxes: masked below
+            mv, share[sel], proven = _mean_value_bounds(robot, terms, boxes[sel], tuple(x[sel] for x in g[:9]) + (
+                (g[9][0][sel], g[9][1][sel]),) + tuple(x[sel] for x in g[10:]))
         vals[sel] = np.minimum(vals[sel], mv)
+        regular[sel] |= proven
     vals = vals * (1 + ROUNDING)
     upper[regular] = vals[regular]
     return upper, out, ~regular, share
@@ -554,7 +557,7 @@ def _mean_value_bounds(robot, terms, boxes, geo):
     with np.errstate(divide="ignore", invalid="ignore"):
         inv_L = (1.0 / Ld, np.where(Ld > delta, delta / (Ld * (Ld - delta)), np.inf))
     Rbv = (Rb, np.repeat(rRb[..., None], 3, axis=2))
-    Winv = (C, Y)
+    Wcen = np.concatenate([uc, np.cross(Rb, uc)], axis=2)                          # W at the centre
     rho = rho_iv
     uu1 = (np.einsum("nki,ki->nk", uc, u1), ru * 1.0)    # |u1| = 1
     sg = _sgn(uu1)
@@ -569,6 +572,52 @@ def _mean_value_bounds(robot, terms, boxes, geo):
     axes = {5: (np.column_stack([zeros, zeros, zeros + 1.0]), zeros),
             4: (np.column_stack([-sy, cy, zeros]), half[:, 5]),
             3: (np.column_stack([cy * cp, sy * cp, -sp]), half[:, 5] + half[:, 4])}
+    # dW/dx_l over the box (rows [du, dm]: du = (I - u u^T) dd / |d|, dm = dRb x u + Rb x du)
+    dWs = {}
+    for l in range(6):
+        if not np.any(half[:, l] > 0):
+            continue
+        if l < 3:
+            e = np.zeros((n, 6, 3))
+            e[:, :, l] = 1.0
+            dd, dRb = (e, np.zeros((n, 6, 3))), None
+        else:
+            w, rw = axes[l]
+            wv = (np.repeat(w[:, None, :], 6, axis=1), np.repeat(np.repeat(rw[:, None, None], 6, axis=1), 3, axis=2))
+            dd = dRb = _cross(wv, Rbv)
+        t = _dot(u, dd)
+        ut = _mul(u, (t[0][..., None], t[1][..., None]))
+        du = _mul(_add(dd, (-ut[0], ut[1])), (inv_L[0][..., None], inv_L[1][..., None]))
+        dm = _cross(Rbv, du)
+        if dRb is not None:
+            dm = _add(dm, _cross(dRb, u))
+        dWs[l] = (du, (np.concatenate([du[0], dm[0]], axis=2), np.concatenate([du[1], dm[1]], axis=2)))
+    # a tighter enclosure of W^-1 from the mean-value form of W: W(x) - W_c in sum_l dW_l (x_l - c_l), so
+    # W^-1 - C = W^-1 (R0 - (W - W_c) C) with R0 = I - W_c C: |W^-1 - C| <= Y where Y <= F + Y G,
+    # F = |C| |R0| + sum_l r_l |C dW_l C|, G = |R0| + sum_l r_l |dW_l C| (signs cancel inside the products);
+    # left weights z with z G <= gamma z, gamma < 1 prove every W of the box regular and
+    # Y_ij <= F_ij + max_k (F_ik / z_k) gamma z_j / (1 - gamma)
+    Cp = (C, np.zeros_like(C))
+    F = np.zeros_like(C)
+    G = np.zeros_like(C)
+    for l, (_, dW) in dWs.items():
+        r_l = half[:, l][:, None, None]
+        F += r_l * _mag(_matmul(_matmul(Cp, dW), Cp))
+        G += r_l * _mag(_matmul(dW, Cp))
+    R0 = np.abs(np.eye(6) - Wcen @ C)
+    F += np.abs(C) @ R0
+    G += R0
+    z = np.ones((n, 6))
+    for _ in range(WEIGHT_ITERATIONS):
+        z = np.einsum("ni,nij->nj", z, G) + 1e-6 * np.max(z, axis=1, keepdims=True)
+        z = z / np.max(z, axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gamma = np.max(np.einsum("ni,nij->nj", z, G) / z, axis=1)
+        proven = np.isfinite(gamma) & (gamma < 1.0) & np.all(np.isfinite(F), axis=(1, 2))
+        a = np.max(F / z[:, None, :], axis=2)
+        Ymv = F + (a * (gamma / (1.0 - gamma))[:, None])[:, :, None] * z[:, None, :]
+    Y = np.where(proven[:, None, None], np.minimum(np.where(np.isfinite(Y), Y, np.inf), Ymv), Y)
+    Winv = (C, Y)
     SIG = _SIGNS.T                                                                  # (6, 32)
     comp_var = np.zeros((n, 6))
     share = np.zeros((n, 6))
@@ -576,27 +625,8 @@ def _mean_value_bounds(robot, terms, boxes, geo):
     norm_lin = [np.zeros((n, 32)), np.zeros((n, 32))]
     norm_quad = [np.zeros((n, 32)), np.zeros((n, 32))]
     vc = C @ (rho_c[:, :, None] * SIG)                                              # (n, 6, 32)
-    for l in range(6):
+    for l, (du, dW) in dWs.items():
         r_l = half[:, l]
-        if not np.any(r_l > 0):
-            continue
-        if l < 3:
-            e = np.zeros((n, 6, 3))
-            e[:, :, l] = 1.0
-            dd = (e, np.zeros((n, 6, 3)))
-            dRb = None
-        else:
-            w, rw = axes[l]
-            wv = (np.repeat(w[:, None, :], 6, axis=1), np.repeat(np.repeat(rw[:, None, None], 6, axis=1), 3, axis=2))
-            dd = _cross(wv, Rbv)
-            dRb = dd
-        t = _dot(u, dd)
-        ut = _mul(u, (t[0][..., None], t[1][..., None]))
-        du = _mul(_add(dd, (-ut[0], ut[1])), (inv_L[0][..., None], inv_L[1][..., None]))
-        dm = _cross(Rbv, du)
-        if dRb is not None:
-            dm = _add(dm, _cross(dRb, u))
-        dW = (np.concatenate([du[0], dm[0]], axis=2), np.concatenate([du[1], dm[1]], axis=2))
         dWinv = _matmul(_matmul(Winv, dW), Winv)
         dWinv = (-dWinv[0], dWinv[1])
         dc = _mul(sg, _dot((np.broadcast_to(u1, du[0].shape), np.zeros_like(du[1])), du))
@@ -623,7 +653,8 @@ def _mean_value_bounds(robot, terms, boxes, geo):
         v2 = np.sum(vc[:, rows] ** 2, axis=1)
         out.append(np.max(np.sqrt(v2 + 2 * norm_lin[k] + norm_quad[k] ** 2), axis=1)[:, None])
     res = np.concatenate(out, axis=1)
-    return np.where(np.isfinite(res), res, np.inf), np.where(np.isfinite(share), share, np.nan)
+    res = np.where(proven[:, None], res, np.inf)
+    return np.where(np.isfinite(res), res, np.inf), np.where(np.isfinite(share), share, np.nan), proven
 
 
 #: The 32 sign vectors of six segments up to a global sign.
