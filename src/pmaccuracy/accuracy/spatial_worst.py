@@ -26,16 +26,27 @@ so over a box with centre pose ``c``, position half-widths ``r`` and angle half-
   weights ``w > 0`` (a few power iterations towards ``D``'s Perron vector), ``beta = max_i (D w)_i / w_i < 1``
   proves every ``W`` of the box regular (``D^k w <= beta^k w``) and, from ``W^-1 = sum_k (I - C W)^k C``,
   ``|W^-1 - C| <= Y = E + (D w) e^T`` with ``E = D|C|`` and ``e_j = max_i (E_ij / w_i) / (1 - beta)``;
+* a tighter enclosure from the mean-value form of ``W``: with ``dW_l`` the derivative of ``W`` along coordinate
+  ``l`` enclosed over the box (midpoint-radius arithmetic), ``W - W_c`` lies in ``sum_l dW_l (x_l - c_l)``, and
+  ``W^-1 - C = W^-1 (R_0 - (W - W_c) C)`` (``R_0 = I - W_c C``) gives ``|W^-1 - C| <= Y`` with ``Y <= F + Y G``,
+  ``F = |C||R_0| + sum_l r_l |C dW_l C|``, ``G = |R_0| + sum_l r_l |dW_l C|`` (signs cancel inside the
+  products); left weights ``z G <= gamma z`` with ``gamma < 1`` prove every ``W`` of the box regular and give
+  ``Y_ij <= F_ij + max_k (F_ik / z_k) gamma z_j / (1 - gamma)``; the smaller of the two enclosures is used
+  (a box is regular when either test proves it);
 * so each entry of ``M = W^-1 diag(rho)`` lies in a known interval: ``dx_max <= sum_j (|C_0j| + Y_0j) rho_hi_j``
   (and so on), and ``|dp|_max = max over the 32 sign vectors s of |sum_j s_j M[:3, j]|`` is bounded by the
-  norm of the interval sums' magnitudes (``dtheta`` the same with rows 3-5).
+  norm of the interval sums' magnitudes (``dtheta`` the same with rows 3-5);
+* the mean-value form, used where smaller: ``Q(c) + sum_l r_l max |dQ/dx_l|``, the derivatives
+  (``dW^-1 = -W^-1 dW W^-1``, ``d rho``) enclosed over the box; for ``dp`` per sign vector ``s``,
+  ``|v_s(x)|^2 <= |v_s(c)|^2 + 2 sum_l r_l |v_s(c) . dv_s/dx_l| + (sum_l r_l |dv_s/dx_l|)^2``. Its
+  overestimate shrinks with the square of the box's size.
 
 Boxes that a leg certainly cannot reach (its length interval outside the stroke, or the leg outside its base
 cone) are dropped; the other bounds hold over the whole box, hence over its part in the workspace. All bounds
 are widened by a relative ``1e-9`` for rounding. A box whose bound is within ``gap`` of ``L`` is closed;
-the others are bisected along their widest side (angles times the characteristic length) until none is
-left or the box budget is spent (``converged`` False, the bounds still hold). The enclosure's overestimate
-shrinks linearly with the box's size. A box with ``beta >= 1`` smaller than ``min_size``, or a sampled pose
+the others are bisected along the side with the largest share of their mean-value slack (else their widest
+side, angles times the characteristic length) until none is left or the box budget is spent (``converged``
+False, the bounds still hold). A box with ``beta >= 1`` smaller than ``min_size``, or a sampled pose
 of the region with a condition number above
 :data:`~pmaccuracy.accuracy.spatial_bounds.MAX_CONDITION`, means the region reaches a singularity:
 :class:`SpatialSingularRegionError` (the errors are unbounded there), never a finite number.
