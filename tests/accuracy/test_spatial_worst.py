@@ -178,3 +178,30 @@ def test_front_door_dispatches_and_bad_input_is_refused():
         spatial_region(pm.load_robot("rps_3"), sphere=(0, 0, 300, 5))
     with pytest.raises(ConfigError):
         spatial_region(pm.load_robot("delta_clavel"), box=(0, 1, 0, 1, -801, -800), orientation=(0, 0, 0))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [11, 13, 14, 15])
+def test_random_hexapods_and_clearances_never_exceeded(seed):
+    """Random 6-UPS robots and clearances of the reference, random boxes (odd seeds: with roll, pitch, yaw ranges):
+    the reference's values at random poses and the corners of the region never exceed the certified bounds."""
+    robot_dict = ref.random_robot("6-UPS", seed)
+    cl = eref.random_clearances(robot_dict, seed)
+    robot = SpatialManipulator.from_dict(robot_dict, source="r.toml")
+    sources = SpatialErrorSources.from_dict(cl, robot, source="c.toml")
+    p, R = ref.random_pose(robot_dict, seed)
+    e = ref.orientation_deg(R)
+    rng = np.random.default_rng(seed)
+    h, a = rng.uniform(2, 15), (rng.uniform(0, 1.5) if seed % 2 else 0.0)
+    o = np.radians(np.column_stack([e - a, e + a]))
+    region = spatial_region(robot, box=(p[0] - h, p[0] + h, p[1] - h, p[1] + h, p[2] - h, p[2] + h), orientation=o)
+    res = spatial_global_worst(robot, sources, region, gap=0.01, max_boxes=60_000)
+    lo, hi = np.concatenate([p - h, o[:, 0]]), np.concatenate([p + h, o[:, 1]])
+    pts = np.vstack([lo + (hi - lo) * rng.random((120, 6)),
+                     np.array(np.meshgrid(*[[a_, b_] for a_, b_ in zip(lo, hi)], indexing="ij")).reshape(6, -1).T])
+    poses = np.column_stack([pts[:, :3], rotvecs(np.array([ref.rotation_rad(*x) for x in pts[:, 3:]]))])
+    poses = poses[inverse_kinematics(robot, poses).within_limits]
+    assert len(poses) > 20
+    brute = _brute(robot_dict, cl, poses).max(axis=0)
+    upper = np.array([res[q].upper for q in QUANTITIES])
+    assert np.all(brute <= upper * (1 + 1e-9)), (brute, upper)
