@@ -85,6 +85,8 @@ DEFAULT_MAX_BOXES = 400_000
 ROUNDING = 1e-9
 #: Absolute tolerance (mm; rad times the characteristic length): bounds this small certify a maximum of 0.
 ATOL = 1e-12
+#: Boxes bounded per batch (memory: about 40 kB per box).
+BOX_CHUNK = 4096
 #: Power iterations for the weights of the regularity test of a box's W.
 WEIGHT_ITERATIONS = 8
 #: Region kinds.
@@ -757,7 +759,9 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
             if not boxes.shape[0]:
                 break
             n_boxes += boxes.shape[0]
-            upper, outside, unproven, share = _hexapod_box_bounds(robot, terms, boxes)
+            parts = [_hexapod_box_bounds(robot, terms, boxes[k:k + BOX_CHUNK])
+                     for k in range(0, boxes.shape[0], BOX_CHUNK)]   # bounded memory
+            upper, outside, unproven, share = (np.concatenate([part[i] for part in parts]) for i in range(4))
             keep = ~outside
             boxes, active, upper, unproven, share = (boxes[keep], active[keep], upper[keep], unproven[keep],
                                                      share[keep])
