@@ -67,6 +67,9 @@ _EXPORTS = {
     "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
     "spatial_error_map": "accuracy.spatial_maps",
     "spatial_pose_statistics": "accuracy.spatial_statistics",
+    **{name: "accuracy.spatial_worst" for name in ("spatial_region", "spatial_global_worst", "SpatialRegion",
+                                                   "SpatialGlobalWorst", "SpatialQuantityWorst",
+                                                   "SpatialSingularRegionError")},
     "spatial_synthesize": "accuracy.spatial_synthesis", "SpatialSynthesis": "accuracy.spatial_synthesis",
     "SpatialPoseStatistics": "accuracy.spatial_statistics",
     # accuracy

@@ -139,7 +139,6 @@ def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize("argv", [
-    ["worst", "--robot", "stewart_6ups"],
     ["compare-designs", "--robot", "aalborg_3ppr", "stewart_6ups"],
     ["experiment", "simulate", "--robot", "prs_3", "--out", "x.csv"],
     ["calibrate", "plan", "--robot", "stewart_6ups", "--out", "p.csv"],

@@ -142,6 +142,8 @@ def _spatial_calls():
                                                                       pm.SpatialLoad(force=(0, 0, -1.0))),
         "spatial_design_preload_front_door": lambda phi: pm.design_preload(hexapod, "ups_typical", pose(phi),
                                                                            [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
+        "spatial_region": lambda phi: pm.spatial_region(hexapod, box=(-1.0, 1.0, -1.0, 1.0, 399.0, 401.0),
+                                                        orientation=[0.0, 0.0, phi]),
         "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                               n=5, orientation=[0.0, 0.0, phi]),
     }
@@ -162,6 +164,7 @@ NO_ORIENTATION = {
     "design_region_preload": "a Region, checked where it is made (make_region)",
     "certify_preload": "a Region, checked where it is made (make_region)",
     "orientation_workspace_at": "a position (mm); the orientations are generated inside",
+    "spatial_global_worst": "a SpatialRegion, checked where it is made (spatial_region)",
 }
 
 

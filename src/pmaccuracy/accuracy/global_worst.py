@@ -48,6 +48,8 @@ from .._display import html_table
 from ..errors import ConfigError, EmptyWorkspaceError, PoseError, SingularPoseError
 from ..model.manipulator import Manipulator
 from ..model.plausibility import check_orientations
+from ..model.spatial import is_spatial
+from .spatial_worst import spatial_global_worst
 from .certified.error_set import error_set
 from .certified.region import box_remainder, exact_lower
 from .interval import Iv, box_bounds, leg_box_state
@@ -228,6 +230,9 @@ def make_region(robot: Manipulator, phi: tuple[float, float],
     """
     check_orientations(phi, "phi")
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        raise ConfigError(f"{robot.name} is a spatial robot: its region is made by spatial_region(robot, box=..., "
+                          "cylinder=..., sphere=..., orientation=...)", key="robot")
     if np.shape(phi) != (2,):
         raise ConfigError(f"the orientation interval must be two numbers (lo, hi) in rad, got {phi!r}",
                           key="phi")
@@ -368,6 +373,11 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
 
     Notes
     -----
+    A spatial robot (:class:`~pmaccuracy.model.spatial.SpatialManipulator`) takes a
+    :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion` (:func:`~pmaccuracy.accuracy.spatial_worst.spatial_region`)
+    and gives a :class:`~pmaccuracy.accuracy.spatial_worst.SpatialGlobalWorst`
+    (:func:`~pmaccuracy.accuracy.spatial_worst.spatial_global_worst`: ``gap`` default 1 %).
+
     Returns :class:`GlobalWorst`. Raises :class:`EmptyWorkspaceError` when no
     sampled pose of the region lies in the workspace and the bounds cannot prove
     it empty, :class:`SingularRegionError` near a parallel singularity.
@@ -378,9 +388,15 @@ def global_worst(robot: Manipulator, clearances, region: Region, *, gap: float |
     >>> res["dy"].gap <= 1e-3
     True
     """
+    robot = robot_arg(robot)
+    if is_spatial(robot):   # a spatial robot: its own region (spatial_region) and quantities
+        if exact or candidates is not None:
+            raise ConfigError("a spatial robot's worst case is the first-order model's (no exact=, candidates=)",
+                              key="exact" if exact else "candidates")
+        kw = {k: v for k, v in (("gap", gap), ("max_boxes", max_boxes), ("min_size", min_size)) if v is not None}
+        return spatial_global_worst(robot, clearances, region, grid=min(grid, 7), **kw)
     if candidates is not None:
         check_orientations(candidates, "candidates", poses=True)
-    robot = robot_arg(robot)
     if gap is None:
         gap = DEFAULT_EXACT_GAP if exact else DEFAULT_GAP
     if max_boxes is None:

@@ -376,6 +376,29 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
     return blocks, {"Winv": Winv, "condition": cond, "valid": valid, "sources": kept}
 
 
+def hexapod_leg_terms(robot: SpatialManipulator, sources: SpatialErrorSources
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A 6-UPS's per-leg segment half-length ``rho_i = const_i + radial_i (sqrt(1 - c_i^2) + 1) + axial_i c_i``
+    (mm) with ``c_i = |u_i . u1_i|`` (:func:`_hexapod_blocks`): returns ``const, radial, axial`` ``(6,)`` (mm) and
+    the universal joints' fixed axes ``u1`` ``(6, 3)``."""
+    ref = reference_pose(robot)
+    n = robot.n_legs
+    const, radial, axial, u1s = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, 3))
+    for i, leg in enumerate(robot.legs):
+        A = np.asarray(leg.base, dtype=float)
+        ref_dir = normalize(leg.platform_point(ref[:3], rotations(ref[3:])) - A)
+        u1s[i] = _universal_axes(ref_dir[None], ref_dir, leg.base_axis)[0][0]
+        for j, joint in enumerate(sources.legs[i]):
+            for key, h in joint.items():
+                if j == 0 and key == "radial":
+                    radial[i] += h
+                elif j == 0 and key == "axial":
+                    axial[i] += h
+                elif key in ("radial", "position", "actuator", "backlash", "length"):
+                    const[i] += h
+    return const, radial, axial, u1s
+
+
 def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
     """The six segments of a 6-UPS's error set in closed form: leg ``i``'s sources act only through its length
     ``u . (B - A)``, so each adds ``h |u . xi|`` (maximized over its own set) to the segment ``rho_i`` along
@@ -385,22 +408,13 @@ def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
     backlash and length ``h``; rotations about the base joint centre (tilt, direction) and the slide's lateral
     play and tilt 0 (they move ``B`` normal to the leg, or turn the rod about its own line). The same as the
     general construction (``keep=True``), which the tests compare with it."""
+    const, radial, axial, u1s = hexapod_leg_terms(robot, sources)
     blocks = []
     for i, leg in enumerate(robot.legs):
         A = np.asarray(leg.base, dtype=float)
         u = normalize(leg.platform_point(p, R) - A)
-        ref_dir = normalize(leg.platform_point(ref[:3], rotations(ref[3:])) - A)
-        u1 = _universal_axes(ref_dir[None], ref_dir, leg.base_axis)[0][0]
-        c = np.abs(u @ u1)
-        rho = 0.0
-        for j, joint in enumerate(sources.legs[i]):
-            for key, h in joint.items():
-                if j == 0 and key == "radial":
-                    rho = rho + h * (np.sqrt(np.maximum(1.0 - c * c, 0.0)) + 1.0)
-                elif j == 0 and key == "axial":
-                    rho = rho + h * c
-                elif key in ("radial", "position", "actuator", "backlash", "length"):
-                    rho = rho + h
+        c = np.abs(u @ u1s[i])
+        rho = const[i] + radial[i] * (np.sqrt(np.maximum(1.0 - c * c, 0.0)) + 1.0) + axial[i] * c
         blocks.append(Winv[..., :, i:i + 1] * np.asarray(rho)[..., None, None])
     return blocks
 

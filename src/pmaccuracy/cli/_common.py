@@ -240,7 +240,7 @@ def add_format(parser: argparse.ArgumentParser) -> None:
 
 #: The commands that take spatial robots so far (the others refuse them in one line).
 SPATIAL_COMMANDS = ("ik", "fk", "workspace", "bounds", "map", "statistics", "synthesize", "reproduce", "template",
-                    "load", "preload")
+                    "load", "preload", "worst")
 
 
 def load_robot(args: argparse.Namespace) -> Manipulator:

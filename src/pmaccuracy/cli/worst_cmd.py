@@ -25,8 +25,10 @@ def add_shape(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--workspace", action="store_true",
                    help="every position within the joint ranges at the orientations (the default)")
-    g.add_argument("--box", metavar="x0,x1,y0,y1",
-                   help="a box in mm; write --box=-10,10,-10,10 when x0 is negative")
+    g.add_argument("--box", nargs="+", metavar="x0,x1,y0,y1",
+                   help="a box in mm; write --box=-10,10,-10,10 when x0 is negative (or the numbers apart: --box "
+                        "-10 10 -10 10); a spatial robot (worst): x0 x1 y0 y1 z0 z1 mm, a 3-RPS/3-PRS z0 z1 mm "
+                        "roll0 roll1 pitch0 pitch1 deg")
     g.add_argument("--disc", nargs=3, type=_common.finite_float, metavar=("X", "Y", "R"),
                    help="the disc of centre X, Y and radius R > 0 (mm)")
     g.add_argument("--polygon", metavar="FILE|x1,y1,x2,y2,...",
@@ -51,7 +53,7 @@ def parse_shape(args: argparse.Namespace):
         if Path(text).suffix.lower() in (".csv", ".toml") or Path(text).is_file():
             return load_polygon(text)
         return Polygon(parse_vertices(text))
-    key, text = ("--box", args.box) if args.box is not None else ("--region", args.region)
+    key, text = ("--box", box_text(args.box)) if args.box is not None else ("--region", args.region)
     if text is None or text.strip() == "workspace":
         return None
     parts = text.split(",")
@@ -67,9 +69,14 @@ def parse_shape(args: argparse.Namespace):
         raise ConfigError(exc.message, key=key) from None
 
 
+def box_text(box) -> str:
+    """``--box``'s values as one comma-separated text (given as one ``x0,x1,...`` or as separate numbers)."""
+    return ",".join(box) if isinstance(box, (list, tuple)) else box
+
+
 def shape_key(args: argparse.Namespace) -> str:
     """The option that gave the region (for error messages)."""
-    for key in ("disc", "polygon", "box", "region"):
+    for key in ("disc", "polygon", "box", "region", "cylinder", "sphere"):
         if getattr(args, key, None) is not None:
             return "--" + key
     return "--workspace"
@@ -113,7 +120,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "comparison. A region touching a parallel singularity (unbounded errors) is refused.")
     _common.add_robot(p)
     p.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
-    add_region(p, phi_required=True)
+    add_region(p, phi_required=False)
+    p.set_defaults(phi_deg=None)
+    p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
+                   help="spatial robots: the cylinder of axis (X, Y), radius R and heights Z0..Z1 (mm)")
+    p.add_argument("--sphere", nargs=4, type=_common.finite_float, metavar=("X", "Y", "Z", "R"),
+                   help="spatial robots: the sphere of centre X, Y, Z and radius R (mm)")
+    p.add_argument("--orientation-deg", nargs="+", type=_common.angle_deg, metavar="DEG",
+                   help="a 6-UPS: roll pitch yaw (deg, extrinsic x-y-z) fixed, or six numbers R0 R1 P0 P1 Y0 Y1 "
+                        "for ranges (default: its home orientation)")
+    p.add_argument("--max-boxes", type=_common.positive_int, default=None, metavar="N",
+                   help="spatial robots: budget of boxes of the branch and bound (default: 400000)")
     p.add_argument("--certified", action="store_true",
                    help="the worst case of the exact (nonlinear) loop closure instead of the first-order model: "
                         "lower = a configuration of the error set attains it, upper = a rigorous bound at every "
@@ -140,6 +157,16 @@ def run(args: argparse.Namespace) -> int:
     from ..io.resolve import load_clearances
     from ..errors import ConfigError, EmptyWorkspaceError
 
+    robot = _common.load_robot(args)
+    from ..model.spatial import is_spatial
+
+    if is_spatial(robot):
+        return run_spatial(args, robot)
+    for option in ("cylinder", "sphere", "orientation_deg", "max_boxes"):
+        if getattr(args, option) is not None:
+            raise ConfigError(f"is for spatial robots; {robot.name} is planar", key="--" + option.replace("_", "-"))
+    if args.phi_deg is None:
+        raise ConfigError("the following arguments are required: --phi-deg")
     if args.gap_pct is None:
         args.gap_pct = 1.0 if args.certified else 0.1
     if args.largest_disc is not None:
@@ -149,7 +176,6 @@ def run(args: argparse.Namespace) -> int:
     if args.target:
         raise ConfigError("targets need --largest-disc X Y (or use the synthesize command)", key="--target")
     _common.check_grid_memory(args.grid[1], args.grid[0], "--grid")
-    robot = _common.load_robot(args)
     clearances = load_clearances(_common.clearances_or_default(args, robot), robot)
     region = parse_region(robot, args)
     try:
@@ -228,4 +254,82 @@ def run_largest_disc(args: argparse.Namespace) -> int:
         _common.emit(records, "table")
     else:
         _common.emit(data, args.format, records=records)
+    return 0
+
+
+def run_spatial(args: argparse.Namespace, robot) -> int:
+    """``worst`` on a spatial robot: the worst first-order errors over a 3D region
+    (:func:`pmaccuracy.accuracy.spatial_worst.spatial_global_worst`): attained lower values, certified upper
+    values for a 6-UPS (``inf`` with certified false otherwise)."""
+    import numpy as np
+
+    from ..accuracy.spatial_worst import spatial_global_worst, spatial_region
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from ..model.plausibility import warn
+    from .spatial_cmd import _sources
+
+    planar_only = (("--phi-deg", args.phi_deg), ("--disc", args.disc), ("--polygon", args.polygon),
+                   ("--largest-disc", args.largest_disc), ("--target", args.target),
+                   ("--certified", args.certified))
+    for option, value in planar_only:
+        if value:
+            raise ConfigError(f"is not available for spatial robots' worst case yet ({robot.name} is a spatial "
+                              f"{robot.architecture})", key=option)
+    if args.region is not None and args.region.strip() != "workspace":
+        raise ConfigError("a spatial robot's box is --box (six numbers)", key="--region")
+    gap_pct = 1.0 if args.gap_pct is None else args.gap_pct
+    _common.check_gap_pct(gap_pct)
+    kw = {}
+    if args.box is not None:
+        text = box_text(args.box)
+        try:
+            box = [float(v) for v in text.split(",")]
+        except ValueError:
+            box = []
+        if len(box) != 6 or not np.all(np.isfinite(box)):
+            what = "z0 z1 mm, roll0 roll1 deg, pitch0 pitch1 deg" if robot.mobility == "2R1T" else \
+                "x0 x1 y0 y1 z0 z1 mm"
+            raise ConfigError(f"expected six numbers ({what}), got {text!r}", key="--box")
+        if robot.mobility == "2R1T":
+            box[2:] = np.radians(box[2:]).tolist()
+        kw["box"] = box
+    elif args.cylinder is not None:
+        kw["cylinder"] = args.cylinder
+    elif args.sphere is not None:
+        kw["sphere"] = args.sphere
+    if args.orientation_deg is not None:
+        o = np.radians(args.orientation_deg)
+        if o.size not in (3, 6):
+            raise ConfigError(f"give roll pitch yaw (3 numbers) or R0 R1 P0 P1 Y0 Y1 (6), got {o.size}",
+                              key="--orientation-deg")
+        kw["orientation"] = o.reshape(3, 2) if o.size == 6 else o
+    try:
+        region = spatial_region(robot, **kw)
+    except ConfigError as exc:
+        key = {"box": "--box", "cylinder": "--cylinder", "sphere": "--sphere",
+               "orientation": "--orientation-deg"}.get(exc.key, exc.key)
+        raise ConfigError(exc.message, source=exc.source, key=key) from None
+    sources = _sources(args, robot)
+    max_boxes = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
+    try:
+        res = spatial_global_worst(robot, sources, region, gap=gap_pct / 100, **max_boxes)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    records = res.records()
+    for r in records:
+        if not np.isfinite(r["upper"]):
+            r["upper"], r["gap_pct"] = None, None
+    if not res.certified:
+        warn([f"{res.reason}; the lower values are attained"])
+    elif not all(r["certified"] for r in records):
+        gaps = [r["gap_pct"] for r in records if r["gap_pct"] is not None]
+        apart = f"{max(gaps):.3g} % apart" if len(gaps) == len(records) else \
+            "some upper values empty (boxes whose W could not be proven regular: near a singularity?)"
+        warn([f"the worst case is not certified within --gap-pct {gap_pct:g} (box budget spent): the bounds hold, "
+              f"{apart}; raise --max-boxes or narrow the region"])
+    data = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
+            "model": "first-order", "region": region.describe(), "target_gap_pct": gap_pct,
+            "upper_certified": res.certified, "boxes": res.boxes, "iterations": res.iterations,
+            "seconds": res.seconds, "quantities": records}
+    _common.emit(data, args.format, records=records)
     return 0
