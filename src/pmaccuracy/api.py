@@ -17,6 +17,7 @@ from typing import Any
 from .errors import ConfigError
 from .io.resolve import load_clearances as _load_clearances
 from .io.resolve import robot_arg
+from .io.robot_formats import is_robot_file
 from .model.manipulator import Manipulator
 from .model.serial import SerialArm, is_serial_spec, load_serial_sources
 from .model.spatial import SpatialManipulator, is_spatial
@@ -26,7 +27,8 @@ __all__ = ["load_robot", "load_clearances"]
 
 
 def load_robot(spec: Any):
-    """The robot of a preset name, a TOML path or an object (returned as it is).
+    """The robot of a preset name, a TOML path, an MJCF (``.xml``) or URDF (``.urdf``) file, or an object
+    (returned as it is).
 
     A parallel robot (any architecture) gives a :class:`~pmaccuracy.model.manipulator.Manipulator`, a robot file
     with ``architecture = "serial"`` a :class:`~pmaccuracy.model.serial.SerialArm`. Raises
@@ -42,6 +44,8 @@ def load_robot(spec: Any):
     if not isinstance(spec, (str, os.PathLike)):
         raise ConfigError(f"expected a robot, a preset name or a robot TOML path, got {type(spec).__name__}",
                           key="robot")
+    if is_robot_file(spec):   # MJCF or URDF: pmaccuracy.io.robot_formats
+        return robot_arg(spec)
     return SerialArm.load(spec) if is_serial_spec(spec) else robot_arg(spec)
 
 
