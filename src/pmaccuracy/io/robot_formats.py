@@ -539,6 +539,11 @@ def _legs(graph: KinematicGraph) -> tuple[int, list[list[list[FileJoint]]]]:
                                          "from the base reach (closing loops with <equality><connect> in MJCF, "
                                          "<loop> in URDF)")
     platform = best
+    dangling = _dangling(graph, adj, platform)
+    if dangling is not None:
+        raise _error(graph.source, dangling.name, f"a chain from the base ends at '{graph.names[dangling.child]}' "
+                                                  f"without closing a loop to the platform '{graph.names[platform]}' "
+                                                  "(a connect constraint or a loop element is missing)")
     legs = []
     for comp in sorted(components(platform), key=min):
         paths = []
@@ -556,6 +561,28 @@ def _legs(graph: KinematicGraph) -> tuple[int, list[list[list[FileJoint]]]]:
         walk(0, [], frozenset())
         legs.append(paths)
     return platform, legs
+
+
+def _dangling(graph, adj, platform):
+    """A joint of a chain hanging from the base that never reaches the platform, or None."""
+    seen = {0, platform}
+    for start in range(len(graph.names)):
+        if start in seen:
+            continue
+        comp, stack = {start}, [start]
+        seen.add(start)
+        while stack:
+            u = stack.pop()
+            for v, _ in adj[u]:
+                if v not in seen:
+                    seen.add(v)
+                    comp.add(v)
+                    stack.append(v)
+        touches = {v for u in comp for v, _ in adj[u]}
+        if 0 in touches and platform not in touches:
+            edges = [graph.edges[k] for u in comp for _, k in adj[u]]
+            return max((e[-1] for e in edges), key=lambda j: j.child)
+    return None
 
 
 def _unit(v):
