@@ -306,9 +306,12 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     """The kinematic graph of a URDF file read by ``yourdfpy`` at zero joint values, with its loop closures.
 
     Loops: URDF+ ``<loop name type="spherical"><predecessor name=LINK><origin xyz rpy/></predecessor>
-    <successor name=LINK>...</successor></loop>`` (the closure point is the predecessor's origin) and
+    <successor name=LINK>...</successor></loop>`` (the closure point is the predecessor's origin; ``type="fixed"``
+    welds the two links) and
     ``<loop_joint name type="spherical"><link1 link=LINK xyz=.../><link2 .../></loop_joint>``. Actuated joints:
     those of ``<transmission>`` elements (none: the pattern's actuated joint). Ranges: ``<limit lower upper>``.
+    URDF has no reference offsets: a joint's value at zero is its reference unless the ``<pmaccuracy>`` JSON
+    gives ``refs`` (joint name -> value in m or rad, written by :func:`write_urdf`).
     """
     yourdfpy = _optional.require("yourdfpy", "reading a URDF file")
     source = os.fspath(path)
@@ -334,7 +337,16 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     for joint in robot.joints:
         if joint.type not in ("fixed", "revolute", "continuous", "prismatic", "floating"):
             raise _error(source, f"joint '{joint.name}'", f"a {joint.type} joint cannot be mapped to a leg's joint")
-    groups.union(lid[base_link], lid[base_link])
+    loops = list(root.iter("loop")) + list(root.iter("loop_joint"))
+    for el in loops:
+        if el.get("type") == "fixed":
+            ends = _loop_links(el)
+            if any(n is None or n not in lid for n in ends):
+                raise _error(source, f"{el.tag} '{el.get('name', '?')}'", f"must name two links of the robot, got {ends}")
+            groups.union(lid[ends[0]], lid[ends[1]])
+    extra = root.find(EXTRAS_NAME)
+    extras = _extras(extra.text if extra is not None else None, source)
+    refs = extras.get("refs", {}) if isinstance(extras.get("refs"), dict) else {}
     # the base group first
     roots = sorted({groups.find(i) for i in range(len(links))}, key=lambda r: (r != groups.find(lid[base_link]), r))
     index = {r: i for i, r in enumerate(roots)}
@@ -372,9 +384,11 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
                 and joint.limit.upper is not None:
             rng = (float(joint.limit.lower) * scale, float(joint.limit.upper) * scale)
         graph.edges.append([FileJoint(name=f"joint '{joint.name}'", kind=kind, anchor=p, axis=axis, range=rng,
-                                      ref=0.0, actuated=joint.name in actuated, parent=parent, child=child)])
-    for el in list(root.iter("loop")) + list(root.iter("loop_joint")):
+                                      ref=float(refs.get(joint.name, 0.0)) * scale, actuated=joint.name in actuated, parent=parent, child=child)])
+    for el in loops:
         label = f"{el.tag} '{el.get('name', '?')}'"
+        if el.get("type") == "fixed":
+            continue
         if el.get("type", "spherical") not in ("spherical", "ball"):
             raise _error(source, label, f"a {el.get('type')} loop closure cannot be mapped (spherical only)")
         if el.tag == "loop":
@@ -402,9 +416,16 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
         g1, g2 = index[groups.find(lid[ends_links[0]])], index[groups.find(lid[ends_links[1]])]
         graph.edges.append([FileJoint(name=label, kind="ball", anchor=point, axis=np.zeros(3), range=None, ref=0.0,
                                       actuated=False, parent=g1, child=g2)])
-    extra = root.find(EXTRAS_NAME)
-    graph.extras = _extras(extra.text if extra is not None else None, source)
+    graph.extras = extras
     return graph
+
+
+def _loop_links(el) -> list:
+    if el.tag == "loop":
+        succ = el.find("successor") if el.find("successor") is not None else el.find("sucessor")
+        ends = [el.find("predecessor"), succ]
+        return [None if e is None else (e.get("name") or e.get("link")) for e in ends]
+    return [None if e is None else e.get("link") for e in (el.find("link1"), el.find("link2"))]
 
 
 def _xyz(text: str | None, source: str, label: str) -> np.ndarray:
@@ -1247,4 +1268,107 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
     ET.indent(tree)
     out = Path(out)
     tree.write(out, encoding="unicode")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- URDF writing
+def urdf_tree(robot: SpatialManipulator) -> ET.ElementTree:
+    """A fresh URDF document of a spatial robot (see :func:`write_urdf`)."""
+    home = _home(robot)
+    p, R = home
+    root = ET.Element("robot", name=robot.name)
+    ET.SubElement(root, "link", name="base_link")
+    ET.SubElement(root, "link", name="platform")
+    j = ET.SubElement(root, "joint", name="platform_float", type="floating")
+    ET.SubElement(j, "parent", link="base_link")
+    ET.SubElement(j, "child", link="platform")
+    ET.SubElement(j, "origin", xyz=_f(p / _M), rpy=_f(_rpy(R)))
+    refs: dict[str, float] = {}
+    loops, transmissions = [], []
+    for i, leg in enumerate(robot.legs, start=1):
+        try:
+            chain = _leg_chain(leg, home)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+        last_link, last_pos = [], []
+        for k, body in enumerate(chain):
+            parent_k = body.get("parent", k - 1)
+            parent, parent_pos = ("base_link", np.zeros(3)) if parent_k < 0 else (last_link[parent_k], last_pos[parent_k])
+            offset = body["pos"] - parent_pos
+            for n, jt in enumerate(body["joints"], start=1):
+                axes = [("hinge", e, 0.0, None, False) for e in np.eye(3)] if jt[0] == "ball" else [jt]
+                for m_, (kind, axis, ref, rng, act) in enumerate(axes, start=1):
+                    name = f"leg{i}_b{k + 1}_j{n}" + (f"_{m_}" if jt[0] == "ball" else "")
+                    link = name + "_link"
+                    ET.SubElement(root, "link", name=link)
+                    el = ET.SubElement(root, "joint", name=name, type="prismatic" if kind == "slide" else "revolute")
+                    ET.SubElement(el, "parent", link=parent)
+                    ET.SubElement(el, "child", link=link)
+                    ET.SubElement(el, "origin", xyz=_f(offset / _M), rpy="0.0 0.0 0.0")
+                    ET.SubElement(el, "axis", xyz=_f(axis))
+                    scale = _M if kind == "slide" else 1.0
+                    lo, hi = (-math.pi, math.pi) if rng is None else rng
+                    # zero joint values are the home configuration: ranges relative to it unless refs say otherwise
+                    if act and isinstance(leg, (DeltaLeg, PRSLeg)):
+                        refs[name] = ref / scale
+                        limits = (lo / scale, hi / scale)
+                    else:
+                        limits = ((lo - ref) / scale, (hi - ref) / scale) if rng is not None else (-math.pi, math.pi)
+                        if kind == "hinge" and rng is not None:
+                            refs[name] = ref
+                            limits = (lo, hi)
+                    ET.SubElement(el, "limit", lower=repr(limits[0]), upper=repr(limits[1]), effort="100.0",
+                                  velocity="1.0")
+                    if act:
+                        tr = ET.Element("transmission", name=f"leg{i}_transmission")
+                        ET.SubElement(tr, "type").text = "transmission_interface/SimpleTransmission"
+                        tj = ET.SubElement(tr, "joint", name=name)
+                        ET.SubElement(tj, "hardwareInterface").text = "hardware_interface/EffortJointInterface"
+                        ta = ET.SubElement(tr, "actuator", name=f"leg{i}_motor")
+                        ET.SubElement(ta, "mechanicalReduction").text = "1"
+                        transmissions.append(tr)
+                    parent, offset = link, np.zeros(3)
+            last_link.append(parent)
+            last_pos.append(body["pos"])
+            if "tip" in body or body.get("weld"):
+                loop = ET.Element("loop", name=f"leg{i}_b{k + 1}_platform",
+                                  type="fixed" if body.get("weld") else "spherical")
+                pred = ET.SubElement(loop, "predecessor", name=parent)
+                tip = body.get("tip", body["pos"])
+                ET.SubElement(pred, "origin", xyz=_f((tip - body["pos"]) / _M), rpy="0.0 0.0 0.0")
+                succ = ET.SubElement(loop, "successor", name="platform")
+                ET.SubElement(succ, "origin", xyz=_f(R.T @ (tip - p) / _M), rpy="0.0 0.0 0.0")
+                loops.append(loop)
+    for el in loops + transmissions:
+        root.append(el)
+    data = json.loads(_extras_json(robot))
+    data["refs"] = refs
+    ET.SubElement(root, EXTRAS_NAME).text = json.dumps(data)
+    ET.indent(root)
+    return ET.ElementTree(root)
+
+
+def _rpy(R) -> np.ndarray:
+    """URDF roll, pitch, yaw (``R = Rz(y) Ry(p) Rx(r)``) of a rotation matrix (rad)."""
+    R = np.asarray(R)
+    pitch = math.asin(-max(-1.0, min(1.0, R[2, 0])))
+    if abs(R[2, 0]) < 1 - 1e-12:
+        roll, yaw = math.atan2(R[2, 1], R[2, 2]), math.atan2(R[1, 0], R[0, 0])
+    else:
+        roll, yaw = math.atan2(-R[1, 2], R[1, 1]), 0.0
+    return np.array([roll, pitch, yaw])
+
+
+def write_urdf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
+    """Write a spatial robot as a fresh URDF file with URDF+ loop closures that :func:`read_robot_file` reads
+    back.
+
+    The platform is a ``floating`` link at the home pose; every leg a chain of links from ``base_link`` (a ball
+    joint as three revolutes through one point, a universal joint as two), each platform ball a spherical
+    ``<loop>`` (a 3-UPU's platform-side universal joint ends in a ``fixed`` loop); the actuated joints have
+    ``<transmission>`` elements. Zero joint values are the home configuration; the ``<pmaccuracy>`` JSON keeps
+    our non-kinematic keys and the joints' reference values. Returns the path.
+    """
+    out = Path(path)
+    urdf_tree(robot).write(out, encoding="unicode", xml_declaration=True)
     return out
