@@ -1,0 +1,273 @@
+"""Robots from and to MJCF and URDF files (``pmaccuracy.io.robot_formats``).
+
+The files of ``tests/data/formats`` were written by hand in the shapes CAD exporters write (numbers from a
+calculator, not from our writer), each beside the hand-written TOML of the same robot. Checked here:
+
+* every spatial preset written as MJCF and as URDF and read back is the same robot (every leg key to 1e-9, the
+  same inverse kinematics at random poses to 1e-9);
+* each hand-written file imports to its TOML's kinematics (1e-9), and the hexapod's leg lengths equal the closed
+  form ``|p + R b - A|`` computed here with scipy's rotations from the TOML numbers;
+* a calibrated robot written into the original MJCF and reloaded by MuJoCo has MuJoCo's world anchors at the
+  calibrated geometry (1e-12 m), computed here from the calibrated numbers;
+* bad files end the CLI with status 2 and one line naming the file and the element.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run_cli
+from scipy.spatial.transform import Rotation
+
+import pmaccuracy as pm
+from pmaccuracy.kinematics.spatial import inverse_kinematics
+from pmaccuracy.model.spatial import SpatialManipulator
+
+mujoco = pytest.importorskip("mujoco")
+rf = pytest.importorskip("pmaccuracy.io.robot_formats")
+
+DATA = Path(__file__).parents[1] / "data" / "formats"
+PRESETS = SpatialManipulator.preset_names()
+
+
+def _poses(robot, n=25, seed=0):
+    """Random poses around home: +-15 mm, +-3 deg (pure translations for a 3T robot)."""
+    rng = np.random.default_rng(seed)
+    poses = np.tile(np.asarray(robot.home, dtype=float), (n, 1))
+    poses[:, :3] += rng.uniform(-15, 15, (n, 3))
+    if robot.mobility != "3T":
+        poses[:, 3:] = (Rotation.from_rotvec(poses[:, 3:]) * Rotation.from_rotvec(
+            rng.uniform(-0.05, 0.05, (n, 3)))).as_rotvec()
+    return poses
+
+
+def _same_robot(a, b, tol=1e-9):
+    assert a.architecture == b.architecture and a.n_legs == b.n_legs
+    np.testing.assert_allclose(a.home, b.home, atol=tol, rtol=0)
+    for i, (la, lb) in enumerate(zip(a.legs, b.legs), start=1):
+        ta, tb = la.to_table(), lb.to_table()
+        assert set(ta) == set(tb), (i, set(ta) ^ set(tb))
+        for key in ta:
+            np.testing.assert_allclose(ta[key], tb[key], atol=tol, rtol=0, err_msg=f"leg {i} {key}")
+    poses = _poses(a)
+    qa, qb = inverse_kinematics(a, poses).q, inverse_kinematics(b, poses).q
+    assert np.all(np.isfinite(qa))
+    np.testing.assert_allclose(qb, qa, atol=tol, rtol=0)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("suffix", [".xml", ".urdf"])
+def test_every_spatial_preset_survives_a_round_trip(name, suffix, tmp_path):
+    if suffix == ".urdf":
+        pytest.importorskip("yourdfpy")
+    robot = SpatialManipulator.preset(name)
+    path = tmp_path / f"{name}{suffix}"
+    (rf.write_mjcf if suffix == ".xml" else rf.write_urdf)(robot, path)
+    back = pm.load_robot(path)
+    _same_robot(robot, back)
+    assert back.name == robot.name and back.description == robot.description
+
+
+def _ups_lengths(toml_path, poses):
+    """Leg lengths |p + R b - A| from the TOML numbers (scipy's rotation of the rotation vector)."""
+    import tomllib
+
+    data = tomllib.loads(Path(toml_path).read_text())
+    A = np.array([leg["base"] for leg in data["legs"]])
+    b = np.array([leg["platform"] for leg in data["legs"]])
+    R = Rotation.from_rotvec(poses[:, 3:]).as_matrix()
+    B = poses[:, None, :3] + np.einsum("nij,lj->nli", R, b)
+    return np.linalg.norm(B - A, axis=-1)
+
+
+@pytest.mark.parametrize("stem", ["hexapod", "delta", "tilt_head"])
+def test_hand_written_files_import_to_their_hand_written_toml(stem):
+    suffix = ".urdf" if stem == "tilt_head" else ".xml"
+    if suffix == ".urdf":
+        pytest.importorskip("yourdfpy")
+    imported = pm.load_robot(DATA / f"{stem}{suffix}")
+    written = pm.load_robot(DATA / f"{stem}.toml")
+    assert imported.architecture == written.architecture
+    np.testing.assert_allclose(imported.home, written.home, atol=1e-9, rtol=0)
+    for la, lb in zip(imported.legs, written.legs):
+        np.testing.assert_allclose(la.base, lb.base, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(la.platform, lb.platform, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(la.stroke, lb.stroke, atol=1e-9, rtol=0)
+    poses = _poses(written, seed=3)
+    q = inverse_kinematics(imported, poses).q
+    np.testing.assert_allclose(q, inverse_kinematics(written, poses).q, atol=1e-9, rtol=0)
+    if stem != "delta":
+        np.testing.assert_allclose(q, _ups_lengths(DATA / f"{stem}.toml", poses), atol=1e-9, rtol=0)
+
+
+def test_delta_arm_angles_close_the_rods_of_the_hand_written_file():
+    """The imported Delta's arm angles put each elbow ball one rod length from its platform ball, with the ball
+    positions computed here from the MJCF's numbers (arm 0.35 m along x of each arm frame, balls +-0.05 m)."""
+    robot = pm.load_robot(DATA / "delta.xml")
+    poses = _poses(robot, seed=5)
+    q = inverse_kinematics(robot, poses).q
+    for i in range(3):
+        c, s = np.cos(np.radians(120 * i)), np.sin(np.radians(120 * i))
+        Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        A = Rz @ [200.0, 0, 0]
+        for side in (1, -1):
+            # arm frame: x along the arm at 0, hinge axis y; a positive angle turns x towards -z (right hand about y)
+            elbow = A[None] + (Rz @ np.stack([350 * np.cos(q[:, i]), np.full(len(q), 50.0 * side),
+                                              -350 * np.sin(q[:, i])])).T
+            ball = poses[:, :3] + Rz @ [50.0, 50.0 * side, 0]
+            np.testing.assert_allclose(np.linalg.norm(ball - elbow, axis=1), 800.0, atol=1e-9)
+
+
+def _calibrated(robot, seed=2):
+    rng = np.random.default_rng(seed)
+    legs = []
+    for leg in robot.legs:
+        change = dict(base=tuple(np.asarray(leg.base) + rng.normal(0, 0.4, 3)),
+                      platform=tuple(np.asarray(leg.platform) + rng.normal(0, 0.4, 3)))
+        if hasattr(leg, "rod"):
+            change["rod"] = leg.rod + rng.normal(0, 0.3)
+        if hasattr(leg, "arm"):
+            change["arm"] = leg.arm + rng.normal(0, 0.3)
+        legs.append(dataclasses.replace(leg, **change))
+    home = np.asarray(robot.home) + np.r_[rng.normal(0, 0.5, 3), 0, 0, 0]
+    return dataclasses.replace(robot, legs=tuple(legs), home=tuple(home))
+
+
+def _world(m, d, body, local_m):
+    return d.xpos[body] + d.xmat[body].reshape(3, 3) @ local_m
+
+
+def test_calibrated_hexapod_written_into_its_mjcf_is_mujocos_geometry(tmp_path):
+    original = DATA / "hexapod.xml"
+    cal = _calibrated(pm.load_robot(original))
+    out = rf.export_into(cal, original, tmp_path / "hexapod_calibrated.xml")
+    m = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    base = np.array([0.0, 0.0, 0.05])                      # the file's fixed base body
+    p = np.asarray(cal.home[:3]) / 1000 + base
+    R = Rotation.from_rotvec(cal.home[3:]).as_matrix()
+    for i, leg in enumerate(cal.legs, start=1):
+        A = base + np.asarray(leg.base) / 1000
+        B = p + R @ np.asarray(leg.platform) / 1000
+        for name in (f"leg{i}_u1", f"leg{i}_u2"):
+            np.testing.assert_allclose(d.xanchor[m.joint(name).id], A, atol=1e-12)
+        slide = m.joint(f"leg{i}_slide").id
+        np.testing.assert_allclose(np.cross(d.xaxis[slide], (B - A) / np.linalg.norm(B - A)), 0, atol=1e-12)
+        eq = m.equality(f"leg{i}_ball").id
+        np.testing.assert_allclose(_world(m, d, m.eq_obj1id[eq], m.eq_data[eq, :3]), B, atol=1e-12)
+        np.testing.assert_allclose(d.xpos[m.body("platform").id], p, atol=1e-12)
+    text = out.read_text()
+    for kept in ('kp="2000"', 'rgba="0.8 0.5 0.2 1"', 'timestep="0.002"', 'name="floor"'):
+        assert kept in text
+    _same_robot(cal, pm.load_robot(out))
+
+
+def test_calibrated_delta_written_into_its_mjcf_closes_its_rods(tmp_path):
+    original = DATA / "delta.xml"
+    cal = _calibrated(pm.load_robot(original))
+    out = rf.export_into(cal, original, tmp_path / "delta_calibrated.xml")
+    m = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    frame = np.array([0.0, 0.0, 1.2])
+    p = frame + np.asarray(cal.home[:3]) / 1000
+    for i, leg in enumerate(cal.legs, start=1):
+        motor = m.joint(f"motor{i}_joint").id
+        np.testing.assert_allclose(d.xanchor[motor], frame + np.asarray(leg.base) / 1000, atol=1e-12)
+        np.testing.assert_allclose(d.xaxis[motor], leg.axis, atol=1e-12)
+        elbows = [d.xanchor[m.joint(f"elbow{i}{s}").id] for s in "ab"]
+        mid = 0.5 * (elbows[0] + elbows[1])
+        arm = mid - d.xanchor[motor]
+        assert abs(arm @ np.asarray(leg.axis)) < 1e-12
+        assert np.linalg.norm(arm) == pytest.approx(leg.arm / 1000, abs=1e-12)
+        assert np.linalg.norm(elbows[0] - elbows[1]) == pytest.approx(leg.spacing / 1000, abs=1e-12)
+        for elbow in elbows:
+            sign = 1 if (elbow - mid) @ np.asarray(leg.axis) > 0 else -1
+            ball = p + (np.asarray(leg.platform) + sign * 0.5 * leg.spacing * np.asarray(leg.axis)) / 1000
+            assert np.linalg.norm(ball - elbow) == pytest.approx(leg.rod / 1000, abs=1e-12)
+    _same_robot(cal, pm.load_robot(out))
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_calibrated_preset_written_into_its_exported_mjcf_reads_back(name, tmp_path):
+    robot = SpatialManipulator.preset(name)
+    original = rf.write_mjcf(robot, tmp_path / "original.xml")
+    cal = _calibrated(robot, seed=7)
+    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.xml")))
+
+
+# ---------------------------------------------------------------------------------------------- bad files
+def _edit(tmp_path, stem, old, new, suffix=".xml"):
+    text = (DATA / f"{stem}{suffix}").read_text()
+    assert old in text
+    path = tmp_path / f"bad{suffix}"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+BAD = {
+    "not_xml": (lambda t: (t / "junk.xml", "this is not XML\n"), r"junk\.xml: MuJoCo cannot read it"),
+    "unknown_joint": (("hexapod", '<joint name="leg2_u1" axis="1 0 0"/>', '<joint name="leg2_u1" type="hing"/>'),
+                      r"bad\.xml: MuJoCo cannot read it: .*invalid keyword: 'hing'"),
+    "missing_actuator": (("hexapod", '<position name="leg3_motor" joint="leg3_slide" kp="2000" ctrlrange="-0.09 0.09"/>',
+                          ""), r"bad\.xml: joint 'leg3_slide': a 6-UPS leg needs its actuated joint .*leg 3 has none"),
+    "actuator_elsewhere": (("hexapod", 'joint="leg3_slide" kp', 'joint="leg3_u1" kp'),
+                           r"bad\.xml: joint 'leg3_slide': .*leg 3 has joint 'leg3_u1' instead"),
+    "loop_not_closed": (("hexapod", '<connect name="leg4_ball" body1="platform" body2="leg4_piston" '
+                                    'anchor="-0.147721162952 0.02604722665 0"/>', ""),
+                        r"bad\.xml: joint 'leg4_slide': a chain from the base ends at 'leg4_piston' without closing"),
+    "rods_not_parallel": (("delta", 'anchor="0.01830127018922193 0.06830127018922193 0"',
+                           'anchor="0.01830127018922193 0.07830127018922193 0"'),
+                          r"bad\.xml: .*leg 2: the two rods must be equal and parallel"),
+    "urdf_loop_open": (("tilt_head", '<origin xyz="0 0 0.36400549446402586" rpy="0 0 0"/></predecessor>\n'
+                                     '    <successor name="platform"><origin xyz="0 0.1 0"',
+                        '<origin xyz="0 0 0.36400549446402586" rpy="0 0 0"/></predecessor>\n'
+                        '    <successor name="platform"><origin xyz="0 0.12 0"', ".urdf"),
+                       r"bad\.urdf: loop 'leg1_ball': its two ends are 20 mm apart .*not closed"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_files_are_refused_in_one_line(case, tmp_path, capsys):
+    make, pattern = BAD[case]
+    if callable(make):
+        path, text = make(tmp_path)
+        path.write_text(text)
+    else:
+        if len(make) == 4:
+            pytest.importorskip("yourdfpy")
+        path = _edit(tmp_path, *make)
+    status, out, err = run_cli(["import", path], capsys)
+    assert status == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("pmaccuracy import: error: "), err
+    assert re.search(pattern, lines[0]), lines[0]
+
+
+def test_import_writes_a_toml_every_command_reads(tmp_path, capsys):
+    out = tmp_path / "hexapod.toml"
+    status, stdout, err = run_cli(["import", DATA / "hexapod.xml", "--out", out], capsys)
+    assert status == 0, err
+    assert "6-UPS" in stdout and "leg 6:" in stdout
+    _same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(out))
+    status, stdout, err = run_cli(["ik", "--robot", DATA / "hexapod.xml", "--pose", 0, 0, 400, 0, 0, 10], capsys)
+    assert status == 0, err
+
+
+def test_export_command_writes_fresh_files_and_into_the_original(tmp_path, capsys):
+    status, _, err = run_cli(["export", "delta_clavel", "--to", tmp_path / "d.xml"], capsys)
+    assert status == 0, err
+    _same_robot(pm.load_robot("delta_clavel"), pm.load_robot(tmp_path / "d.xml"))
+    toml = tmp_path / "cal.toml"
+    cal = _calibrated(pm.load_robot(DATA / "hexapod.xml"))
+    cal.to_toml(toml)
+    status, _, err = run_cli(["export", toml, "--to", tmp_path / "h.xml", "--like", DATA / "hexapod.xml"], capsys)
+    assert status == 0, err
+    _same_robot(cal, pm.load_robot(tmp_path / "h.xml"))
+    status, _, err = run_cli(["export", "rps_3", "--to", tmp_path / "h2.xml", "--like", DATA / "hexapod.xml"], capsys)
+    assert status == 2 and "holds a 6-UPS with 6 legs, the robot is a 3-RPS" in err
