@@ -17,7 +17,7 @@ from typing import Any
 from .errors import ConfigError
 from .io.resolve import load_clearances as _load_clearances
 from .io.resolve import robot_arg
-from .io.robot_formats import is_robot_file
+from .io.robot_formats import export_into, is_robot_file, write_mjcf, write_urdf
 from .model.manipulator import Manipulator
 from .model.serial import SerialArm, is_serial_spec, load_serial_sources
 from .model.spatial import SpatialManipulator, is_spatial
@@ -47,6 +47,31 @@ def load_robot(spec: Any):
     if is_robot_file(spec):   # MJCF or URDF: pmaccuracy.io.robot_formats
         return robot_arg(spec)
     return SerialArm.load(spec) if is_serial_spec(spec) else robot_arg(spec)
+
+
+def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | None = None):
+    """Write a spatial robot (object, preset name, TOML, MJCF or URDF path) as a robot file of another tool.
+
+    ``path`` ending in ``.xml``/``.mjcf`` gives a fresh MJCF file (MuJoCo; loops closed by ``connect``
+    constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures; with ``like`` (the MJCF file the robot
+    was imported from), a copy of it in which only the geometry becomes the robot's (body and joint positions,
+    axes, references, actuated ranges: :func:`pmaccuracy.io.robot_formats.export_into`). Files are in metres
+    and radians; :func:`load_robot` reads them back to the same robot (1e-9 mm). Returns the path written.
+
+    >>> import tempfile, pathlib
+    >>> path = export_robot("delta_clavel", pathlib.Path(tempfile.mkdtemp()) / "delta.xml")
+    >>> load_robot(path).architecture
+    'delta'
+    """
+    robot = load_robot(robot)
+    if not is_spatial(robot):
+        raise ConfigError(f"{robot.name} is a planar robot: robot files are written for spatial robots so far",
+                          key="robot")
+    if like is not None:
+        return export_into(robot, like, path)
+    if os.fspath(path).lower().endswith(".urdf"):
+        return write_urdf(robot, path)
+    return write_mjcf(robot, path)
 
 
 def load_clearances(spec: Any, robot: Any):
