@@ -50,13 +50,13 @@ def load_robot(spec: Any):
 
 
 def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | None = None):
-    """Write a spatial robot (object, preset name, TOML, MJCF or URDF path) as a robot file of another tool.
+    """Write a robot (object, preset name, TOML, MJCF or URDF path) as a robot file of another tool.
 
     ``path`` ending in ``.xml``/``.mjcf`` gives a fresh MJCF file (MuJoCo; loops closed by ``connect``
     constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures; with ``like`` (the MJCF file the robot
     was imported from), a copy of it in which only the geometry becomes the robot's (body and joint positions,
-    axes, references, actuated ranges: :func:`pmaccuracy.io.robot_formats.export_into`). Files are in metres
-    and radians; :func:`load_robot` reads them back to the same robot (1e-9 mm). Returns the path written.
+    axes, references, actuated ranges: :func:`pmaccuracy.io.robot_formats.export_into`). A planar robot is
+    written as a fresh MJCF file only. Files are in metres and radians; :func:`load_robot` reads them back to the same robot (1e-9 mm). Returns the path written.
 
     >>> import tempfile, pathlib
     >>> path = export_robot("delta_clavel", pathlib.Path(tempfile.mkdtemp()) / "delta.xml")
@@ -64,12 +64,12 @@ def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | 
     'delta'
     """
     robot = load_robot(robot)
-    if not is_spatial(robot):
-        raise ConfigError(f"{robot.name} is a planar robot: robot files are written for spatial robots so far",
-                          key="robot")
     if like is not None:
         return export_into(robot, like, path)
     if os.fspath(path).lower().endswith(".urdf"):
+        if not is_spatial(robot):
+            raise ConfigError(f"{robot.name} is a planar robot: URDF files are written for spatial robots so far "
+                              "(write an MJCF .xml)", key="path")
         return write_urdf(robot, path)
     return write_mjcf(robot, path)
 

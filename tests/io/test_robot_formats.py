@@ -271,3 +271,40 @@ def test_export_command_writes_fresh_files_and_into_the_original(tmp_path, capsy
     _same_robot(cal, pm.load_robot(tmp_path / "h.xml"))
     status, _, err = run_cli(["export", "rps_3", "--to", tmp_path / "h2.xml", "--like", DATA / "hexapod.xml"], capsys)
     assert status == 2 and "holds a 6-UPS with 6 legs, the robot is a 3-RPS" in err
+
+
+# ---------------------------------------------------------------------------------------------- planar robots
+PLANAR = ["aalborg_3ppr", "symmetric_3rrr", "symmetric_3rpr", "symmetric_3prr", "symmetric_3ppr"]
+
+
+def _planar_poses(n=25, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(-0.1, 0.1, n)])
+
+
+def _same_planar(a, b):
+    from pmaccuracy.kinematics import inverse_kinematics as planar_ik
+
+    poses = _planar_poses()
+    qa, qb = planar_ik(a, poses).q, planar_ik(b, poses).q
+    assert np.all(np.isfinite(qa))
+    np.testing.assert_allclose(qb, qa, atol=1e-9, rtol=0)
+    for ca, cb in zip(a.chains, b.chains):
+        assert ca.pattern == cb.pattern and ca.actuated_index == cb.actuated_index
+        np.testing.assert_allclose(cb.actuated.range, ca.actuated.range, atol=1e-9, rtol=0)
+        # the platform point of the leg's last joint, in the platform frame
+        np.testing.assert_allclose(complex(cb.platform_z), complex(ca.platform_z), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", PLANAR)
+def test_every_planar_preset_survives_an_mjcf_round_trip(name, tmp_path):
+    robot = pm.load_robot(name)
+    back = pm.load_robot(rf.write_mjcf(robot, tmp_path / f"{name}.xml"))
+    assert back.name == robot.name and back.architecture == "chain"
+    _same_planar(robot, back)
+
+
+def test_hand_written_planar_mjcf_is_the_symmetric_3rrr():
+    """planar_3rrr.xml: elbows placed by hand (isosceles triangles of 120 mm links over the 150 mm base-platform
+    distance, on the right of A -> B, the TOML's working mode +1)."""
+    _same_planar(pm.load_robot("symmetric_3rrr"), pm.load_robot(DATA / "planar_3rrr.xml"))

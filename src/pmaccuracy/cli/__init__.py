@@ -53,8 +53,8 @@ COMMANDS = {
     "preload": ("preload_cmd", "smallest preload keeping every contact fixed over a box of process wrenches (any architecture)"),
     "import": ("robot_file_cmd", "read a parallel robot from an MJCF or URDF file (loops closed by constraints) "
                                  "into a robot TOML"),
-    "export": ("robot_file_cmd", "write a spatial robot as an MJCF or URDF file, or its geometry into the file it "
-                                 "came from (--like)"),
+    "export": ("robot_file_cmd", "write a robot as an MJCF or URDF file, or its geometry into the file it came "
+                                 "from (--like)"),
     "template": ("template_cmd", "print a commented template robot file (or, with --clearances, clearance file) of an "
                                  "architecture"),
 }

@@ -16,7 +16,7 @@ from ..model.spatial import is_spatial
 from . import _common
 
 IMPORT_HELP = "read a parallel robot from an MJCF or URDF file (loops closed by constraints) into a robot TOML"
-EXPORT_HELP = "write a spatial robot as an MJCF or URDF file, or its geometry into the file it came from (--like)"
+EXPORT_HELP = "write a robot as an MJCF or URDF file, or its geometry into the file it came from (--like)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export", help=EXPORT_HELP,
         description="Writes ROBOT (a preset name, a robot TOML, or an MJCF/URDF file) as a fresh MJCF (.xml) or URDF "
-                    "(.urdf) file at --to; with --like ORIGINAL (the file the robot was imported from), writes a "
+                    "(.urdf) file at --to (a planar robot: MJCF only); with --like ORIGINAL (the file the robot was imported from), writes a "
                     "copy of ORIGINAL in which only the geometry changes (body and joint positions, axes, the "
                     "reference configuration and the actuated ranges), so that simulation and control use the "
                     "calibrated model.")
@@ -74,8 +74,9 @@ def run_export(args: argparse.Namespace) -> int:
     kinds = (".xml", ".mjcf") if args.like else (".xml", ".mjcf", ".urdf")
     _common.prepare_output(args.to, "--to", kinds)
     robot = robot_arg(args.robot)
-    if not is_spatial(robot):
-        raise ConfigError(f"{robot.name} is a planar robot: export writes spatial robots only so far", key="ROBOT")
+    if not is_spatial(robot) and (args.like or Path(args.to).suffix.lower() == ".urdf"):
+        raise ConfigError(f"{robot.name} is a planar robot: it is written as a fresh MJCF file (.xml) only so far",
+                          key="ROBOT")
     if args.like:
         robot_formats.export_into(robot, args.like, args.to)
     elif Path(args.to).suffix.lower() == ".urdf":

@@ -38,6 +38,10 @@ import numpy as np
 
 from .. import _optional
 from ..errors import ConfigError, GeometryError
+from ..model.chain import Chain
+from ..model.chain import Joint as ChainJoint
+from ..model.legs import ChainLeg
+from ..model.manipulator import Manipulator
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
 from ..numerics.spatial import rotations, rotvecs
@@ -764,13 +768,108 @@ class _LegReader:
         return out
 
 
-def robot_from_graph(graph: KinematicGraph) -> SpatialManipulator:
-    """The spatial robot of a kinematic graph: legs recognised by their pairs' pattern (:data:`PATTERNS`).
+def _is_planar(graph: KinematicGraph, platform: int, legs) -> bool:
+    """Every hinge about the base's z-axis, every slide in its xy-plane, the platform turned about z only."""
+    joints = [j for paths in legs for path in paths for j in path]
+    if any(j.kind == "hinge" and abs(abs(j.axis[2]) - 1) > 1e-9 or j.kind == "slide" and abs(j.axis[2]) > 1e-9
+           for j in joints):
+        return False
+    R = graph.frames[platform][1]
+    return abs(R[2, 2] - 1) <= 1e-12 and abs(R[2, 0]) <= 1e-9 and abs(R[2, 1]) <= 1e-9 and len(legs) == 3 and \
+        all(len(paths) == 1 for paths in legs)
+
+
+def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator:
+    """A planar robot (three :class:`~pmaccuracy.model.legs.ChainLeg` legs, ``architecture = "chain"``) of a
+    graph whose joints all move in the base's xy-plane; the reference configuration is a pose ``(x, y, phi)``.
+
+    Each leg's chain (module :mod:`pmaccuracy.model.chain`) is built from the joints' centres ``c_k`` and
+    directions ``d_k`` at their reference values ``q_k``: zero offsets for R joints (``q`` is the file's angle,
+    turned to the +z sense), a P joint's offset the angle of its direction, ``link_k`` the vector to the next
+    centre in the frame after the joint; a loop closure is a revolute (value 0 at the reference), the end frame
+    the last joint's frame. The working mode is the branch whose inverse kinematics gives the reference values.
+    """
+    src = graph.source
+    p, R = graph.frames[platform]
+    phi = math.atan2(R[1, 0], R[0, 0])
+    pose = np.array([p[0], p[1], phi])
+    built = []
+    for i, paths in enumerate(legs, start=1):
+        path = paths[0]
+        if len(path) != 3:
+            raise _error(src, path[0].name, f"leg {i} of a planar robot has {len(path)} joints "
+                                            f"({', '.join(j.name for j in path)}); a planar leg has three")
+        if graph.any_actuator and sum(j.actuated for j in path) != 1:
+            raise _error(src, path[0].name, f"leg {i}: a planar leg needs exactly one actuated joint, found "
+                                            f"{sum(j.actuated for j in path)}")
+        act = [j.actuated for j in path] if graph.any_actuator else None
+        if act is None:
+            raise _error(src, path[0].name, "a planar robot file must name its actuated joints")
+        angle = 0.0
+        joints, centres, qs = [], [], []
+        for j in path:
+            if j.kind == "slide":
+                d = complex(j.axis[0], j.axis[1])
+                d /= abs(d)
+                centres.append(complex(j.anchor[0], j.anchor[1]) - j.ref * d)
+                qs.append(("P", d, j.ref, j.range))
+            else:
+                sign = 1.0 if j.kind == "ball" or j.axis[2] > 0 else -1.0
+                rng = None if j.range is None else tuple(sorted(sign * v for v in j.range))
+                centres.append(complex(j.anchor[0], j.anchor[1]))
+                qs.append(("R", None, sign * j.ref, rng))
+        base = centres[0]
+        for k, (kind, d, q, rng) in enumerate(qs):
+            if kind == "R":
+                offset = 0.0
+                angle = angle + q
+                origin = centres[k]
+            else:
+                offset = math.atan2(d.imag, d.real) - angle
+                angle = angle + offset
+                origin = centres[k] + q * d
+            nxt = centres[k + 1] if k < 2 else origin
+            link = (nxt - origin) * complex(math.cos(-angle), math.sin(-angle))
+            joints.append(ChainJoint(kind, actuated=act[k], offset=offset, link=(link.real, link.imag),
+                                     range=(-math.inf, math.inf) if rng is None else rng))
+        end = centres[2] if qs[2][0] == "R" else centres[2] + qs[2][2] * qs[2][1]
+        local = R[:2, :2].T @ (np.array([end.real, end.imag]) - p[:2])
+        chosen = None
+        for mode in (1, -1):
+            try:
+                chain = Chain(joints=tuple(joints), base=(base.real, base.imag), base_angle=0.0,
+                              platform=(float(local[0]), float(local[1])), platform_angle=angle - phi,
+                              working_mode=mode)
+            except GeometryError as exc:
+                raise _error(src, path[0].name, f"leg {i}: {exc.message}") from None
+            q = chain.state(pose).q
+            ref = np.array([v[2] for v in qs])
+            diff = np.array([(a - b + math.pi) % (2 * math.pi) - math.pi if kind[0] == "R" else a - b
+                             for a, b, kind in zip(q, ref, qs)])
+            if np.all(np.isfinite(q)) and np.max(np.abs(diff)) <= 1e-6:
+                chosen = chain
+                break
+        if chosen is None:
+            raise _error(src, path[0].name, f"leg {i}: the reference configuration is not an assembly of the leg")
+        built.append(ChainLeg(spec=chosen))
+    extras = graph.extras
+    name = extras.get("name") if isinstance(extras.get("name"), str) else Path(src).stem
+    try:
+        return Manipulator(legs=tuple(built), name=name, description=str(extras.get("description", "")))
+    except GeometryError as exc:
+        raise GeometryError(exc.message, source=src, key=exc.key) from None
+
+
+def robot_from_graph(graph: KinematicGraph):
+    """The robot of a kinematic graph: a planar one when every joint moves in the base's xy-plane
+    (:func:`planar_from_graph`), else spatial legs recognised by their pairs' pattern (:data:`PATTERNS`).
 
     Raises :class:`ConfigError` naming the file and the joint or loop that cannot be mapped, and why.
     """
     src = graph.source
     platform, legs = _legs(graph)
+    if _is_planar(graph, platform, legs):
+        return planar_from_graph(graph, platform, legs)
     p, R = graph.frames[platform]
     home_rotvec = rotvecs(R[None])[0]
     home = (p, rotations(home_rotvec[None])[0])
@@ -835,8 +934,8 @@ def robot_from_graph(graph: KinematicGraph) -> SpatialManipulator:
         raise GeometryError(exc.message, source=src, key=exc.key) from None
 
 
-def read_robot_file(path: str | os.PathLike) -> SpatialManipulator:
-    """The spatial robot of an MJCF (``.xml``, ``.mjcf``) or URDF (``.urdf``) file (:func:`read_mjcf`,
+def read_robot_file(path: str | os.PathLike):
+    """The robot (spatial, or planar when every joint moves in the base's xy-plane) of an MJCF (``.xml``, ``.mjcf``) or URDF (``.urdf``) file (:func:`read_mjcf`,
     :func:`read_urdf`, :func:`robot_from_graph`); lengths mm, angles rad.
 
     Raises :class:`ConfigError` (one line: the file, the element, the problem) for a file that is missing, not
@@ -935,23 +1034,55 @@ def _leg_chain(leg, home) -> list[dict]:
 _INERTIAL = dict(pos="0 0 0", mass="0.1", diaginertia="0.0001 0.0001 0.0001")
 
 
-def mjcf_tree(robot: SpatialManipulator) -> ET.ElementTree:
-    """A fresh MJCF document of a spatial robot (see :func:`write_mjcf`)."""
-    home = _home(robot)
+def _planar_chains(robot: Manipulator) -> list[list[dict]]:
+    """Each planar leg as bodies at the pose (0, 0, 0) (the shape of :func:`_leg_chain`, the last welded)."""
+    pose = np.zeros(3)
+    out = []
+    for i, chain in enumerate(robot.chains, start=1):
+        st = chain.state(pose)
+        q = st.q
+        if not np.all(np.isfinite(q)):
+            raise GeometryError("the leg does not reach the pose (0, 0, 0), the files' reference configuration",
+                                source=robot.name, key=f"legs[{i}]")
+        centres, dirs, _, _ = chain.frames(q)
+        bodies = []
+        for k, joint in enumerate(chain.joints):
+            c = complex(centres[k])
+            d = complex(dirs[k])
+            rng = joint.range if joint.limited else None
+            if joint.kind == "R":
+                bodies.append(dict(pos=np.array([c.real, c.imag, 0.0]),
+                                   joints=[("hinge", np.array([0.0, 0.0, 1.0]), float(q[k]), rng, joint.actuated)]))
+            else:
+                at = c + q[k] * d
+                bodies.append(dict(pos=np.array([at.real, at.imag, 0.0]),
+                                   joints=[("slide", np.array([d.real, d.imag, 0.0]), float(q[k]), rng,
+                                            joint.actuated)]))
+        bodies[-1]["weld"] = True
+        out.append(bodies)
+    return out
+
+
+def mjcf_tree(robot) -> ET.ElementTree:
+    """A fresh MJCF document of a spatial or planar robot (see :func:`write_mjcf`)."""
+    planar = not isinstance(robot, SpatialManipulator)
+    home = (np.zeros(3), np.eye(3)) if planar else _home(robot)
     p, R = home
     root = ET.Element("mujoco", model=robot.name)
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
     custom = ET.SubElement(root, "custom")
-    ET.SubElement(custom, "text", name=EXTRAS_NAME, data=_extras_json(robot))
+    ET.SubElement(custom, "text", name=EXTRAS_NAME, data=json.dumps({"name": robot.name,
+                  "description": robot.description}) if planar else _extras_json(robot))
     world = ET.SubElement(root, "worldbody")
     equality = ET.Element("equality")
     actuator = ET.Element("actuator")
     plat = ET.SubElement(world, "body", name="platform", pos=_f(p / _M), quat=_f(_quat(R)))
     ET.SubElement(plat, "freejoint", name="platform_free")
     ET.SubElement(plat, "inertial", **_INERTIAL)
+    planar_chains = _planar_chains(robot) if planar else None
     for i, leg in enumerate(robot.legs, start=1):
         try:
-            chain = _leg_chain(leg, home)
+            chain = planar_chains[i - 1] if planar else _leg_chain(leg, home)
         except GeometryError as exc:
             raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
         elements, positions = [], []
@@ -987,8 +1118,10 @@ def mjcf_tree(robot: SpatialManipulator) -> ET.ElementTree:
     return ET.ElementTree(root)
 
 
-def write_mjcf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
-    """Write a spatial robot as a fresh MJCF file (metres, radians) that :func:`read_robot_file` reads back.
+def write_mjcf(robot, path: str | os.PathLike) -> Path:
+    """Write a spatial or planar robot as a fresh MJCF file (metres, radians) that :func:`read_robot_file` reads
+    back (a planar robot as three chains of hinges about z and slides in the xy-plane, placed at the pose
+    (0, 0, 0), each welded to the platform after its third joint).
 
     The shape CAD exporters write: every leg a chain of bodies from the world (a universal joint as two hinges,
     the actuated joint driven by a ``<position>`` actuator), the platform a free body placed at the home pose,
@@ -1140,6 +1273,9 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
                           source=source)
     graph = read_mjcf(source)
     old = robot_from_graph(graph)
+    if not isinstance(old, SpatialManipulator) or not isinstance(robot, SpatialManipulator):
+        raise ConfigError("writing into an existing file is done for spatial robots so far (write a planar robot "
+                          "as a fresh file)", source=source)
     if old.architecture != robot.architecture or old.n_legs != robot.n_legs:
         raise ConfigError(f"the file holds a {old.architecture} with {old.n_legs} legs, the robot is a "
                           f"{robot.architecture} with {robot.n_legs}", source=source)
