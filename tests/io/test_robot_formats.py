@@ -84,12 +84,13 @@ def _ups_lengths(toml_path, poses):
     return np.linalg.norm(B - A, axis=-1)
 
 
-@pytest.mark.parametrize("stem", ["hexapod", "delta", "tilt_head"])
+@pytest.mark.parametrize("stem", ["hexapod", "hexapod_hanging", "delta", "tilt_head"])
 def test_hand_written_files_import_to_their_hand_written_toml(stem):
     suffix = ".urdf" if stem == "tilt_head" else ".xml"
     if suffix == ".urdf":
         pytest.importorskip("yourdfpy")
     imported = pm.load_robot(DATA / f"{stem}{suffix}")
+    stem = stem.replace("_hanging", "")        # leg 6 written from the platform to the base: the same robot
     written = pm.load_robot(DATA / f"{stem}.toml")
     assert imported.architecture == written.architecture
     np.testing.assert_allclose(imported.home, written.home, atol=1e-9, rtol=0)
@@ -139,6 +140,23 @@ def _calibrated(robot, seed=2):
 
 def _world(m, d, body, local_m):
     return d.xpos[body] + d.xmat[body].reshape(3, 3) @ local_m
+
+
+def test_calibrated_hexapod_written_into_a_leg_hanging_from_the_platform(tmp_path):
+    original = DATA / "hexapod_hanging.xml"
+    cal = _calibrated(pm.load_robot(original), seed=4)
+    out = rf.export_into(cal, original, tmp_path / "hanging_calibrated.xml")
+    m = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    A = np.array([0.0, 0.0, 0.05]) + np.asarray(cal.legs[5].base) / 1000
+    B = np.array([0.0, 0.0, 0.05]) + np.asarray(cal.home[:3]) / 1000 + \
+        Rotation.from_rotvec(cal.home[3:]).as_matrix() @ np.asarray(cal.legs[5].platform) / 1000
+    np.testing.assert_allclose(d.xanchor[m.joint("leg6_sphere").id], B, atol=1e-12)
+    np.testing.assert_allclose(d.xanchor[m.joint("leg6_u1").id], A, atol=1e-12)
+    # the slide's axis in the file still points from the ball towards the base joint
+    np.testing.assert_allclose(d.xaxis[m.joint("leg6_slide").id], (A - B) / np.linalg.norm(A - B), atol=1e-12)
+    _same_robot(cal, pm.load_robot(out))
 
 
 def test_calibrated_hexapod_written_into_its_mjcf_is_mujocos_geometry(tmp_path):

@@ -26,6 +26,7 @@ MJCF ``<custom><text name="pmaccuracy">`` (a URDF ``<pmaccuracy>`` element) as J
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -90,6 +91,8 @@ class FileJoint:
         Groups it joins (in the file's tree order).
     ident : tuple
         ``("joint", id)`` or ``("equality", id)`` in the compiled MJCF model (empty for URDF).
+    flipped : bool
+        Taken against the file's tree (base to platform): ``axis`` is the file's axis reversed.
     """
 
     name: str
@@ -102,6 +105,7 @@ class FileJoint:
     parent: int
     child: int
     ident: tuple = ()
+    flipped: bool = False
 
 
 @dataclass
@@ -228,10 +232,16 @@ def read_mjcf(path: str | os.PathLike) -> KinematicGraph:
         frame_body = floating[0] if floating else members[0]
         frames.append((here(d.xpos[frame_body]), R0.T @ d.xmat[frame_body].reshape(3, 3)))
         names.append(mujoco.mj_id2name(m, obj.mjOBJ_BODY, frame_body) or f"body #{frame_body}")
-    actuated = set()
+    actuated, ctrl = set(), {}
     for a in range(m.nu):
-        if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT):
-            actuated.add(int(m.actuator_trnid[a, 0]))
+        if int(m.actuator_trntype[a]) in (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)):
+            j = int(m.actuator_trnid[a, 0])
+            actuated.add(j)
+            # a position servo's control range is a range of joint values (used when the joint has none)
+            servo = int(m.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE) and m.actuator_ctrllimited[a] \
+                and m.actuator_gear[a, 0] == 1.0
+            if servo:
+                ctrl[j] = (float(m.actuator_ctrlrange[a, 0]), float(m.actuator_ctrlrange[a, 1]))
     graph = KinematicGraph(source=source, names=names, frames=frames, free=free, any_actuator=bool(actuated))
     kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
              int(mujoco.mjtJoint.mjJNT_BALL): "ball"}
@@ -248,6 +258,8 @@ def read_mjcf(path: str | os.PathLike) -> KinematicGraph:
             scale = _M if kinds[jt] == "slide" else 1.0
             limited = bool(m.jnt_limited[j]) if hasattr(m, "jnt_limited") else bool(m.jnt_range[j, 0] < m.jnt_range[j, 1])
             rng = (float(m.jnt_range[j, 0]) * scale, float(m.jnt_range[j, 1]) * scale) if limited else None
+            if rng is None and j in ctrl:
+                rng = (ctrl[j][0] * scale, ctrl[j][1] * scale)
             ref = float(m.qpos0[m.jnt_qposadr[j]]) * scale if kinds[jt] != "ball" else 0.0
             axis = R0.T @ d.xaxis[j] if kinds[jt] != "ball" else np.zeros(3)
             joints.append(FileJoint(name=name(obj.mjOBJ_JOINT, j, "joint"), kind=kinds[jt], anchor=here(d.xanchor[j]),
@@ -363,7 +375,11 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     floating_children = {j.child for j in robot.joints if j.type == "floating"}
     for r in roots:
         members = [links[i] for i in range(len(links)) if groups.find(i) == r]
-        frame_link = next((n for n in members if n in floating_children), members[0])
+        fixed_children = {j.child for j in robot.joints if j.type == "fixed"
+                          and groups.find(lid[j.parent]) == groups.find(lid[j.child])}
+        roots_in_group = [n for n in members if n not in fixed_children]
+        frame_link = next((n for n in members if n in floating_children),
+                          roots_in_group[0] if roots_in_group else members[0])
         if frame_link in floating_children:
             free.add(index[r])
         frames.append(world(frame_link))
@@ -582,7 +598,9 @@ def _legs(graph: KinematicGraph) -> tuple[int, list[list[list[FileJoint]]]]:
                 if k in used:
                     continue
                 edge = graph.edges[k]
-                joints = edge if edge[0].parent == u else list(reversed(edge))
+                # against the file's tree a joint moves the parent side: the same value about the opposite axis
+                joints = edge if edge[0].parent == u else [dataclasses.replace(j, axis=-j.axis, flipped=True)
+                                                           for j in reversed(edge)]
                 if v == platform:
                     paths.append(path + joints)
                 elif v in comp:
@@ -718,8 +736,9 @@ class _LegReader:
 
     def delta(self, arm: Pair, rods: list[list[Pair]], home):
         h = arm.joints[0]
-        if len(rods) != 2 or any([p.letter for p in r] != ["S", "S"] for r in rods):
-            raise self.fail(h.name, "a Delta leg's arm carries two rods, each with a ball at both ends")
+        if len(rods) != 2 or any(len(r) != 2 or any(p.letter not in "SU" for p in r) for r in rods):
+            raise self.fail(h.name, "a Delta leg's arm carries two rods, each with a ball (or a universal joint) "
+                                    "at both ends")
         (C1, B1), (C2, B2) = [(r[0].point, r[1].point) for r in rods]
         a = h.axis
         rod = float(np.linalg.norm(B1 - C1))
@@ -885,7 +904,8 @@ def robot_from_graph(graph: KinematicGraph):
         elif len(paths) == 2:
             first = [pairs_of(path) for path in paths]
             heads = [pp[0] for pp in first]
-            if not (heads[0].joints == heads[1].joints and heads[0].letter == "R"):
+            if not ([j.name for j in heads[0].joints] == [j.name for j in heads[1].joints]
+                    and heads[0].letter == "R"):
                 raise _error(src, paths[0][0].name, f"leg {i}: two branches that do not start at one actuated "
                                                     "revolute (a Delta arm)")
             # the arm's hinge is shared; the rest of each branch are the rods
@@ -1307,6 +1327,7 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
         return (p0 + Rb @ x) / _M
 
     targets: dict = {}
+    flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
     body_rot: dict[int, np.ndarray] = {}
     body_key: dict[int, tuple] = {}
     for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
@@ -1383,7 +1404,7 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
             el = joint_el[idx]
             el.set("pos", _f(R.T @ (t.anchor - x) / _M))
             if t.axis is not None:
-                el.set("axis", _f(R.T @ t.axis))
+                el.set("axis", _f(R.T @ (-t.axis if ident in flipped else t.axis)))
             scale = _M if int(m.jnt_type[idx]) == int(mujoco.mjtJoint.mjJNT_SLIDE) else unit
             if t.ref is not None:
                 el.set("ref", repr(t.ref / scale))
