@@ -105,6 +105,14 @@ def test_hand_written_files_import_to_their_hand_written_toml(stem):
         np.testing.assert_allclose(q, _ups_lengths(DATA / f"{stem}.toml", poses), atol=1e-9, rtol=0)
 
 
+def test_a_free_root_body_is_the_base(tmp_path):
+    """Exporters give the robot's root body a free joint by default: with nothing else holding to the world it is
+    the base (the Delta's fixed frame body made free: the same robot)."""
+    path = _edit(tmp_path, "delta", '<body name="frame" pos="0 0 1.2">',
+                 '<body name="frame" pos="0 0 1.2">\n      <freejoint name="floating_base"/>')
+    _same_robot(pm.load_robot(DATA / "delta.toml"), pm.load_robot(path))
+
+
 def test_delta_arm_angles_close_the_rods_of_the_hand_written_file():
     """The imported Delta's arm angles put each elbow ball one rod length from its platform ball, with the ball
     positions computed here from the MJCF's numbers (arm 0.35 m along x of each arm frame, balls +-0.05 m)."""

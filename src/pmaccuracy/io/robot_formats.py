@@ -212,7 +212,10 @@ def read_mjcf(path: str | os.PathLike) -> KinematicGraph:
         elif kind != int(mujoco.mjtEq.mjEQ_CONNECT):
             raise _error(source, name(obj.mjOBJ_EQUALITY, e, "equality"),
                          "only connect (a ball closing a loop) and weld constraints can be mapped to a leg's joints")
-    base_body = _base_body(m, groups)
+    floating_base = _floating_base(m, groups, mujoco)
+    if floating_base is not None:          # an exporter's free root: the robot's base, taken as fixed
+        groups.union(floating_base, 0)
+    base_body = floating_base if floating_base is not None else _base_body(m, groups)
     p0 = d.xpos[base_body] * _M
     R0 = d.xmat[base_body].reshape(3, 3).copy()
 
@@ -296,6 +299,27 @@ def _eq_bodies(m, e, mujoco) -> tuple[int, int]:
     if int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE):
         return int(m.site_bodyid[o1]), int(m.site_bodyid[o2])
     return o1, max(o2, 0)
+
+
+def _floating_base(m, groups, mujoco) -> int | None:
+    """The free body directly under the world that roots the robot's tree, when nothing else holds to the world.
+
+    CAD exporters give a robot's root body a free joint by default; when no joint or constraint attaches any body
+    to the world and exactly one free body under it carries moving bodies, that body is the base.
+    """
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    for b in range(1, m.nbody):
+        if m.body_jntnum[b] and groups.find(b) == 0:
+            return None
+        if int(m.body_parentid[b]) == 0 and m.body_jntnum[b] and int(m.jnt_type[m.body_jntadr[b]]) != free:
+            return None
+    for e in range(m.neq):
+        if m.eq_active0[e] and 0 in {groups.find(b) for b in _eq_bodies(m, e, mujoco)}:
+            return None
+    roots = [b for b in range(1, m.nbody) if int(m.body_parentid[b]) == 0 and m.body_jntnum[b] == 1
+             and int(m.jnt_type[m.body_jntadr[b]]) == free
+             and any(m.body_jntnum[c] for c in range(b + 1, m.nbody) if _descends(m, c, b))]
+    return roots[0] if len(roots) == 1 else None
 
 
 def _base_body(m, groups) -> int:
