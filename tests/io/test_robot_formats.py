@@ -105,6 +105,38 @@ def test_hand_written_files_import_to_their_hand_written_toml(stem):
         np.testing.assert_allclose(q, _ups_lengths(DATA / f"{stem}.toml", poses), atol=1e-9, rtol=0)
 
 
+def _with_sites(tmp_path):
+    """hexapod.xml with leg 6 closed by a site-based connect (as onshape-to-robot writes its closing frames)."""
+    text = (DATA / "hexapod.xml").read_text()
+    old = '<connect name="leg6_ball" body1="platform" body2="leg6_piston" anchor="0.051303021499 -0.140953893118 0"/>'
+    assert old in text
+    text = text.replace(old, '<connect name="leg6_ball" site1="plat6" site2="tip6"/>')
+    text = text.replace('<geom type="cylinder" size="0.17 0.01" rgba="0.8 0.5 0.2 1"/>',
+                        '<geom type="cylinder" size="0.17 0.01" rgba="0.8 0.5 0.2 1"/>\n'
+                        '      <site name="plat6" pos="0.051303021499 -0.140953893118 0"/>')
+    i = text.index('<body name="leg6_piston">')
+    j = text.index("</body>", i)
+    text = text[:j] + '  <site name="tip6" pos="0 0 0.4633024013842581"/>\n        ' + text[j:]
+    path = tmp_path / "sites.xml"
+    path.write_text(text)
+    return path
+
+
+def test_site_based_connects_close_loops_and_move_with_the_calibration(tmp_path):
+    path = _with_sites(tmp_path)
+    _same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(path))
+    cal = _calibrated(pm.load_robot(path), seed=9)
+    out = rf.export_into(cal, path, tmp_path / "sites_calibrated.xml")
+    m = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    B = np.array([0.0, 0.0, 0.05]) + np.asarray(cal.home[:3]) / 1000 + \
+        Rotation.from_rotvec(cal.home[3:]).as_matrix() @ np.asarray(cal.legs[5].platform) / 1000
+    for site in ("plat6", "tip6"):
+        np.testing.assert_allclose(d.site_xpos[m.site(site).id], B, atol=1e-12)
+    _same_robot(cal, pm.load_robot(out))
+
+
 def test_a_free_root_body_is_the_base(tmp_path):
     """Exporters give the robot's root body a free joint by default: with nothing else holding to the world it is
     the base (the Delta's fixed frame body made free: the same robot)."""

@@ -1437,14 +1437,19 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
     for e in range(m.neq):
         if int(m.eq_type[e]) != int(mujoco.mjtEq.mjEQ_CONNECT) or not m.eq_active0[e]:
             continue
-        if int(m.eq_objtype[e]) != int(mujoco.mjtObj.mjOBJ_BODY):
-            raise ConfigError("site-based connect constraints are not written yet", source=source,
-                              key=f"equality #{e}")
-        b1 = int(m.eq_obj1id[e])
         t = targets.get(("equality", e))
         if t is None:
             continue
-        x, R = final[b1]
+        if int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE):     # both sites move to the new point
+            sites = {el.get("name"): el for el in root.find("worldbody").iter("site")}
+            for attr, sid in (("site1", int(m.eq_obj1id[e])), ("site2", int(m.eq_obj2id[e]))):
+                el = sites.get(eq_el[e].get(attr))
+                if el is None:
+                    raise ConfigError(f"site {eq_el[e].get(attr)!r} not found", source=source, key=f"equality #{e}")
+                x, R = final[int(m.site_bodyid[sid])]
+                el.set("pos", _f(R.T @ (t.anchor - x) / _M))
+            continue
+        x, R = final[int(m.eq_obj1id[e])]
         eq_el[e].set("anchor", _f(R.T @ (t.anchor - x) / _M))
     ET.indent(tree)
     out = Path(out)
