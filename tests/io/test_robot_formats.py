@@ -366,3 +366,40 @@ def test_hand_written_planar_mjcf_is_the_symmetric_3rrr():
     """planar_3rrr.xml: elbows placed by hand (isosceles triangles of 120 mm links over the 150 mm base-platform
     distance, on the right of A -> B, the TOML's working mode +1)."""
     _same_planar(pm.load_robot("symmetric_3rrr"), pm.load_robot(DATA / "planar_3rrr.xml"))
+
+
+def test_calibrated_tilt_head_written_into_its_urdf_is_yourdfpys_geometry(tmp_path):
+    """The calibrated 3-RPS written into tilt_head.urdf: yourdfpy's link frames put each revolute at the
+    calibrated base point and each loop's two ends at the calibrated platform point (1e-12 m)."""
+    yourdfpy = pytest.importorskip("yourdfpy")
+    import xml.etree.ElementTree as ET
+
+    original = DATA / "tilt_head.urdf"
+    cal = _calibrated(pm.load_robot(original), seed=11)
+    out = rf.export_into(cal, original, tmp_path / "tilt_calibrated.urdf")
+    urdf = yourdfpy.URDF.load(str(out), build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False)
+    R = Rotation.from_rotvec(cal.home[3:]).as_matrix()
+    loops = {el.get("name"): el for el in ET.parse(out).getroot().iter("loop")}
+    for i, leg in enumerate(cal.legs, start=1):
+        T = urdf.get_transform(f"leg{i}_cylinder", "base_link")
+        np.testing.assert_allclose(T[:3, 3], np.asarray(leg.base) / 1000, atol=1e-12)
+        np.testing.assert_allclose(T[:3, :3] @ [1.0, 0.0, 0.0], leg.axis, atol=1e-12)   # the file's local axis
+        B = (np.asarray(cal.home[:3]) + R @ np.asarray(leg.platform)) / 1000
+        loop = loops[f"leg{i}_ball"]
+        for end in ("predecessor", "successor"):
+            link = loop.find(end).get("name")
+            xyz = np.array([float(v) for v in loop.find(end).find("origin").get("xyz").split()])
+            T = urdf.get_transform(link, "base_link")
+            np.testing.assert_allclose(T[:3, 3] + T[:3, :3] @ xyz, B, atol=1e-12)
+    text = out.read_text()
+    assert "transmission_interface/SimpleTransmission" in text and 'radius="0.22"' in text
+    _same_robot(cal, pm.load_robot(out))
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_calibrated_preset_written_into_its_exported_urdf_reads_back(name, tmp_path):
+    pytest.importorskip("yourdfpy")
+    robot = SpatialManipulator.preset(name)
+    original = rf.write_urdf(robot, tmp_path / "original.urdf")
+    cal = _calibrated(robot, seed=13)
+    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.urdf")))

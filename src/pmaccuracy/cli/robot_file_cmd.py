@@ -22,8 +22,8 @@ EXPORT_HELP = "write a robot as an MJCF or URDF file, or its geometry into the f
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "import", help=IMPORT_HELP,
-        description="Reads FILE (MJCF .xml read by MuJoCo, loops closed by <equality><connect>; URDF .urdf read by "
-                    "yourdfpy, loops closed by URDF+ <loop> elements), recognises its legs and their actuated "
+        description="Reads FILE (MJCF .xml read by MuJoCo, loops closed by <equality><connect>; URDF .urdf read "
+                    "by yourdfpy, loops closed by URDF+ <loop> elements), recognises its legs and their actuated "
                     "joints, converts metres to mm and radians to degrees, prints the robot and, with --out, "
                     "writes it as a robot TOML that every command reads. A joint or loop that makes no leg of a "
                     "known architecture is named in one line (exit 2).")
@@ -41,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "calibrated model.")
     p.add_argument("robot", metavar="ROBOT", help="preset name, robot TOML, or MJCF/URDF file")
     p.add_argument("--to", required=True, metavar="FILE", help="the file to write: .xml (MJCF) or .urdf (URDF)")
-    p.add_argument("--like", metavar="ORIGINAL", help="the robot's original MJCF file: keep everything but the geometry")
+    p.add_argument("--like", metavar="ORIGINAL",
+                   help="the robot's original MJCF or URDF file: keep everything but the geometry")
     p.set_defaults(func=run_export)
 
 
@@ -71,7 +72,9 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    kinds = (".xml", ".mjcf") if args.like else (".xml", ".mjcf", ".urdf")
+    kinds = (".xml", ".mjcf", ".urdf")
+    if args.like:   # into the original: the same format
+        kinds = (".urdf",) if Path(args.like).suffix.lower() == ".urdf" else (".xml", ".mjcf")
     _common.prepare_output(args.to, "--to", kinds)
     robot = robot_arg(args.robot)
     if not is_spatial(robot) and (args.like or Path(args.to).suffix.lower() == ".urdf"):

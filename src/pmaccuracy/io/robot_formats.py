@@ -428,8 +428,9 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
                 and joint.limit.upper is not None:
             rng = (float(joint.limit.lower) * scale, float(joint.limit.upper) * scale)
         graph.edges.append([FileJoint(name=f"joint '{joint.name}'", kind=kind, anchor=p, axis=axis, range=rng,
-                                      ref=float(refs.get(joint.name, 0.0)) * scale, actuated=joint.name in actuated, parent=parent, child=child)])
-    for el in loops:
+                                      ref=float(refs.get(joint.name, 0.0)) * scale, actuated=joint.name in actuated,
+                                      parent=parent, child=child, ident=("urdf", joint.name))])
+    for n_loop, el in enumerate(loops):
         label = f"{el.tag} '{el.get('name', '?')}'"
         if el.get("type") == "fixed":
             continue
@@ -459,7 +460,7 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
         del rpys
         g1, g2 = index[groups.find(lid[ends_links[0]])], index[groups.find(lid[ends_links[1]])]
         graph.edges.append([FileJoint(name=label, kind="ball", anchor=point, axis=np.zeros(3), range=None, ref=0.0,
-                                      actuated=False, parent=g1, child=g2)])
+                                      actuated=False, parent=g1, child=g2, ident=("loop", n_loop))])
     graph.extras = extras
     return graph
 
@@ -1300,8 +1301,9 @@ def _angle_unit(root: ET.Element) -> float:
 
 
 def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str | os.PathLike) -> Path:
-    """Write ``robot`` (e.g. a calibrated copy of the one imported from ``original``) into a copy of the MJCF file
-    ``original`` at ``out``, changing only the geometry.
+    """Write ``robot`` (e.g. a calibrated copy of the one imported from ``original``) into a copy of the MJCF or
+    URDF file ``original`` at ``out``, changing only the geometry (URDF: joint origins and axes, limits, loop
+    origins, and the reference values of a Delta's or 3-PRS's actuated joints in the ``<pmaccuracy>`` JSON).
 
     Each leg's bodies turn by one rotation ``Q`` (the old leg frame onto the new) about their leg's joint centres,
     which move to the robot's: body ``pos``/orientation, joint ``pos``/``axis``, the ``ref`` values of the actuated
@@ -1310,11 +1312,13 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
     options, defaults) is kept. Angles follow the file's ``<compiler angle>``. Raises :class:`ConfigError` when the
     robot is not of the file's architecture and leg count or the file's bodies cannot be matched to its elements.
     """
-    mujoco = _optional.require("mujoco", "writing into an MJCF file")
     source = os.fspath(original)
-    if SUFFIXES.get(Path(source).suffix.lower()) != "mjcf":
-        raise ConfigError("writing into an existing file is done for MJCF files (.xml); write a fresh URDF instead",
-                          source=source)
+    fmt = SUFFIXES.get(Path(source).suffix.lower())
+    if fmt == "urdf":
+        return _export_urdf_into(robot, source, out)
+    if fmt != "mjcf":
+        raise ConfigError(f"unknown robot file type (expected one of {', '.join(SUFFIXES)})", source=source)
+    mujoco = _optional.require("mujoco", "writing into an MJCF file")
     graph = read_mjcf(source)
     old = robot_from_graph(graph)
     if not isinstance(old, SpatialManipulator) or not isinstance(robot, SpatialManipulator):
@@ -1557,4 +1561,131 @@ def write_urdf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
     """
     out = Path(path)
     urdf_tree(robot).write(out, encoding="unicode", xml_declaration=True)
+    return out
+
+
+def _export_urdf_into(robot, source: str, out) -> Path:
+    """:func:`export_into` for a URDF file: every link of a leg turns with the leg's rotation ``Q`` about its
+    joint centre, which moves to the robot's; joint origins are rewritten from the links' new poses at zero
+    joint values (which stay the reference configuration)."""
+    yourdfpy = _optional.require("yourdfpy", "writing into a URDF file")
+    graph = read_urdf(source)
+    old = robot_from_graph(graph)
+    if not isinstance(old, SpatialManipulator) or not isinstance(robot, SpatialManipulator):
+        raise ConfigError("writing into an existing file is done for spatial robots so far", source=source)
+    if old.architecture != robot.architecture or old.n_legs != robot.n_legs:
+        raise ConfigError(f"the file holds a {old.architecture} with {old.n_legs} legs, the robot is a "
+                          f"{robot.architecture} with {robot.n_legs}", source=source)
+    platform, legs = _legs(graph)
+    old_home, new_home = _home(old), _home(robot)
+    urdf = yourdfpy.URDF.load(source, build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False)
+    base_link = urdf.base_link
+    tree = ET.parse(source)
+    root = tree.getroot()
+    joints_el = {el.get("name"): el for el in root.findall("joint")}
+    child_of = {el.find("child").get("link"): el for el in root.findall("joint")}
+
+    def pose(link):
+        T = urdf.get_transform(link, base_link) if link != base_link else np.eye(4)
+        return T[:3, 3] * _M, T[:3, :3]
+
+    targets: dict = {}
+    flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
+    link_rot, link_key = {}, {}
+    leg_extras = graph.extras.get("legs") if isinstance(graph.extras.get("legs"), list) else []
+    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
+        extra = leg_extras[i - 1] if i - 1 < len(leg_extras) and isinstance(leg_extras[i - 1], dict) else {}
+        reader = _LegReader(graph, platform, i, extra)
+        try:
+            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+        targets.update(tg)
+        for path in paths:
+            for j in path:
+                if j.ident[0] != "urdf":
+                    continue
+                link = joints_el[j.ident[1]].find("child").get("link")
+                link_rot[link] = Q
+                if j.kind != "slide":
+                    link_key[link] = (j.anchor, tg[j.ident].anchor)
+                else:
+                    x = pose(link)[0]
+                    link_key[link] = min(keys, key=lambda kv: np.linalg.norm(kv[0] - x))
+    new_pose = {}
+    for link, Q in link_rot.items():
+        x, R = pose(link)
+        k_old, k_new = link_key[link]
+        new_pose[link] = (k_new + Q @ (x - k_old), Q @ R)
+    new_pose[graph.names[platform]] = new_home
+    final = {base_link: (np.zeros(3), np.eye(3))}
+    order = [base_link]
+    children: dict[str, list] = {}
+    for el in root.findall("joint"):
+        children.setdefault(el.find("parent").get("link"), []).append(el)
+    while order:
+        parent = order.pop()
+        xp, Rp = final[parent]
+        for el in children.get(parent, []):
+            child = el.find("child").get("link")
+            if child in new_pose:
+                final[child] = new_pose[child]
+                x, R = final[child]
+                origin = el.find("origin")
+                if origin is None:
+                    origin = ET.SubElement(el, "origin")
+                origin.set("xyz", _f(Rp.T @ (x - xp) / _M))
+                origin.set("rpy", _f(_rpy(Rp.T @ R)))
+            else:
+                x, R = pose(child)
+                xo, Ro = pose(parent)
+                final[child] = (xp + Rp @ (Ro.T @ (x - xo)), Rp @ Ro.T @ R)
+            order.append(child)
+    refs = {}
+    for ident, t in targets.items():
+        kind, key = ident
+        if kind == "urdf":
+            el = joints_el[key]
+            x, R = final[el.find("child").get("link")]
+            if t.axis is not None:
+                axis_el = el.find("axis")
+                if axis_el is None:
+                    axis_el = ET.SubElement(el, "axis")
+                axis_el.set("xyz", _f(R.T @ (-t.axis if ident in flipped else t.axis)))
+            scale = _M if el.get("type") == "prismatic" else 1.0
+            if t.ref is not None:
+                refs[key] = t.ref / scale
+            if t.range is not None:
+                limit = el.find("limit")
+                if limit is None:
+                    limit = ET.SubElement(el, "limit", effort="0", velocity="0")
+                limit.set("lower", repr(t.range[0] / scale))
+                limit.set("upper", repr(t.range[1] / scale))
+        elif kind == "loop":
+            el = (list(root.iter("loop")) + list(root.iter("loop_joint")))[key]
+            links = _loop_links(el)
+            if el.tag == "loop":
+                succ = el.find("successor") if el.find("successor") is not None else el.find("sucessor")
+                ends = [el.find("predecessor"), succ]
+                for end, link in zip(ends, links):
+                    x, R = final[link]
+                    origin = end.find("origin")
+                    if origin is None:
+                        origin = ET.SubElement(end, "origin")
+                    # the closure point is the origin of the end frames, in each link's frame
+                    origin.set("xyz", _f(R.T @ (t.anchor - x) / _M))
+            else:
+                for end, link in zip((el.find("link1"), el.find("link2")), links):
+                    x, R = final[link]
+                    end.set("xyz", _f(R.T @ (t.anchor - x) / _M))
+    if refs:
+        extra = root.find(EXTRAS_NAME)
+        if extra is None:
+            extra = ET.SubElement(root, EXTRAS_NAME)
+        data = graph.extras.copy()
+        data["refs"] = {**(data.get("refs") or {}), **refs}
+        extra.text = json.dumps(data)
+    ET.indent(tree)
+    out = Path(out)
+    tree.write(out, encoding="unicode", xml_declaration=True)
     return out
