@@ -403,3 +403,38 @@ def test_calibrated_preset_written_into_its_exported_urdf_reads_back(name, tmp_p
     original = rf.write_urdf(robot, tmp_path / "original.urdf")
     cal = _calibrated(robot, seed=13)
     _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.urdf")))
+
+
+@pytest.mark.parametrize("axis", ["0 -1 0", "0 1 0"])
+def test_a_planar_robot_drawn_in_the_xz_plane_has_plane_coordinates_x_z(axis, tmp_path):
+    """planar_3rrr.xml redrawn upright: every point (u, v, 0) to (u, 0, v), the hinges about -y (or +y, the joint
+    values then turning the other way): the same robot with plane coordinates (x, z)."""
+    text = (DATA / "planar_3rrr.xml").read_text()
+    sign = -1.0 if axis == "0 -1 0" else 1.0
+
+    def upright(match):
+        values = [float(v) for v in match.group(2).split()]
+        out = []
+        for k in range(0, len(values), 3):
+            u, v, w = values[k:k + 3]
+            out += [u, -w, v]
+        return f'{match.group(1)}="{" ".join(repr(x) for x in out)}"'
+
+    text = re.sub(r'(pos|fromto|anchor)="([^"]*)"', upright, text).replace('axis="0 0 1"', f'axis="{axis}"')
+    if sign > 0:   # the motors' reference angles and ranges turn the other way
+        text = re.sub(r'ref="([^"]*)" range="([^"]*) ([^"]*)"',
+                      lambda m: f'ref="{-float(m.group(1))!r}" range="{-float(m.group(3))!r} {-float(m.group(2))!r}"',
+                      text)
+    path = tmp_path / "upright.xml"
+    path.write_text(text)
+    upright_robot = pm.load_robot(path)
+    if sign < 0:
+        _same_planar(pm.load_robot("symmetric_3rrr"), upright_robot)
+    else:   # the same mechanism: the same actuated angles up to the sign of each motor's axis
+        from pmaccuracy.kinematics import inverse_kinematics as planar_ik
+
+        poses = _planar_poses()
+        qa = planar_ik(pm.load_robot("symmetric_3rrr"), poses).q
+        qb = planar_ik(upright_robot, poses).q
+        np.testing.assert_allclose(np.cos(qb), np.cos(qa), atol=1e-9)
+        np.testing.assert_allclose(np.sin(qb), np.sin(qa), atol=1e-9)

@@ -812,15 +812,43 @@ class _LegReader:
         return out
 
 
-def _is_planar(graph: KinematicGraph, platform: int, legs) -> bool:
-    """Every hinge about the base's z-axis, every slide in its xy-plane, the platform turned about z only."""
+def _plane(graph: KinematicGraph, platform: int, legs) -> np.ndarray | None:
+    """The rotation to plane coordinates (rows ``x', y', n``) when every hinge turns about one direction ``n``,
+    every slide is normal to it and the platform turns about it only; else None.
+
+    ``n`` is the base's z-axis when the hinges are vertical; otherwise ``x'`` is the base's x-axis (or y-axis)
+    projected on the plane and ``n`` is signed so that ``y' = n x x'`` points up (a robot drawn in the
+    base's x-z plane has plane coordinates ``(x, z)``).
+    """
     joints = [j for paths in legs for path in paths for j in path]
-    if any(j.kind == "hinge" and abs(abs(j.axis[2]) - 1) > 1e-9 or j.kind == "slide" and abs(j.axis[2]) > 1e-9
-           for j in joints):
-        return False
+    hinges = [j.axis for j in joints if j.kind == "hinge"]
+    if len(legs) != 3 or any(len(paths) != 1 for paths in legs) or not hinges:
+        return None
+    n = _unit(hinges[0])
+    if any(np.linalg.norm(np.cross(a, n)) > 1e-9 for a in hinges) or \
+            any(j.kind == "slide" and abs(j.axis @ n) > 1e-9 for j in joints):
+        return None
     R = graph.frames[platform][1]
-    return abs(R[2, 2] - 1) <= 1e-12 and abs(R[2, 0]) <= 1e-9 and abs(R[2, 1]) <= 1e-9 and len(legs) == 3 and \
-        all(len(paths) == 1 for paths in legs)
+    if np.linalg.norm(R @ n - n) > 1e-9:
+        return None
+    if abs(abs(n[2]) - 1) <= 1e-9:
+        return np.eye(3)
+    x = np.array([1.0, 0.0, 0.0]) - n[0] * n
+    if np.linalg.norm(x) < 1e-6:
+        x = np.array([0.0, 1.0, 0.0]) - n[1] * n
+    x = _unit(x)
+    if np.cross(n, x)[2] < 0:
+        n = -n
+    return np.vstack([x, np.cross(n, x), n])
+
+
+def _to_plane(graph: KinematicGraph, Rn: np.ndarray) -> KinematicGraph:
+    """The graph in plane coordinates (every anchor, axis and frame turned by ``Rn``)."""
+    if np.allclose(Rn, np.eye(3)):
+        return graph
+    edges = [[dataclasses.replace(j, anchor=Rn @ j.anchor, axis=Rn @ j.axis) for j in edge] for edge in graph.edges]
+    frames = [(Rn @ p, Rn @ R @ Rn.T) for p, R in graph.frames]
+    return dataclasses.replace(graph, edges=edges, frames=frames)
 
 
 def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator:
@@ -905,14 +933,17 @@ def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator
 
 
 def robot_from_graph(graph: KinematicGraph):
-    """The robot of a kinematic graph: a planar one when every joint moves in the base's xy-plane
-    (:func:`planar_from_graph`), else spatial legs recognised by their pairs' pattern (:data:`PATTERNS`).
+    """The robot of a kinematic graph: a planar one when every joint moves in one plane (:func:`_plane`: the
+    base's xy-plane, or the x-z plane of a robot drawn upright; :func:`planar_from_graph`), else spatial legs recognised by their pairs' pattern (:data:`PATTERNS`).
 
     Raises :class:`ConfigError` naming the file and the joint or loop that cannot be mapped, and why.
     """
     src = graph.source
     platform, legs = _legs(graph)
-    if _is_planar(graph, platform, legs):
+    Rn = _plane(graph, platform, legs)
+    if Rn is not None:
+        graph = _to_plane(graph, Rn)
+        platform, legs = _legs(graph)
         return planar_from_graph(graph, platform, legs)
     p, R = graph.frames[platform]
     home_rotvec = rotvecs(R[None])[0]
