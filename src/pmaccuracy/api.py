@@ -53,10 +53,11 @@ def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | 
     """Write a robot (object, preset name, TOML, MJCF or URDF path) as a robot file of another tool.
 
     ``path`` ending in ``.xml``/``.mjcf`` gives a fresh MJCF file (MuJoCo; loops closed by ``connect``
-    constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures; with ``like`` (the MJCF file the robot
+    constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures; with ``like`` (the MJCF or URDF file the robot
     was imported from), a copy of it in which only the geometry becomes the robot's (body and joint positions,
     axes, references, actuated ranges: :func:`pmaccuracy.io.robot_formats.export_into`). A planar robot is
-    written as a fresh MJCF file only. Files are in metres and radians; :func:`load_robot` reads them back to the same robot (1e-9 mm). Returns the path written.
+    written as a fresh MJCF file only. Files are in metres and radians; :func:`load_robot` reads them back to the
+    same robot (1e-9 mm). Returns the path written.
 
     >>> import tempfile, pathlib
     >>> path = export_robot("delta_clavel", pathlib.Path(tempfile.mkdtemp()) / "delta.xml")

@@ -35,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export", help=EXPORT_HELP,
         description="Writes ROBOT (a preset name, a robot TOML, or an MJCF/URDF file) as a fresh MJCF (.xml) or URDF "
-                    "(.urdf) file at --to (a planar robot: MJCF only); with --like ORIGINAL (the file the robot was imported from), writes a "
+                    "(.urdf) file at --to (a planar robot: MJCF only); with --like ORIGINAL (the file the robot was "
+                    "imported from), writes a "
                     "copy of ORIGINAL in which only the geometry changes (body and joint positions, axes, the "
                     "reference configuration and the actuated ranges), so that simulation and control use the "
                     "calibrated model.")

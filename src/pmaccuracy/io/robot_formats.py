@@ -259,7 +259,7 @@ def read_mjcf(path: str | os.PathLike) -> KinematicGraph:
             if jt == int(mujoco.mjtJoint.mjJNT_FREE):
                 continue
             scale = _M if kinds[jt] == "slide" else 1.0
-            limited = bool(m.jnt_limited[j]) if hasattr(m, "jnt_limited") else bool(m.jnt_range[j, 0] < m.jnt_range[j, 1])
+            limited = bool(m.jnt_limited[j])
             rng = (float(m.jnt_range[j, 0]) * scale, float(m.jnt_range[j, 1]) * scale) if limited else None
             if rng is None and j in ctrl:
                 rng = (ctrl[j][0] * scale, ctrl[j][1] * scale)
@@ -365,7 +365,8 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     try:
         urdf = yourdfpy.URDF.load(source, build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False)
     except Exception as exc:  # yourdfpy raises many kinds; one line naming the file
-        raise _error(source, None, f"yourdfpy cannot read it: {str(exc).splitlines()[0] if str(exc) else exc!r}") from None
+        first = str(exc).splitlines()[0] if str(exc) else repr(exc)
+        raise _error(source, None, f"yourdfpy cannot read it: {first}") from None
     robot = urdf.robot
     links = [link.name for link in robot.links]
     base_link = urdf.base_link
@@ -382,7 +383,8 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
         if el.get("type") == "fixed":
             ends = _loop_links(el)
             if any(n is None or n not in lid for n in ends):
-                raise _error(source, f"{el.tag} '{el.get('name', '?')}'", f"must name two links of the robot, got {ends}")
+                raise _error(source, f"{el.tag} '{el.get('name', '?')}'",
+                             f"must name two links of the robot, got {ends}")
             groups.union(lid[ends[0]], lid[ends[1]])
     extra = root.find(EXTRAS_NAME)
     extras = _extras(extra.text if extra is not None else None, source)
@@ -934,7 +936,8 @@ def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator
 
 def robot_from_graph(graph: KinematicGraph):
     """The robot of a kinematic graph: a planar one when every joint moves in one plane (:func:`_plane`: the
-    base's xy-plane, or the x-z plane of a robot drawn upright; :func:`planar_from_graph`), else spatial legs recognised by their pairs' pattern (:data:`PATTERNS`).
+    base's xy-plane, or the x-z plane of a robot drawn upright; :func:`planar_from_graph`), else spatial legs
+    recognised by their pairs' pattern (:data:`PATTERNS`).
 
     Raises :class:`ConfigError` naming the file and the joint or loop that cannot be mapped, and why.
     """
@@ -1011,7 +1014,8 @@ def robot_from_graph(graph: KinematicGraph):
 
 
 def read_robot_file(path: str | os.PathLike):
-    """The robot (spatial, or planar when every joint moves in the base's xy-plane) of an MJCF (``.xml``, ``.mjcf``) or URDF (``.urdf``) file (:func:`read_mjcf`,
+    """The robot (spatial, or planar when every joint moves in one plane) of an MJCF (``.xml``, ``.mjcf``) or
+    URDF (``.urdf``) file (:func:`read_mjcf`,
     :func:`read_urdf`, :func:`robot_from_graph`); lengths mm, angles rad.
 
     Raises :class:`ConfigError` (one line: the file, the element, the problem) for a file that is missing, not
@@ -1514,7 +1518,8 @@ def urdf_tree(robot: SpatialManipulator) -> ET.ElementTree:
         last_link, last_pos = [], []
         for k, body in enumerate(chain):
             parent_k = body.get("parent", k - 1)
-            parent, parent_pos = ("base_link", np.zeros(3)) if parent_k < 0 else (last_link[parent_k], last_pos[parent_k])
+            parent, parent_pos = (("base_link", np.zeros(3)) if parent_k < 0
+                                  else (last_link[parent_k], last_pos[parent_k]))
             offset = body["pos"] - parent_pos
             for n, jt in enumerate(body["joints"], start=1):
                 axes = [("hinge", e, 0.0, None, False) for e in np.eye(3)] if jt[0] == "ball" else [jt]
