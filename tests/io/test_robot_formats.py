@@ -438,3 +438,16 @@ def test_a_planar_robot_drawn_in_the_xz_plane_has_plane_coordinates_x_z(axis, tm
         qb = planar_ik(upright_robot, poses).q
         np.testing.assert_allclose(np.cos(qb), np.cos(qa), atol=1e-9)
         np.testing.assert_allclose(np.sin(qb), np.sin(qa), atol=1e-9)
+
+
+@pytest.mark.parametrize("stem", ["hexapod", "delta"])
+def test_files_typed_to_ten_micrometres_import_within_their_typing_error(stem, tmp_path):
+    """Every decimal number of the hand-written file rounded to 1e-5 (m, deg): still the same legs, with
+    kinematics within the rounding (5 um per number: under 0.05 mm of leg length, 1e-4 rad of arm angle)."""
+    text = re.sub(r"-?\d+\.\d+", lambda m: f"{float(m.group()):.5f}", (DATA / f"{stem}.xml").read_text())
+    path = tmp_path / f"{stem}.xml"
+    path.write_text(text)
+    typed, exact = pm.load_robot(path), pm.load_robot(DATA / f"{stem}.toml")
+    poses = _poses(exact, seed=21)
+    err = np.abs(inverse_kinematics(typed, poses).q - inverse_kinematics(exact, poses).q)
+    assert np.max(err) < (0.05 if stem == "hexapod" else 1e-4)

@@ -513,7 +513,8 @@ class Pair:
 
 
 def _tol(*points) -> float:
-    return 1e-7 * max(1.0, max(float(np.max(np.abs(p))) for p in points))
+    """Distance (mm) below which points count as one: 1e-6 of the coordinates (numbers typed with 7 digits)."""
+    return 1e-6 * max(1.0, max(float(np.max(np.abs(p))) for p in points))
 
 
 def _line_point(a0, u, b0, v):
@@ -695,7 +696,7 @@ class _LegReader:
     def along(self, slide: FileJoint, A, B):
         d = B - A
         L = float(np.linalg.norm(d))
-        if L <= _tol(A, B) or np.linalg.norm(np.cross(slide.axis, d / L)) > 1e-7:
+        if L <= _tol(A, B) or np.linalg.norm(np.cross(slide.axis, d / L)) > 1e-4:
             raise self.fail(slide.name, "the slide's axis is not along the leg (from its base joint to its platform "
                                         "joint)")
         sign = 1.0 if slide.axis @ d > 0 else -1.0
@@ -768,9 +769,9 @@ class _LegReader:
                                     "at both ends")
         (C1, B1), (C2, B2) = [(r[0].point, r[1].point) for r in rods]
         a = h.axis
-        rod = float(np.linalg.norm(B1 - C1))
+        rod = 0.5 * float(np.linalg.norm(B1 - C1) + np.linalg.norm(B2 - C2))
         spacing = float(np.linalg.norm(C1 - C2))
-        tol = _tol(B1, C1)
+        tol = 100 * _tol(B1, C1)     # 1e-4 of the size: files typed to 10 um are parallelograms, the model averages
         if abs(np.linalg.norm(B2 - C2) - rod) > tol or np.linalg.norm(np.cross(C1 - C2, a)) > tol \
                 or np.linalg.norm((B1 - B2) - (C1 - C2)) > tol:
             raise self.fail(rods[1][0].joints[0].name, "the two rods must be equal and parallel, their elbow balls "
@@ -786,12 +787,15 @@ class _LegReader:
 
     def with_mode(self, kind, kw, home, ref, element, angle=False):
         p, R = home
+        best = None
         for mode in (1, -1):
             leg = kind(mode=mode, **kw)
             q = float(leg.actuate(p, R))
-            diff = (q - ref + math.pi) % (2 * math.pi) - math.pi if angle else q - ref
-            if np.isfinite(q) and abs(diff) <= 1e-6 * max(1.0, abs(ref)):
-                return leg
+            diff = abs((q - ref + math.pi) % (2 * math.pi) - math.pi if angle else q - ref)
+            if np.isfinite(q) and diff <= 1e-4 * max(1.0, abs(ref)) and (best is None or diff < best[0]):
+                best = (diff, leg)
+        if best is not None:
+            return best[1]
         raise self.fail(element, "the reference configuration is not an assembly of this leg (no branch of its "
                                  "inverse kinematics gives the joint's reference value)")
 
@@ -908,7 +912,7 @@ def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator
                                      range=(-math.inf, math.inf) if rng is None else rng))
         end = centres[2] if qs[2][0] == "R" else centres[2] + qs[2][2] * qs[2][1]
         local = R[:2, :2].T @ (np.array([end.real, end.imag]) - p[:2])
-        chosen = None
+        chosen, closest = None, math.inf
         for mode in (1, -1):
             try:
                 chain = Chain(joints=tuple(joints), base=(base.real, base.imag), base_angle=0.0,
@@ -920,9 +924,8 @@ def planar_from_graph(graph: KinematicGraph, platform: int, legs) -> Manipulator
             ref = np.array([v[2] for v in qs])
             diff = np.array([(a - b + math.pi) % (2 * math.pi) - math.pi if kind[0] == "R" else a - b
                              for a, b, kind in zip(q, ref, qs)])
-            if np.all(np.isfinite(q)) and np.max(np.abs(diff)) <= 1e-6:
-                chosen = chain
-                break
+            if np.all(np.isfinite(q)) and np.max(np.abs(diff)) <= 1e-4 and np.max(np.abs(diff)) < closest:
+                chosen, closest = chain, float(np.max(np.abs(diff)))
         if chosen is None:
             raise _error(src, path[0].name, f"leg {i}: the reference configuration is not an assembly of the leg")
         built.append(ChainLeg(spec=chosen))
