@@ -62,8 +62,9 @@ _M = 1000.0  # mm per metre
 
 
 def is_robot_file(spec: Any) -> bool:
-    """True for a path (str or PathLike) ending in ``.xml``, ``.mjcf`` or ``.urdf`` (:data:`SUFFIXES`)."""
-    return isinstance(spec, (str, os.PathLike)) and Path(spec).suffix.lower() in SUFFIXES
+    """True for a path (str or PathLike) ending in ``.xml``, ``.mjcf``, ``.urdf`` (:data:`SUFFIXES`) or ``.sdf``
+    (refused by :func:`read_robot_file` with its reason)."""
+    return isinstance(spec, (str, os.PathLike)) and Path(spec).suffix.lower() in (*SUFFIXES, ".sdf")
 
 
 # ---------------------------------------------------------------------------------------------- neutral graph
@@ -1026,6 +1027,10 @@ def read_robot_file(path: str | os.PathLike):
     """
     source = os.fspath(path)
     fmt = SUFFIXES.get(Path(source).suffix.lower())
+    if Path(source).suffix.lower() == ".sdf":
+        raise ConfigError("SDF files are not read: no maintained SDF reader is on PyPI (Gazebo's sdformat bindings come "
+                          "with Gazebo); convert the model to MJCF or "
+                          "URDF (with its loops as connect constraints or URDF+ <loop> elements)", source=source)
     if fmt is None:
         raise ConfigError(f"unknown robot file type (expected one of {', '.join(SUFFIXES)})", source=source)
     if not Path(source).is_file():
