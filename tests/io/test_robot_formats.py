@@ -454,3 +454,27 @@ def test_files_typed_to_ten_micrometres_import_within_their_typing_error(stem, t
     poses = _poses(exact, seed=21)
     err = np.abs(inverse_kinematics(typed, poses).q - inverse_kinematics(exact, poses).q)
     assert np.max(err) < (0.05 if stem == "hexapod" else 1e-4)
+
+
+def _gazebo_loops(tmp_path):
+    """tilt_head.urdf with each URDF+ loop replaced by Gazebo's closure: an SDFormat ball joint in a <gazebo>
+    extension, posed in the child link (the platform) at the platform ball."""
+    def joint(m):
+        return (f'<gazebo>\n    <joint name="{m.group(1)}" type="ball">\n      <parent>{m.group(2)}</parent>\n'
+                f'      <child>platform</child>\n      <pose>{m.group(3)} 0 0 0</pose>\n    </joint>\n  </gazebo>')
+
+    text = re.sub(r'<loop name="([^"]+)" type="spherical">\s*<predecessor name="([^"]+)"><origin xyz="[^"]*" '
+                  r'rpy="0 0 0"/></predecessor>\s*<successor name="platform"><origin xyz="([^"]*)" rpy="0 0 0"/>'
+                  r'</successor>\s*</loop>', joint, (DATA / "tilt_head.urdf").read_text())
+    assert text.count("<gazebo>") == 3 and "<loop" not in text
+    path = tmp_path / "tilt_gazebo.urdf"
+    path.write_text(text)
+    return path
+
+
+def test_gazebo_joints_close_urdf_loops(tmp_path):
+    pytest.importorskip("yourdfpy")
+    path = _gazebo_loops(tmp_path)
+    _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
+    cal = _calibrated(pm.load_robot(path), seed=17)
+    _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_gazebo_calibrated.urdf")))

@@ -346,7 +346,9 @@ def _descends(m, c: int, b: int) -> bool:
 def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     """The kinematic graph of a URDF file read by ``yourdfpy`` at zero joint values, with its loop closures.
 
-    Loops: URDF+ ``<loop name type="spherical"><predecessor name=LINK><origin xyz rpy/></predecessor>
+    Loops: Gazebo's ``<gazebo><joint name type="ball"|"revolute"><parent>L1</parent><child>L2</child>
+    <pose>x y z r p y</pose></joint></gazebo>`` (the SDFormat joint that closes a URDF's loop; its pose in the
+    child link's frame), URDF+ ``<loop name type="spherical"><predecessor name=LINK><origin xyz rpy/></predecessor>
     <successor name=LINK>...</successor></loop>`` (the closure point is the predecessor's origin; ``type="fixed"``
     welds the two links) and
     ``<loop_joint name type="spherical"><link1 link=LINK xyz=.../><link2 .../></loop_joint>``. Actuated joints:
@@ -464,8 +466,54 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
         g1, g2 = index[groups.find(lid[ends_links[0]])], index[groups.find(lid[ends_links[1]])]
         graph.edges.append([FileJoint(name=label, kind="ball", anchor=point, axis=np.zeros(3), range=None, ref=0.0,
                                       actuated=False, parent=g1, child=g2, ident=("loop", n_loop))])
+    for n_gz, jel in enumerate(_gazebo_joints(root)):
+        label = f"gazebo joint '{jel.get('name', '?')}'"
+        kind = jel.get("type")
+        if kind not in ("ball", "revolute"):
+            raise _error(source, label, f"a {kind} loop closure cannot be mapped (ball or revolute)")
+        ends = [(jel.findtext("parent") or "").strip(), (jel.findtext("child") or "").strip()]
+        if any(n not in lid for n in ends):
+            raise _error(source, label, f"must name two links of the robot as <parent> and <child>, got {ends}")
+        pose = _pose6(jel.findtext("pose"), source, label)
+        pc, Rc = world(ends[1])
+        point = pc + Rc @ pose[:3] * _M
+        axis = np.zeros(3)
+        if kind == "revolute":
+            xyz = _xyz(jel.findtext("axis/xyz") or "0 0 1", source, label)
+            axis = _unit(Rc @ _rpy_matrix(pose[3:]) @ xyz)
+        g1, g2 = index[groups.find(lid[ends[0]])], index[groups.find(lid[ends[1]])]
+        graph.edges.append([FileJoint(name=label, kind="ball" if kind == "ball" else "hinge", anchor=point,
+                                      axis=axis, range=None, ref=0.0, actuated=False, parent=g1, child=g2,
+                                      ident=("gazebo", n_gz))])
     graph.extras = extras
     return graph
+
+
+def _gazebo_joints(root: ET.Element) -> list[ET.Element]:
+    """Gazebo's loop closures in a URDF: SDFormat ``<joint>`` elements inside ``<gazebo>`` extensions."""
+    return [j for gz in root.findall("gazebo") for j in gz.findall("joint")]
+
+
+def _pose6(text: str | None, source: str, label: str) -> np.ndarray:
+    """An SDFormat ``<pose>`` ``x y z roll pitch yaw`` (m, rad; zeros when absent), relative to the child link."""
+    if not text or not text.strip():
+        return np.zeros(6)
+    try:
+        out = np.array([float(v) for v in text.split()])
+    except ValueError:
+        raise _error(source, label, f"<pose> expects six numbers, got {text!r}") from None
+    if out.shape != (6,) or not np.all(np.isfinite(out)):
+        raise _error(source, label, f"<pose> expects six numbers, got {text!r}")
+    return out
+
+
+def _rpy_matrix(rpy) -> np.ndarray:
+    """``Rz(yaw) Ry(pitch) Rx(roll)`` (URDF's and SDFormat's fixed-axis roll, pitch, yaw)."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
 
 
 def _loop_links(el) -> list:
@@ -1705,6 +1753,15 @@ def _export_urdf_into(robot, source: str, out) -> Path:
                     limit = ET.SubElement(el, "limit", effort="0", velocity="0")
                 limit.set("lower", repr(t.range[0] / scale))
                 limit.set("upper", repr(t.range[1] / scale))
+        elif kind == "gazebo":
+            el = _gazebo_joints(root)[key]
+            child = (el.findtext("child") or "").strip()
+            x, R = final[child]
+            pose_el = el.find("pose")
+            old_pose = _pose6(None if pose_el is None else pose_el.text, source, "gazebo joint")
+            if pose_el is None:
+                pose_el = ET.SubElement(el, "pose")
+            pose_el.text = _f(np.concatenate([R.T @ (t.anchor - x) / _M, old_pose[3:]]))
         elif kind == "loop":
             el = (list(root.iter("loop")) + list(root.iter("loop_joint")))[key]
             links = _loop_links(el)
