@@ -478,3 +478,12 @@ def test_gazebo_joints_close_urdf_loops(tmp_path):
     _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
     cal = _calibrated(pm.load_robot(path), seed=17)
     _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_gazebo_calibrated.urdf")))
+
+
+def test_import_of_a_planar_file_prints_its_chains_and_writes_a_toml(tmp_path, capsys):
+    out = tmp_path / "p.toml"
+    status, stdout, err = run_cli(["import", DATA / "planar_3rrr.xml", "--out", out], capsys)
+    assert status == 0, err
+    assert "leg 1: RRR, base [-173.205, -100] mm, platform [-43.3013, -25] mm, actuated joint 1 range [-110, 70] deg" \
+        in stdout
+    _same_planar(pm.load_robot("symmetric_3rrr"), pm.load_robot(out))

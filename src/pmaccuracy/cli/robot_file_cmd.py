@@ -56,6 +56,21 @@ def run_import(args: argparse.Namespace) -> int:
     if args.format == "json":
         sys.stdout.write(json.dumps(robot.to_dict(), indent=2) + "\n")
         return 0
+    if not is_spatial(robot):
+        lines = [f"robot: {robot.name} (planar, legs {', '.join(c.pattern for c in robot.chains)}) from {args.file}"]
+        for i, chain in enumerate(robot.chains, start=1):
+            lo, hi = chain.actuated.range
+            unit = "deg" if chain.actuated.kind == "R" else "mm"
+            if unit == "deg":
+                lo, hi = np.degrees([lo, hi])
+            base, plat = complex(chain.base_z), complex(chain.platform_z)
+            lines.append(f"leg {i}: {chain.pattern}, base [{base.real:.6g}, {base.imag:.6g}] mm, platform "
+                         f"[{plat.real:.6g}, {plat.imag:.6g}] mm, actuated joint {chain.actuated_index + 1} "
+                         f"range [{lo:.6g}, {hi:.6g}] {unit}")
+        if args.out:
+            lines.append(f"written: {args.out}")
+        sys.stdout.write("\n".join(lines) + "\n")
+        return 0
     home = robot.home_pose
     lines = [f"robot: {robot.name} ({robot.label}, {robot.n_legs} legs) from {args.file}",
              f"home: position {np.round(home[:3], 6).tolist()} mm" if home is not None else "home: none"]
