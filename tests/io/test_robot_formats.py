@@ -285,6 +285,9 @@ BAD = {
     "rods_not_parallel": (("delta", 'anchor="0.01830127018922193 0.06830127018922193 0"',
                            'anchor="0.01830127018922193 0.07830127018922193 0"'),
                           r"bad\.xml: .*leg 2: the two rods must be equal and parallel"),
+    "urdf_unknown_link": (("tilt_head", '<child link="leg2_rod"/>', '<child link="leg2_rodd"/>', ".urdf"),
+                          r"bad\.urdf: joint 'leg2_piston': its <child link=...> must name a link of the robot, "
+                          r"got 'leg2_rodd'"),
     "urdf_loop_open": (("tilt_head", '<origin xyz="0 0 0.36400549446402586" rpy="0 0 0"/></predecessor>\n'
                                      '    <successor name="platform"><origin xyz="0 0.1 0"',
                         '<origin xyz="0 0 0.36400549446402586" rpy="0 0 0"/></predecessor>\n'

@@ -365,6 +365,14 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     root = tree.getroot()
     if root.tag != "robot":
         raise _error(source, root.tag, "a URDF file's root element must be <robot>")
+    link_names = {el.get("name") for el in root.findall("link")}
+    for el in root.findall("joint"):
+        label = f"joint '{el.get('name', '?')}'"
+        for end in ("parent", "child"):
+            node = el.find(end)
+            if node is None or node.get("link") not in link_names:
+                got = None if node is None else node.get("link")
+                raise _error(source, label, f"its <{end} link=...> must name a link of the robot, got {got!r}")
     try:
         urdf = yourdfpy.URDF.load(source, build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False)
     except Exception as exc:  # yourdfpy raises many kinds; one line naming the file
