@@ -490,3 +490,26 @@ def test_import_of_a_planar_file_prints_its_chains_and_writes_a_toml(tmp_path, c
     assert "leg 1: RRR, base [-173.205, -100] mm, platform [-43.3013, -25] mm, actuated joint 1 range [-110, 70] deg" \
         in stdout
     _same_planar(pm.load_robot("symmetric_3rrr"), pm.load_robot(out))
+
+
+def test_onshape_closing_frames_close_urdf_loops(tmp_path):
+    """tilt_head.urdf with each loop written as onshape-to-robot's pair of frames closing_NAME_1 (on the piston)
+    and closing_NAME_2 (on the platform), fixed links meeting at the ball."""
+    pytest.importorskip("yourdfpy")
+
+    def frames(m):
+        name, pred, pxyz, sxyz = m.groups()
+        return (f'<link name="closing_{name}_1"/>\n  <joint name="{name}_frame_1" type="fixed"><parent link="{pred}"/>'
+                f'<child link="closing_{name}_1"/><origin xyz="{pxyz}" rpy="0 0 0"/></joint>\n'
+                f'  <link name="closing_{name}_2"/>\n  <joint name="{name}_frame_2" type="fixed"><parent link="platform"/>'
+                f'<child link="closing_{name}_2"/><origin xyz="{sxyz}" rpy="0 0 0"/></joint>')
+
+    text = re.sub(r'<loop name="([^"]+)" type="spherical">\s*<predecessor name="([^"]+)"><origin xyz="([^"]*)" '
+                  r'rpy="0 0 0"/></predecessor>\s*<successor name="platform"><origin xyz="([^"]*)" rpy="0 0 0"/>'
+                  r'</successor>\s*</loop>', frames, (DATA / "tilt_head.urdf").read_text())
+    assert text.count("closing_") == 12 and "<loop name" not in text
+    path = tmp_path / "tilt_closing.urdf"
+    path.write_text(text)
+    _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
+    cal = _calibrated(pm.load_robot(path), seed=19)
+    _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_closing_calibrated.urdf")))

@@ -399,6 +399,14 @@ def _export_urdf_into(robot, source: str, out) -> Path:
                     limit = ET.SubElement(el, "limit", effort="0", velocity="0")
                 limit.set("lower", repr(t.range[0] / scale))
                 limit.set("upper", repr(t.range[1] / scale))
+        elif kind == "closing":     # both frames' fixed joints put their origin at the new point
+            for n in (1, 2):
+                el = next(j for j in root.findall("joint") if j.find("child").get("link") == f"closing_{key}_{n}")
+                xp, Rp = final[el.find("parent").get("link")]
+                origin = el.find("origin")
+                if origin is None:
+                    origin = ET.SubElement(el, "origin", rpy="0 0 0")
+                origin.set("xyz", _f(Rp.T @ (t.anchor - xp) / _M))
         elif kind == "gazebo":
             el = _gazebo_joints(root)[key]
             child = (el.findtext("child") or "").strip()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -15,7 +16,8 @@ from .graph import EXTRAS_NAME, _M, FileJoint, KinematicGraph, _Groups, _error, 
 def read_urdf(path: str | os.PathLike) -> KinematicGraph:
     """The kinematic graph of a URDF file read by ``yourdfpy`` at zero joint values, with its loop closures.
 
-    Loops: Gazebo's ``<gazebo><joint name type="ball"|"revolute"><parent>L1</parent><child>L2</child>
+    Loops: onshape-to-robot's closing frames (links ``closing_NAME_1`` and ``closing_NAME_2`` meeting at zero
+    joint values, a ball at their origin), Gazebo's ``<gazebo><joint name type="ball"|"revolute"><parent>L1</parent><child>L2</child>
     <pose>x y z r p y</pose></joint></gazebo>`` (the SDFormat joint that closes a URDF's loop; its pose in the
     child link's frame), URDF+ ``<loop name type="spherical"><predecessor name=LINK><origin xyz rpy/></predecessor>
     <successor name=LINK>...</successor></loop>`` (the closure point is the predecessor's origin; ``type="fixed"``
@@ -143,6 +145,22 @@ def read_urdf(path: str | os.PathLike) -> KinematicGraph:
         g1, g2 = index[groups.find(lid[ends_links[0]])], index[groups.find(lid[ends_links[1]])]
         graph.edges.append([FileJoint(name=label, kind="ball", anchor=point, axis=np.zeros(3), range=None, ref=0.0,
                                       actuated=False, parent=g1, child=g2, ident=("loop", n_loop))])
+    closing: dict[str, list[str]] = {}
+    for name in links:   # onshape-to-robot's closing frames: links closing_NAME_1 and closing_NAME_2 meet
+        match = re.fullmatch(r"closing_(.+)_([12])", name)
+        if match:
+            closing.setdefault(match.group(1), []).append(name)
+    for key, ends in sorted(closing.items()):
+        label = f"closing frames 'closing_{key}_1/2'"
+        if len(ends) != 2:
+            raise _error(source, label, f"a closing frame needs its pair, found only {ends[0]!r}")
+        (pa, _), (pb, _) = world(ends[0]), world(ends[1])
+        if np.linalg.norm(pa - pb) > 1e-6 * max(1.0, float(np.linalg.norm(pa))):
+            raise _error(source, label, f"the two frames are {np.linalg.norm(pa - pb):.6g} mm apart at zero joint "
+                                        "values: the loop is not closed")
+        ga, gb = index[groups.find(lid[ends[0]])], index[groups.find(lid[ends[1]])]
+        graph.edges.append([FileJoint(name=label, kind="ball", anchor=pa, axis=np.zeros(3), range=None, ref=0.0,
+                                      actuated=False, parent=ga, child=gb, ident=("closing", key))])
     for n_gz, jel in enumerate(_gazebo_joints(root)):
         label = f"gazebo joint '{jel.get('name', '?')}'"
         kind = jel.get("type")
