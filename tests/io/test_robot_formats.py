@@ -513,3 +513,17 @@ def test_onshape_closing_frames_close_urdf_loops(tmp_path):
     _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
     cal = _calibrated(pm.load_robot(path), seed=19)
     _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_closing_calibrated.urdf")))
+
+
+def test_a_3upu_closed_by_connects_is_refused_with_the_reason(tmp_path, capsys):
+    """A 3-UPU whose platform-side universal joints end in connects (balls) is three UPS legs: the platform is
+    free to turn, no architecture of ours; the message says why and what a 3-UPU needs."""
+    path = rf.write_mjcf(pm.load_robot("upu_3"), tmp_path / "upu.xml")
+    text = path.read_text()
+    welded = re.sub(r'<weld name="([^"]+)" body1="([^"]+)" body2="platform" ?/>',
+                    r'<connect name="\1" body1="\2" body2="platform" anchor="0 0 0"/>', text)
+    assert welded.count("<connect") == 3
+    path.write_text(welded)
+    status, _, err = run_cli(["import", path], capsys)
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert "three legs of joints UPS" in err and "ends in a weld to the platform, not a connect" in err

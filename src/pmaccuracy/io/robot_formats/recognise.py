@@ -530,6 +530,10 @@ def robot_from_graph(graph: KinematicGraph):
     archs = {PATTERNS[pt] for pt in patterns}
     if len(archs) != 1:
         raise _error(src, None, f"the legs are of different kinds ({', '.join(patterns)}): one architecture only")
+    if archs == {"6-UPS"} and len(built) == 3:
+        raise _error(src, None, f"three legs of joints {patterns[0]} (a spherical joint at the platform) leave the "
+                                "platform free to turn: a 6-UPS needs six legs, and a 3-UPU's platform-side universal "
+                                "joint (two hinges) ends in a weld to the platform, not a connect")
     name = extras.get("name") if isinstance(extras.get("name"), str) else Path(src).stem
     try:
         return SpatialManipulator(architecture=archs.pop(), legs=tuple(built), name=name,
