@@ -51,7 +51,7 @@ _EXPORTS = {
     "SerialArm": "model.serial", "SerialJoint": "model.serial", "SerialErrorSources": "model.serial",
     "ErrorSources": "model.sources", "JointErrors": "model.sources", "JointDisplacements": "model.sources",
     "ClearanceSet": "model.clearances",
-    "load_robot": "api", "load_clearances": "api",
+    "load_robot": "api", "load_clearances": "api", "export_robot": "api",
     # kinematics
     **{name: "kinematics" for name in ("FKSolution", "IKSolution", "forward_kinematics", "inverse_kinematics",
                                        "jacobians", "kinematic_jacobian", "singularity")},

@@ -11,6 +11,7 @@ design     cvxpy                                 minimum-cost synthesis; the sem
                                                  certified dual bound (hard cases; without it the bound
                                                  stays the interior point's, still valid)
 scale      dask[array,distributed], zarr         ``--dask`` maps, Zarr maps of any size, clusters
+formats    mujoco, yourdfpy                      robots read from and written to MJCF and URDF files
 all        every one of the above
 =========  ====================================  ==========================================================
 """
@@ -30,6 +31,8 @@ EXTRAS = {
     "dask": ("scale", "dask"),
     "distributed": ("scale", "dask[distributed]"),
     "zarr": ("scale", "zarr"),
+    "mujoco": ("formats", "mujoco"),
+    "yourdfpy": ("formats", "yourdfpy"),
 }
 
 

@@ -152,7 +152,7 @@ def _spatial_calls():
 CALLS = {**_calls(), **_spatial_calls()}
 #: Public functions of the front door that take no pose or orientation (why).
 NO_ORIENTATION = {
-    "load_robot": "a robot spec", "load_clearances": "a clearance spec", "save_map": "a dataset and a path",
+    "load_robot": "a robot spec", "export_robot": "a robot spec and a file path", "load_clearances": "a clearance spec", "save_map": "a dataset and a path",
     "load_map": "a path (the map's phi coordinate is in degrees)",
     "synthesize": "a Region, checked where it is made (make_region)",
     "load_polygon": "a polygon file (mm)",

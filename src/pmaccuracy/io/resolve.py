@@ -16,11 +16,14 @@ from typing import Any
 import numpy as np
 
 from ..errors import ClearanceError, ConfigError
-from ..kinematics import resolve_robot
+from ..kinematics import check_reachable, resolve_robot
+from ..kinematics.spatial import check_reachable as _spatial_reachable
 from ..model import _tomlio, plausibility
 from ..model.clearances import ClearanceSet
 from ..model.serial import SerialArm, SerialErrorSources, is_serial_spec
+from ..model.spatial import is_spatial
 from ..model.sources import ErrorSources, JointErrors, is_per_joint
+from .robot_formats import is_robot_file, read_robot_file
 
 _SPEC = (str, os.PathLike)
 
@@ -73,7 +76,16 @@ def _kind(value: Any) -> str:
 
 def robot_arg(robot: Any, name: str = "robot"):
     """A :class:`~pmaccuracy.model.manipulator.Manipulator` from an instance, a preset name or a TOML path
-    (:func:`pmaccuracy.kinematics.resolve_robot`: a file's robot must also assemble somewhere)."""
+    (:func:`pmaccuracy.kinematics.resolve_robot`: a file's robot must also assemble somewhere), or a
+    :class:`~pmaccuracy.model.spatial.SpatialManipulator` from an MJCF (``.xml``) or URDF (``.urdf``) file
+    (:func:`pmaccuracy.io.robot_formats.read_robot_file`; its home pose must be within its limits)."""
+    if is_robot_file(robot):
+        loaded = read_robot_file(robot)
+        if is_spatial(loaded):
+            _spatial_reachable(loaded, os.fspath(robot))
+        else:
+            check_reachable(loaded)
+        return loaded
     return resolve_robot(robot, name)
 
 
