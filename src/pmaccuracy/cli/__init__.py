@@ -95,7 +95,7 @@ class OneLineParser(argparse.ArgumentParser):
     def _dash_hint(self, message: str) -> str:
         """``: a value starting with '-' ...`` when an option missed its value because that value starts with
         ``-`` (``--region -35,10,...`` reads as an option): argparse says only "expected one argument"."""
-        found = re.match(r"argument (\S+): expected (?:one|\d+) argument", message)
+        found = re.match(r"argument (\S+): expected (?:at least )?(?:one|\d+) argument", message)
         if not found:
             return ""
         names = found.group(1).split("/")
