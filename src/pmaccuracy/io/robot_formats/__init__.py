@@ -28,9 +28,11 @@ from .calibrated import export_into
 from .graph import EXTRAS_NAME, PATTERNS, SUFFIXES, FileJoint, KinematicGraph, is_robot_file
 from .mjcf import read_mjcf
 from .recognise import Pair, pairs_of, planar_from_graph, read_robot_file, robot_from_graph
+from .sdf import SDF_NAMESPACE, actuated_joints, read_sdf
 from .urdf import read_urdf
-from .write import mjcf_tree, urdf_tree, write_mjcf, write_urdf
+from .write import mjcf_tree, sdf_tree, urdf_tree, write_mjcf, write_sdf, write_urdf
 
-__all__ = ["EXTRAS_NAME", "PATTERNS", "SUFFIXES", "FileJoint", "KinematicGraph", "Pair", "export_into",
-           "is_robot_file", "mjcf_tree", "pairs_of", "planar_from_graph", "read_mjcf", "read_robot_file",
-           "read_urdf", "robot_from_graph", "urdf_tree", "write_mjcf", "write_urdf"]
+__all__ = ["EXTRAS_NAME", "PATTERNS", "SDF_NAMESPACE", "SUFFIXES", "FileJoint", "KinematicGraph", "Pair",
+           "actuated_joints", "export_into", "is_robot_file", "mjcf_tree", "pairs_of", "planar_from_graph",
+           "read_mjcf", "read_robot_file", "read_sdf", "read_urdf", "robot_from_graph", "sdf_tree", "urdf_tree",
+           "write_mjcf", "write_sdf", "write_urdf"]
