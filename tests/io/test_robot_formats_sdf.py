@@ -19,6 +19,7 @@ beside the hand-written TOML of the same robots. Checked here:
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import tomllib
 import xml.etree.ElementTree as ET
@@ -30,6 +31,7 @@ from conftest import run_cli
 from scipy.spatial.transform import Rotation
 
 import pmaccuracy as pm
+import sdf_frames_reference
 from pmaccuracy.kinematics.spatial import inverse_kinematics
 from pmaccuracy.model.spatial import SpatialManipulator
 
@@ -280,3 +282,76 @@ def test_import_and_export_commands_read_and_write_sdf(tmp_path, capsys):
     _same_robot(pm.load_robot("rps_3"), pm.load_robot(tmp_path / "r.sdf"))
     status, _, err = run_cli(["export", "symmetric_3rrr", "--to", tmp_path / "p.sdf"], capsys)
     assert status == 2 and "planar robot" in err
+
+
+def _calibrated(robot, seed):
+    """The robot with every base and platform point moved by about 0.5 mm and the home pose moved (turned only
+    for a robot whose platform turns)."""
+    rng = np.random.default_rng(seed)
+    legs = [dataclasses.replace(leg, base=tuple(np.add(leg.base, rng.normal(0, 0.5, 3))),
+                                platform=tuple(np.add(leg.platform, rng.normal(0, 0.5, 3)))) for leg in robot.legs]
+    turn = [0.001, 0.002, -0.001] if robot.mobility != "3T" else [0.0, 0.0, 0.0]
+    return dataclasses.replace(robot, legs=tuple(legs), home=tuple(np.add(robot.home, [0.3, -0.2, 1.0] + turn)))
+
+
+def _structure(path):
+    """Every element of the file but the geometry: (tag, attributes, text), the geometry's texts left out."""
+    geometry = {"pose", "xyz", "lower", "upper", f"{{{rf.SDF_NAMESPACE}}}extras"}
+    out = []
+    for el in ET.parse(path).getroot().iter():
+        attrs = {k: v for k, v in el.attrib.items() if not (el.tag == "pose" and k in ("degrees", "rotation_format"))}
+        out.append((el.tag, attrs, None if el.tag in geometry else (el.text or "").strip()))
+    return [e for e in out if e[0] != f"{{{rf.SDF_NAMESPACE}}}extras"]
+
+
+@pytest.mark.parametrize("stem", ["hexapod", "delta"])
+def test_calibrated_robot_written_into_its_sdf_changes_only_the_geometry(stem, tmp_path):
+    robot = pm.load_robot(DATA / f"{stem}.sdf")
+    cal = _calibrated(robot, seed=5)
+    out = pm.export_robot(cal, tmp_path / f"{stem}_calibrated.sdf", like=DATA / f"{stem}.sdf")
+    _same_robot(cal, pm.load_robot(out))
+    assert _structure(out) == _structure(DATA / f"{stem}.sdf")
+    original, written = (DATA / f"{stem}.sdf").read_text(), out.read_text()
+    assert written[:written.index("<sdf")] == original[:original.index("<sdf")]     # the comments before <sdf>
+
+
+def test_calibrated_hexapod_joints_are_at_the_calibrated_points(tmp_path):
+    """The written file's joints, placed by the reference frame rules (tests/reference), are the calibrated
+    robot's base points, platform points at the home pose (scipy) and leg directions, in the base link's frame."""
+    cal = _calibrated(pm.load_robot(DATA / "hexapod.sdf"), seed=7)
+    out = pm.export_robot(cal, tmp_path / "hexapod_calibrated.sdf", like=DATA / "hexapod.sdf")
+    model = sdf_frames_reference.model_of(out)
+    pb, Rb = sdf_frames_reference.pose_in_model(model, "base")
+    home_p, home_R = np.asarray(cal.home[:3]), Rotation.from_rotvec(cal.home[3:])
+    for i, leg in enumerate(cal.legs, start=1):
+        A = np.asarray(leg.base)
+        B = home_p + home_R.apply(leg.platform)
+        a = Rb.inv().apply(sdf_frames_reference.pose_in_model(model, f"leg{i}_cardan_joint")[0] - pb) * 1000
+        b = Rb.inv().apply(sdf_frames_reference.pose_in_model(model, f"leg{i}_ball")[0] - pb) * 1000
+        np.testing.assert_allclose(a, A, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(b, B, atol=1e-9, rtol=0)
+        slide = next(j for j in model.findall("joint") if j.get("name") == f"leg{i}_slide")
+        d = Rb.inv().apply([float(v) for v in slide.findtext("axis/xyz").split()])
+        np.testing.assert_allclose(d, (B - A) / np.linalg.norm(B - A), atol=1e-12, rtol=0)
+
+
+def test_reference_frames_agree_with_the_hand_written_hexapod():
+    """The reference rules themselves, on the hand-written file: the closing balls at the TOML's points."""
+    model = sdf_frames_reference.model_of(DATA / "hexapod.sdf")
+    toml = tomllib.loads((DATA / "hexapod.toml").read_text())
+    home = Rotation.from_euler("z", 10, degrees=True)
+    pb, _ = sdf_frames_reference.pose_in_model(model, "base")
+    for i, leg in enumerate(toml["legs"], start=1):
+        b = (sdf_frames_reference.pose_in_model(model, f"leg{i}_ball")[0] - pb) * 1000
+        np.testing.assert_allclose(b, np.array([0, 0, 400]) + home.apply(leg["platform"]), atol=1e-9, rtol=0)
+
+
+def test_export_command_writes_a_calibrated_robot_into_its_sdf(tmp_path, capsys):
+    cal = _calibrated(pm.load_robot(DATA / "delta.sdf"), seed=9)
+    toml = tmp_path / "cal.toml"
+    cal.to_toml(toml)
+    status, stdout, err = run_cli(["export", toml, "--to", tmp_path / "cal.sdf", "--like", DATA / "delta.sdf"], capsys)
+    assert status == 0, err
+    _same_robot(pm.load_robot(toml), pm.load_robot(tmp_path / "cal.sdf"))
+    status, _, err = run_cli(["export", toml, "--to", tmp_path / "cal.xml", "--like", DATA / "delta.sdf"], capsys)
+    assert status == 2 and "--to" in err and ".sdf" in err

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,6 +35,8 @@ def _local(tag: str) -> tuple[str, str]:
 
 
 def _ours(el: ET.Element, name: str) -> bool:
+    if not isinstance(el.tag, str):       # a comment
+        return False
     ns, local = _local(el.tag)
     return local == name and "pmaccuracy" in ns
 
@@ -238,11 +241,28 @@ def read_sdf(path: str | os.PathLike) -> KinematicGraph:
     gives ``refs`` (joint name -> m or rad, written by :func:`~pmaccuracy.io.robot_formats.write_sdf`).
     Raises :class:`ConfigError` naming the file and element.
     """
-    source = os.fspath(path)
-    try:
-        root = ET.parse(source).getroot()
+    return _read(os.fspath(path))[0]
+
+
+@dataclass
+class _Context:
+    """What :func:`_read` learnt of a file beside its graph (for writing a calibrated robot into it)."""
+
+    tree: ET.ElementTree
+    model: ET.Element
+    frames: _Frames
+    ends: dict[str, tuple[str, str]]
+    group_of: dict[str, int]
+    base: tuple[np.ndarray, np.ndarray]
+
+
+def _read(source: str) -> tuple[KinematicGraph, _Context]:
+    """:func:`read_sdf` and its context."""
+    try:           # comments kept: a calibrated robot is written into a copy of the file
+        tree = ET.parse(source, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
     except (ET.ParseError, OSError) as exc:
         raise _error(source, None, f"not a readable XML file: {exc}") from None
+    root = tree.getroot()
     if root.tag != "sdf":
         raise _error(source, root.tag, "an SDF file's root element must be <sdf>")
     version = _version(root, source)
@@ -344,4 +364,5 @@ def read_sdf(path: str | os.PathLike) -> KinematicGraph:
     unknown = sorted(actuated - {el.get("name") for el in joints})
     if unknown:
         raise _error(source, "<plugin>", f"drives joint {unknown[0]!r}, which is not a joint of the model")
-    return graph
+    group_of = {n: index[groups.find(lid[n])] for n in links}
+    return graph, _Context(tree, model, frames, ends, group_of, (base_p, base_R))
