@@ -138,7 +138,8 @@ def _piston_turned(text: str, how: str, version: str = "1.9") -> str:
         old = f'<pose relative_to="leg{i}_cardan">0 0 0 0 0 0</pose>'
         if how == "quat":
             q = rot.as_quat()                                    # x y z w
-            new = f'<pose relative_to="leg{i}_cardan" rotation_format="quat_xyzw">0 0 0 {" ".join(map(str, q.tolist()))}</pose>'
+            new = (f'<pose relative_to="leg{i}_cardan" rotation_format="quat_xyzw">0 0 0 '
+                   f'{" ".join(map(str, q.tolist()))}</pose>')
         elif how == "degrees":
             e = rot.as_euler("xyz", degrees=True)
             new = f'<pose relative_to="leg{i}_cardan" degrees="true">0 0 0 {" ".join(map(str, e.tolist()))}</pose>'
