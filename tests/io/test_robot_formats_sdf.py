@@ -286,11 +286,17 @@ def test_import_and_export_commands_read_and_write_sdf(tmp_path, capsys):
 
 
 def _calibrated(robot, seed):
-    """The robot with every base and platform point moved by about 0.5 mm and the home pose moved (turned only
-    for a robot whose platform turns)."""
+    """The robot with every base and platform point (and a Delta's arms and rods) moved by about 0.5 mm and the
+    home pose moved (turned only for a robot whose platform turns)."""
     rng = np.random.default_rng(seed)
-    legs = [dataclasses.replace(leg, base=tuple(np.add(leg.base, rng.normal(0, 0.5, 3))),
-                                platform=tuple(np.add(leg.platform, rng.normal(0, 0.5, 3)))) for leg in robot.legs]
+    legs = []
+    for leg in robot.legs:
+        change = dict(base=tuple(np.add(leg.base, rng.normal(0, 0.5, 3))),
+                      platform=tuple(np.add(leg.platform, rng.normal(0, 0.5, 3))))
+        for key in ("rod", "arm"):
+            if hasattr(leg, key):
+                change[key] = getattr(leg, key) + rng.normal(0, 0.3)
+        legs.append(dataclasses.replace(leg, **change))
     turn = [0.001, 0.002, -0.001] if robot.mobility != "3T" else [0.0, 0.0, 0.0]
     return dataclasses.replace(robot, legs=tuple(legs), home=tuple(np.add(robot.home, [0.3, -0.2, 1.0] + turn)))
 
@@ -356,3 +362,20 @@ def test_export_command_writes_a_calibrated_robot_into_its_sdf(tmp_path, capsys)
     _same_robot(pm.load_robot(toml), pm.load_robot(tmp_path / "cal.sdf"))
     status, _, err = run_cli(["export", toml, "--to", tmp_path / "cal.xml", "--like", DATA / "delta.sdf"], capsys)
     assert status == 2 and "--to" in err and ".sdf" in err
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_calibrated_preset_written_into_its_exported_sdf_reads_back(name, tmp_path):
+    robot = SpatialManipulator.preset(name)
+    original = rf.write_sdf(robot, tmp_path / "original.sdf")
+    cal = _calibrated(robot, seed=13)
+    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.sdf")))
+
+
+def test_a_joint_may_name_a_frame_attached_to_a_link(tmp_path):
+    text = (DATA / "hexapod.sdf").read_text()
+    old = "<parent>base</parent>\n        <child>leg2_cardan</child>"
+    assert old in text
+    path = tmp_path / "frame_parent.sdf"
+    path.write_text(text.replace(old, "<parent>base_plate</parent>\n        <child>leg2_cardan</child>"))
+    _same_kinematics(pm.load_robot(path), pm.load_robot(DATA / "hexapod.toml"))
