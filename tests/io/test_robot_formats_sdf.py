@@ -379,3 +379,22 @@ def test_a_joint_may_name_a_frame_attached_to_a_link(tmp_path):
     path = tmp_path / "frame_parent.sdf"
     path.write_text(text.replace(old, "<parent>base_plate</parent>\n        <child>leg2_cardan</child>"))
     _same_kinematics(pm.load_robot(path), pm.load_robot(DATA / "hexapod.toml"))
+
+
+def test_sdf_1_6_joints_may_share_their_link_names(tmp_path):
+    """SDF 1.6 allowed a joint and a link of one name (converters from URDF write them): both are read, and a
+    calibrated robot is written back into such a file."""
+    text = (DATA / "hexapod.sdf").read_text()
+    text = text.replace('<sdf version="1.9"', '<sdf version="1.6"').replace(
+        ' degrees="true">0 0 0.4 0 0 10<', '>0 0 0.4 0 0 0.17453292519943295<').replace("relative_to=", "frame=")
+    for i in range(1, 7):
+        text = text.replace(f'<joint name="leg{i}_slide"', f'<joint name="leg{i}_piston"')
+        text = text.replace(f"<joint_name>leg{i}_slide</joint_name>", f"<joint_name>leg{i}_piston</joint_name>")
+    path = tmp_path / "shared.sdf"
+    path.write_text(text)
+    imported = pm.load_robot(path)
+    _same_kinematics(imported, pm.load_robot(DATA / "hexapod.toml"))
+    slides = [j.name for e in rf.read_sdf(path).edges for j in e if j.kind == "slide" and j.actuated]
+    assert slides == [f"joint 'leg{i}_piston'" for i in range(1, 7)]
+    cal = _calibrated(imported, seed=21)
+    _same_robot(cal, pm.load_robot(pm.export_robot(cal, tmp_path / "shared_cal.sdf", like=path)))

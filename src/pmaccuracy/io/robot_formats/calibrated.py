@@ -536,11 +536,11 @@ def _export_sdf_into(robot, source: str, out) -> Path:
         child = ctx.ends[name][1]
         xo, Ro = here(child)
         xn, Rn = new[child]
-        x, R = here(name)
+        x, R = here(frames.joint_key[name])
         x, R = xn + Rn @ Ro.T @ (x - xo), Rn @ Ro.T @ R
         if name in by_joint:
             x = by_joint[name][0].anchor
-        new[name] = (x, R)
+        new[frames.joint_key[name]] = (x, R)
     model_frame = (bR.T @ (-bp), bR.T)
     new["__model__"] = model_frame
     for name, (tag, el) in frames.els.items():        # rewrite the poses that change, in their own frames
@@ -581,7 +581,7 @@ def _export_sdf_into(robot, source: str, out) -> Path:
                 elif upm or frames.version < (1, 5):
                     Re = model_frame[1]
                 else:
-                    Re = new[name][1]
+                    Re = new[frames.joint_key[name]][1]
                 xyz.text = _f(Re.T @ (-t.axis if ("sdf", name, k) in flipped else t.axis))
             if t.ref is not None:
                 refs[name if k == 0 else f"{name}:axis2"] = t.ref / scale

@@ -136,14 +136,20 @@ class _Frames:
     def __init__(self, model: ET.Element, source: str, version: tuple[int, int]) -> None:
         self.source = source
         self.els: dict[str, tuple[str, ET.Element]] = {}
+        self.joint_key: dict[str, str] = {}       # a joint's key in els (SDF <= 1.6: it may share a link's name)
         for tag in ("link", "joint", "frame"):
             for el in model.findall(tag):
                 name = el.get("name")
                 if not name:
                     raise _error(source, f"<{tag}>", "needs a name attribute")
-                if name in self.els or name in ("__model__", "world"):
+                key = name
+                if tag == "joint" and version < (1, 7) and name in self.els and self.els[name][0] == "link":
+                    key = f"{name}::joint"
+                if key in self.els or name in ("__model__", "world"):
                     raise _error(source, f"{tag} '{name}'", "its name is taken by another link, joint or frame")
-                self.els[name] = (tag, el)
+                if tag == "joint":
+                    self.joint_key[name] = key
+                self.els[key] = (tag, el)
         self.memo: dict[str, tuple[np.ndarray, np.ndarray]] = {"__model__": (np.zeros(3), np.eye(3))}
         self.version = version
 
@@ -161,7 +167,7 @@ class _Frames:
         if name not in self.els:
             raise _error(self.source, asked_by, f"no link, joint or frame named {name!r} in the model")
         tag, el = self.els[name]
-        label = f"{tag} '{name}'"
+        label = f"{tag} '{el.get('name')}'"
         if name in stack:
             chain = " -> ".join([*stack[stack.index(name):], name])
             raise _error(self.source, label, f"its pose is relative to itself through {chain}")
@@ -328,7 +334,7 @@ def _read(source: str) -> tuple[KinematicGraph, _Context]:
         g1, g2 = index[groups.find(lid.get(parent, 0))], index[groups.find(lid[child])]
         if g1 == g2:
             raise _error(source, label, f"joins '{parent}' and '{child}', which fixed joints weld together")
-        pj, Rj = frames.pose(name)
+        pj, Rj = frames.pose(frames.joint_key[name])
         anchor = here(pj, Rj)[0]
         if kind == "ball":
             graph.edges.append([FileJoint(name=label, kind="ball", anchor=anchor, axis=np.zeros(3), range=None,
