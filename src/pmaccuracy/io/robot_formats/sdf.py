@@ -209,9 +209,10 @@ def _limits(axis: ET.Element | None, scale: float) -> tuple[float, float] | None
 
 
 def actuated_joints(model: ET.Element) -> set[str]:
-    """Names of the joints the file drives: ``<joint_name>`` of joint-controller plugins of the model or its
-    world (Gazebo's ``JointPositionController``, ``JointController``, ``JointTrajectoryController``,
-    ``ApplyJointForce``) and joints holding a ``<pmaccuracy:actuated/>`` element (text empty, true or 1)."""
+    """Names of the joints the file drives: the ``<joint_name>`` of joint-controller plugins inside the model
+    (Gazebo's ``JointPositionController``, ``JointController``, ``JointTrajectoryController``, ``ApplyJointForce``,
+    recognised by the plugin's ``name`` or ``filename``) and the joints holding a ``<pmaccuracy:actuated/>``
+    element (text empty, true or 1)."""
     out = set()
     for plugin in model.iter("plugin"):
         key = (plugin.get("name", "") + " " + plugin.get("filename", "")).lower()
