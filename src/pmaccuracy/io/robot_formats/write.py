@@ -344,14 +344,16 @@ def sdf_tree(robot: SpatialManipulator) -> ET.ElementTree:
                     ET.SubElement(ax, "xyz", expressed_in="__model__").text = _f(axis)
                     scale = _M if kind == "slide" else 1.0
                     key = jel.get("name") if n == 0 else f"{jel.get('name')}:axis2"
-                    if rng is not None:
-                        if ref != 0.0:
-                            refs[key] = ref / scale
-                        lim = ET.SubElement(ax, "limit")
-                        ET.SubElement(lim, "lower").text = repr(rng[0] / scale)
-                        ET.SubElement(lim, "upper").text = repr(rng[1] / scale)
-                    elif ref != 0.0:
+                    # zero joint values are the drawn (home) configuration and limits relative to it, as a
+                    # simulator reads them; a Delta's arm angle and a 3-PRS carriage keep our coordinate (refs)
+                    own = act and isinstance(leg, (DeltaLeg, PRSLeg))
+                    if own:
                         refs[key] = ref / scale
+                    if rng is not None:
+                        lo, hi = (rng[0], rng[1]) if own else (rng[0] - ref, rng[1] - ref)
+                        lim = ET.SubElement(ax, "limit")
+                        ET.SubElement(lim, "lower").text = repr(lo / scale)
+                        ET.SubElement(lim, "upper").text = repr(hi / scale)
                     if act:
                         plugins.append((i, jel.get("name")))
             names.append(link)
@@ -382,8 +384,10 @@ def write_sdf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
     chain of links from ``base_link`` (a universal joint one ``universal`` joint, a ball one ``ball`` joint),
     its last link joined to the platform by a ``ball`` joint (a 3-UPU's by a ``fixed`` joint after its
     platform-side ``universal``) that closes the loop; the actuated joints are driven by Gazebo
-    ``JointPositionController`` plugins. Zero joint values are the drawn (home) configuration; the model's
-    ``<pmaccuracy:extras>`` JSON keeps our non-kinematic keys and the joints' reference values. Returns the path.
+    ``JointPositionController`` plugins. Zero joint values are the drawn (home) configuration and the limits are
+    relative to it (as a simulator reads them), except a Delta's arm angles and a 3-PRS's carriage positions,
+    whose values at home go into the model's ``<pmaccuracy:extras>`` JSON (with our non-kinematic keys) and whose
+    limits stay in our coordinates. Returns the path.
     """
     out = Path(path)
     sdf_tree(robot).write(out, encoding="unicode", xml_declaration=True)
