@@ -17,7 +17,7 @@ from typing import Any
 from .errors import ConfigError
 from .io.resolve import load_clearances as _load_clearances
 from .io.resolve import robot_arg
-from .io.robot_formats import export_into, is_robot_file, write_mjcf, write_urdf
+from .io.robot_formats import export_into, is_robot_file, write_mjcf, write_sdf, write_urdf
 from .model.manipulator import Manipulator
 from .model.serial import SerialArm, is_serial_spec, load_serial_sources
 from .model.spatial import SpatialManipulator, is_spatial
@@ -27,7 +27,8 @@ __all__ = ["load_robot", "load_clearances"]
 
 
 def load_robot(spec: Any):
-    """The robot of a preset name, a TOML path, an MJCF (``.xml``) or URDF (``.urdf``) file, or an object
+    """The robot of a preset name, a TOML path, an MJCF (``.xml``), URDF (``.urdf``) or SDFormat (``.sdf``) file,
+    or an object
     (returned as it is).
 
     A parallel robot (any architecture) gives a :class:`~pmaccuracy.model.manipulator.Manipulator`, a robot file
@@ -44,16 +45,17 @@ def load_robot(spec: Any):
     if not isinstance(spec, (str, os.PathLike)):
         raise ConfigError(f"expected a robot, a preset name or a robot TOML path, got {type(spec).__name__}",
                           key="robot")
-    if is_robot_file(spec):   # MJCF or URDF: pmaccuracy.io.robot_formats
+    if is_robot_file(spec):   # MJCF, URDF or SDF: pmaccuracy.io.robot_formats
         return robot_arg(spec)
     return SerialArm.load(spec) if is_serial_spec(spec) else robot_arg(spec)
 
 
 def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | None = None):
-    """Write a robot (object, preset name, TOML, MJCF or URDF path) as a robot file of another tool.
+    """Write a robot (object, preset name, TOML, MJCF, URDF or SDF path) as a robot file of another tool.
 
     ``path`` ending in ``.xml``/``.mjcf`` gives a fresh MJCF file (MuJoCo; loops closed by ``connect``
-    constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures; with ``like`` (the MJCF or URDF file the robot
+    constraints), ``.urdf`` a URDF file with URDF+ ``<loop>`` closures, ``.sdf`` an SDFormat 1.9 model (loops closed
+    by ball joints); with ``like`` (the MJCF, URDF or SDF file the robot
     was imported from), a copy of it in which only the geometry becomes the robot's (body and joint positions,
     axes, references, actuated ranges: :func:`pmaccuracy.io.robot_formats.export_into`). A planar robot is
     written as a fresh MJCF file only. Files are in metres and radians; :func:`load_robot` reads them back to the
@@ -72,6 +74,11 @@ def export_robot(robot: Any, path: str | os.PathLike, like: str | os.PathLike | 
             raise ConfigError(f"{robot.name} is a planar robot: URDF files are written for spatial robots so far "
                               "(write an MJCF .xml)", key="path")
         return write_urdf(robot, path)
+    if os.fspath(path).lower().endswith(".sdf"):
+        if not is_spatial(robot):
+            raise ConfigError(f"{robot.name} is a planar robot: SDF files are written for spatial robots so far "
+                              "(write an MJCF .xml)", key="path")
+        return write_sdf(robot, path)
     return write_mjcf(robot, path)
 
 

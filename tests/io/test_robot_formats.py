@@ -270,8 +270,6 @@ def _edit(tmp_path, stem, old, new, suffix=".xml"):
 
 BAD = {
     "not_xml": (lambda t: (t / "junk.xml", "this is not XML\n"), r"junk\.xml: MuJoCo cannot read it"),
-    "sdf": (lambda t: (t / "robot.sdf", "<sdf version='1.7'><model name='m'/></sdf>\n"),
-            r"robot\.sdf: SDF files are not read: no maintained SDF reader"),
     "urdf_not_xml": (lambda t: (t / "junk.urdf", "<robot><link name='a'>\n"), r"junk\.urdf: not a readable XML file"),
     "unknown_joint": (("hexapod", '<joint name="leg2_u1" axis="1 0 0"/>', '<joint name="leg2_u1" type="hing"/>'),
                       r"bad\.xml: MuJoCo cannot read it: .*invalid keyword: 'hing'"),

@@ -184,8 +184,8 @@ def add_robot(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="aalborg_3ppr",
                         help="preset name (aalborg_3ppr, symmetric_3ppr, symmetric_3rpr, symmetric_3rrr, "
                              "symmetric_3prr; serial arm for bounds --joints: planar_3r_arm) or path to a robot "
-                             "TOML file of any architecture "
-                             "(default: aalborg_3ppr)")
+                             "TOML file of any architecture, or an MJCF (.xml), URDF (.urdf) or SDF (.sdf) robot "
+                             "file (default: aalborg_3ppr)")
 
 
 def add_plot(parser: argparse.ArgumentParser, help: str, *, maps: bool = False, units: str = "mm") -> None:

@@ -1,4 +1,4 @@
-"""``pmaccuracy import FILE`` and ``pmaccuracy export ROBOT --to FILE``: robots from and to MJCF and URDF files."""
+"""``pmaccuracy import FILE`` and ``pmaccuracy export ROBOT --to FILE``: robots from and to MJCF, URDF and SDF files."""
 
 from __future__ import annotations
 
@@ -15,35 +15,37 @@ from ..io.resolve import robot_arg
 from ..model.spatial import is_spatial
 from . import _common
 
-IMPORT_HELP = "read a parallel robot from an MJCF or URDF file (loops closed by constraints) into a robot TOML"
-EXPORT_HELP = "write a robot as an MJCF or URDF file, or its geometry into the file it came from (--like)"
+IMPORT_HELP = "read a parallel robot from an MJCF, URDF or SDF file (loops closed by constraints) into a robot TOML"
+EXPORT_HELP = "write a robot as an MJCF, URDF or SDF file, or its geometry into the file it came from (--like)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "import", help=IMPORT_HELP,
         description="Reads FILE (MJCF .xml read by MuJoCo, loops closed by <equality><connect>; URDF .urdf read "
-                    "by yourdfpy, loops closed by URDF+ <loop> elements), recognises its legs and their actuated "
-                    "joints, converts metres to mm and radians to degrees, prints the robot and, with --out, "
-                    "writes it as a robot TOML that every command reads. A joint or loop that makes no leg of a "
-                    "known architecture is named in one line (exit 2).")
-    p.add_argument("file", metavar="FILE", help="the robot file: .xml / .mjcf (MJCF) or .urdf (URDF)")
+                    "by yourdfpy, loops closed by URDF+ <loop> elements; SDFormat .sdf, read as XML, loops closed "
+                    "by the joints beyond a spanning tree, actuated joints those of joint-controller plugins), "
+                    "recognises its legs and their actuated joints, converts metres to mm and radians to degrees, "
+                    "prints the robot and, with --out, writes it as a robot TOML that every command reads. A joint "
+                    "or loop that makes no leg of a known architecture is named in one line (exit 2).")
+    p.add_argument("file", metavar="FILE",
+                   help="the robot file: .xml / .mjcf (MJCF), .urdf (URDF) or .sdf (SDFormat)")
     p.add_argument("--out", metavar="ROBOT.toml", help="write the robot TOML; missing parent folders are created")
     p.add_argument("--format", choices=("table", "json"), default="table",
                    help="output format on stdout (default: table)")
     p.set_defaults(func=run_import)
     p = sub.add_parser(
         "export", help=EXPORT_HELP,
-        description="Writes ROBOT (a preset name, a robot TOML, or an MJCF/URDF file) as a fresh MJCF (.xml) or URDF "
-                    "(.urdf) file at --to (a planar robot: MJCF only); with --like ORIGINAL (the file the robot was "
-                    "imported from), writes a "
-                    "copy of ORIGINAL in which only the geometry changes (body and joint positions, axes, the "
-                    "reference configuration and the actuated ranges), so that simulation and control use the "
-                    "calibrated model.")
-    p.add_argument("robot", metavar="ROBOT", help="preset name, robot TOML, or MJCF/URDF file")
-    p.add_argument("--to", required=True, metavar="FILE", help="the file to write: .xml (MJCF) or .urdf (URDF)")
+        description="Writes ROBOT (a preset name, a robot TOML, or an MJCF/URDF/SDF file) as a fresh MJCF (.xml), "
+                    "URDF (.urdf) or SDFormat (.sdf) file at --to (a planar robot: MJCF only); with --like "
+                    "ORIGINAL (the file the robot was imported from), writes a copy of ORIGINAL in which only the "
+                    "geometry changes (body and joint positions, axes, the reference configuration and the "
+                    "actuated ranges), so that simulation and control use the calibrated model.")
+    p.add_argument("robot", metavar="ROBOT", help="preset name, robot TOML, or MJCF/URDF/SDF file")
+    p.add_argument("--to", required=True, metavar="FILE",
+                   help="the file to write: .xml (MJCF), .urdf (URDF) or .sdf (SDFormat)")
     p.add_argument("--like", metavar="ORIGINAL",
-                   help="the robot's original MJCF or URDF file: keep everything but the geometry")
+                   help="the robot's original MJCF, URDF or SDF file: keep everything but the geometry")
     p.set_defaults(func=run_export)
 
 
@@ -88,18 +90,21 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    kinds = (".xml", ".mjcf", ".urdf")
+    kinds = (".xml", ".mjcf", ".urdf", ".sdf")
     if args.like:   # into the original: the same format
-        kinds = (".urdf",) if Path(args.like).suffix.lower() == ".urdf" else (".xml", ".mjcf")
+        like = Path(args.like).suffix.lower()
+        kinds = (like,) if like in (".urdf", ".sdf") else (".xml", ".mjcf")
     _common.prepare_output(args.to, "--to", kinds)
     robot = robot_arg(args.robot)
-    if not is_spatial(robot) and (args.like or Path(args.to).suffix.lower() == ".urdf"):
+    if not is_spatial(robot) and (args.like or Path(args.to).suffix.lower() in (".urdf", ".sdf")):
         raise ConfigError(f"{robot.name} is a planar robot: it is written as a fresh MJCF file (.xml) only so far",
                           key="ROBOT")
     if args.like:
         robot_formats.export_into(robot, args.like, args.to)
     elif Path(args.to).suffix.lower() == ".urdf":
         robot_formats.write_urdf(robot, args.to)
+    elif Path(args.to).suffix.lower() == ".sdf":
+        robot_formats.write_sdf(robot, args.to)
     else:
         robot_formats.write_mjcf(robot, args.to)
     sys.stdout.write(f"written: {args.to}\n")

@@ -77,7 +77,8 @@ def _kind(value: Any) -> str:
 def robot_arg(robot: Any, name: str = "robot"):
     """A :class:`~pmaccuracy.model.manipulator.Manipulator` from an instance, a preset name or a TOML path
     (:func:`pmaccuracy.kinematics.resolve_robot`: a file's robot must also assemble somewhere), or a
-    :class:`~pmaccuracy.model.spatial.SpatialManipulator` from an MJCF (``.xml``) or URDF (``.urdf``) file
+    :class:`~pmaccuracy.model.spatial.SpatialManipulator` from an MJCF (``.xml``), URDF (``.urdf``) or SDF (``.sdf``)
+    file
     (:func:`pmaccuracy.io.robot_formats.read_robot_file`; its home pose must be within its limits)."""
     if is_robot_file(robot):
         loaded = read_robot_file(robot)

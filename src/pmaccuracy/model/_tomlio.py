@@ -49,9 +49,9 @@ def read_spec(spec: str | Path, *, kind: str, folder: str | None) -> tuple[dict[
         if not path.is_file():
             known = f" (presets: {', '.join(presets)})" if presets else ""
             raise ConfigError(f"no {kind} preset or file of that name{known}", source=text_spec)
-        if kind == "robot" and path.suffix.lower() in (".xml", ".mjcf", ".urdf"):
+        if kind == "robot" and path.suffix.lower() in (".xml", ".mjcf", ".urdf", ".sdf"):
             # the readers of robot files are in the io layer, above the kinematics that call this
-            raise ConfigError("an MJCF/URDF robot file: read it with pm.load_robot(path) and pass the robot "
+            raise ConfigError("an MJCF/URDF/SDF robot file: read it with pm.load_robot(path) and pass the robot "
                               "(every command's --robot reads it directly)", source=text_spec)
         data = read_text(text_spec, what=f"{kind} TOML file")
         source = text_spec

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +19,7 @@ from ...model.spatial_legs import DeltaLeg, PRSLeg, UPULeg
 from .graph import SUFFIXES, EXTRAS_NAME, _M, _Groups, _unit, _signed_angle
 from .mjcf import _base_body, read_mjcf
 from .recognise import _LegReader, _legs, pairs_of, robot_from_graph
+from .sdf import SDF_NAMESPACE, _read
 from .urdf import _gazebo_joints, _loop_links, _pose6, read_urdf
 from .write import _f, _home, _quat, _rpy
 
@@ -143,9 +145,10 @@ def _angle_unit(root: ET.Element) -> float:
 
 
 def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str | os.PathLike) -> Path:
-    """Write ``robot`` (e.g. a calibrated copy of the one imported from ``original``) into a copy of the MJCF or
-    URDF file ``original`` at ``out``, changing only the geometry (URDF: joint origins and axes, limits, loop
-    origins, and the reference values of a Delta's or 3-PRS's actuated joints in the ``<pmaccuracy>`` JSON).
+    """Write ``robot`` (e.g. a calibrated copy of the one imported from ``original``) into a copy of the MJCF,
+    URDF or SDF file ``original`` at ``out``, changing only the geometry (URDF: joint origins and axes, limits, loop
+    origins, and the reference values of a Delta's or 3-PRS's actuated joints in the ``<pmaccuracy>`` JSON; SDF:
+    :func:`_export_sdf_into`).
 
     Each leg's bodies turn by one rotation ``Q`` (the old leg frame onto the new) about their leg's joint centres,
     which move to the robot's: body ``pos``/orientation, joint ``pos``/``axis``, the ``ref`` values of the actuated
@@ -158,6 +161,8 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
     fmt = SUFFIXES.get(Path(source).suffix.lower())
     if fmt == "urdf":
         return _export_urdf_into(robot, source, out)
+    if fmt == "sdf":
+        return _export_sdf_into(robot, source, out)
     if fmt != "mjcf":
         raise ConfigError(f"unknown robot file type (expected one of {', '.join(SUFFIXES)})", source=source)
     mujoco = _optional.require("mujoco", "writing into an MJCF file")
@@ -444,3 +449,173 @@ def _export_urdf_into(robot, source: str, out) -> Path:
     out = Path(out)
     tree.write(out, encoding="unicode", xml_declaration=True)
     return out
+
+
+def _export_sdf_into(robot, source: str, out) -> Path:
+    """:func:`export_into` for an SDFormat file: the links of each leg (a rigid group at a time) turn with the
+    leg's rotation ``Q`` about a joint centre, which moves to the robot's; the platform's links move to the new
+    home pose, the base's stay; a ``<frame>`` moves with the link it is attached to. Every ``<pose>`` that changes
+    is rewritten (``x y z roll pitch yaw`` in m and rad, keeping its ``relative_to``) and joint poses put the joints
+    at the robot's centres; ``<axis>``/``<axis2>`` ``<xyz>`` are rewritten in their ``expressed_in`` frame and
+    ``<limit>`` in m or rad; the reference values of a Delta's or 3-PRS's actuated joints go into the model's
+    ``<pmaccuracy:extras>`` JSON. Zero joint values stay the drawn configuration; everything else is kept."""
+    graph, ctx = _read(source)
+    old = robot_from_graph(graph)
+    if not isinstance(old, SpatialManipulator) or not isinstance(robot, SpatialManipulator):
+        raise ConfigError("writing into an existing file is done for spatial robots so far", source=source)
+    if old.architecture != robot.architecture or old.n_legs != robot.n_legs:
+        raise ConfigError(f"the file holds a {old.architecture} with {old.n_legs} legs, the robot is a "
+                          f"{robot.architecture} with {robot.n_legs}", source=source)
+    platform, legs = _legs(graph)
+    old_home, new_home = _home(old), _home(robot)
+    frames, model = ctx.frames, ctx.model
+    bp, bR = ctx.base
+
+    def here(name):                       # a frame's pose in the base frame (mm) in the file as it is
+        p, R = frames.pose(name)
+        return bR.T @ (p - bp), bR.T @ R
+
+    def moved(T, x, R):                   # x, R carried by T = (k_old, k_new, Q)
+        k_old, k_new, Q = T
+        return k_new + Q @ (x - k_old), Q @ R
+
+    links = [el.get("name") for el in model.findall("link")]
+    group_T: dict[int, tuple] = {}
+    pf, Rf = graph.frames[platform]
+    p1, R1 = new_home
+    group_T[platform] = (pf, p1, R1 @ Rf.T)
+    targets: dict = {}
+    flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
+    leg_extras = graph.extras.get("legs") if isinstance(graph.extras.get("legs"), list) else []
+    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
+        extra = leg_extras[i - 1] if i - 1 < len(leg_extras) and isinstance(leg_extras[i - 1], dict) else {}
+        reader = _LegReader(graph, platform, i, extra)
+        try:
+            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+        targets.update(tg)
+        touched: dict[int, tuple | None] = {}
+        for path in paths:
+            for j in path:
+                for g in (j.parent, j.child):
+                    if g in (0, platform):
+                        continue
+                    if touched.get(g) is None:
+                        touched[g] = (j.anchor, tg[j.ident].anchor, Q) if j.kind != "slide" else None
+        for g, T in touched.items():
+            if T is None:                 # only slides touch it: the nearest pair centre
+                x = graph.frames[g][0]
+                k_old, k_new = min(keys, key=lambda kv: np.linalg.norm(kv[0] - x))
+                T = (k_old, k_new, Q)
+            group_T[g] = T
+    identity = (np.zeros(3), np.zeros(3), np.eye(3))
+    new: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name in links:
+        new[name] = moved(group_T.get(ctx.group_of[name], identity), *here(name))
+    for el in model.findall("frame"):                 # rigid with the link it is attached to
+        name, link = el.get("name"), el.get("attached_to") or "__model__"
+        seen = set()
+        while link in frames.els and frames.els[link][0] != "link" and link not in seen:
+            seen.add(link)
+            tag, fel = frames.els[link]
+            link = (fel.findtext("child") or "").strip() if tag == "joint" else (fel.get("attached_to") or "__model__")
+        if link in new:
+            xo, Ro = here(link)
+            xn, Rn = new[link]
+            x, R = here(name)
+            new[name] = (xn + Rn @ Ro.T @ (x - xo), Rn @ Ro.T @ R)
+        else:
+            new[name] = here(name)
+    by_joint = {ident[1]: {} for ident in targets if ident[0] == "sdf"}
+    for ident, t in targets.items():
+        if ident[0] == "sdf":
+            by_joint[ident[1]][ident[2]] = t
+    for el in model.findall("joint"):                 # rigid with the child, at the robot's centre
+        name = el.get("name")
+        child = ctx.ends[name][1]
+        xo, Ro = here(child)
+        xn, Rn = new[child]
+        x, R = here(frames.joint_key[name])
+        x, R = xn + Rn @ Ro.T @ (x - xo), Rn @ Ro.T @ R
+        if name in by_joint:
+            x = by_joint[name][0].anchor
+        new[frames.joint_key[name]] = (x, R)
+    model_frame = (bR.T @ (-bp), bR.T)
+    new["__model__"] = model_frame
+    for name, (tag, el) in frames.els.items():        # rewrite the poses that change, in their own frames
+        pose_el = el.find("pose")
+        rel = (pose_el.get("relative_to") or pose_el.get("frame")) if pose_el is not None else None
+        rel = rel or frames.default(tag, el)
+        xr, Rr = new[rel] if rel in new else here(rel)
+        x, R = new[name]
+        loc_x, loc_R = Rr.T @ (x - xr), Rr.T @ R
+        xo_r, Ro_r = here(rel)
+        xo, Ro = here(name)
+        if np.linalg.norm(loc_x - Ro_r.T @ (xo - xo_r)) <= 1e-9 and np.max(np.abs(loc_R - Ro_r.T @ Ro)) <= 1e-13:
+            continue
+        if pose_el is None:
+            pose_el = ET.Element("pose")
+            el.insert(0, pose_el)
+        for attr in ("degrees", "rotation_format"):
+            pose_el.attrib.pop(attr, None)
+        pose_el.text = _f(np.concatenate([loc_x / _M, _rpy(loc_R)]))
+    refs = {}
+    for el in model.findall("joint"):
+        name = el.get("name")
+        for k, t in sorted(by_joint.get(name, {}).items()):
+            tag = "axis" if k == 0 else "axis2"
+            ax = el.find(tag)
+            slide = el.get("type") == "prismatic"
+            scale = _M if slide else 1.0
+            if t.axis is not None:
+                if ax is None:
+                    ax = ET.SubElement(el, tag)
+                xyz = ax.find("xyz")
+                if xyz is None:
+                    xyz = ET.SubElement(ax, "xyz")
+                expressed = xyz.get("expressed_in")
+                upm = (ax.findtext("use_parent_model_frame") or "").strip().lower() in ("true", "1")
+                if expressed:
+                    Re = new[expressed][1] if expressed in new else here(expressed)[1]
+                elif upm or frames.version < (1, 5):
+                    Re = model_frame[1]
+                else:
+                    Re = new[frames.joint_key[name]][1]
+                xyz.text = _f(Re.T @ (-t.axis if ("sdf", name, k) in flipped else t.axis))
+            if t.ref is not None:
+                refs[name if k == 0 else f"{name}:axis2"] = t.ref / scale
+            if t.range is not None:
+                if ax is None:
+                    ax = ET.SubElement(el, tag)
+                limit = ax.find("limit")
+                if limit is None:
+                    limit = ET.SubElement(ax, "limit")
+                for end, v in (("lower", t.range[0]), ("upper", t.range[1])):
+                    node = limit.find(end)
+                    if node is None:
+                        node = ET.SubElement(limit, end)
+                    node.text = repr(v / scale)
+    if refs:
+        extra = next((c for c in model if c.tag == f"{{{SDF_NAMESPACE}}}extras"), None)
+        if extra is None:
+            extra = ET.SubElement(model, f"{{{SDF_NAMESPACE}}}extras")
+        data = graph.extras.copy()
+        data["refs"] = {**(data.get("refs") or {}), **refs}
+        extra.text = json.dumps(data)
+    for prefix, uri in _namespaces(source):        # the file's own prefixes, not ns0
+        try:
+            ET.register_namespace(prefix, uri)
+        except ValueError:
+            pass
+    text = Path(source).read_text(encoding="utf-8")
+    start = re.search(r"<sdf[\s>/]", text)
+    prolog = text[:start.start()] if start else ""          # the XML declaration and comments before <sdf>
+    out = Path(out)
+    out.write_text(prolog + ET.tostring(ctx.tree.getroot(), encoding="unicode") + "\n", encoding="utf-8")
+    return out
+
+
+def _namespaces(source: str) -> list[tuple[str, str]]:
+    """The ``(prefix, uri)`` namespace declarations of an XML file."""
+    return [ns for _, ns in ET.iterparse(source, events=("start-ns",)) if ns[0]]

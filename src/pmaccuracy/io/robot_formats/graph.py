@@ -15,7 +15,7 @@ from ...errors import ConfigError
 
 
 #: File suffixes of the robot files this module reads, and their format.
-SUFFIXES = {".xml": "mjcf", ".mjcf": "mjcf", ".urdf": "urdf"}
+SUFFIXES = {".xml": "mjcf", ".mjcf": "mjcf", ".urdf": "urdf", ".sdf": "sdf"}
 #: Name of the JSON text that carries the non-kinematic keys of our format.
 EXTRAS_NAME = "pmaccuracy"
 #: Patterns of kinematic pairs (base to platform) and the architecture they make.
@@ -29,9 +29,8 @@ _M = 1000.0  # mm per metre
 
 
 def is_robot_file(spec: Any) -> bool:
-    """True for a path (str or PathLike) ending in ``.xml``, ``.mjcf``, ``.urdf`` (:data:`SUFFIXES`) or ``.sdf``
-    (refused by :func:`read_robot_file` with its reason)."""
-    return isinstance(spec, (str, os.PathLike)) and Path(spec).suffix.lower() in (*SUFFIXES, ".sdf")
+    """True for a path (str or PathLike) ending in ``.xml``, ``.mjcf``, ``.urdf`` or ``.sdf`` (:data:`SUFFIXES`)."""
+    return isinstance(spec, (str, os.PathLike)) and Path(spec).suffix.lower() in SUFFIXES
 
 
 # ---------------------------------------------------------------------------------------------- neutral graph

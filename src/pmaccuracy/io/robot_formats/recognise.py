@@ -21,6 +21,7 @@ from ...model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
 from ...numerics.spatial import rotations, rotvecs
 from .graph import SUFFIXES, PATTERNS, ACTUATED_PAIR, FileJoint, KinematicGraph, _error, _unit, _signed_angle, _rotate
 from .mjcf import read_mjcf
+from .sdf import read_sdf
 from .urdf import read_urdf
 
 
@@ -544,22 +545,18 @@ def robot_from_graph(graph: KinematicGraph):
 
 
 def read_robot_file(path: str | os.PathLike):
-    """The robot (spatial, or planar when every joint moves in one plane) of an MJCF (``.xml``, ``.mjcf``) or
-    URDF (``.urdf``) file (:func:`read_mjcf`,
-    :func:`read_urdf`, :func:`robot_from_graph`); lengths mm, angles rad.
+    """The robot (spatial, or planar when every joint moves in one plane) of an MJCF (``.xml``, ``.mjcf``),
+    URDF (``.urdf``) or SDFormat (``.sdf``) file (:func:`read_mjcf`, :func:`read_urdf`, :func:`read_sdf`,
+    :func:`robot_from_graph`); lengths mm, angles rad.
 
     Raises :class:`ConfigError` (one line: the file, the element, the problem) for a file that is missing, not
     XML, refused by its parser, or whose loops or joints make no leg of a known architecture.
     """
     source = os.fspath(path)
     fmt = SUFFIXES.get(Path(source).suffix.lower())
-    if Path(source).suffix.lower() == ".sdf":
-        raise ConfigError("SDF files are not read: no maintained SDF reader is on PyPI (Gazebo's sdformat bindings come "
-                          "with Gazebo); convert the model to MJCF or "
-                          "URDF (with its loops as connect constraints or URDF+ <loop> elements)", source=source)
     if fmt is None:
         raise ConfigError(f"unknown robot file type (expected one of {', '.join(SUFFIXES)})", source=source)
     if not Path(source).is_file():
         raise ConfigError("no such file", source=source)
-    graph = read_mjcf(source) if fmt == "mjcf" else read_urdf(source)
+    graph = {"mjcf": read_mjcf, "urdf": read_urdf, "sdf": read_sdf}[fmt](source)
     return robot_from_graph(graph)

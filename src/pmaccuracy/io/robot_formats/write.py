@@ -16,6 +16,7 @@ from ...model.spatial import SpatialManipulator
 from ...model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPULeg
 from ...numerics.spatial import rotations, rotvecs
 from .graph import EXTRAS_NAME, EXTRA_KEYS, _M, _unit, _signed_angle
+from .sdf import SDF_NAMESPACE
 
 
 def _f(v) -> str:
@@ -300,4 +301,94 @@ def write_urdf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
     """
     out = Path(path)
     urdf_tree(robot).write(out, encoding="unicode", xml_declaration=True)
+    return out
+
+
+def sdf_tree(robot: SpatialManipulator) -> ET.ElementTree:
+    """A fresh SDFormat 1.9 document of a spatial robot (see :func:`write_sdf`)."""
+    home = _home(robot)
+    p, R = home
+    root = ET.Element("sdf", {"version": "1.9", "xmlns:pmaccuracy": SDF_NAMESPACE})
+    model = ET.SubElement(root, "model", name=robot.name)
+    ET.SubElement(model, "link", name="base_link")
+    j = ET.SubElement(model, "joint", name="base_fixed", type="fixed")
+    ET.SubElement(j, "parent").text = "world"
+    ET.SubElement(j, "child").text = "base_link"
+    plat = ET.SubElement(model, "link", name="platform")
+    ET.SubElement(plat, "pose", relative_to="base_link").text = _f(np.concatenate([p / _M, _rpy(R)]))
+    refs: dict[str, float] = {}
+    plugins = []
+    for i, leg in enumerate(robot.legs, start=1):
+        try:
+            chain = _leg_chain(leg, home)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+        names = []
+        for k, body in enumerate(chain):
+            parent_k = body.get("parent", k - 1)
+            parent = "base_link" if parent_k < 0 else names[parent_k]
+            link = f"leg{i}_b{k + 1}"
+            el = ET.SubElement(model, "link", name=link)
+            ET.SubElement(el, "pose", relative_to="base_link").text = _f(np.concatenate([body["pos"] / _M,
+                                                                                         np.zeros(3)]))
+            jts = body["joints"]
+            jel = ET.SubElement(model, "joint", name=f"{link}_j")
+            ET.SubElement(jel, "parent").text = parent
+            ET.SubElement(jel, "child").text = link
+            if jts[0][0] == "ball":
+                jel.set("type", "ball")
+            else:
+                jel.set("type", "universal" if len(jts) == 2 else ("prismatic" if jts[0][0] == "slide" else "revolute"))
+                for n, (kind, axis, ref, rng, act) in enumerate(jts):
+                    ax = ET.SubElement(jel, "axis" if n == 0 else "axis2")
+                    ET.SubElement(ax, "xyz", expressed_in="__model__").text = _f(axis)
+                    scale = _M if kind == "slide" else 1.0
+                    key = jel.get("name") if n == 0 else f"{jel.get('name')}:axis2"
+                    # zero joint values are the drawn (home) configuration and limits relative to it, as a
+                    # simulator reads them; a Delta's arm angle and a 3-PRS carriage keep our coordinate (refs)
+                    own = act and isinstance(leg, (DeltaLeg, PRSLeg))
+                    if own:
+                        refs[key] = ref / scale
+                    if rng is not None:
+                        lo, hi = (rng[0], rng[1]) if own else (rng[0] - ref, rng[1] - ref)
+                        lim = ET.SubElement(ax, "limit")
+                        ET.SubElement(lim, "lower").text = repr(lo / scale)
+                        ET.SubElement(lim, "upper").text = repr(hi / scale)
+                    if act:
+                        plugins.append((i, jel.get("name")))
+            names.append(link)
+            if "tip" in body:
+                c = ET.SubElement(model, "joint", name=f"{link}_platform", type="ball")
+                ET.SubElement(c, "parent").text = link
+                ET.SubElement(c, "child").text = "platform"
+                ET.SubElement(c, "pose").text = _f(np.concatenate([R.T @ (body["tip"] - p) / _M, np.zeros(3)]))
+            if body.get("weld"):
+                w = ET.SubElement(model, "joint", name=f"{link}_platform", type="fixed")
+                ET.SubElement(w, "parent").text = "platform"
+                ET.SubElement(w, "child").text = link
+    for i, joint in plugins:
+        pl = ET.SubElement(model, "plugin", filename="gz-sim-joint-position-controller-system",
+                           name="gz::sim::systems::JointPositionController")
+        ET.SubElement(pl, "joint_name").text = joint
+    data = json.loads(_extras_json(robot))
+    data["refs"] = refs
+    ET.SubElement(model, "pmaccuracy:extras").text = json.dumps(data)
+    ET.indent(root)
+    return ET.ElementTree(root)
+
+
+def write_sdf(robot: SpatialManipulator, path: str | os.PathLike) -> Path:
+    """Write a spatial robot as a fresh SDFormat 1.9 file that :func:`read_robot_file` reads back.
+
+    A ``base_link`` fixed to the world; the platform a link at the home pose (no joint of its own); every leg a
+    chain of links from ``base_link`` (a universal joint one ``universal`` joint, a ball one ``ball`` joint),
+    its last link joined to the platform by a ``ball`` joint (a 3-UPU's by a ``fixed`` joint after its
+    platform-side ``universal``) that closes the loop; the actuated joints are driven by Gazebo
+    ``JointPositionController`` plugins. Zero joint values are the drawn (home) configuration and the limits are
+    relative to it (as a simulator reads them), except a Delta's arm angles and a 3-PRS's carriage positions,
+    whose values at home go into the model's ``<pmaccuracy:extras>`` JSON (with our non-kinematic keys) and whose
+    limits stay in our coordinates. Returns the path.
+    """
+    out = Path(path)
+    sdf_tree(robot).write(out, encoding="unicode", xml_declaration=True)
     return out
