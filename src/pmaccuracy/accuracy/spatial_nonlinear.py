@@ -319,9 +319,9 @@ def hexapod_error_twists(robot: SpatialManipulator, sources, pose, displacements
     """The exact error twists ``[dp, dtheta]`` ``(N, 6)`` (mm, rotation vector rad: the displaced pose is ``p + dp``,
     ``Rot(dtheta) R``) of a 6-UPS at ``pose`` ``(6,)`` (rotation vector, rad) for configurations of its sources.
 
-    ``displacements``: a list of ``N`` dicts ``{label: vector (3,)}``, each source's displacement (mm for
-    translations, a rotation vector in rad for rotations; base frame; labels of :class:`HexapodSource`; a
-    missing label is 0). Each vector is projected on its source's directions (it must lie in its set: segment,
+    ``displacements``: a list of ``N`` dicts ``{label: vector (3,)}`` (or one dict ``{label: (N, 3)}``), each
+    source's displacement (mm for translations, a rotation vector in rad for rotations; base frame; labels of
+    :class:`HexapodSource`; a missing label is 0). Each vector is projected on its source's directions (it must lie in its set: segment,
     disc or ball of its half-width). Eq. 1 of the module text, solved by Newton's method; NaN where it does
     not converge.
     """
@@ -332,11 +332,20 @@ def hexapod_error_twists(robot: SpatialManipulator, sources, pose, displacements
 
 
 def _variables(geo: _Geometry, displacements) -> np.ndarray:
-    x = np.zeros((len(displacements), geo.offsets[-1]))
-    for n, conf in enumerate(displacements):
-        for k, s in enumerate(geo.sources):
-            if s.label in conf:
-                x[n, geo.offsets[k]:geo.offsets[k + 1]] = s.basis.T @ np.asarray(conf[s.label], float) / s.half_width
+    """The unit variables ``(N, m)`` of a list of ``N`` dicts ``{label: (3,)}`` or one dict ``{label: (N, 3)}``."""
+    if isinstance(displacements, dict):
+        arrays = {k: np.atleast_2d(np.asarray(v, dtype=float)) for k, v in displacements.items()}
+        n = max((a.shape[0] for a in arrays.values()), default=0)
+    else:
+        n = len(displacements)
+        arrays = {}
+        for s in geo.sources:
+            if any(s.label in conf for conf in displacements):
+                arrays[s.label] = np.array([np.asarray(conf.get(s.label, np.zeros(3)), float) for conf in displacements])
+    x = np.zeros((n, geo.offsets[-1]))
+    for k, s in enumerate(geo.sources):
+        if s.label in arrays:
+            x[:, geo.offsets[k]:geo.offsets[k + 1]] = arrays[s.label] @ s.basis / s.half_width
     return x
 
 
