@@ -311,7 +311,6 @@ def _check(robot: SpatialManipulator, sources, pose) -> tuple[SpatialErrorSource
     pose = as_spatial_poses(pose)
     if pose.shape != (6,):
         raise UnsupportedArchitectureError(f"one pose (6,) at a time, got shape {pose.shape}", key="pose")
-    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
     return sources, pose
 
 
@@ -325,6 +324,7 @@ def hexapod_error_twists(robot: SpatialManipulator, sources, pose, displacements
     disc or ball of its half-width). Eq. 1 of the module text, solved by Newton's method; NaN where it does
     not converge.
     """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
     sources, pose = _check(robot, sources, pose)
     spatial_pose_errors(robot, sources, pose)      # reachability, joint limits, singularity: raise as it does
     geo = _geometry(robot, sources, pose)
@@ -648,6 +648,7 @@ def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent
     :class:`~pmaccuracy.errors.OutsideJointLimitsError` and :class:`~pmaccuracy.errors.SingularPoseError` as
     :func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors` does.
     """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
     sources, pose = _check(robot, sources, pose)
     spatial_pose_errors(robot, sources, pose, allow_outside=allow_outside, details=False)   # raises as it does
     geo = _geometry(robot, sources, pose)
