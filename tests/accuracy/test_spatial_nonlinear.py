@@ -185,5 +185,9 @@ def test_refusals():
     assert not res.certified and res.reason and np.all(np.isinf(res.upper))
     with pytest.raises(UnsupportedArchitectureError, match="6-UPS only"):
         spatial_certified_bounds(pm.load_robot("delta_clavel"), "delta_typical", [0, 0, -800.0, 0, 0, 0])
+    with pytest.raises(pm.PoseError, match="one pose"):
+        spatial_certified_bounds(hexapod, "ups_typical", [hexapod.home_pose] * 2)
+    with pytest.raises(pm.SingularPoseError):
+        spatial_certified_bounds(hexapod, "ups_typical", [0, 0, 400.0, 0, 0, np.pi / 2], allow_outside=True)
     none = spatial_certified_bounds(hexapod, "none", hexapod.home_pose)
     assert none.certified and np.all(none.upper == 0)

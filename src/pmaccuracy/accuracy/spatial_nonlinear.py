@@ -91,7 +91,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UnsupportedArchitectureError
+from ..errors import PoseError, UnsupportedArchitectureError
 from ..kinematics.spatial import as_spatial_poses
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
@@ -310,7 +310,7 @@ def _check(robot: SpatialManipulator, sources, pose) -> tuple[SpatialErrorSource
     sources = SpatialErrorSources.load(sources, robot)
     pose = as_spatial_poses(pose)
     if pose.shape != (6,):
-        raise UnsupportedArchitectureError(f"one pose (6,) at a time, got shape {pose.shape}", key="pose")
+        raise PoseError(f"one pose (6,) at a time, got shape {pose.shape}")
     return sources, pose
 
 
@@ -512,6 +512,8 @@ def _certify(geo: _Geometry, sums: dict):
     box = _image(maps, C, c, -rho, rho)
     reason = "the bounds of the solution set do not close (the error set is too large for the distance to a " \
              "singularity, or a leg's displacement reaches its length)"
+    if np.any(sums["O1"] > 0.5):
+        return None, None, None, np.inf, "a slide's tilt and direction turns exceed 0.5 rad"
     for _ in range(200):
         q_lo, q_hi, _, _ = _q_bounds(geo, sums, box)
         if not (np.all(np.isfinite(q_lo)) and np.all(np.isfinite(q_hi))) or box[1] > 1.0:
