@@ -258,13 +258,15 @@ def _leg_targets(geo: _Geometry, disp: dict) -> tuple[np.ndarray, np.ndarray]:
     return _excess(d, z, geo.L), disp["t0"]
 
 
-def _residual(geo: _Geometry, t: np.ndarray, target: np.ndarray, t0: np.ndarray):
-    """Eq. 1's residuals ``(N, 6)`` and their Jacobian ``(N, 6, 6)`` in the twist ``t`` ``(N, 6)``."""
+def _residual(geo: _Geometry, t: np.ndarray, target: np.ndarray, t0: np.ndarray, jac: bool = True):
+    """Eq. 1's residuals ``(N, 6)`` and (``jac``) their Jacobian ``(N, 6, 6)`` in the twist ``t`` ``(N, 6)``."""
     v, w = t[:, :3], t[:, 3:]
     Rm = _rot_minus_identity(w)                                   # (N, 3, 3)
     rr = np.einsum("nij,lj->nli", Rm, geo.r)                      # (Rot(w) - I) r  (N, 6, 3)
     u = v[:, None, :] + rr - t0
     F = _excess(geo.d, u, geo.L[None, :]) - target
+    if not jac:
+        return F, None
     x = geo.L[:, None] * geo.d + u
     nvec = x / np.linalg.norm(x, axis=-1, keepdims=True)
     rot_r = geo.r[None] + rr                                      # Rot(w) r
@@ -290,7 +292,7 @@ def _solve(geo: _Geometry, x: np.ndarray, iterations: int = 40) -> tuple[np.ndar
         except np.linalg.LinAlgError:
             step = np.full_like(t, np.nan)
         t = t - step
-    F, _ = _residual(geo, t, target, t0)
+    F, _ = _residual(geo, t, target, t0, jac=False)
     ok = np.all(np.abs(F) <= 100 * tol, axis=-1) & np.all(np.isfinite(t), axis=-1)
     return np.where(ok[:, None], t, np.nan), ok
 
@@ -601,22 +603,42 @@ def _objective(t: np.ndarray, which: np.ndarray, sign: np.ndarray) -> np.ndarray
     return sign * q[np.arange(len(which)), which]
 
 
+def _gradient(geo: _Geometry, x: np.ndarray, t: np.ndarray, which: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    """The gradient ``(N, m)`` of each row's quantity in the unit variables at the solutions ``t``: implicit
+    differentiation of Eq. 1, ``dt/dx = -J^-1 dF/dx`` with ``dF/dx`` by central differences at fixed ``t`` (no
+    solve)."""
+    N, m = x.shape
+    step = 1e-6
+    E = np.eye(m) * step
+    X = np.concatenate([x[:, None, :] + E, x[:, None, :] - E], axis=1).reshape(-1, m)
+    target, t0 = _leg_targets(geo, _displacements(geo, X))
+    F, _ = _residual(geo, np.repeat(t, 2 * m, axis=0), target, t0, jac=False)
+    F = F.reshape(N, 2, m, -1)
+    dF = np.swapaxes((F[:, 0] - F[:, 1]) / (2 * step), 1, 2)          # (N, 6 legs, m)
+    _, J = _residual(geo, t, *_leg_targets(geo, _displacements(geo, x)))
+    dt = -np.linalg.solve(J, dF)                                       # (N, 6, m)
+    q = _quantities(t)
+    out = np.empty((N, m))
+    for n in range(N):
+        k = which[n]
+        if k < 6:
+            out[n] = sign[n] * dt[n, k]
+        else:
+            rows = slice(0, 3) if k == 6 else slice(3, 6)
+            out[n] = sign[n] * (t[n, rows] / max(q[n, k], 1e-300)) @ dt[n, rows]
+    return np.where(np.isfinite(out), out, 0.0)
+
+
 def _ascent(geo: _Geometry, x: np.ndarray, which: np.ndarray, sign: np.ndarray, steps: int) -> tuple:
-    """Conditional-gradient ascent of each row's quantity over the sources' sets (finite-difference gradients
-    of the exact model); returns ``x``, the twists and the objective values."""
+    """Conditional-gradient ascent of each row's quantity over the sources' sets (gradients of the exact
+    model, :func:`_gradient`); returns ``x``, the twists and the objective values."""
     t, _ = _solve(geo, x)
     f = _objective(t, which, sign)
     m = x.shape[1]
     if steps == 0 or m == 0:
         return x, t, f
     for _ in range(steps):
-        step = 1e-5
-        E = np.eye(m) * step
-        X = np.concatenate([x[:, None, :] + E, x[:, None, :] - E], axis=1).reshape(-1, m)
-        tt, _ = _solve(geo, X)
-        ff = _objective(tt, np.repeat(which, 2 * m), np.repeat(sign, 2 * m)).reshape(len(x), 2, m)
-        grad = (ff[:, 0] - ff[:, 1]) / (2 * step)
-        grad = np.where(np.isfinite(grad), grad, 0.0)
+        grad = _gradient(geo, x, t, which, sign)
         target = _support_point(geo, grad)
         improved = np.zeros(len(x), bool)
         for tau in (1.0, 0.5, 0.25, 0.1, 0.03):
@@ -633,7 +655,7 @@ def _ascent(geo: _Geometry, x: np.ndarray, which: np.ndarray, sign: np.ndarray, 
     return x, t, f
 
 
-def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent_steps: int = 6,
+def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent_steps: int = 4,
                              allow_outside: bool = False) -> SpatialCertifiedBounds:
     """Certified bounds of the exact nonlinear worst case of a 6-UPS's error at one pose (module text).
 
