@@ -43,11 +43,13 @@ direction, ``T1, T2`` the sums of the translations' half-widths, ``T1p`` of thei
 ``|d.(Rot(w1) - I) t2| <= 2 sin(O1/2) T2``; ``|z| <= Z = L sin(O1/2) + T2 + T1 + L sin(Od/2)`` (``w1, w_d``
 normal to ``d``), ``|z_perp| <= Zp`` (the same with ``T1p``) and ``D_z >= 2 (L - Z)``; ``|eps| <= |w|^2
 |r| / 2`` (``|exp([w]x) - I - [w]x| <= |w|^2 / 2``: ``theta^2 - 2 theta sin(theta) + 2 - 2 cos(theta) <=
-theta^4 / 4``); ``|u_perp| <= Up``, ``|u| <= U`` and ``D_u >= 2 (L - U)`` from the box below. So ``q_i`` lies
-in ``[q_lo_i, q_hi_i]``::
+theta^4 / 4``) and, from ``eps = (sin t / t - 1) w x r + (1 - cos t) / t^2 w x (w x r)`` with ``d . (w x (w x
+r)) = w^T (sym(d r^T) - (d.r) I) w`` (eigenvalues ``(+-|r| - d.r) / 2`` and ``-d.r``), ``|d . eps| <= e_d =
+|w|^2 (|r| + |d.r|) / 4 + |w|^3 |r| / 6``; ``|u_perp| <= Up``, ``|u| <= U`` and ``D_u >= 2 (L - U)`` from the
+box below. So ``q_i`` lies in ``[q_lo_i, q_hi_i]``::
 
-    q_lo = -(L/2)(2 - cos O1 - cos Od) - 2 sin(O1/2) T2 - Up^2 / (2 (L - U)) - Rw^2 |r| / 2
-    q_hi =  2 sin(O1/2) T2 + Zp^2 / (2 (L - Z)) + Rw^2 |r| / 2                                         (3)
+    q_lo = -(L/2)(2 - cos O1 - cos Od) - 2 sin(O1/2) T2 - Up^2 / (2 (L - U)) - e_d
+    q_hi =  2 sin(O1/2) T2 + Zp^2 / (2 (L - Z)) + e_d                                                  (3)
 
 Theorem (certified at a pose). Let ``B`` be the convex set of twists ``|v| <= Rv``, ``|w| <= Rw``, ``|P_i
 [I, -[r_i]x] t| <= Yp_i`` and ``|[I, -[r_i]x] t| <= Y_i`` (``P_i`` the projection normal to ``d_i``), with
@@ -488,7 +490,9 @@ def _q_bounds(geo: _Geometry, sums: dict, box: np.ndarray) -> tuple[np.ndarray, 
     n = len(geo.L)
     L, rn = geo.L, np.linalg.norm(geo.r, axis=-1)
     Rw = box[1]
-    eps = Rw * Rw * rn / 2
+    eps = Rw * Rw * rn / 2                                   # |eps| (the point's own displacement)
+    dr = np.abs(np.sum(geo.d * geo.r, axis=-1))
+    deps = Rw * Rw * (rn + dr) / 4 + Rw ** 3 * rn / 6        # |d . eps|
     Up = box[2:2 + n] + eps + sums["T0p"]
     U = box[2 + n:2 + 2 * n] + eps + sums["T0"]
     O1, Od, T1, T1p, T2 = sums["O1"], sums["Od"], sums["T1"], sums["T1p"], sums["T2"]
@@ -498,8 +502,8 @@ def _q_bounds(geo: _Geometry, sums: dict, box: np.ndarray) -> tuple[np.ndarray, 
         uterm = np.where(U < L, Up ** 2 / (2 * (L - U)), np.inf)
         zterm = np.where(Z < L, Zp ** 2 / (2 * (L - Z)), np.inf)
     cross = 2 * np.sin(O1 / 2) * T2
-    q_lo = -(L / 2) * (2 - np.cos(O1) - np.cos(Od)) - cross - uterm - eps
-    q_hi = cross + zterm + eps
+    q_lo = -(L / 2) * (2 - np.cos(O1) - np.cos(Od)) - cross - uterm - deps
+    q_hi = cross + zterm + deps
     return q_lo, q_hi, U, Up
 
 
