@@ -189,5 +189,12 @@ def test_refusals():
         spatial_certified_bounds(hexapod, "ups_typical", [hexapod.home_pose] * 2)
     with pytest.raises(pm.SingularPoseError):
         spatial_certified_bounds(hexapod, "ups_typical", [0, 0, 400.0, 0, 0, np.pi / 2], allow_outside=True)
+    src = pm.load_clearances("ups_typical", hexapod)
+    with pytest.raises(pm.ConfigError, match="outside its ball"):
+        hexapod_error_twists(hexapod, src, hexapod.home_pose, [{"legs[1].joints[3].radial": [0.011, 0, 0]}])
+    with pytest.raises(pm.ConfigError, match="outside its segment"):     # the actuator error is along the leg
+        hexapod_error_twists(hexapod, src, hexapod.home_pose, [{"legs[1].joints[2].actuator": [0.001, 0, 0]}])
+    with pytest.raises(pm.ConfigError, match="no such source"):
+        hexapod_error_twists(hexapod, src, hexapod.home_pose, [{"legs[1].joints[3].axial": [0.0, 0, 0]}])
     none = spatial_certified_bounds(hexapod, "none", hexapod.home_pose)
     assert none.certified and np.all(none.upper == 0)

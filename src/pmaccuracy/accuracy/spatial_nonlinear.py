@@ -93,7 +93,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import PoseError, UnsupportedArchitectureError
+from ..errors import ConfigError, PoseError, UnsupportedArchitectureError
 from ..kinematics.spatial import as_spatial_poses
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
@@ -342,14 +342,23 @@ def _variables(geo: _Geometry, displacements) -> np.ndarray:
         n = max((a.shape[0] for a in arrays.values()), default=0)
     else:
         n = len(displacements)
-        arrays = {}
+        arrays = {label: None for conf in displacements for label in conf}
         for s in geo.sources:
             if any(s.label in conf for conf in displacements):
                 arrays[s.label] = np.array([np.asarray(conf.get(s.label, np.zeros(3)), float) for conf in displacements])
+    unknown = set(arrays) - {s.label for s in geo.sources}
+    if unknown:
+        raise ConfigError(f"no such source (with a non-zero half-width): {sorted(unknown)[0]}", key="displacements")
     x = np.zeros((n, geo.offsets[-1]))
     for k, s in enumerate(geo.sources):
         if s.label in arrays:
-            x[:, geo.offsets[k]:geo.offsets[k + 1]] = arrays[s.label] @ s.basis / s.half_width
+            vec = arrays[s.label]
+            xs = vec @ s.basis / s.half_width
+            off = np.linalg.norm(vec - s.half_width * xs @ s.basis.T, axis=-1)
+            if np.any(np.linalg.norm(xs, axis=-1) > 1 + 1e-9) or np.any(off > 1e-9 * s.half_width):
+                raise ConfigError(f"a displacement outside its {('segment', 'disc', 'ball')[s.basis.shape[1] - 1]} "
+                                  f"of half-width {s.half_width:g}", key=f"displacements: {s.label}")
+            x[:, geo.offsets[k]:geo.offsets[k + 1]] = xs
     return x
 
 
