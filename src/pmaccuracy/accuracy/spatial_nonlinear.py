@@ -69,8 +69,9 @@ sum_i max(W^-1_ki q_lo_i, W^-1_ki q_hi_i)`` (or the other sign), the first-order
 ``K h^2`` (every term of (3) is quadratic in the half-widths, ``Rv, Rw, Y`` linear); ``|dp|`` and
 ``|dtheta|`` (the error rotation's angle ``|w|``) over the 64 vertices.
 
-Rounding: ``W^-1`` is enclosed from the computed inverse ``C``: with ``E = I - C W`` (its rounding bounded
-by ``7 eps |C| |W|``) and ``eta = ||E||_inf < 1``, ``|W^-1 - C| <= eta / (1 - eta)`` times the row sums of
+Rounding: ``W^-1`` is enclosed from the computed inverse ``C``: with ``E = I - W C`` (its rounding bounded
+by ``7 eps |W| |C|``) and ``eta = ||E||_inf < 1``, ``W^-1 = C (I - E)^-1 = C + C N`` with every entry of ``N =
+sum_k>=1 E^k`` at most ``eta / (1 - eta)``, so ``|W^-1 - C|_kj <= eta / (1 - eta)`` times row ``k``'s sum of
 ``|C|``, added to every functional; the final values are multiplied by ``1 + 1e-13`` (the rounding of the
 sums of a few tens of positive terms is below 1e-14 relative). The geometry is taken as represented in
 floating point.
@@ -81,8 +82,8 @@ outside the joint limits or near-singular raises, as for the first-order bounds.
 :class:`~pmaccuracy.errors.UnsupportedArchitectureError` (their legs have more than one closure row).
 
 The lower values are attained: the exact model (1) at the first-order worst configuration of each quantity
-(both signs for a component), improved by a few conditional-gradient steps over the sources' sets (finite-
-difference gradients of the exact model), each accepted only if it increases the quantity; the configuration
+(both signs for a component), improved by a few conditional-gradient steps over the sources' sets (gradients
+of the exact model by implicit differentiation), each accepted only if it increases the quantity; the configuration
 is returned (each source's displacement vector, base frame).
 """
 
@@ -460,7 +461,8 @@ def _leg_sums(geo: _Geometry) -> dict[str, np.ndarray]:
 def _inverse_enclosure(W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``C`` (the computed ``W^-1``) and ``c`` ``(6,)`` with ``|W^-1 - C|_kj <= c_k`` (module text, rounding)."""
     C = np.linalg.inv(W)
-    E = np.abs(np.eye(6) - C @ W) + 7 * _EPS * np.abs(C) @ np.abs(W)
+    # W C = I - E, so W^-1 = C (I - E)^-1 = C + C N with every entry of N at most eta / (1 - eta)
+    E = np.abs(np.eye(6) - W @ C) + 7 * _EPS * np.abs(W) @ np.abs(C)
     eta = float(np.max(np.sum(E, axis=-1)))
     if not eta < 0.5:
         return C, np.full(6, np.inf)
