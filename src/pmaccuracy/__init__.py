@@ -66,6 +66,7 @@ _EXPORTS = {
     "SpatialErrorSources": "model.spatial_sources", "SpatialJointErrors": "model.spatial_sources",
     "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
     "spatial_error_map": "accuracy.spatial_maps",
+    "spatial_certified_bounds": "accuracy.spatial_nonlinear", "SpatialCertifiedBounds": "accuracy.spatial_nonlinear",
     "spatial_pose_statistics": "accuracy.spatial_statistics",
     **{name: "accuracy.spatial_worst" for name in ("spatial_region", "spatial_global_worst", "SpatialRegion",
                                                    "SpatialGlobalWorst", "SpatialQuantityWorst",

@@ -121,7 +121,8 @@ def test_map_of_a_spatial_robot_writes_netcdf_and_a_figure(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--certified"], "--certified is not"),
+    (["bounds", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--certified"], "for the 6-UPS only"),
+    (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--nonlinear"], "--nonlinear is not"),
     (["bounds", "--robot", "stewart_6ups", "--clearances", "nope.toml", "--pose", 0, 0, 400, 0, 0, 0],
      "--clearances: nope.toml"),
     (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 90, "--allow-outside"], "singularity"),
@@ -160,3 +161,26 @@ def test_bounds_refuses_a_pose_outside_the_strokes_unless_asked(capsys):
     assert "np.float64" not in err and "--allow-outside" in err
     status, out, err = run_cli(argv + ["--allow-outside"], capsys)
     assert status == 0, err
+
+
+def test_certified_bounds_of_a_hexapod_match_the_api_and_refuse_in_one_line(capsys, tmp_path):
+    status, text, err = run_cli(["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--pose", 10, 5,
+                                 390, 2, -1, 5, "--certified", "--format", "json"], capsys)
+    assert status == 0, err
+    rows = json.loads(text)
+    assert len(rows) == 16 and [r["quantity"] for r in rows[:8]] == ["dx", "dy", "dz", "drx_deg", "dry_deg",
+                                                                      "drz_deg", "dp", "dtheta_deg"]
+    robot = pm.load_robot("stewart_6ups")
+    pose = k.poses_from_coordinates([10, 5, 390, 2, -1, 5], degrees=True)
+    res = pm.spatial_certified_bounds(robot, "ups_typical", pose)
+    for row, rec in zip(rows[8:], res.records()):
+        assert row["upper"] == pytest.approx(rec["upper"], rel=1e-12) and row["certified"] is True
+        assert row["first_order"] <= row["lower"] * (1 + 1e-3) and row["lower"] <= row["upper"]
+        assert row["gap_pct"] == pytest.approx(100 * (row["upper"] - row["lower"]) / row["lower"], rel=1e-9)
+    big = tmp_path / "big.toml"
+    import tomli_w
+    big.write_bytes(tomli_w.dumps(pm.load_clearances("ups_typical", robot).scaled(3000.0).to_dict()).encode())
+    status, text, err = run_cli(["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--certified",
+                                 "--clearances", big, "--format", "json"], capsys)
+    assert status == 0 and "not certified" in err
+    assert all(r["upper"] is None and r["certified"] is False for r in json.loads(text))   # inf: null in JSON

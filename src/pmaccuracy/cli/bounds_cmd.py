@@ -47,7 +47,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--certified", action="store_true",
                    help="certified upper bounds of the exact nonlinear loop closure's worst case (never below it) "
                         "with gap_pct.dx ... gap_pct.dp, the relative distance (percent) to the best feasible "
-                        "configuration found")
+                        "configuration found; a 6-UPS: per pose and quantity first_order, lower (attained by the "
+                        "exact model), upper (proven) and gap_pct")
     p.add_argument("--nonlinear", action="store_true",
                    help="the best feasible worst case of the exact nonlinear model (local ascent from the "
                         "first-order worst vertices), with the gap to the certified bound")

@@ -8,6 +8,7 @@ Coordinates on the command line: lengths in mm, angles in degrees, orientation a
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -174,12 +175,16 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
     """``bounds`` on a spatial robot: exact worst components, certified |dp| and |dtheta| at poses."""
     from ..accuracy.spatial_bounds import spatial_pose_errors
 
-    for option, value in (("--method", args.method != "exact"), ("--certified", args.certified),
+    for option, value in (("--method", args.method != "exact"),
                           ("--nonlinear", args.nonlinear), ("--tolerances", args.tolerances),
                           ("--details", args.details), ("--max-pieces", args.max_pieces is not None)):
         if value:
             raise PmAccuracyError(f"{option} is not available for spatial robots yet ({robot.name} is a "
-                                  f"{robot.architecture}): their first-order bounds are exact, |dp| certified")
+                                  f"{robot.architecture}): their first-order bounds are exact, |dp| certified"
+                                  + ("; --certified gives the exact nonlinear model's bounds (6-UPS)"
+                                     if option == "--nonlinear" else ""))
+    if args.certified:
+        return _certified_bounds(args, robot)
     sources = _sources(args, robot)
     gap = 1e-3 if args.gap_pct is None else args.gap_pct / 100.0
     if not 0 < gap < 1:
@@ -201,6 +206,35 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
                     "dtheta_max_deg": float(np.degrees(b.dtheta_upper[k])),
                     "dtheta_attained_deg": float(np.degrees(b.dtheta_lower[k]))})
         rows.append(row)
+    _common.emit(rows, args.format)
+    return 0
+
+
+def _certified_bounds(args: argparse.Namespace, robot) -> int:
+    """``bounds --certified`` on a 6-UPS: per pose and quantity the first-order maximum, the exact nonlinear
+    model's attained ``lower`` value and proven ``upper`` bound, and their gap in percent
+    (:func:`pmaccuracy.accuracy.spatial_nonlinear.spatial_certified_bounds`)."""
+    from ..accuracy.spatial_nonlinear import spatial_certified_bounds
+
+    if robot.architecture != "6-UPS":
+        raise PmAccuracyError(f"--certified: certified nonlinear bounds are available for the 6-UPS only ({robot.name} "
+                              f"is a {robot.architecture}; its first-order bounds are exact without --certified)")
+    if args.gap_pct is not None:
+        raise PmAccuracyError("--gap-pct does not apply with --certified on a spatial robot (its bound is not refined)")
+    sources = _sources(args, robot)
+    full = poses(robot, args.pose, args.poses_csv)
+    rows = []
+    for k in range(full.shape[0]):
+        try:
+            res = spatial_certified_bounds(robot, sources, full[k], allow_outside=args.allow_outside)
+        except PoseError as exc:
+            raise type(exc)(f"--pose: {exc}" + ("" if args.allow_outside or "outside" not in str(exc) else
+                                                 " (--allow-outside to evaluate it anyway)")) from None
+        if not res.certified:
+            print(f"warning: pose {k + 1} not certified: {res.reason}", file=sys.stderr)
+        base = _pose_record(robot, full[k])
+        for rec in res.records():
+            rows.append({**base, **rec})
     _common.emit(rows, args.format)
     return 0
 

@@ -1,0 +1,724 @@
+"""Exact nonlinear error model of a 6-UPS at a pose, and certified bounds of its worst case (issue 37).
+
+The nonlinear model
+-------------------
+Every source (``docs/guide/spatial-errors.md``) is a FINITE displacement of its joint's distal part relative to
+its proximal part, applied before the joint's own motion, its directions fixed at the nominal pose (the
+convention of :mod:`pmaccuracy.accuracy.spatial_bounds`). The sources of a joint add into one translation and
+one rotation vector; leg ``i`` (base centre ``A``, platform centre ``B = p + R b``, ``r = B - p``, nominal
+length ``L`` and unit direction ``d``, ``M = A + (L/2) d`` the carriage centre) gets
+
+* base universal joint: translations ``t0`` (radial: pin 1 a disc normal to ``u1``, pin 2 a disc normal to
+  ``u2``; axial along ``u1`` and ``u2``; position a ball; length along ``d``) and rotations about ``A`` (tilt,
+  direction);
+* slide: translations ``t1`` (actuator, backlash, length along ``d``; lateral a disc normal to ``d``; position a
+  ball), a tilt ``w_t`` about ``M`` and a direction turn ``w_d`` about ``A`` (both normal to ``d``), applied as
+  the turn ``w1 = w_t + w_d`` about ``M`` plus the translation ``(Rot(w_d) - I)(M - A)``;
+* platform spherical joint: translations ``t2`` (radial, position balls).
+
+Walking the chain ``E_U J_U E_P E_S J_S`` (``J`` the passive joints' finite motions), the spherical joint frees
+the platform's rotation about ``B``, the universal joint (two rotations about ``A``) frees the direction of
+``J_U(Y) - A``, and a rotation of the base joint about ``A`` is absorbed by it: the closure of leg ``i``
+reduces EXACTLY to one distance equation for the platform's error twist ``t = [v, w]`` (the displaced pose
+``p + v``, ``Rot(w) R``)::
+
+    |L d + u| = |L d + z|,   u = v + (Rot(w) - I) r - t0,                                            (1)
+    z = (L/2)(Rot(w1) - I) d + Rot(w1) t2 + t1 + (L/2)(Rot(w_d) - I) d.
+
+(base-joint rotations drop out exactly). :func:`hexapod_error_twists` solves (1) by Newton's method
+(vectorized over configurations; the arithmetic is on the small displacements: ``|L d + x| - L = d.x +
+|x_perp|^2 / (|L d + x| + L + d.x)``, no cancellation against the 1000 mm coordinates).
+
+Expansion. With ``|L d + x| - L = d.x + |x_perp|^2 / D_x``, ``D_x = |L d + x| + L + d.x`` and
+``(Rot(w) - I) r = w x r + eps``, (1) is exactly ``W t = a(s) + q(s, t)``: ``W`` the closure matrix (rows
+``[d, r x d]``), ``a_i = d.(t0 + t1 + t2)`` the first-order leg term (its range ``[-rho_i, rho_i]``,
+``rho_i`` of :func:`~pmaccuracy.accuracy.spatial_bounds.hexapod_leg_terms`: ``t = W^-1 a`` is the first-order
+model of :func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`), and::
+
+    q = (L/2)(cos|w1| - 1) + (L/2)(cos|w_d| - 1) + d.(Rot(w1) - I) t2 + |z_perp|^2 / D_z
+        - |u_perp|^2 / D_u - d.eps.                                                                  (2)
+
+Bounds of the terms (``h`` the half-widths; ``O1 = sum h`` of the slide's tilt and direction, ``Od`` of its
+direction, ``T1, T2`` the sums of the translations' half-widths, ``T1p`` of their parts normal to ``d``):
+``|d.(Rot(w1) - I) t2| <= 2 sin(O1/2) T2``; ``|z| <= Z = L sin(O1/2) + T2 + T1 + L sin(Od/2)`` (``w1, w_d``
+normal to ``d``), ``|z_perp| <= Zp`` (the same with ``T1p``) and ``D_z >= 2 (L - Z)``; ``|eps| <= |w|^2
+|r| / 2`` (``|exp([w]x) - I - [w]x| <= |w|^2 / 2``: ``theta^2 - 2 theta sin(theta) + 2 - 2 cos(theta) <=
+theta^4 / 4``) and, from ``eps = (sin t / t - 1) w x r + (1 - cos t) / t^2 w x (w x r)`` with ``d . (w x (w x
+r)) = w^T (sym(d r^T) - (d.r) I) w`` (eigenvalues ``(+-|r| - d.r) / 2`` and ``-d.r``), ``|d . eps| <= e_d =
+|w|^2 (|r| + |d.r|) / 4 + |w|^3 |r| / 6``; ``|u_perp| <= Up``, ``|u| <= U`` and ``D_u >= 2 (L - U)`` from the
+box below. So ``q_i`` lies in ``[q_lo_i, q_hi_i]``::
+
+    q_lo = -(L/2)(2 - cos O1 - cos Od) - 2 sin(O1/2) T2 - Up^2 / (2 (L - U)) - e_d
+    q_hi =  2 sin(O1/2) T2 + Zp^2 / (2 (L - Z)) + e_d                                                  (3)
+
+Theorem (certified at a pose). Let ``B`` be the convex set of twists ``|v| <= Rv``, ``|w| <= Rw``, ``|P_i
+[I, -[r_i]x] t| <= Yp_i`` and ``|[I, -[r_i]x] t| <= Y_i`` (``P_i`` the projection normal to ``d_i``), with
+``Up_i = Yp_i + Rw^2 |r_i| / 2 + T0p_i``, ``U_i = Y_i + Rw^2 |r_i| / 2 + T0_i`` below ``L_i``, and let every
+bound of ``B`` be at least the largest value of its functional over ``W^-1 X``, ``X`` the box ``[-rho +
+q_lo, rho + q_hi]`` (a convex function over a box: its largest value is at one of the 64 vertices). Then for
+every configuration ``s`` of the sources the map ``t -> W^-1 (a(s) + q(s, t))`` sends ``B`` into itself
+(Brouwer: (1) has a solution in ``B``). If moreover the 2 x 2 matrix ``Lam = [[sum_i |W^-1_v,i| a_i, sum_i
+|W^-1_v,i| b_i], [the same for w]]``, ``a_i = Up_i / (L_i - U_i)`` and ``b_i = |r_i| (3 Rw / 2 + Rw^2 / 6 +
+a_i)`` (bounds of ``|n - d|`` (the angle between ``L d + u`` and ``d``) and of the moment part of the closure's
+Jacobian ``n^T [I, -[Rot(w) r]x J_l(w)]`` minus ``W``'s row, ``n = (L d + u) / |L d + u|``, with
+``|Rot(w) r - r| <= |w| |r|`` and ``|J_l(w) - I| <= |w|/2 + |w|^2/6``), has
+spectral radius below 1, that solution is the only one in ``B`` (so it is the continuation of the nominal
+assembly that Newton's method from the nominal pose finds). Every quantity of the error is then at most
+its largest value over ``W^-1 X``: for a component ``k``, ``max_X |(W^-1 x)_k| = sum_i |W^-1_ki| rho_i +
+sum_i max(W^-1_ki q_lo_i, W^-1_ki q_hi_i)`` (or the other sign), the first-order maximum plus a remainder
+``K h^2`` (every term of (3) is quadratic in the half-widths, ``Rv, Rw, Y`` linear); ``|dp|`` and
+``|dtheta|`` (the error rotation's angle ``|w|``) over the 64 vertices.
+
+Rounding: ``W^-1`` is enclosed from the computed inverse ``C``: with ``E = I - W C`` (its rounding bounded
+by ``7 eps |W| |C|``) and ``eta = ||E||_inf < 1``, ``W^-1 = C (I - E)^-1 = C + C N`` with every entry of ``N =
+sum_k>=1 E^k`` at most ``eta / (1 - eta)``, so ``|W^-1 - C|_kj <= eta / (1 - eta)`` times row ``k``'s sum of
+``|C|``, added to every functional; the final values are multiplied by ``1 + 1e-13`` (the rounding of the
+sums of a few tens of positive terms is below 1e-14 relative). The geometry is taken as represented in
+floating point.
+
+Refused (``certified`` False, upper ``inf``, with the reason): the box iteration does not close (the error
+set reaches a singularity, or ``U >= L``), or ``Lam`` is not a contraction. A pose that is unreachable,
+outside the joint limits or near-singular raises, as for the first-order bounds. Other architectures raise
+:class:`~pmaccuracy.errors.UnsupportedArchitectureError` (their legs have more than one closure row).
+
+The lower values are attained: the exact model (1) at the first-order worst configuration of each quantity
+(both signs for a component), improved by a few conditional-gradient steps over the sources' sets (gradients
+of the exact model by implicit differentiation), each accepted only if it increases the quantity; the configuration
+is returned (each source's displacement vector, base frame).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError, PoseError, UnsupportedArchitectureError
+from ..kinematics.spatial import as_spatial_poses
+from ..model.plausibility import check_angle_values, rotation_angles
+from ..model.spatial import SpatialManipulator
+from ..model.spatial_sources import SpatialErrorSources
+from ..numerics.spatial import normalize, rotations, skew
+from .spatial_bounds import hexapod_leg_terms, spatial_pose_errors
+
+#: The quantities, in order: the six components (mm, rad), then |dp| (mm) and |dtheta| (rad).
+QUANTITIES = ("dx", "dy", "dz", "drx", "dry", "drz", "dp", "dtheta")
+#: Relative allowance for the rounding of the final sums.
+ROUNDING = 1e-13
+_EPS = np.finfo(float).eps
+# the 64 vertices of [-1, 1]^6 (one per sign pattern)
+_VERTICES = np.array(list(itertools.product((-1.0, 1.0), repeat=6)))
+
+
+# ------------------------------------------------------------------------------------------------ rotations
+def _rot_minus_identity(w: np.ndarray) -> np.ndarray:
+    """``Rot(w) - I`` ``(..., 3, 3)`` for rotation vectors ``(..., 3)``, without cancellation for small ``w``."""
+    w = np.asarray(w, dtype=float)
+    th2 = np.sum(w * w, axis=-1)
+    th = np.sqrt(th2)
+    small = th2 < 1e-6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.where(small, 1 - th2 / 6 + th2 ** 2 / 120 - th2 ** 3 / 5040, np.sin(th) / th)
+        b = np.where(small, 0.5 - th2 / 24 + th2 ** 2 / 720 - th2 ** 3 / 40320, 2 * np.sin(0.5 * th) ** 2 / th2)
+    K = skew(w)
+    return a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def _left_jacobian(w: np.ndarray) -> np.ndarray:
+    """``J_l(w) = I + (1 - cos t)/t^2 K + (t - sin t)/t^3 K^2`` ``(..., 3, 3)``: ``d/de Rot(w + e) =
+    [J_l(w) e]x Rot(w)``."""
+    th2 = np.sum(w * w, axis=-1)
+    th = np.sqrt(th2)
+    small = th2 < 1e-6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b = np.where(small, 0.5 - th2 / 24 + th2 ** 2 / 720, (1 - np.cos(th)) / th2)
+        c = np.where(small, 1 / 6 - th2 / 120 + th2 ** 2 / 5040, (th - np.sin(th)) / (th2 * th))
+    K = skew(w)
+    return np.eye(3) + b[..., None, None] * K + c[..., None, None] * (K @ K)
+
+
+def _excess(d: np.ndarray, x: np.ndarray, L: float | np.ndarray) -> np.ndarray:
+    """``|L d + x| - L`` ``(...)`` computed as ``d.x + |x_perp|^2 / (|L d + x| + L + d.x)``."""
+    dx = np.sum(d * x, axis=-1)
+    perp = x - dx[..., None] * d
+    full = np.linalg.norm(np.asarray(L)[..., None] * d + x, axis=-1)
+    return dx + np.sum(perp * perp, axis=-1) / (full + L + dx)
+
+
+# -------------------------------------------------------------------------------------------------- sources
+@dataclass(frozen=True)
+class HexapodSource:
+    """One error source of a 6-UPS at a pose: its displacement ``h basis x`` (``|x| <= 1``), base frame.
+
+    Attributes
+    ----------
+    leg, joint : int
+        0-based leg and joint (0 universal, 1 slide, 2 spherical).
+    key : str
+        The source's key (``radial``, ``axial``, ...).
+    part : int or None
+        A universal joint's pin (1 or 2) for ``radial`` and ``axial``.
+    role : str
+        Where it enters Eq. 1: ``t0``, ``t1``, ``t2`` (translations), ``w1`` (slide tilt), ``wd`` (slide
+        direction) or ``wbase`` (a rotation at the base joint: no effect).
+    half_width : float
+        ``h`` (mm or rad).
+    basis : ndarray ``(3, k)``
+        Orthonormal directions of its segment (k = 1), disc (2) or ball (3).
+    """
+
+    leg: int
+    joint: int
+    key: str
+    part: int | None
+    role: str
+    half_width: float
+    basis: np.ndarray = field(repr=False)
+
+    @property
+    def label(self) -> str:
+        """``legs[i].joints[j].key`` (1-based), with ``[pin k]`` for a universal joint's pins."""
+        pin = f"[pin {self.part}]" if self.part else ""
+        return f"legs[{self.leg + 1}].joints[{self.joint + 1}].{self.key}{pin}"
+
+
+def _normals(a: np.ndarray) -> np.ndarray:
+    """Two orthonormal vectors normal to the unit ``a``, as columns ``(3, 2)``."""
+    helper = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
+    e1 = normalize(np.cross(a, helper))
+    return np.stack([e1, np.cross(a, e1)], axis=1)
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """A 6-UPS at a pose: per leg ``A, r, d, L`` ``(6, 3)``/``(6,)``, ``W`` ``(6, 6)``, its sources."""
+
+    A: np.ndarray
+    r: np.ndarray
+    d: np.ndarray
+    L: np.ndarray
+    W: np.ndarray
+    sources: tuple
+    offsets: tuple
+
+
+def _geometry(robot: SpatialManipulator, sources: SpatialErrorSources, pose: np.ndarray) -> _Geometry:
+    p, R = pose[:3], rotations(pose[3:])
+    _, _, _, u1s = hexapod_leg_terms(robot, sources)
+    A = np.array([leg.base for leg in robot.legs], dtype=float)
+    B = np.array([leg.platform_point(p, R) for leg in robot.legs])
+    r = B - p
+    L = np.linalg.norm(B - A, axis=-1)
+    d = (B - A) / L[:, None]
+    W = np.concatenate([d, np.cross(r, d)], axis=-1)
+    out, offsets, col = [], [], 0
+    eye = np.eye(3)
+    for i in range(robot.n_legs):
+        u1 = u1s[i]
+        u2 = normalize(np.cross(d[i], u1))
+        n = np.cross(u1, u2)
+        nd = _normals(d[i])
+        for j, joint in enumerate(sources.legs[i]):
+            for key, h in joint.items():
+                if j == 0:
+                    table = {"radial": [("t0", np.stack([u2, n], 1), 1), ("t0", np.stack([u1, n], 1), 2)],
+                             "axial": [("t0", u1[:, None], 1), ("t0", u2[:, None], 2)],
+                             "position": [("t0", eye, None)], "length": [("t0", d[i][:, None], None)],
+                             "tilt": [("wbase", n[:, None], None)], "direction": [("wbase", np.stack([u2, n], 1), None)]}
+                elif j == 1:
+                    table = {k: [("t1", d[i][:, None], None)] for k in ("actuator", "backlash", "length")}
+                    table.update({"lateral": [("t1", nd, None)], "position": [("t1", eye, None)],
+                                  "tilt": [("w1", nd, None)], "direction": [("wd", nd, None)]})
+                else:
+                    table = {"radial": [("t2", eye, None)], "position": [("t2", eye, None)]}
+                for role, basis, part in table[key]:
+                    out.append(HexapodSource(i, j, key, part, role, float(h), basis))
+                    offsets.append(col)
+                    col += basis.shape[1]
+    offsets.append(col)
+    return _Geometry(A, r, d, L, W, tuple(out), tuple(offsets))
+
+
+def _displacements(geo: _Geometry, x: np.ndarray) -> dict[str, np.ndarray]:
+    """Per role the summed displacement ``(N, 6, 3)`` of the unit variables ``x`` ``(N, m)``."""
+    N = x.shape[0]
+    out = {role: np.zeros((N, len(geo.L), 3)) for role in ("t0", "t1", "t2", "w1", "wd", "wbase")}
+    for k, s in enumerate(geo.sources):
+        xs = x[:, geo.offsets[k]:geo.offsets[k + 1]]
+        out[s.role][:, s.leg] += s.half_width * xs @ s.basis.T
+    return out
+
+
+def _leg_targets(geo: _Geometry, disp: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``|L d + z| - L`` ``(N, 6)`` (the legs' lengths, Eq. 1) and ``t0`` ``(N, 6, 3)``."""
+    d = geo.d
+    w1 = disp["w1"] + disp["wd"]
+    Rw1 = _rot_minus_identity(w1)
+    half = 0.5 * geo.L[:, None]
+    z = (half * np.einsum("nlij,lj->nli", Rw1, d) + disp["t2"] + np.einsum("nlij,nlj->nli", Rw1, disp["t2"])
+         + disp["t1"] + half * np.einsum("nlij,lj->nli", _rot_minus_identity(disp["wd"]), d))
+    return _excess(d, z, geo.L), disp["t0"]
+
+
+def _residual(geo: _Geometry, t: np.ndarray, target: np.ndarray, t0: np.ndarray, jac: bool = True):
+    """Eq. 1's residuals ``(N, 6)`` and (``jac``) their Jacobian ``(N, 6, 6)`` in the twist ``t`` ``(N, 6)``."""
+    v, w = t[:, :3], t[:, 3:]
+    Rm = _rot_minus_identity(w)                                   # (N, 3, 3)
+    rr = np.einsum("nij,lj->nli", Rm, geo.r)                      # (Rot(w) - I) r  (N, 6, 3)
+    u = v[:, None, :] + rr - t0
+    F = _excess(geo.d, u, geo.L[None, :]) - target
+    if not jac:
+        return F, None
+    x = geo.L[:, None] * geo.d + u
+    nvec = x / np.linalg.norm(x, axis=-1, keepdims=True)
+    rot_r = geo.r[None] + rr                                      # Rot(w) r
+    Jl = _left_jacobian(w)
+    # d/dw of Rot(w) r = -[Rot(w) r]x J_l(w)
+    dw = -np.einsum("nlij,njk->nlik", skew(rot_r), Jl)
+    J = np.concatenate([nvec, np.einsum("nli,nlik->nlk", nvec, dw)], axis=-1)
+    return F, J
+
+
+def _solve(geo: _Geometry, x: np.ndarray, iterations: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """Newton's method on Eq. 1 from the nominal pose for unit variables ``x`` ``(N, m)``: the error twists
+    ``(N, 6)`` and whether each converged (residual below ``1e-13`` mm times the legs' scale)."""
+    target, t0 = _leg_targets(geo, _displacements(geo, x))
+    t = np.zeros((x.shape[0], 6))
+    tol = 1e-15 * max(1.0, float(np.max(geo.L)))
+    for _ in range(iterations):
+        F, J = _residual(geo, t, target, t0)
+        if np.all(np.abs(F) <= tol):
+            break
+        try:
+            step = np.linalg.solve(J, F[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = np.full_like(t, np.nan)
+        t = t - step
+    F, _ = _residual(geo, t, target, t0, jac=False)
+    ok = np.all(np.abs(F) <= 100 * tol, axis=-1) & np.all(np.isfinite(t), axis=-1)
+    return np.where(ok[:, None], t, np.nan), ok
+
+
+def _quantities(t: np.ndarray) -> np.ndarray:
+    """``(N, 8)``: the twist's six components, ``|dp|`` and ``|dtheta|``."""
+    return np.concatenate([t, np.linalg.norm(t[:, :3], axis=-1, keepdims=True),
+                           np.linalg.norm(t[:, 3:], axis=-1, keepdims=True)], axis=-1)
+
+
+def _check(robot: SpatialManipulator, sources, pose) -> tuple[SpatialErrorSources, np.ndarray]:
+    if robot.architecture != "6-UPS":
+        raise UnsupportedArchitectureError(
+            f"certified nonlinear bounds are available for the 6-UPS only ({robot.name} is a {robot.architecture}: "
+            "its legs have several closure rows, whose exact model is not reduced to distances yet)",
+            key="architecture")
+    sources = SpatialErrorSources.load(sources, robot)
+    pose = as_spatial_poses(pose)
+    if pose.shape != (6,):
+        raise PoseError(f"one pose (6,) at a time, got shape {pose.shape}")
+    return sources, pose
+
+
+def hexapod_error_twists(robot: SpatialManipulator, sources, pose, displacements) -> np.ndarray:
+    """The exact error twists ``[dp, dtheta]`` ``(N, 6)`` (mm, rotation vector rad: the displaced pose is ``p + dp``,
+    ``Rot(dtheta) R``) of a 6-UPS at ``pose`` ``(6,)`` (rotation vector, rad) for configurations of its sources.
+
+    ``displacements``: a list of ``N`` dicts ``{label: vector (3,)}`` (or one dict ``{label: (N, 3)}``), each
+    source's displacement (mm for translations, a rotation vector in rad for rotations; base frame; labels of
+    :class:`HexapodSource`; a missing label is 0). Each vector is projected on its source's directions (it must lie in its set: segment,
+    disc or ball of its half-width). Eq. 1 of the module text, solved by Newton's method; NaN where it does
+    not converge.
+    """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
+    sources, pose = _check(robot, sources, pose)
+    spatial_pose_errors(robot, sources, pose)      # reachability, joint limits, singularity: raise as it does
+    geo = _geometry(robot, sources, pose)
+    return _solve(geo, _variables(geo, displacements))[0]
+
+
+def _variables(geo: _Geometry, displacements) -> np.ndarray:
+    """The unit variables ``(N, m)`` of a list of ``N`` dicts ``{label: (3,)}`` or one dict ``{label: (N, 3)}``."""
+    if isinstance(displacements, dict):
+        arrays = {k: np.atleast_2d(np.asarray(v, dtype=float)) for k, v in displacements.items()}
+        n = max((a.shape[0] for a in arrays.values()), default=0)
+    else:
+        n = len(displacements)
+        arrays = {label: None for conf in displacements for label in conf}
+        for s in geo.sources:
+            if any(s.label in conf for conf in displacements):
+                arrays[s.label] = np.array([np.asarray(conf.get(s.label, np.zeros(3)), float) for conf in displacements])
+    unknown = set(arrays) - {s.label for s in geo.sources}
+    if unknown:
+        raise ConfigError(f"no such source (with a non-zero half-width): {sorted(unknown)[0]}", key="displacements")
+    x = np.zeros((n, geo.offsets[-1]))
+    for k, s in enumerate(geo.sources):
+        if s.label in arrays:
+            vec = arrays[s.label]
+            xs = vec @ s.basis / s.half_width
+            off = np.linalg.norm(vec - s.half_width * xs @ s.basis.T, axis=-1)
+            if np.any(np.linalg.norm(xs, axis=-1) > 1 + 1e-9) or np.any(off > 1e-9 * s.half_width):
+                raise ConfigError(f"a displacement outside its {('segment', 'disc', 'ball')[s.basis.shape[1] - 1]} "
+                                  f"of half-width {s.half_width:g}", key=f"displacements: {s.label}")
+            x[:, geo.offsets[k]:geo.offsets[k + 1]] = xs
+    return x
+
+
+def _configuration(geo: _Geometry, x: np.ndarray) -> dict[str, np.ndarray]:
+    return {s.label: s.half_width * s.basis @ x[geo.offsets[k]:geo.offsets[k + 1]]
+            for k, s in enumerate(geo.sources)}
+
+
+# ----------------------------------------------------------------------------------------------- the result
+@dataclass(frozen=True)
+class SpatialCertifiedBounds:
+    """Certified bounds of the exact nonlinear worst case of a 6-UPS at a pose (module text).
+
+    Attributes
+    ----------
+    pose : ndarray ``(6,)``
+        The pose (mm, rotation vector rad).
+    first_order : ndarray ``(8,)``
+        The first-order maxima of ``|dx|, |dy|, |dz|`` (mm), ``|drx|, |dry|, |drz|`` (rad), ``|dp|`` (mm),
+        ``|dtheta|`` (rad) (:data:`QUANTITIES`).
+    lower : ndarray ``(8,)``
+        Values the exact model attains at :attr:`configurations`.
+    upper : ndarray ``(8,)``
+        Proven upper bounds of the exact model's maxima over the whole error set (``inf`` if not certified).
+    certified : bool
+        Whether the upper bounds are proven.
+    reason : str
+        Why not (empty when certified).
+    configurations : list of dict
+        Per quantity, each source's displacement ``{label: (3,)}`` (mm or rad, base frame) attaining ``lower``.
+    twists : ndarray ``(8, 6)``
+        The exact error twists at those configurations.
+    box : dict
+        The proven bounds of the solution set: ``Rv`` (mm), ``Rw`` (rad), and the contraction's spectral radius.
+    """
+
+    pose: np.ndarray
+    first_order: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    certified: bool
+    reason: str
+    configurations: list = field(repr=False)
+    twists: np.ndarray = field(repr=False)
+    box: dict = field(default_factory=dict)
+
+    @property
+    def gap(self) -> np.ndarray:
+        """``(upper - lower) / lower`` ``(8,)`` (``inf`` if not certified)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.lower > 0, (self.upper - self.lower) / self.lower, np.where(
+                self.upper > 0, np.inf, 0.0))
+
+    @property
+    def remainder(self) -> np.ndarray:
+        """``upper - first_order`` ``(8,)``: the proven bound of the nonlinear remainder."""
+        return self.upper - self.first_order
+
+    def records(self) -> list[dict]:
+        """One dict per quantity: ``quantity, first_order, lower, upper, gap_pct, certified`` (rotations in
+        deg, their names ending in ``_deg``)."""
+        out = []
+        for k, name in enumerate(QUANTITIES):
+            f = 1.0 if k in (0, 1, 2, 6) else 180.0 / np.pi
+            out.append({"quantity": name + ("" if f == 1.0 else "_deg"), "first_order": float(self.first_order[k] * f),
+                        "lower": float(self.lower[k] * f), "upper": float(self.upper[k] * f),
+                        "gap_pct": float(100 * self.gap[k]), "certified": bool(self.certified)})
+        return out
+
+
+# ----------------------------------------------------------------------------------------------- the bound
+def _leg_sums(geo: _Geometry) -> dict[str, np.ndarray]:
+    """Per leg ``(6,)``: ``rho`` and the sums of half-widths of Eq. 3 (module text)."""
+    n = len(geo.L)
+    keys = ("rho", "T0", "T0p", "T1", "T1p", "T2", "O1", "Od")
+    out = {k: np.zeros(n) for k in keys}
+    for s in geo.sources:
+        i, h = s.leg, s.half_width
+        d = geo.d[s.leg]
+        if s.role in ("t0", "t1", "t2"):
+            out["rho"][i] += h * np.linalg.norm(s.basis.T @ d)
+            perp = s.basis - np.outer(d, d @ s.basis)
+            hp = h * np.linalg.norm(perp, ord=2)
+            if s.role == "t0":
+                out["T0"][i] += h
+                out["T0p"][i] += hp
+            elif s.role == "t1":
+                out["T1"][i] += h
+                out["T1p"][i] += hp
+            else:
+                out["T2"][i] += h
+        elif s.role in ("w1", "wd"):
+            out["O1"][i] += h
+            if s.role == "wd":
+                out["Od"][i] += h
+    return out
+
+
+def _inverse_enclosure(W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``C`` (the computed ``W^-1``) and ``c`` ``(6,)`` with ``|W^-1 - C|_kj <= c_k`` (module text, rounding)."""
+    C = np.linalg.inv(W)
+    # W C = I - E, so W^-1 = C (I - E)^-1 = C + C N with every entry of N at most eta / (1 - eta)
+    E = np.abs(np.eye(6) - W @ C) + 7 * _EPS * np.abs(W) @ np.abs(C)
+    eta = float(np.max(np.sum(E, axis=-1)))
+    if not eta < 0.5:
+        return C, np.full(6, np.inf)
+    return C, eta / (1 - eta) * np.sum(np.abs(C), axis=-1) * (1 + 1e-12)
+
+
+def _functionals(geo: _Geometry) -> list[np.ndarray]:
+    """The linear maps of the box ``B`` ``(k, 6)``: ``v``, ``w``, per leg ``P_i [I, -[r_i]x]`` and
+    ``[I, -[r_i]x]``."""
+    out = [np.eye(6)[:3], np.eye(6)[3:]]
+    for i in range(len(geo.L)):
+        Mi = np.concatenate([np.eye(3), -skew(geo.r[i])], axis=1)
+        P = np.eye(3) - np.outer(geo.d[i], geo.d[i])
+        out.append(P @ Mi)
+    for i in range(len(geo.L)):
+        out.append(np.concatenate([np.eye(3), -skew(geo.r[i])], axis=1))
+    return out
+
+
+def _image(maps, C, c, lo, hi) -> np.ndarray:
+    """For each map ``Phi`` the largest ``|Phi W^-1 x|`` over the box ``lo <= x <= hi`` (vertices, plus the
+    enclosure of ``W^-1``)."""
+    X = 0.5 * (lo + hi) + 0.5 * (hi - lo) * _VERTICES          # (64, 6)
+    Y = X @ C.T                                                  # (64, 6): C x
+    l1 = float(np.max(np.sum(np.abs(X), axis=-1)))
+    out = []
+    for Phi in maps:
+        vals = np.linalg.norm(Y @ Phi.T, axis=-1)
+        corr = np.linalg.norm(np.abs(Phi) @ c) * l1
+        out.append(float(np.max(vals)) + corr)
+    return np.array(out)
+
+
+def _q_bounds(geo: _Geometry, sums: dict, box: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``q_lo, q_hi`` ``(6,)`` of Eq. 3 for the box ``(Rv, Rw, Yp_1..6, Y_1..6)``, and ``U``, ``Up``."""
+    n = len(geo.L)
+    L, rn = geo.L, np.linalg.norm(geo.r, axis=-1)
+    Rw = box[1]
+    eps = Rw * Rw * rn / 2                                   # |eps| (the point's own displacement)
+    dr = np.abs(np.sum(geo.d * geo.r, axis=-1))
+    deps = Rw * Rw * (rn + dr) / 4 + Rw ** 3 * rn / 6        # |d . eps|
+    Up = box[2:2 + n] + eps + sums["T0p"]
+    U = box[2 + n:2 + 2 * n] + eps + sums["T0"]
+    O1, Od, T1, T1p, T2 = sums["O1"], sums["Od"], sums["T1"], sums["T1p"], sums["T2"]
+    Z = L * np.sin(O1 / 2) + T2 + T1 + L * np.sin(Od / 2)
+    Zp = L * np.sin(O1 / 2) + T2 + T1p + L * np.sin(Od / 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uterm = np.where(U < L, Up ** 2 / (2 * (L - U)), np.inf)
+        zterm = np.where(Z < L, Zp ** 2 / (2 * (L - Z)), np.inf)
+    cross = 2 * np.sin(O1 / 2) * T2
+    q_lo = -(L / 2) * (2 - np.cos(O1) - np.cos(Od)) - cross - uterm - deps
+    q_hi = cross + zterm + deps
+    return q_lo, q_hi, U, Up
+
+
+def _certify(geo: _Geometry, sums: dict):
+    """The invariant box and the contraction (module text): ``(q_lo, q_hi, box, radius, reason)``."""
+    C, c = _inverse_enclosure(geo.W)
+    n = len(geo.L)
+    if not np.all(np.isfinite(c)):
+        return None, None, None, np.inf, "W^-1 could not be enclosed (near-singular)"
+    maps = _functionals(geo)
+    rho = sums["rho"]
+    box = _image(maps, C, c, -rho, rho)
+    reason = "the bounds of the solution set do not close (the error set is too large for the distance to a " \
+             "singularity, or a leg's displacement reaches its length)"
+    if np.any(sums["O1"] > 0.5):
+        return None, None, None, np.inf, "a slide's tilt and direction turns exceed 0.5 rad"
+    for _ in range(200):
+        q_lo, q_hi, _, _ = _q_bounds(geo, sums, box)
+        if not (np.all(np.isfinite(q_lo)) and np.all(np.isfinite(q_hi))) or box[1] > 1.0:
+            return None, None, None, np.inf, reason
+        new = _image(maps, C, c, -rho + q_lo, rho + q_hi)
+        if np.all(new <= box * (1 + 1e-14)):
+            break
+        box = np.maximum(box, new)
+    for inflate in (1e-9, 1e-6, 1e-3, 1e-1):
+        trial = box * (1 + inflate) + 1e-300
+        q_lo, q_hi, U, _ = _q_bounds(geo, sums, trial)
+        if np.all(np.isfinite(q_lo)) and np.all(np.isfinite(q_hi)) and trial[1] <= 1.0:
+            new = _image(maps, C, c, -rho + q_lo, rho + q_hi)
+            if np.all(new <= trial):
+                break
+    else:
+        return None, None, None, np.inf, reason
+    # uniqueness: the contraction of t -> t - W^-1 (G(t) - target) over the box
+    Rw, L, rn = trial[1], geo.L, np.linalg.norm(geo.r, axis=-1)
+    _, _, U, Up = _q_bounds(geo, sums, trial)
+    alpha = Up / (L - U)                                        # |n - d| <= |u_perp| / (L - |u|)
+    beta = rn * (1.5 * Rw + Rw * Rw / 6 + alpha)
+    absinv = np.abs(C) + c[:, None]
+    cv = np.linalg.norm(absinv[:3], axis=0)
+    cw = np.linalg.norm(absinv[3:], axis=0)
+    lam = np.array([[cv @ alpha, cv @ beta], [cw @ alpha, cw @ beta]])
+    tr, det = lam[0, 0] + lam[1, 1], lam[0, 0] * lam[1, 1] - lam[0, 1] * lam[1, 0]
+    radius = 0.5 * (tr + np.sqrt(max(tr * tr - 4 * det, 0.0)))
+    if not radius < 1:
+        return None, None, None, radius, f"the closure is not proven a contraction over the box (radius {radius:.3g})"
+    return q_lo, q_hi, trial, radius, ""
+
+
+def _upper(geo: _Geometry, sums: dict, q_lo, q_hi) -> np.ndarray:
+    """The largest of each quantity over ``W^-1 X`` (module text) ``(8,)``."""
+    C, c = _inverse_enclosure(geo.W)
+    rho = sums["rho"]
+    lo, hi = -rho + q_lo, rho + q_hi
+    X = 0.5 * (lo + hi) + 0.5 * (hi - lo) * _VERTICES
+    l1 = float(np.max(np.sum(np.abs(X), axis=-1)))
+    Y = X @ C.T
+    comp = np.max(np.abs(Y), axis=0) + c * l1
+    dp = np.max(np.linalg.norm(Y[:, :3], axis=-1)) + np.linalg.norm(c[:3]) * l1
+    dth = np.max(np.linalg.norm(Y[:, 3:], axis=-1)) + np.linalg.norm(c[3:]) * l1
+    return np.concatenate([comp, [dp, dth]]) * (1 + ROUNDING)
+
+
+# ----------------------------------------------------------------------------------------------- the lower
+def _support_point(geo: _Geometry, g: np.ndarray) -> np.ndarray:
+    """The point of the sources' set maximizing ``g . x`` (per source ``g_s / |g_s|``; 0 where ``g_s = 0``)
+    for rows of ``g`` ``(N, m)``."""
+    x = np.zeros_like(g)
+    for k in range(len(geo.sources)):
+        a, b = geo.offsets[k], geo.offsets[k + 1]
+        nrm = np.linalg.norm(g[:, a:b], axis=-1, keepdims=True)
+        x[:, a:b] = np.where(nrm > 0, g[:, a:b] / np.where(nrm > 0, nrm, 1.0), 0.0)
+    return x
+
+
+def _first_order_configs(geo: _Geometry, sums: dict) -> np.ndarray:
+    """The first-order worst configurations ``(14, m)``: each component's (+ then -), ``|dp|``'s and
+    ``|dtheta|``'s."""
+    C = np.linalg.inv(geo.W)
+    rho = sums["rho"]
+    patterns = []
+    for k in range(6):
+        sig = np.where(C[k] >= 0, 1.0, -1.0)
+        patterns += [sig, -sig]
+    for rows in (slice(0, 3), slice(3, 6)):
+        vals = np.linalg.norm((_VERTICES * rho) @ C[rows].T, axis=-1)
+        patterns.append(_VERTICES[int(np.argmax(vals))])
+    patterns = np.array(patterns)                                  # (14, 6) signs per leg
+    # each source's first-order effect on its leg's term: g_s = sign_i h_s basis^T d_i (0 for rotations)
+    m = geo.offsets[-1]
+    g = np.zeros((len(patterns), m))
+    for k, s in enumerate(geo.sources):
+        a, b = geo.offsets[k], geo.offsets[k + 1]
+        if s.role in ("t0", "t1", "t2"):
+            g[:, a:b] = patterns[:, s.leg, None] * (s.basis.T @ geo.d[s.leg])[None]
+    return _support_point(geo, g)
+
+
+def _objective(t: np.ndarray, which: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    q = _quantities(t)
+    return sign * q[np.arange(len(which)), which]
+
+
+def _gradient(geo: _Geometry, x: np.ndarray, t: np.ndarray, which: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    """The gradient ``(N, m)`` of each row's quantity in the unit variables at the solutions ``t``: implicit
+    differentiation of Eq. 1, ``dt/dx = -J^-1 dF/dx`` with ``dF/dx`` by central differences at fixed ``t`` (no
+    solve)."""
+    N, m = x.shape
+    step = 1e-6
+    E = np.eye(m) * step
+    X = np.concatenate([x[:, None, :] + E, x[:, None, :] - E], axis=1).reshape(-1, m)
+    target, t0 = _leg_targets(geo, _displacements(geo, X))
+    F, _ = _residual(geo, np.repeat(t, 2 * m, axis=0), target, t0, jac=False)
+    F = F.reshape(N, 2, m, -1)
+    dF = np.swapaxes((F[:, 0] - F[:, 1]) / (2 * step), 1, 2)          # (N, 6 legs, m)
+    _, J = _residual(geo, t, *_leg_targets(geo, _displacements(geo, x)))
+    dt = -np.linalg.solve(J, dF)                                       # (N, 6, m)
+    q = _quantities(t)
+    out = np.empty((N, m))
+    for n in range(N):
+        k = which[n]
+        if k < 6:
+            out[n] = sign[n] * dt[n, k]
+        else:
+            rows = slice(0, 3) if k == 6 else slice(3, 6)
+            out[n] = sign[n] * (t[n, rows] / max(q[n, k], 1e-300)) @ dt[n, rows]
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _ascent(geo: _Geometry, x: np.ndarray, which: np.ndarray, sign: np.ndarray, steps: int) -> tuple:
+    """Conditional-gradient ascent of each row's quantity over the sources' sets (gradients of the exact
+    model, :func:`_gradient`); returns ``x``, the twists and the objective values."""
+    t, _ = _solve(geo, x)
+    f = _objective(t, which, sign)
+    m = x.shape[1]
+    if steps == 0 or m == 0:
+        return x, t, f
+    for _ in range(steps):
+        grad = _gradient(geo, x, t, which, sign)
+        target = _support_point(geo, grad)
+        improved = np.zeros(len(x), bool)
+        for tau in (1.0, 0.5, 0.25, 0.1, 0.03):
+            cand = x + tau * (target - x)
+            tc, _ = _solve(geo, cand)
+            fc = _objective(tc, which, sign)
+            better = (fc > f) & ~improved & np.isfinite(fc)
+            x = np.where(better[:, None], cand, x)
+            t = np.where(better[:, None], tc, t)
+            f = np.where(better, fc, f)
+            improved |= better
+        if not np.any(improved):
+            break
+    return x, t, f
+
+
+def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent_steps: int = 4,
+                             allow_outside: bool = False) -> SpatialCertifiedBounds:
+    """Certified bounds of the exact nonlinear worst case of a 6-UPS's error at one pose (module text).
+
+    ``sources``: a :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset name or a TOML path;
+    ``pose`` ``(6,)``: ``[x, y, z mm, rotation vector rad]``. Returns a :class:`SpatialCertifiedBounds`: per
+    quantity (:data:`QUANTITIES`: ``|dx|, |dy|, |dz|`` mm, ``|drx|, |dry|, |drz|`` rad, ``|dp|`` mm, ``|dtheta|``
+    rad) the first-order maximum, a ``lower`` value attained by the exact model (Eq. 1) at a returned
+    configuration of the sources (the first-order worst one improved by ``ascent_steps`` conditional-gradient
+    steps), and an ``upper`` value proven never below the exact model's maximum over the whole error set
+    (first-order maximum plus the proven remainder, Eq. 3 and the theorem). Where the proof fails ``upper`` is
+    ``inf``, ``certified`` False and ``reason`` says why.
+
+    Raises :class:`~pmaccuracy.errors.UnsupportedArchitectureError` for other architectures,
+    :class:`~pmaccuracy.errors.OutsideJointLimitsError` and :class:`~pmaccuracy.errors.SingularPoseError` as
+    :func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors` does.
+    """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
+    sources, pose = _check(robot, sources, pose)
+    spatial_pose_errors(robot, sources, pose, allow_outside=allow_outside, details=False)   # raises as it does
+    geo = _geometry(robot, sources, pose)
+    sums = _leg_sums(geo)
+    m = geo.offsets[-1]
+    if m == 0 or not np.any(sums["rho"] > 0) and not np.any(sums["O1"] + sums["T1p"] + sums["T0p"] > 0):
+        zero = np.zeros(8)
+        return SpatialCertifiedBounds(pose, zero, zero, zero, True, "", [{} for _ in QUANTITIES], np.zeros((8, 6)))
+    C = np.linalg.inv(geo.W)
+    rho = sums["rho"]
+    Y = (_VERTICES * rho) @ C.T
+    first = np.concatenate([np.abs(C) @ rho, [np.max(np.linalg.norm(Y[:, :3], axis=-1)),
+                                               np.max(np.linalg.norm(Y[:, 3:], axis=-1))]])
+    # lower: the exact model at the first-order worst configurations, improved
+    x0 = _first_order_configs(geo, sums)
+    which = np.array([k for k in range(6) for _ in (0, 1)] + [6, 7])
+    sign = np.array([1.0, -1.0] * 6 + [1.0, 1.0])
+    x, t, f = _ascent(geo, x0, which, sign, ascent_steps)
+    lower, configs, twists = np.zeros(8), [], np.zeros((8, 6))
+    for k in range(8):
+        rows = np.flatnonzero(which == k)
+        best = rows[int(np.argmax(np.where(np.isfinite(f[rows]), f[rows], -np.inf)))]
+        lower[k] = f[best]
+        twists[k] = t[best]
+        configs.append(_configuration(geo, x[best]))
+    q_lo, q_hi, box, radius, reason = _certify(geo, sums)
+    if reason:
+        upper = np.full(8, np.inf)
+        info = {"contraction": float(radius)}
+    else:
+        upper = _upper(geo, sums, q_lo, q_hi)
+        info = {"Rv": float(box[0]), "Rw": float(box[1]), "contraction": float(radius)}
+    return SpatialCertifiedBounds(pose=pose, first_order=first, lower=lower, upper=upper, certified=not reason,
+                                  reason=reason, configurations=configs, twists=twists, box=info)
