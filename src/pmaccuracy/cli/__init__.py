@@ -51,10 +51,10 @@ COMMANDS = {
     "statistics": ("statistics_cmd", "distribution of the pose error (Monte Carlo, RSS) beside the worst case: at a pose or percentile maps"),
     "load": ("load_cmd", "pose error under a known platform load: statics, reactions, clearances taken up (any architecture)"),
     "preload": ("preload_cmd", "smallest preload keeping every contact fixed over a box of process wrenches (any architecture)"),
-    "import": ("robot_file_cmd", "read a parallel robot from an MJCF or URDF file (loops closed by constraints) "
-                                 "into a robot TOML"),
-    "export": ("robot_file_cmd", "write a robot as an MJCF or URDF file, or its geometry into the file it came "
-                                 "from (--like)"),
+    "import": ("robot_file_cmd", "read a parallel robot from an MJCF, URDF or SDF file (loops closed by "
+                                 "constraints) into a robot TOML"),
+    "export": ("robot_file_cmd", "write a robot as an MJCF, URDF or SDF file, or its geometry into the file it "
+                                 "came from (--like)"),
     "template": ("template_cmd", "print a commented template robot file (or, with --clearances, clearance file) of an "
                                  "architecture"),
 }

@@ -30,8 +30,8 @@ from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, UPSLeg
 from .assembly_modes import assembly_modes as solve_modes
-from ..numerics.spatial import (displace, euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz, rotvecs,
-                                segment_distance)
+from ..numerics.spatial import (displace, euler_xyz_rates, euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz,
+                                rotvecs, segment_distance)
 
 #: Slack of every joint limit (mm or rad): a pose computed on the workspace boundary counts as inside.
 LIMIT_TOLERANCE = 1e-9
@@ -368,22 +368,12 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
     return np.concatenate([np.stack([xyw[..., 0], xyw[..., 1], z], -1), euler_xyz_to_rotvec(angles)], axis=-1)
 
 
-def _angle_rates(angles: np.ndarray) -> np.ndarray:
-    """Angular velocities ``(..., 3, 3)`` (columns) per unit rate of extrinsic x-y-z roll, pitch, yaw:
-    ``R = Rz(yaw) Ry(pitch) Rx(roll)`` turns with ``Rz Ry e_x``, ``Rz e_y`` and ``e_z``."""
-    pitch, yaw = angles[..., 1], angles[..., 2]
-    cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
-    z, o = np.zeros_like(pitch), np.ones_like(pitch)
-    return np.stack([np.stack([cy * cp, sy * cp, -sp], -1), np.stack([-sy, cy, z], -1), np.stack([z, z, o], -1)],
-                    axis=-1)
-
-
 def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int, strict: bool) -> np.ndarray:
     """Parasitic coordinates of a chain robot by Newton on its constraint equations (the closure rows with no
     actuator gain, reciprocal to every joint of their leg), from the home pose's values: the derivative of a
     constraint row ``w`` along coordinate ``k`` is ``w . t_k`` with ``t_k`` the twist of a unit rate of ``k``
-    (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles, :func:`_angle_rates`). Only the poses not yet
-    converged are iterated."""
+    (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles,
+    :func:`~pmaccuracy.numerics.spatial.euler_xyz_rates`). Only the poses not yet converged are iterated."""
     fixed = list(CONTROLLED[robot.mobility])
     free = [k for k in range(6) if k not in fixed]
     shape = c.shape[:-1]
@@ -406,7 +396,7 @@ def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int
         keep = ~done & finite
         T = np.zeros((keep.sum(), 6, 6))
         T[:, :3, :3] = np.eye(3)
-        T[:, 3:, 3:] = _angle_rates(coords[active[keep]][:, 3:])
+        T[:, 3:, 3:] = euler_xyz_rates(coords[active[keep]][:, 3:])
         Jac = (wrenches[keep][:, rows, :] @ T)[..., free]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             step = _solve_rows(Jac, e[keep])

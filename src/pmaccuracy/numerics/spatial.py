@@ -99,6 +99,23 @@ def rotvec_to_euler_xyz(rotvec: np.ndarray, degrees: bool = False) -> np.ndarray
     return Rotation.from_rotvec(np.array(r.reshape(-1, 3))).as_euler("xyz", degrees=degrees).reshape(r.shape)
 
 
+def euler_xyz_rates(angles: np.ndarray) -> np.ndarray:
+    """Angular velocities per unit rate of extrinsic x-y-z roll, pitch, yaw, as the columns of ``(..., 3, 3)``:
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)`` turns with ``Rz Ry e_x``, ``Rz e_y`` and ``e_z`` (base frame).
+
+    >>> euler_xyz_rates(np.zeros(3))
+    array([[ 1., -0.,  0.],
+           [ 0.,  1.,  0.],
+           [-0.,  0.,  1.]])
+    """
+    angles = np.asarray(angles, dtype=float)
+    pitch, yaw = angles[..., 1], angles[..., 2]
+    cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    z, o = np.zeros_like(pitch), np.ones_like(pitch)
+    return np.stack([np.stack([cy * cp, sy * cp, -sp], -1), np.stack([-sy, cy, z], -1), np.stack([z, z, o], -1)],
+                    axis=-1)
+
+
 def displace(poses: np.ndarray, twists: np.ndarray) -> np.ndarray:
     """Poses moved by small displacements: ``p + v``, ``R -> exp([w]x) R`` (both ``(..., 6)``)."""
     poses = np.asarray(poses, dtype=float)

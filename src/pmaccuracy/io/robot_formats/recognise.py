@@ -16,9 +16,10 @@ from ...model.chain import Chain
 from ...model.chain import Joint as ChainJoint
 from ...model.legs import ChainLeg
 from ...model.manipulator import Manipulator
-from ...model.spatial import SpatialManipulator
+from ...model.spatial import CHAIN, CONTROLLED, POSE_NAMES, SpatialManipulator
+from ...model.spatial_chain import ChainJoint as SpatialChainJoint, ChainLeg as SpatialChainLeg
 from ...model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
-from ...numerics.spatial import rotations, rotvecs
+from ...numerics.spatial import euler_xyz_rates, rotations, rotvec_to_euler_xyz, rotvecs
 from .graph import SUFFIXES, PATTERNS, ACTUATED_PAIR, FileJoint, KinematicGraph, _error, _unit, _signed_angle, _rotate
 from .mjcf import read_mjcf
 from .sdf import read_sdf
@@ -502,6 +503,8 @@ def robot_from_graph(graph: KinematicGraph):
                          f"leg {i} has {len(paths)} branches from the base to the platform: not a leg of a known "
                          "architecture")
         if pattern not in PATTERNS:
+            if len(paths) == 1:       # any other serial leg: a joint chain (pmaccuracy.model.spatial_chain)
+                return _chain_robot(graph, legs, p, home_rotvec)
             joints = ", ".join(j.name for path in paths for j in path)
             raise _error(src, paths[0][0].name, f"leg {i}: joints {pattern} ({joints}) are not a leg of a known "
                                                 f"architecture ({', '.join(PATTERNS)})")
@@ -530,6 +533,8 @@ def robot_from_graph(graph: KinematicGraph):
             built.append(reader.delta(heads[0], rods, home))
     archs = {PATTERNS[pt] for pt in patterns}
     if len(archs) != 1:
+        if all(len(paths) == 1 for paths in legs):
+            return _chain_robot(graph, legs, p, home_rotvec)
         raise _error(src, None, f"the legs are of different kinds ({', '.join(patterns)}): one architecture only")
     if archs == {"6-UPS"} and len(built) == 3:
         raise _error(src, None, f"three legs of joints {patterns[0]} (a spherical joint at the platform) leave the "
@@ -542,6 +547,98 @@ def robot_from_graph(graph: KinematicGraph):
                                   home=tuple(float(v) for v in np.concatenate([p, home_rotvec])))
     except GeometryError as exc:
         raise GeometryError(exc.message, source=src, key=exc.key) from None
+
+
+def _chain_joint(pair: Pair, *, src: str) -> SpatialChainJoint:
+    """A kinematic pair as a joint of a spatial chain leg: values and ranges as the file's (a joint taken against
+    the file's tree turns the other way: its values change sign)."""
+    def values(j: FileJoint):
+        ref, rng = j.ref, j.range
+        if j.flipped:
+            ref, rng = -ref, (None if rng is None else (-rng[1], -rng[0]))
+        return ref, rng
+
+    centre = tuple(float(v) for v in pair.point)
+    if pair.letter == "S":
+        return SpatialChainJoint(kind="S", centre=centre)
+    vals = [values(j) for j in pair.joints]
+    axes = tuple(tuple(float(v) for v in j.axis) for j in pair.joints)
+    if pair.letter == "U":
+        if abs(float(np.dot(axes[0], axes[1]))) > 1e-6:
+            raise _error(src, pair.joints[1].name, "two hinges through one point that are not perpendicular: not a "
+                                                   "universal joint")
+        return SpatialChainJoint(kind="U", centre=centre, axes=axes, home=tuple(v[0] for v in vals),
+                                 ranges=tuple(v[1] for v in vals))
+    return SpatialChainJoint(kind=pair.letter, centre=centre, axes=axes[:1], home=(vals[0][0],), ranges=(vals[0][1],),
+                             actuated=pair.actuated)
+
+
+def _chain_robot(graph: KinematicGraph, legs, p: np.ndarray, home_rotvec: np.ndarray) -> SpatialManipulator:
+    """Legs of no designer type as joint chains (``spatial-chain``): each leg's pairs from the base to the platform,
+    its actuated pair marked; the controlled coordinates are the first set (all six; x, y, z; z, roll, pitch) that
+    the legs' constraint wrenches determine at home (:func:`controlled_at_home`)."""
+    src = graph.source
+    home = tuple(float(v) for v in np.concatenate([p, home_rotvec]))
+    built = []
+    for i, paths in enumerate(legs, start=1):
+        pairs = pairs_of(paths[0])
+        acts = [pr for pr in pairs if pr.actuated]
+        if len(acts) != 1:
+            what = "none" if not acts else ", ".join(pr.joints[0].name for pr in acts)
+            raise _error(src, paths[0][0].name, f"leg {i} ({''.join(pr.letter for pr in pairs)}): a leg needs exactly "
+                                                f"one actuated joint (an actuator on a hinge or a slide); found {what}")
+        if acts[0].letter not in ("R", "P"):
+            raise _error(src, acts[0].joints[0].name, f"leg {i}: only a single hinge or slide can be actuated")
+        joints = tuple(_chain_joint(pr, src=src) for pr in pairs)
+        R0 = rotations(home_rotvec[None])[0]
+        platform = tuple(float(v) for v in R0.T @ (np.asarray(joints[-1].centre) - p))
+        try:
+            built.append(SpatialChainLeg(base=joints[0].centre, platform=platform, joints=joints, home_pose=home))
+        except GeometryError as exc:
+            raise _error(src, paths[0][0].name, f"leg {i}: {exc.message}") from None
+    extras = graph.extras
+    name = extras.get("name") if isinstance(extras.get("name"), str) else Path(src).stem
+    rows = [leg.ROWS for leg in built]
+    if sum(rows) != 6:
+        raise _error(src, None, f"the legs' passive joints leave {sum(rows)} closure equations (per leg: "
+                                f"{', '.join(map(str, rows))}); a parallel robot needs 6")
+    controlled = controlled_at_home(built, home)
+    if controlled is None:
+        raise _error(src, None, f"{len(built)} legs whose constraints fix none of the coordinate sets pmaccuracy "
+                                "commands (all six; x, y, z; z, roll, pitch)")
+    try:
+        return SpatialManipulator(architecture=CHAIN, legs=tuple(built), name=name,
+                                  description=str(extras.get("description", "")), home=home,
+                                  controlled_names=controlled)
+    except (GeometryError, ConfigError) as exc:
+        raise type(exc)(exc.message, source=src, key=exc.key) from None
+
+
+def controlled_at_home(legs, home) -> tuple[str, ...] | None:
+    """The controlled coordinates of chain legs: the first of :data:`CONTROLLED`'s sets with one coordinate per
+    leg whose complement the constraint wrenches at home fix (their block of ``W_c T`` is regular, ``T`` the
+    coordinates' unit twists at home)."""
+    home = np.asarray(home, dtype=float)
+    p, R = home[:3], rotations(home[3:][None])[0]
+    Wc = []
+    for leg in legs:
+        _, W, g = leg.closure(p, R, home[3:], leg.actuate(p, R))
+        Wc.extend(W[k] for k in range(W.shape[0]) if g[k] == 0)
+    T = np.eye(6)       # x, y, z translations of P; roll, pitch, yaw rates at zero angles: base-axis rotations
+    angles = rotvec_to_euler_xyz(home[3:])
+    T[3:, 3:] = euler_xyz_rates(angles)
+    for idx in CONTROLLED.values():
+        if len(idx) != len(legs):
+            continue
+        free = [k for k in range(6) if k not in idx]
+        if not free:
+            return tuple(POSE_NAMES[k] for k in idx)
+        block = np.array(Wc) @ T[:, free] if Wc else np.zeros((0, len(free)))
+        if block.shape[0] == len(free):
+            s = np.linalg.svd(block * np.linalg.norm(block, axis=1, keepdims=True) ** -1, compute_uv=False)
+            if s[-1] > 1e-6:
+                return tuple(POSE_NAMES[k] for k in idx)
+    return None
 
 
 def read_robot_file(path: str | os.PathLike):
