@@ -40,17 +40,17 @@ def chain_table(robot: SpatialManipulator, home=None) -> dict:
             last = {"type": "S", "centre": B.tolist()} if arch == "6-UPS" else \
                 {"type": "U", "centre": B.tolist(), "axes": [a2.tolist(), (R0 @ np.asarray(leg.platform_axis)).tolist()]}
             joints = [{"type": "U", "centre": A.tolist(), "axes": [a1.tolist(), a2.tolist()]},
-                      {"type": "P", "centre": A.tolist(), "axis": u.tolist(), "home": float(q),
+                      {"type": "P", "centre": (0.5 * (A + B)).tolist(), "axis": u.tolist(), "home": float(q),
                        "stroke": list(leg.length_range), "actuated": True}, last]
         elif arch == "3-RPS":
             u = _unit(B - A)
             joints = [{"type": "R", "centre": A.tolist(), "axis": list(leg.axis)},
-                      {"type": "P", "centre": A.tolist(), "axis": u.tolist(), "home": float(q),
+                      {"type": "P", "centre": (0.5 * (A + B)).tolist(), "axis": u.tolist(), "home": float(q),
                        "stroke": list(leg.length_range), "actuated": True},
                       {"type": "S", "centre": B.tolist()}]
         elif arch == "3-PRS":
             C = np.asarray(leg.base) + q * np.asarray(leg.slide)
-            joints = [{"type": "P", "centre": list(leg.base), "axis": list(leg.slide), "home": float(q),
+            joints = [{"type": "P", "centre": C.tolist(), "axis": list(leg.slide), "home": float(q),
                        "stroke": list(leg.slide_range), "actuated": True},
                       {"type": "R", "centre": C.tolist(), "axis": list(leg.axis)},
                       {"type": "S", "centre": B.tolist()}]

@@ -27,6 +27,7 @@ from ..kinematics.spatial import as_spatial_poses, closure, inverse_kinematics, 
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
+from ..model.spatial_chain import ChainLeg
 from ..model.spatial_sources import JOINTS, SpatialErrorSources
 from ..numerics.spatial import normalize, rotations, rotvec_to_euler_xyz
 from ..numerics.support import max_norm
@@ -187,9 +188,55 @@ def _universal_axes(d, ref_dir, fixed_axis):
     return u1, u2, normalize(np.cross(u1, u2))
 
 
+def _chain_generators(leg: ChainLeg, joint: int, key: str, p, ctx) -> _Generators:
+    """Generator twists of a source on joint ``joint`` of a chain leg, at the leg's solved configuration
+    (``ctx["chain"]``: :meth:`~pmaccuracy.model.spatial_chain.ChainLeg.solve`): the joint's centre moved by the
+    joints before it, its current axes from the leg's Jacobian columns. The sets are the designer types' (module
+    text): an R, U or C pin's radial disc(s), axial play and tilt, a slide's lateral disc, tilt and axial
+    actuator error, a ball, position and direction tolerances (a U joint's direction: its proximal axis); an
+    actuated R joint's ``actuator``/``backlash`` a rotation about its axis."""
+    _, _, _, J, prefixes = ctx["chain"]
+    spec = leg.joints[joint]
+    Rp, tp = prefixes[joint]
+    centre = np.einsum("...ij,j->...i", Rp, np.asarray(spec.centre, dtype=float)) + tp
+    first = sum(j.dof for j in leg.joints[:joint])
+    cols = J[..., :, first:first + spec.dof]                 # (..., 6, dof) twists [v_O, w]
+    if key == "position" or spec.kind == "S":
+        return _Generators(_BASIS)
+    if spec.kind == "P":                    # the block rides with the slide: its centre moves with the joint
+        if joint + 1 < len(prefixes):
+            Rn, tn = prefixes[joint + 1]
+            centre = np.einsum("...ij,j->...i", Rn, np.asarray(spec.centre, dtype=float)) + tn
+        axis = normalize(cols[..., :3, 0])
+        if key in ("actuator", "backlash"):
+            return _translation([axis])
+        n1, n2 = _normals(axis)
+        if key == "lateral":
+            return _translation([n1, n2])
+        return _rotation([n1, n2], centre, p)                 # tilt, direction: about the block's centre
+    axis = normalize(cols[..., 3:, 0])
+    if key in ("actuator", "backlash"):
+        return _rotation([axis], centre, p)
+    if spec.kind in ("R", "C"):
+        return _revolute(key, axis, centre, p)
+    u1, u2 = axis, normalize(cols[..., 3:, 1])                # a universal joint's two pins
+    if key == "radial":
+        n11, n12 = _normals(u1)
+        n21, n22 = _normals(u2)
+        return _translation([n11, n12, n21, n22])
+    if key == "axial":
+        return _translation([u1, u2])
+    if key == "tilt":
+        return _rotation([normalize(np.cross(u1, u2))], centre, p)
+    n1, n2 = _normals(u1)
+    return _rotation([n1, n2], centre, p)
+
+
 def _joint_generators(robot, leg_index, leg, joint, key, p, R, q, ref, ctx):
     """Generator twists of one source (:class:`_Generators`) and the leg's closure rows it acts on (indices into
     the leg's rows; ``None``: all). ``ctx``: the leg's platform point ``B`` and direction ``d`` at the poses."""
+    if isinstance(leg, ChainLeg):
+        return _chain_generators(leg, joint, key, p, ctx), None
     kind = JOINTS[robot.architecture][joint]
     A = np.asarray(leg.base, dtype=float)
     B = ctx["B"]
@@ -345,6 +392,9 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
         cols = Winv[..., :, row0:row0 + nrows]
         B = leg.platform_point(p, R)
         ctx = {"B": B, "d": normalize(B - np.asarray(leg.base, dtype=float))}
+        if isinstance(leg, ChainLeg):
+            ctx["chain"] = leg.solve(p, R, ik.q[..., i])
+        kinds = sources.spec(i)[0]
         merged = None
         for j, joint in enumerate(sources.legs[i]):
             for key, h in joint.items():
@@ -356,8 +406,8 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
                     E = gens.rows(Wleg)
                 if rows is not None:
                     E[..., [r for r in range(nrows) if r not in rows], :] = 0.0
-                groups = [(0, 2), (2, 4)] if (key == "radial" and JOINTS[robot.architecture][j] == "U") else \
-                    [(0, 1), (1, 2)] if (key == "axial" and JOINTS[robot.architecture][j] == "U") else \
+                groups = [(0, 2), (2, 4)] if (key == "radial" and kinds[j] == "U") else \
+                    [(0, 1), (1, 2)] if (key == "axial" and kinds[j] == "U") else \
                     [(0, gens.d)]
                 for part, (a, b) in enumerate(groups, start=1):
                     Es = h * E[..., a:b]

@@ -60,11 +60,12 @@ import numpy as np
 from scipy.optimize import linprog
 
 from .._display import html_table, summary, value_range
-from ..errors import ConfigError
+from ..errors import ConfigError, UnsupportedArchitectureError
 from ..io.resolve import robot_arg
 from ..kinematics.spatial import as_spatial_poses, closure, coordinates, inverse_kinematics
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator, is_spatial
+from ..model.spatial_chain import ChainLeg
 from ..model.spatial_legs import DeltaLeg, PRSLeg
 from ..model.spatial_sources import SpatialErrorSources
 from ..numerics.spatial import rotations
@@ -217,7 +218,12 @@ def _statics(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray, cl, Wi
         A = np.broadcast_to(np.asarray(leg.base, dtype=float), p.shape)
         B = leg.platform_point(p, R)
         w = leg_wrench[..., i, :]
-        if isinstance(leg, DeltaLeg):
+        if isinstance(leg, ChainLeg):       # every joint of a massless serial leg carries the leg's wrench
+            prefixes = leg.solve(p, R, q[..., i])[4]
+            cs = [np.einsum("...ij,j->...i", Rp, np.asarray(j.centre, dtype=float)) + tp
+                  for j, (Rp, tp) in zip(leg.joints, prefixes)]
+            ws = [w] * len(cs)
+        elif isinstance(leg, DeltaLeg):
             C, Bs = leg.balls(p, R, q[..., i])
             rod = rows[..., legs == i, :]                               # (..., 2, 6) each rod's wrench
             cs = [A, C[..., 0, :], Bs[..., 0, :], C[..., 1, :], Bs[..., 1, :]]
@@ -229,6 +235,9 @@ def _statics(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray, cl, Wi
         centres.append(np.stack(cs, axis=-2))
         reactions.append(np.stack([np.concatenate([wk[..., :3], wk[..., 3:] + np.cross(p - c, wk[..., :3])], -1)
                                    for c, wk in zip(cs, ws)], axis=-2))
+    if len({c.shape for c in centres}) > 1:
+        raise UnsupportedArchitectureError("joint reactions of chain legs with different numbers of joints are not "
+                                           "tabulated yet", key="legs")
     return SpatialStatics(poses=poses, wrench=F, intensity=lam, leg_of_row=legs, actuator=tau,
                           leg_wrench=leg_wrench, centres=np.stack(centres, axis=-3),
                           reactions=np.stack(reactions, axis=-3))

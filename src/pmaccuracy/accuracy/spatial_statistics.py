@@ -56,7 +56,7 @@ from ..io.resolve import robot_arg
 from ..kinematics.spatial import as_spatial_poses
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import is_spatial
-from ..model.spatial_sources import DEFAULT_PRESET, SpatialErrorSources
+from ..model.spatial_sources import SpatialErrorSources, default_preset
 from .distributions import sample_statistics
 from .spatial_bounds import error_sources_at, spatial_pose_errors
 
@@ -295,7 +295,7 @@ def spatial_pose_statistics(robot, sources, pose, *, samples: int = 100_000, see
     robot = robot_arg(robot)
     if not is_spatial(robot):
         raise ConfigError(f"{robot.name} is a planar robot: use pose_statistics", key="robot")
-    sources = SpatialErrorSources.load(DEFAULT_PRESET[robot.architecture] if sources is None else sources, robot)
+    sources = SpatialErrorSources.load(default_preset(robot) if sources is None else sources, robot)
     if sources.architecture != robot.architecture:
         raise ConfigError(f"the error sources are of a {sources.architecture}, the robot a {robot.architecture}",
                           key="sources")

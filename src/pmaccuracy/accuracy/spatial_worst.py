@@ -71,7 +71,7 @@ from ..kinematics.spatial import LIMIT_TOLERANCE, complete_poses, inverse_kinema
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, POSE_NAMES, SpatialManipulator
-from ..model.spatial_sources import DEFAULT_PRESET, SpatialErrorSources
+from ..model.spatial_sources import SpatialErrorSources, default_preset
 from ..numerics.spatial import euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz
 from .spatial_bounds import COMPONENTS, MAX_CONDITION, hexapod_leg_terms, spatial_pose_errors
 
@@ -357,7 +357,7 @@ class SpatialGlobalWorst:
 
 def _sources(robot: SpatialManipulator, clearances) -> SpatialErrorSources:
     if clearances is None:
-        clearances = DEFAULT_PRESET[robot.architecture]
+        clearances = default_preset(robot)
     if isinstance(clearances, SpatialErrorSources):
         if clearances.architecture != robot.architecture:
             raise ConfigError(f"the error sources are of a {clearances.architecture}, the robot a "

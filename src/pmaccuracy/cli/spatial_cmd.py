@@ -241,10 +241,10 @@ def _certified_bounds(args: argparse.Namespace, robot) -> int:
 
 def _sources(args: argparse.Namespace, robot):
     """The error sources of ``--clearances`` (default: the architecture's typical preset, said on stderr)."""
-    from ..model.spatial_sources import DEFAULT_PRESET, SpatialErrorSources
+    from ..model.spatial_sources import SpatialErrorSources, default_preset
 
     if args.clearances is None:
-        args.clearances = DEFAULT_PRESET[robot.architecture]
+        args.clearances = default_preset(robot)
         _common.announce_default_clearances(args.clearances, args)
     try:
         return SpatialErrorSources.load(args.clearances, robot)

@@ -27,21 +27,33 @@ LENGTH_JOINTS = {"6-UPS": (0, 1), "3-RPS": (0, 1), "3-PRS": (0, 1), "3-UPU": (0,
 #: :data:`LENGTH_JOINTS`).
 KEYS = {"S": {"radial", "position"}, "R": {"radial", "axial", "tilt", "position", "direction"},
         "U": {"radial", "axial", "tilt", "position", "direction"},
-        "P": {"lateral", "tilt", "position", "direction"}}
+        "P": {"lateral", "tilt", "position", "direction"}, "C": {"radial", "tilt", "position", "direction"}}
+#: The architecture of robots whose legs are joint chains: their joints are read from the robot.
+CHAIN = "spatial-chain"
 #: Unit of each key (for messages and plausibility).
 UNITS = {"radial": "mm", "axial": "mm", "tilt": "rad", "actuator": "mm or rad", "backlash": "mm", "lateral": "mm",
          "position": "mm", "direction": "rad", "length": "mm"}
 
 
-def allowed_keys(architecture: str, joint: int) -> set[str]:
-    """The keys of joint ``joint`` (0-based) of a leg of ``architecture``."""
-    kind = JOINTS[architecture][joint]
-    keys = set(KEYS[kind])
-    if joint == ACTUATED[architecture]:
+def allowed_keys(architecture: str, joint: int, spec: tuple | None = None) -> set[str]:
+    """The keys of joint ``joint`` (0-based) of a leg of ``architecture`` (a chain leg: of its ``spec``,
+    :func:`leg_spec`)."""
+    kinds, actuated, lengths = spec if spec is not None else leg_spec(architecture)
+    keys = set(KEYS[kinds[joint]])
+    if joint == actuated:
         keys |= {"actuator", "backlash"}
-    if joint in LENGTH_JOINTS[architecture]:
+    if joint in lengths:
         keys.add("length")
     return keys
+
+
+def leg_spec(architecture: str, leg=None) -> tuple[tuple[str, ...], int, tuple[int, ...]]:
+    """``(joint kinds, actuated joint, joints followed by a link with a length source)`` of a leg: the
+    architecture's (:data:`JOINTS`), or a chain leg's own joints (no ``length`` sources)."""
+    if architecture == CHAIN:
+        kinds = tuple(j.kind for j in leg.joints)
+        return kinds, next(k for k, j in enumerate(leg.joints) if j.actuated), ()
+    return JOINTS[architecture], ACTUATED[architecture], LENGTH_JOINTS[architecture]
 
 
 @dataclass(frozen=True)
@@ -76,13 +88,19 @@ class SpatialErrorSources:
     legs: tuple[tuple[SpatialJointErrors, ...], ...]
     name: str = "custom"
     description: str = ""
+    #: A chain robot's legs: each leg's :func:`leg_spec` (``None`` for the designer architectures).
+    specs: tuple | None = None
     KIND: ClassVar[str] = "clearance"
 
     def __post_init__(self) -> None:
-        if self.architecture not in JOINTS:
+        if self.architecture not in JOINTS and self.architecture != CHAIN:
             raise ConfigError(f"no spatial error model for architecture {self.architecture!r}", key="architecture")
-        n = len(JOINTS[self.architecture])
+        if self.architecture == CHAIN and (self.specs is None or len(self.specs) != len(self.legs)):
+            raise ConfigError("a chain robot's error sources need its legs' joints (build them with "
+                              "SpatialErrorSources.from_dict(data, robot))", key="legs")
         for i, leg in enumerate(self.legs, start=1):
+            spec = self.spec(i - 1)
+            n = len(spec[0])
             if len(leg) != n:
                 raise ClearanceError(f"a {self.architecture} leg has {n} joints, got {len(leg)}",
                                      key=f"legs[{i}].joints")
@@ -91,24 +109,29 @@ class SpatialErrorSources:
                     if not (math.isfinite(value) and value >= 0):
                         raise ClearanceError(f"must be a finite number >= 0, got {value}",
                                              key=f"legs[{i}].joints[{j + 1}].{key}")
-                    if key not in allowed_keys(self.architecture, j):
-                        raise ClearanceError(f"a {JOINT_WORDS[JOINTS[self.architecture][j]]} of a "
-                                             f"{self.architecture} takes no {key!r} (keys: "
-                                             f"{', '.join(sorted(allowed_keys(self.architecture, j)))})",
+                    allowed = allowed_keys(self.architecture, j, spec)
+                    if key not in allowed:
+                        raise ClearanceError(f"a {JOINT_WORDS[spec[0][j]]} of a {self.architecture} takes no "
+                                             f"{key!r} (keys: {', '.join(sorted(allowed))})",
                                              key=f"legs[{i}].joints[{j + 1}].{key}")
+
+    def spec(self, leg: int) -> tuple:
+        """Leg ``leg``'s (0-based) :func:`leg_spec`."""
+        return self.specs[leg] if self.specs is not None else leg_spec(self.architecture)
 
     @classmethod
     def zero(cls, robot) -> "SpatialErrorSources":
         """No error at all (``none``)."""
-        n = len(JOINTS[robot.architecture])
-        return cls(architecture=robot.architecture, legs=tuple((SpatialJointErrors(),) * n for _ in robot.legs),
-                   name="none")
+        specs = _specs(robot)
+        return cls(architecture=robot.architecture,
+                   legs=tuple((SpatialJointErrors(),) * len(spec[0]) for spec in specs), name="none",
+                   specs=specs if robot.architecture == CHAIN else None)
 
     def scaled(self, factor: float) -> "SpatialErrorSources":
         """Every half-width times ``factor``."""
         return SpatialErrorSources(self.architecture, tuple(tuple(j.scaled(factor) for j in leg)
                                                             for leg in self.legs), f"{self.name} x {factor:g}",
-                                   self.description)
+                                   self.description, self.specs)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], robot, source: str = "<dict>") -> "SpatialErrorSources":
@@ -123,27 +146,30 @@ class SpatialErrorSources:
         if len(legs) != count:
             raise ClearanceError(f"{robot.name} has {count} legs, the file lists {len(legs)}", source=source,
                                  key="legs")
-        n = len(JOINTS[arch])
+        specs = _specs(robot)
         out = []
         for i, table in enumerate(legs, start=1):
+            spec = specs[i - 1]
+            n = len(spec[0])
             _tomlio.reject_unknown(table, {"joints"}, source=source, where=f"legs[{i}]")
             joints = table.get("joints")
             if not isinstance(joints, list) or len(joints) != n or not all(isinstance(j, dict) for j in joints):
-                raise ClearanceError(f"must list the leg's {n} joints ({', '.join(JOINT_WORDS[k] for k in JOINTS[arch])}"
+                raise ClearanceError(f"must list the leg's {n} joints ({', '.join(JOINT_WORDS[k] for k in spec[0])}"
                                      ") as tables", source=source, key=f"legs[{i}].joints")
             parsed = []
             for j, joint in enumerate(joints):
                 where = f"legs[{i}].joints[{j + 1}]"
-                allowed = allowed_keys(arch, j)
+                allowed = allowed_keys(arch, j, spec)
                 for key in joint:
                     if key not in allowed:
-                        raise ClearanceError(f"unknown key for a {JOINT_WORDS[JOINTS[arch][j]]}; expected one of "
+                        raise ClearanceError(f"unknown key for a {JOINT_WORDS[spec[0][j]]}; expected one of "
                                              f"{', '.join(sorted(allowed))}", source=source, key=f"{where}.{key}")
                 parsed.append(SpatialJointErrors(**{key: _tomlio.number(joint, key, source=source, where=where,
                                                                         nonnegative=True) for key in joint}))
             out.append(tuple(parsed))
         name = data.get("name", Path(source).stem if source.endswith(".toml") else source)
-        result = cls(architecture=arch, legs=tuple(out), name=str(name), description=str(data.get("description", "")))
+        result = cls(architecture=arch, legs=tuple(out), name=str(name), description=str(data.get("description", "")),
+                     specs=specs if arch == CHAIN else None)
         plausibility.warn(spatial_sources_messages(result, source), stacklevel=3)
         return result
 
@@ -165,14 +191,30 @@ class SpatialErrorSources:
         return out
 
 
+def _specs(robot) -> tuple:
+    """Every leg's :func:`leg_spec`."""
+    return tuple(leg_spec(robot.architecture, leg) for leg in robot.legs)
+
+
 #: Folder of the spatial error-source presets (``data/spatial_clearances``).
 PRESET_FOLDER = "spatial_clearances"
 #: The preset of each architecture that commands use when none is given.
 DEFAULT_PRESET = {"6-UPS": "ups_typical", "delta": "delta_typical", "3-RPS": "rps_typical",
                   "3-PRS": "prs_typical", "3-UPU": "upu_typical"}
 
+def default_preset(robot) -> str:
+    """The preset a command uses when no error sources are given (:data:`DEFAULT_PRESET`); a chain robot has
+    none (:class:`~pmaccuracy.errors.ClearanceError` says to give a file)."""
+    if robot.architecture not in DEFAULT_PRESET:
+        raise ClearanceError(f"a {robot.architecture} robot has no default error sources: give a file with one "
+                             "[[legs]] table per leg and one {...} per joint (docs/guide/spatial-errors.md)",
+                             key="clearances")
+    return DEFAULT_PRESET[robot.architecture]
+
+
 #: Words for the joint kinds in messages.
-JOINT_WORDS = {"S": "spherical joint", "R": "revolute", "U": "universal joint", "P": "prismatic joint"}
+JOINT_WORDS = {"S": "spherical joint", "R": "revolute", "U": "universal joint", "P": "prismatic joint",
+               "C": "cylindrical joint"}
 
 
 def spatial_sources_messages(sources: SpatialErrorSources, source: str | None = None) -> list[str]:
@@ -180,10 +222,12 @@ def spatial_sources_messages(sources: SpatialErrorSources, source: str | None = 
     like metres or microns are left to the shared rules of :func:`pmaccuracy.model.plausibility.clearance_messages`."""
     values = {}
     for i, leg in enumerate(sources.legs, start=1):
+        kinds, actuated, _ = sources.spec(i - 1)
         for j, joint in enumerate(leg, start=1):
             for key, value in joint.items():
-                unit = "rad" if key in ("tilt", "direction") or (key == "actuator" and sources.architecture ==
-                                                                   "delta") else "mm"
+                angular_actuator = key == "actuator" and (sources.architecture == "delta" or
+                                                          (j - 1 == actuated and kinds[j - 1] == "R"))
+                unit = "rad" if key in ("tilt", "direction") or angular_actuator else "mm"
                 values[f"legs[{i}].joints[{j}].{key}"] = (value, unit)
     messages = plausibility.clearance_messages(values)
     return [f"{source}: {m}" for m in messages] if source else messages

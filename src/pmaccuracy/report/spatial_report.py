@@ -26,7 +26,7 @@ from ..io.resolve import robot_arg
 from ..kinematics.spatial import coordinates, inverse_kinematics, reference_pose, singularity
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.spatial import SpatialManipulator, is_spatial
-from ..model.spatial_sources import ACTUATED, DEFAULT_PRESET, JOINT_WORDS, JOINTS, SpatialErrorSources
+from ..model.spatial_sources import ACTUATED, JOINT_WORDS, JOINTS, SpatialErrorSources, default_preset
 from ..errors import ConfigError
 from .document import Document, provenance
 from .sections import ReportDependencyError, Section, SectionRunner, estimate
@@ -80,7 +80,7 @@ def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator
     if not isinstance(grid, (int, np.integer)) or not 4 <= grid <= MAX_GRID:
         raise ConfigError(f"{grid!r} points per axis of a 3D grid: give 4 to {MAX_GRID}", key="grid")
     if sources is None:
-        sources = DEFAULT_PRESET[robot.architecture]
+        sources = default_preset(robot)
     if not isinstance(sources, SpatialErrorSources):
         sources = SpatialErrorSources.load(sources, robot)
     out = Path(out_dir)
