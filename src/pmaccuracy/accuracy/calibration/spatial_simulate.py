@@ -22,24 +22,27 @@ from ...model.spatial import CONTROLLED
 from ...numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
 from .spatial_identify import (DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, SpatialIdentification, identify_spatial, platform_poses,
                                predict, spatial_identifiability)
+from .identifiability import PRACTICAL_MAX_SIGMA
 from .spatial_parameters import SpatialParameterVector
 
 #: 1-sigma errors of the true robot per unit (mm, rad, gain).
 DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
-#: Half-widths of the box of candidate poses: a share of the characteristic length (mm) and degrees.
-BOX_SHARE = 0.25
+#: Half-widths of the box of candidate poses: a share of the base joints' mean distance from the origin (mm)
+#: and degrees.
+BOX_SHARE = 0.4
 BOX_DEG = 10.0
 
 
 def candidate_poses(pv: SpatialParameterVector, n: int = 2000, seed: int = 0) -> np.ndarray:
     """Poses ``(<=n, 6)`` around the home pose, every leg within its limits: the controlled coordinates uniform in
-    ``home +- BOX_SHARE * characteristic length`` (mm) and ``+- BOX_DEG`` (angles); the uncontrolled ones
+    ``home +- BOX_SHARE * mean |base joint|`` (mm) and ``+- BOX_DEG`` (angles); the uncontrolled ones
     completed (:func:`~pmaccuracy.kinematics.spatial.complete_poses`)."""
     robot = pv.robot
     rng = np.random.default_rng(seed)
     home = robot.home_pose if robot.home_pose is not None else np.zeros(6)
     idx = CONTROLLED[robot.mobility]
-    half = np.array([BOX_SHARE * robot.characteristic_length] * 3 + [np.radians(BOX_DEG)] * 3)[list(idx)]
+    reach = float(np.mean([np.linalg.norm(leg.base) for leg in robot.legs]))
+    half = np.array([BOX_SHARE * reach] * 3 + [np.radians(BOX_DEG)] * 3)[list(idx)]
     centre = np.concatenate([home[:3], np.zeros(3)])[list(idx)]
     c = centre + rng.uniform(-1.0, 1.0, (n, len(idx))) * half
     if robot.mobility == "6":
@@ -141,12 +144,11 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
                           key="n_poses")
     poses = cand[:n_poses]
     commands = inverse_kinematics(pv.robot, poses).q
-    probe = SpatialCalibrationData(tuple(map(str, range(len(commands) * max(pv.n_targets, 1)))),
-                                   np.repeat(commands, max(pv.n_targets, 1), axis=0),
-                                   np.zeros((len(commands) * max(pv.n_targets, 1), 6 if pv.kind == "pose" else 3)),
-                                   np.ones((len(commands) * max(pv.n_targets, 1), 6 if pv.kind == "pose" else 3)),
-                                   np.tile(np.arange(max(pv.n_targets, 1)), len(commands)))
-    fixed = spatial_identifiability(pv, probe).fixed
+    probe = measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0))
+    probe = SpatialCalibrationData(probe.labels, probe.commands, probe.measured,
+                                   np.tile([noise[0] or DEFAULT_SIGMA_MM] * 3 + [noise[1] or DEFAULT_SIGMA_RAD] * 3,
+                                           (len(probe), 1))[:, :probe.measured.shape[1]], probe.target)
+    fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
     true = spatial_true_parameters(pv, seed, error_sigma, fixed)
     data = measure_spatial(pv, true, commands, noise=noise, ppm=ppm, seed=seed + 1)
     if gross:
