@@ -50,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP)
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot, position-only data: a target point on the platform (platform frame, mm; "
+                        "repeatable, in the order of the CSV's target numbers)")
     _common.add_format(s)
     s.set_defaults(func=run_identify)
 
@@ -87,6 +90,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: random states in the measurements, and the clearance floor. "
                         + _DEFAULT_HELP)
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot: measure these target points on the platform (platform frame, mm; "
+                        "repeatable) with a laser tracker instead of the full pose")
+    s.add_argument("--noise-ppm", type=float, default=0.0,
+                   help="spatial robot with --target: the tracker's distance-dependent 1-sigma, 1e-6 per mm of "
+                        "distance, added to --noise-mm")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     s.add_argument("--report", metavar="FILE.html",
@@ -236,10 +245,20 @@ def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
         raise
 
 
-def _robot(args: argparse.Namespace):
-    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``."""
-    from . import serial_cmd
+#: Steps of ``calibrate`` that take spatial robots so far.
+SPATIAL_STEPS = ("identify", "simulate")
 
+
+def _robot(args: argparse.Namespace):
+    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``; a
+    spatial robot for :data:`SPATIAL_STEPS`."""
+    from . import serial_cmd
+    from ..model.spatial import is_spatial
+
+    if getattr(args, "step", None) in SPATIAL_STEPS:
+        robot = _common.robot_arg(args.robot)
+        if is_spatial(robot):
+            return robot
     if serial_cmd.is_serial_robot(args.robot):
         from ..model.serial import SerialArm
 
@@ -356,7 +375,14 @@ def run_identify(args: argparse.Namespace) -> int:
     for opt, path, kinds in (("--out", args.out, (".json",)), ("--robot-out", args.robot_out, (".toml",))):
         if path:
             _common.prepare_output(path, opt, kinds)
-    pv = error_parameters(_robot(args))
+    robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _identify_spatial(args, robot)
+    if args.target:
+        from ..errors import ConfigError
+
+        raise ConfigError("only for a spatial robot's position-only data", key="--target")
+    pv = error_parameters(robot)
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
@@ -435,6 +461,11 @@ def run_simulate(args: argparse.Namespace) -> int:
     if args.mm_per_pixel is not None and not args.photos:
         raise ConfigError("only with --photos DIR", key="--mm-per-pixel")
     robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _simulate_spatial(args, robot)
+    for opt in ("target", "noise_ppm"):
+        if getattr(args, opt):
+            raise ConfigError("only for a spatial robot", key="--" + opt.replace("_", "-"))
     clearances = _clearances(args, robot)
     if args.photos:
         from ..vision.calibration_photos import PHOTO_MM_PER_PIXEL, photo_measurer
@@ -477,4 +508,119 @@ def run_simulate(args: argparse.Namespace) -> int:
         _common.emit([summary], "csv")
     else:
         _common.emit([summary], "table")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------- spatial robots
+def _spatial_rows(ident) -> list[dict]:
+    import numpy as np
+
+    rows = []
+    for e in ident.estimates():
+        deg = e["unit"] == "rad"
+        f = np.degrees if deg else float
+        rows.append({"parameter": e["name"], "unit": "deg" if deg else e["unit"], "nominal": f(e["nominal"]),
+                     "estimate": f(e["estimate"]), "change": f(e["estimate"] - e["nominal"]),
+                     "sigma": f(e["sigma"]) if e["identified"] else None,
+                     "status": "identified" if e["identified"] else "fixed"})
+    return rows
+
+
+def _spatial_record(ident) -> dict:
+    """The JSON record of a spatial identification: the nominal robot file, the parameters, the covariance of
+    the identified ones, the identifiability in words and the fit."""
+    idf = ident.identifiability
+    pv = ident.parameters
+    return {"robot": pv.robot.to_dict(),
+            "targets_mm": pv.split(pv.nominal)[4].tolist(),
+            "parameters": ident.estimates(), "covariance": ident.covariance.tolist(),
+            "identifiability": {"identified": list(idf.identified), "fixed": list(idf.fixed),
+                                "combinations": list(idf.combinations), "practical": list(idf.practical),
+                                "singular_values": idf.singular_values.tolist(), "condition": idf.condition},
+            "fit": {"readings": len(ident.residuals_before), "kind": pv.kind, "rms_before_sigmas": ident.rms_before,
+                    "rms_after_sigmas": ident.rms_after, "scale": ident.scale,
+                    "outlier_rows": [i + 1 for i in ident.outliers], "nfev": ident.nfev}}
+
+
+def _print_spatial(ident, fmt: str, extra: dict | None = None) -> None:
+    rows = _spatial_rows(ident)
+    record = _spatial_record(ident)
+    if fmt == "json":
+        _common.emit({"estimates": rows, **record, **(extra or {})}, "json")
+        return
+    if fmt == "csv":
+        _common.emit(rows, "csv")
+        return
+    _common.emit(rows, "table")
+    print()
+    fit = record["fit"]
+    _common.emit([{**{k: v for k, v in fit.items() if k != "outlier_rows"}, "outliers": len(fit["outlier_rows"]),
+                   "identified": len(ident.identifiability.identified),
+                   "fixed": len(ident.identifiability.fixed), **(extra or {})}], "table")
+    for sentence in ident.identifiability.combinations:
+        print(f"note: {sentence}")
+    for row in fit["outlier_rows"]:
+        print(f"outlier: row {row} left out (its reading disagrees with the fitted robot)")
+
+
+def _targets(args):
+    import numpy as np
+
+    return None if not args.target else np.array(args.target, dtype=float)
+
+
+def _identify_spatial(args: argparse.Namespace, robot) -> int:
+    import json
+    from pathlib import Path
+
+    import tomli_w
+
+    from ..accuracy.calibration.spatial_data import read_spatial_csv
+    from ..accuracy.calibration.spatial_identify import identify_spatial
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
+    from ..errors import ConfigError
+
+    for opt, given in (("--frame", args.frame is not None), ("--clearances", args.clearances is not None)):
+        if given:
+            raise ConfigError("not for a spatial robot yet", key=opt)
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    pv.index(args.fix)
+    data = read_spatial_csv(args.data, pv)
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust)
+    if args.out:
+        Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
+    if args.robot_out:
+        Path(args.robot_out).write_text(tomli_w.dumps(spatial_robot_file(pv, ident.values)), encoding="utf-8")
+    _print_spatial(ident, args.format)
+    return 0
+
+
+def _simulate_spatial(args: argparse.Namespace, robot) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_data import write_spatial_csv
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
+    from ..errors import ConfigError
+
+    for opt in ("errors", "tolerances", "clearances", "report", "photos", "mm_per_pixel"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
+    if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
+        raise ConfigError(f"must be a finite number >= 0, got {args.noise_ppm!r}", key="--noise-ppm")
+    if args.noise_ppm and not args.target:
+        raise ConfigError("only with --target (a laser tracker's readings)", key="--noise-ppm")
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
+             "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
+    ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
+                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm)
+    if args.data_out:
+        write_spatial_csv(pv, ex.data, args.data_out)
+    z = ex.normalized_errors()
+    extra = {"max_abs_normalized_error": float(np.max(np.abs(z))) if z.size else None,
+             "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None}
+    if args.format == "json":
+        extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
+    _print_spatial(ex.identification, args.format, extra)
     return 0

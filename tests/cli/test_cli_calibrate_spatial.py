@@ -1,0 +1,63 @@
+"""``pmaccuracy calibrate simulate|identify`` on spatial robots: the steps chained through the spatial
+calibration CSV, the robot file written back, and bad input (exit 2, one line)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from pmaccuracy.model.spatial import SpatialManipulator
+
+
+def test_simulate_then_identify_position_only(tmp_path, capsys):
+    status, out, _ = run_cli(["calibrate", "simulate", "--robot", "stewart_6ups", "--poses", "40", "--seed", "2",
+                              "--target", "0", "0", "30", "--target", "60", "0", "10", "--noise-ppm", "5",
+                              "--data-out", tmp_path / "m.csv", "--format", "json"], capsys)
+    assert status == 0
+    rec = json.loads(out)
+    assert rec["fit"]["kind"] == "position" and rec["fit"]["readings"] == 80
+    assert rec["max_abs_normalized_error"] < 4.5
+    header = (tmp_path / "m.csv").read_text().splitlines()[0].split(",")
+    assert header[:8] == ["point", "q1", "q2", "q3", "q4", "q5", "q6", "target"]
+    status, out, _ = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
+                              "--target", "0", "0", "30", "--target", "60", "0", "10", "--out", tmp_path / "id.json",
+                              "--robot-out", tmp_path / "id.toml", "--format", "json"], capsys)
+    assert status == 0
+    again = json.loads(out)
+    # the file holds what the simulation measured: the same estimates come out of it
+    est = {p["name"]: p["estimate"] for p in again["parameters"]}
+    for p in rec["parameters"]:
+        assert est[p["name"]] == pytest.approx(p["estimate"], abs=1e-6)
+    robot = SpatialManipulator.load(str(tmp_path / "id.toml"))
+    assert np.allclose(robot.legs[0].base, [est[f"legs[1].base.{a}"] for a in "xyz"], atol=1e-9)
+    assert json.loads((tmp_path / "id.json").read_text())["identifiability"]["fixed"] == again["identifiability"]["fixed"]
+
+
+def test_simulate_full_pose_delta_table(capsys):
+    status, out, _ = run_cli(["calibrate", "simulate", "--robot", "delta_clavel", "--poses", "30"], capsys)
+    assert status == 0
+    assert "legs[1].arm" in out and "note: " in out and "cannot be separated" in out
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["calibrate", "simulate", "--robot", "symmetric_3rpr", "--target", "0", "0", "1"], "--target"),
+    (["calibrate", "simulate", "--robot", "stewart_6ups", "--noise-ppm", "3"], "--noise-ppm"),
+    (["calibrate", "simulate", "--robot", "stewart_6ups", "--clearances", "rpr_typical"], "--clearances"),
+    (["calibrate", "plan", "--robot", "stewart_6ups"], "spatial robot"),
+])
+def test_bad_input_exits_2_with_one_line(argv, needle, capsys):
+    status, _, err = run_cli(argv, capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and needle in err and "Traceback" not in err
+
+
+def test_bad_csv_exits_2_naming_the_file(tmp_path, capsys):
+    path = tmp_path / "m.csv"
+    path.write_text("point,q1,q2,q3,q4,q5,q6,x,y,z,roll_deg,pitch_deg,yaw_deg\n1,400,400,400,400,400,400,0,0,1,0,0,x\n")
+    status, _, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", path], capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and "m.csv" in err and "yaw_deg" in err
+    status, _, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", path, "--target", "0",
+                              "0", "1"], capsys)
+    assert status == 2 and "targets were given" in err
