@@ -53,7 +53,7 @@ def _probe(pv, commands):
 
 @pytest.mark.parametrize("name, targets, n", [
     ("stewart_6ups", None, 25),
-    ("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0], [0.0, 60.0, 0.0]], 25),
+    ("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0], [0.0, 60.0, 0.0]], 15),
     ("delta_clavel", None, 25),
 ])
 def test_noise_free_reference_readings_recovered(name, targets, n):
@@ -116,15 +116,15 @@ def test_position_only_single_target_ties_the_platform_frame():
     assert {"tool.x", "tool.y", "tool.z"} <= set(idf.fixed)
 
 
-def _normalized(pv, seeds, noise):
-    return np.concatenate([simulate_spatial_calibration(pv, 30, seed=seed, noise=noise).normalized_errors()
+def _normalized(pv, seeds, noise, n_poses=30):
+    return np.concatenate([simulate_spatial_calibration(pv, n_poses, seed=seed, noise=noise).normalized_errors()
                            for seed in seeds])
 
 
 def test_sigmas_honest_over_seeds():
-    """(estimate - true) / sigma over 5 seeds of a hexapod with full-pose data: RMS near 1, none beyond 4.5."""
-    z = _normalized(spatial_error_parameters(SpatialManipulator.preset("stewart_6ups")), range(5),
-                    (SIG_MM, SIG_RAD))
+    """(estimate - true) / sigma over 4 seeds of a hexapod with full-pose data: RMS near 1, none beyond 4.5."""
+    z = _normalized(spatial_error_parameters(SpatialManipulator.preset("stewart_6ups")), range(4),
+                    (SIG_MM, SIG_RAD), n_poses=20)
     assert np.all(np.abs(z) < 4.5)
     assert 0.8 < np.sqrt(np.mean(z ** 2)) < 1.2
 

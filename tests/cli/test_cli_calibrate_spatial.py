@@ -13,12 +13,12 @@ from pmaccuracy.model.spatial import SpatialManipulator
 
 
 def test_simulate_then_identify_position_only(tmp_path, capsys):
-    status, out, _ = run_cli(["calibrate", "simulate", "--robot", "stewart_6ups", "--poses", "40", "--seed", "2",
+    status, out, _ = run_cli(["calibrate", "simulate", "--robot", "stewart_6ups", "--poses", "25", "--seed", "2",
                               "--target", "0", "0", "30", "--target", "60", "0", "10", "--noise-ppm", "5",
                               "--data-out", tmp_path / "m.csv", "--format", "json"], capsys)
     assert status == 0
     rec = json.loads(out)
-    assert rec["fit"]["kind"] == "position" and rec["fit"]["readings"] == 80
+    assert rec["fit"]["kind"] == "position" and rec["fit"]["readings"] == 50
     assert rec["max_abs_normalized_error"] < 4.5
     header = (tmp_path / "m.csv").read_text().splitlines()[0].split(",")
     assert header[:8] == ["point", "q1", "q2", "q3", "q4", "q5", "q6", "target"]
