@@ -151,3 +151,26 @@ def _clean(pv, ex):
     from pmaccuracy.accuracy.calibration.spatial_identify import predict
     poses = platform_poses(pv, ex.true, ex.data.commands)
     return predict(pv, ex.true, poses, ex.data.target)
+
+
+def test_lazy_greedy_plan_is_the_plain_greedy_and_beats_random():
+    """The lazy D-optimal choice equals the plain greedy (every gain recomputed at every step, written here)
+    and its D-optimal index beats random choices of as many poses."""
+    from pmaccuracy.accuracy.calibration.spatial_plan import candidate_blocks, lazy_d_optimal, plan_spatial_poses
+
+    pv = spatial_error_parameters(SpatialManipulator.preset("stewart_6ups"), targets=[[0.0, 0.0, 30.0]])
+    B, _ = candidate_blocks(pv, candidate_poses(pv, 1500, seed=5))
+    B = B / np.sqrt(np.mean(B ** 2, axis=(0, 1)) * B.shape[1])
+    C, k, L = B.shape
+    M = 1e-6 * float(np.mean(np.sum(B ** 2, axis=(1, 2)))) * np.eye(L)
+    plain = []
+    for _ in range(20):
+        Minv = np.linalg.inv(M)
+        g = np.array([np.linalg.slogdet(np.eye(k) + b @ Minv @ b.T)[1] for b in B])
+        g[plain] = -np.inf
+        plain.append(int(np.argmax(g)))
+        M = M + B[plain[-1]].T @ B[plain[-1]]
+    assert list(lazy_d_optimal(B, 20)) == plain
+    plan = plan_spatial_poses(pv, 20, n_candidates=1500, seed=5)
+    assert plan.index["O1"] > 1.5 * plan.random_index["O1"]
+    assert np.allclose(inverse_kinematics(pv.robot, plan.poses).q, plan.commands)

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize, stats
+from threadpoolctl import threadpool_limits
 
 from ...errors import MeasurementFileError, PoseError
 from ...kinematics.spatial import closure, forward_kinematics
@@ -384,11 +385,12 @@ def spatial_identifiability(pv: SpatialParameterVector, data: SpatialCalibration
     (default: the nominal): :func:`~.identifiability.analyse` of the whitened Jacobian ``(N k, P)``
     (:func:`measurement_jacobian` at the forward kinematics of the commands)."""
     v = pv.nominal.copy() if values is None else np.asarray(values, dtype=float)
-    poses = platform_poses(pv, v, data.commands)
-    ok = np.all(np.isfinite(poses), axis=1)
-    sub = data.subset(ok)
-    J = measurement_jacobian(pv, v, sub, poses[ok]) / sub.sigmas[:, :, None]
-    return analyse(pv, J.reshape(-1, len(pv.names)), rtol=rtol, fixed=tuple(fixed), max_sigma=max_sigma)
+    with threadpool_limits(limits=1, user_api="blas"):    # small matrices (identify_spatial)
+        poses = platform_poses(pv, v, data.commands)
+        ok = np.all(np.isfinite(poses), axis=1)
+        sub = data.subset(ok)
+        J = measurement_jacobian(pv, v, sub, poses[ok]) / sub.sigmas[:, :, None]
+        return analyse(pv, J.reshape(-1, len(pv.names)), rtol=rtol, fixed=tuple(fixed), max_sigma=max_sigma)
 
 
 def _threshold(chi2: np.ndarray, k: int) -> float:
@@ -404,8 +406,16 @@ def identify_spatial(data: SpatialCalibrationData, pv: SpatialParameterVector, *
 
     ``fixed``: names kept at nominal; ``start (P,)``: the starting values (default: the nominal with the frame
     of the best rigid fit). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
-    match the parameter vector or too few readings are left for the parameters.
+    match the parameter vector or too few readings are left for the parameters. Runs with one BLAS thread:
+    its matrices (a few hundred rows, at most ~60 columns) gain nothing from more, and on a loaded machine
+    the threads' hand-offs made each decomposition 100 times slower (``benchmarks/bench_spatial_calibration.py``).
     """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _identify_spatial(data, pv, fixed=fixed, robust=robust, rtol=rtol, max_sigma=max_sigma,
+                                 start=start)
+
+
+def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> SpatialIdentification:
     k = 6 if pv.kind == "pose" else 3
     if data.measured.shape[1] != k:
         raise MeasurementFileError(f"{data.kind} readings for a parameter vector of {pv.kind} data "
