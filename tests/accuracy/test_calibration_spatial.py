@@ -55,6 +55,10 @@ def _probe(pv, commands):
     ("stewart_6ups", None, 25),
     ("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0], [0.0, 60.0, 0.0]], 15),
     ("delta_clavel", None, 25),
+    ("delta_clavel", [[0.0, 0.0, -20.0]], 20),
+    ("rps_3", None, 15),
+    ("prs_3", [[10.0, 0.0, 20.0], [0.0, 40.0, 0.0]], 15),
+    ("upu_3", None, 15),
 ])
 def test_noise_free_reference_readings_recovered(name, targets, n):
     pv, poses, commands = _setup(name, targets, n)
@@ -121,18 +125,12 @@ def _normalized(pv, seeds, noise, n_poses=30):
                            for seed in seeds])
 
 
-def test_sigmas_honest_over_seeds():
-    """(estimate - true) / sigma over 4 seeds of a hexapod with full-pose data: RMS near 1, none beyond 4.5."""
-    z = _normalized(spatial_error_parameters(SpatialManipulator.preset("stewart_6ups")), range(4),
-                    (SIG_MM, SIG_RAD), n_poses=20)
-    assert np.all(np.abs(z) < 4.5)
-    assert 0.8 < np.sqrt(np.mean(z ** 2)) < 1.2
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name, targets", [("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0]]),
+@pytest.mark.parametrize("name, targets", [("stewart_6ups", None),
+                                           ("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0]]),
                                            ("delta_clavel", [[0.0, 0.0, -20.0]]), ("delta_clavel", None)])
 def test_sigmas_honest_over_20_seeds(name, targets):
+    """(estimate - true) / sigma of every identified parameter over 20 seeds: RMS within 15 % of 1 (the
+    covariance scaled by the residual is honest), none beyond 4.5."""
     pv = spatial_error_parameters(SpatialManipulator.preset(name), targets=targets)
     z = _normalized(pv, range(20), (SIG_MM, SIG_RAD))
     assert np.all(np.abs(z) < 4.5)

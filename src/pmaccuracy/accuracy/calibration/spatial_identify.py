@@ -20,7 +20,9 @@ frame's own derivatives ``dm/dt_F = I``, ``dm/dr_F = -[R_F x]x J_l(r_F)``, ``d l
 
 Fit: as the planar identification (:mod:`.identify`): the parameters :func:`~.identifiability.analyse`
 keeps (the others fixed at nominal and reported with their combinations in words), a robust pass with
-the ``soft_l1`` loss at :data:`~.identify.ROBUST_F_SCALE` stated sigmas, an outlier test of every reading
+the ``soft_l1`` loss at :data:`~.identify.ROBUST_F_SCALE` stated sigmas (started from a plain least-squares
+fit: from parameter errors of tens of sigmas the robust loss alone, linear there, made little progress), an
+outlier test of every reading
 (``chi2_n = |e_n|^2`` against the chi-square(k) :data:`~.identify.OUTLIER_QUANTILE` quantile, ``k`` = 6 or
 3, widened by the median ratio when it exceeds :data:`~.identify.UNDERSTATED`), then plain least squares on
 the readings kept, repeated until the kept set no longer changes. Covariance ``s^2 (J^T J)^-1`` with
@@ -458,7 +460,9 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> Spa
 
     if robust:
         enough(keep)
-        sol = optimize.least_squares(model.fun(keep), z, jac=model.jac(keep), loss="soft_l1",
+        # plain least squares first: from errors of tens of sigmas the soft_l1 loss alone (linear there) crawls
+        sol = optimize.least_squares(model.fun(keep), z, jac=model.jac(keep), x_scale="jac", max_nfev=50)
+        sol = optimize.least_squares(model.fun(keep), sol.x, jac=model.jac(keep), loss="soft_l1",
                                      f_scale=ROBUST_F_SCALE, x_scale="jac")
         nfev += sol.nfev
         z = sol.x
