@@ -46,9 +46,12 @@ def test_simulate_full_pose_delta_table(capsys):
     (["calibrate", "simulate", "--robot", "symmetric_3rpr", "--target", "0", "0", "1"], "--target"),
     (["calibrate", "simulate", "--robot", "stewart_6ups", "--noise-ppm", "3"], "--noise-ppm"),
     (["calibrate", "simulate", "--robot", "stewart_6ups", "--clearances", "rpr_typical"], "--clearances"),
-    (["calibrate", "plan", "--robot", "stewart_6ups"], "spatial robot"),
+    (["calibrate", "report", "--robot", "stewart_6ups", "--out", "r.html"], "spatial robot"),
+    (["calibrate", "plan", "--robot", "symmetric_3rpr", "--target", "0", "0", "1"], "--target"),
+    (["calibrate", "plan", "--robot", "stewart_6ups", "--grid", "5"], "--grid"),
 ])
-def test_bad_input_exits_2_with_one_line(argv, needle, capsys):
+def test_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     status, _, err = run_cli(argv, capsys)
     assert status == 2 and len(err.splitlines()) == 1 and needle in err and "Traceback" not in err
 
@@ -61,3 +64,21 @@ def test_bad_csv_exits_2_naming_the_file(tmp_path, capsys):
     status, _, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", path, "--target", "0",
                               "0", "1"], capsys)
     assert status == 2 and "targets were given" in err
+
+
+def test_plan_writes_the_csv_to_fill(tmp_path, capsys):
+    status, out, _ = run_cli(["calibrate", "plan", "--robot", "delta_clavel", "--poses", "20", "--candidates", "2000",
+                              "--target", "0", "0", "-20", "--target", "30", "0", "-20", "--out", tmp_path / "p.csv",
+                              "--format", "json"], capsys)
+    assert status == 0
+    rec = json.loads(out)
+    assert rec["indices"][0]["O1"] > rec["indices"][1]["O1"] and len(rec["poses"]) == 20
+    lines = (tmp_path / "p.csv").read_text().splitlines()
+    assert lines[0].startswith("point,q1_deg,q2_deg,q3_deg,target,x,y,z") and len(lines) == 41
+    # the commands are the nominal robot's at the planned poses (its inverse kinematics, in degrees)
+    robot = SpatialManipulator.preset("delta_clavel")
+    from pmaccuracy.kinematics.spatial import inverse_kinematics, poses_from_coordinates
+    c = np.array([[p[k] for k in ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")] for p in rec["poses"]])
+    q = inverse_kinematics(robot, poses_from_coordinates(c, degrees=True)).q
+    first = [float(v) for v in lines[1].split(",")[1:4]]
+    assert np.allclose(np.degrees(q[0]), first, atol=1e-9)

@@ -31,6 +31,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "arm's candidates are 4000 seeded configurations within its joint ranges")
     s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
     s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot: plan for a laser tracker measuring these target points on the platform "
+                        "(platform frame, mm; repeatable) instead of full poses")
+    s.add_argument("--candidates", type=_common.positive_int, default=None, metavar="N",
+                   help="spatial robot: random candidate poses drawn around home (default 20000; those within "
+                        "every leg's limits are kept)")
     _common.add_format(s)
     s.set_defaults(func=run_plan)
 
@@ -246,7 +252,7 @@ def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
 
 
 #: Steps of ``calibrate`` that take spatial robots so far.
-SPATIAL_STEPS = ("identify", "simulate")
+SPATIAL_STEPS = ("plan", "identify", "simulate")
 
 
 def _robot(args: argparse.Namespace):
@@ -331,6 +337,11 @@ def run_plan(args: argparse.Namespace) -> int:
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
     robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _plan_spatial(args, robot)
+    for opt in ("target", "candidates"):
+        if getattr(args, opt):
+            raise ConfigError("only for a spatial robot", key="--" + opt)
     pv = error_parameters(robot)
     if isinstance(robot, SerialArm):
         for opt, value in (("--grid", args.grid), ("--phi-range-deg", args.phi_range_deg)):
@@ -623,4 +634,44 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     if args.format == "json":
         extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
     _print_spatial(ex.identification, args.format, extra)
+    return 0
+
+
+def _plan_spatial(args: argparse.Namespace, robot) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_data import write_spatial_csv
+    from ..accuracy.calibration.spatial_identify import SpatialCalibrationData
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_plan import plan_spatial_poses
+    from ..errors import ConfigError
+    from ..kinematics.spatial import coordinates
+
+    for opt in ("phi_range_deg", "grid"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("for planar robots (a spatial robot's candidates: --candidates)",
+                              key="--" + opt.replace("_", "-"))
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    plan = plan_spatial_poses(pv, args.poses, n_candidates=args.candidates or 20000, seed=args.seed)
+    if args.out:
+        T = max(pv.n_targets, 1)
+        k = 6 if pv.kind == "pose" else 3
+        n = len(plan.commands) * T
+        labels = tuple(str(i) for i in np.repeat(np.arange(1, len(plan.commands) + 1), T))
+        sig = np.tile([0.01] * 3 + [np.radians(0.01)] * 3, (n, 1))[:, :k]
+        blank = SpatialCalibrationData(labels, np.repeat(plan.commands, T, axis=0), np.full((n, k), np.nan), sig,
+                                       np.tile(np.arange(T), len(plan.commands)), "<plan>")
+        write_spatial_csv(pv, blank, args.out)
+    rows = [{"choice": name, **idx} for name, idx in (("planned", plan.index), ("random (mean of 5)",
+                                                                                  plan.random_index))]
+    if args.format == "json":
+        c = coordinates(plan.poses, degrees=True)
+        _common.emit({"robot": pv.robot.name, "candidates": plan.n_candidates, "indices": rows,
+                      "poses": [dict(zip(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"), map(float, p)))
+                                for p in c]}, "json")
+    elif args.format == "csv":
+        _common.emit(rows, "csv")
+    else:
+        print(f"{len(plan.poses)} poses of {plan.n_candidates} candidates; observability indices:")
+        _common.emit(rows, "table")
     return 0
