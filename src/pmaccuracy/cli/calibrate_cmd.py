@@ -261,7 +261,7 @@ def _robot(args: argparse.Namespace):
     from . import serial_cmd
     from ..model.spatial import is_spatial
 
-    if getattr(args, "step", None) in SPATIAL_STEPS:
+    if getattr(args, "step", None) in SPATIAL_STEPS and not serial_cmd.is_serial_robot(args.robot):
         robot = _common.robot_arg(args.robot)
         if is_spatial(robot):
             return robot
