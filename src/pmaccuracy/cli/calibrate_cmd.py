@@ -630,7 +630,9 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
         write_spatial_csv(pv, ex.data, args.data_out)
     z = ex.normalized_errors()
     extra = {"max_abs_normalized_error": float(np.max(np.abs(z))) if z.size else None,
-             "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None}
+             "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
+             "max_error_before_mm": float(np.nanmax(ex.errors_before[:, 0])),
+             "max_error_after_mm": float(np.nanmax(ex.errors_after[:, 0]))}
     if args.format == "json":
         extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
     _print_spatial(ex.identification, args.format, extra)

@@ -73,10 +73,15 @@ def compensate_spatial(ident: SpatialIdentification, targets) -> SpatialCompensa
 
 def pose_errors(pv: SpatialParameterVector, true_values, commands, targets) -> np.ndarray:
     """Errors ``(N, 2)`` of the true robot ``true_values`` at ``commands``: the distance (mm) and the angle
-    (rad) between the pose it reaches, read in its true frame, and ``targets (N, 6)`` (device frame). The
-    forward kinematics start from the target read in the nominal frame."""
-    poses = platform_poses(pv, true_values, commands, targets)
+    (rad) between the pose it reaches, read in its true frame, and ``targets (N, 6)`` (device frame); for a
+    3-RPS or 3-PRS the errors of what is commanded: ``|dz|`` and the larger of ``|d roll|``, ``|d pitch|``
+    in the base frame (x, y, yaw are parasitic). NaN rows where the true robot cannot take the commands."""
     frame = np.asarray(true_values, dtype=float)[pv.frame_index]
+    guess = frame_inverse_poses(frame, targets)
+    poses = platform_poses(pv, true_values, commands, guess)
+    if pv.robot.mobility == "2R1T":
+        c = controlled_coordinates(pv.robot, poses) - controlled_coordinates(pv.robot, guess)
+        return np.column_stack([np.abs(c[:, 0]), np.max(np.abs(c[:, 1:]), axis=1)])
     RF = rotations(frame[3:])
     m = frame[:3] + poses[:, :3] @ RF.T
     R = RF @ rotations(np.where(np.isfinite(poses[:, 3:]), poses[:, 3:], 0.0))

@@ -23,6 +23,7 @@ from ...numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
 from .spatial_identify import (DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, SpatialIdentification, identify_spatial, platform_poses,
                                predict, spatial_identifiability)
 from .identifiability import PRACTICAL_MAX_SIGMA
+from .spatial_compensate import compensate_spatial, pose_errors
 from .spatial_parameters import SpatialParameterVector
 
 #: 1-sigma errors of the true robot per unit (mm, rad, gain).
@@ -120,11 +121,19 @@ class SpatialExperiment:
         The readings.
     identification : SpatialIdentification
         What the identification found.
+    targets : ndarray ``(T, 6)``
+        Poses (device frame) where the compensation is checked, none of them a calibration pose.
+    errors_before, errors_after : ndarray ``(T, 2)``
+        Position (mm) and orientation (rad) errors of the true robot there with the nominal and the compensated
+        commands (:func:`~.spatial_compensate.pose_errors`; no noise).
     """
 
     true: np.ndarray
     data: SpatialCalibrationData
     identification: SpatialIdentification
+    targets: np.ndarray | None = None
+    errors_before: np.ndarray | None = None
+    errors_after: np.ndarray | None = None
 
     def normalized_errors(self) -> np.ndarray:
         """``(estimate - true) / sigma`` of the identified parameters ``(L,)``."""
@@ -135,9 +144,10 @@ class SpatialExperiment:
 
 def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, *, seed: int = 0,
                                  error_sigma: dict | None = None, noise=(0.01, np.radians(0.01)),
-                                 ppm: float = 0.0, gross: int = 0) -> SpatialExperiment:
+                                 ppm: float = 0.0, gross: int = 0, n_targets: int = 30) -> SpatialExperiment:
     """Virtual calibration (module docstring): ``n_poses`` random candidate poses, readings of the true robot,
-    :func:`~.spatial_identify.identify_spatial`; ``gross`` readings get a 100-sigma error."""
+    :func:`~.spatial_identify.identify_spatial`; ``gross`` readings get a 100-sigma error; then the
+    compensation (:func:`~.spatial_compensate.compensate_spatial`) at ``n_targets`` other candidate poses."""
     cand = candidate_poses(pv, max(20 * n_poses, 2000), seed=seed)
     if len(cand) < n_poses:
         raise ConfigError(f"only {len(cand)} candidate poses within the limits around home for {n_poses} readings",
@@ -155,5 +165,10 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
         rng = np.random.default_rng(seed + 2)
         rows = rng.choice(len(data), gross, replace=False)
         data.measured[rows, :3] += 100.0 * data.sigmas[rows, :3] * rng.choice([-1.0, 1.0], (gross, 3))
-    return SpatialExperiment(true=true, data=data, identification=identify_spatial(data, pv))
+    ident = identify_spatial(data, pv)
+    targets = cand[n_poses:n_poses + n_targets]
+    comp = compensate_spatial(ident, targets)
+    return SpatialExperiment(true=true, data=data, identification=ident, targets=targets,
+                             errors_before=pose_errors(pv, true, comp.nominal_commands, targets),
+                             errors_after=pose_errors(pv, true, comp.commands, targets))
 
