@@ -82,3 +82,28 @@ def test_plan_writes_the_csv_to_fill(tmp_path, capsys):
     q = inverse_kinematics(robot, poses_from_coordinates(c, degrees=True)).q
     first = [float(v) for v in lines[1].split(",")[1:4]]
     assert np.allclose(np.degrees(q[0]), first, atol=1e-9)
+
+
+def test_identify_record_then_compensate(tmp_path, capsys):
+    """identify --out writes the record compensate reads; the compensated commands are the identified robot's
+    inverse kinematics of the target in the base frame (here: through the leg lengths written out)."""
+    status, _, _ = run_cli(["calibrate", "simulate", "--robot", "stewart_6ups", "--poses", "25", "--seed", "4",
+                            "--data-out", tmp_path / "m.csv", "--format", "csv"], capsys)
+    assert status == 0
+    status, out, _ = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
+                              "--out", tmp_path / "id.json", "--format", "json"], capsys)
+    assert status == 0
+    est = {p["name"]: p["estimate"] for p in json.loads(out)["parameters"]}
+    (tmp_path / "goal.csv").write_text("x,y,z,roll_deg,pitch_deg,yaw_deg\n10,20,420,3,-2,5\n")
+    status, out, _ = run_cli(["calibrate", "compensate", "--identification", tmp_path / "id.json", "--poses-csv",
+                              tmp_path / "goal.csv", "--format", "json"], capsys)
+    assert status == 0
+    row = json.loads(out)[0]
+    from scipy.spatial.transform import Rotation
+    R = Rotation.from_euler("xyz", [3, -2, 5], degrees=True).as_matrix()
+    for i in range(1, 7):   # frame fixed at the identity (unidentifiable with full poses): base frame = device's
+        A = np.array([est[f"legs[{i}].base.{a}"] for a in "xyz"])
+        b = np.array([est[f"legs[{i}].platform.{a}"] for a in "xyz"])
+        length = np.linalg.norm(np.array([10.0, 20.0, 420.0]) + R @ b - A)
+        q = (length - est[f"legs[{i}].actuator.offset"]) / est[f"legs[{i}].actuator.gain"]
+        assert row[f"q{i}"] == pytest.approx(q, abs=1e-9)

@@ -415,10 +415,12 @@ def run_compensate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.parameters import actuators
     from ..accuracy.calibration.records import read_identification
 
-    targets = _common.poses_from_args(args.pose, args.poses_csv)
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
     ident = read_identification(args.identification)
+    if getattr(ident.parameters.robot, "dimension", 3) == 6:
+        return _compensate_spatial(args, ident)
+    targets = _common.poses_from_args(args.pose, args.poses_csv)
     comp = compensate(ident, targets, clearances=_clearances(args, ident.parameters.robot))
     pv = ident.parameters
     if args.out:
@@ -538,19 +540,9 @@ def _spatial_rows(ident) -> list[dict]:
 
 
 def _spatial_record(ident) -> dict:
-    """The JSON record of a spatial identification: the nominal robot file, the parameters, the covariance of
-    the identified ones, the identifiability in words and the fit."""
-    idf = ident.identifiability
-    pv = ident.parameters
-    return {"robot": pv.robot.to_dict(),
-            "targets_mm": pv.split(pv.nominal)[4].tolist(),
-            "parameters": ident.estimates(), "covariance": ident.covariance.tolist(),
-            "identifiability": {"identified": list(idf.identified), "fixed": list(idf.fixed),
-                                "combinations": list(idf.combinations), "practical": list(idf.practical),
-                                "singular_values": idf.singular_values.tolist(), "condition": idf.condition},
-            "fit": {"readings": len(ident.residuals_before), "kind": pv.kind, "rms_before_sigmas": ident.rms_before,
-                    "rms_after_sigmas": ident.rms_after, "scale": ident.scale,
-                    "outlier_rows": [i + 1 for i in ident.outliers], "nfev": ident.nfev}}
+    from ..accuracy.calibration.spatial_identify import spatial_identification_to_dict
+
+    return spatial_identification_to_dict(ident)
 
 
 def _print_spatial(ident, fmt: str, extra: dict | None = None) -> None:
@@ -676,4 +668,57 @@ def _plan_spatial(args: argparse.Namespace, robot) -> int:
     else:
         print(f"{len(plan.poses)} poses of {plan.n_candidates} candidates; observability indices:")
         _common.emit(rows, "table")
+    return 0
+
+
+def _compensate_spatial(args: argparse.Namespace, ident) -> int:
+    import numpy as np
+
+    from .._textfile import read_csv
+    from ..accuracy.calibration.spatial_compensate import compensate_spatial
+    from ..accuracy.calibration.spatial_data import spatial_command_columns
+    from ..errors import ConfigError, MeasurementFileError
+    from ..io.csvio import write_csv_columns
+    from ..kinematics.spatial import poses_from_coordinates
+
+    if args.pose or not args.poses_csv:
+        raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
+                          "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
+    if args.clearances is not None:
+        raise ConfigError("not for a spatial robot yet", key="--clearances")
+    names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
+    lines = read_csv(args.poses_csv, MeasurementFileError)
+    header = [h.strip() for h in lines[0][1]] if lines else []
+    missing = [c for c in names if c not in header]
+    if missing:
+        raise MeasurementFileError(f"header must name {','.join(names)} (missing {','.join(missing)})",
+                                   source=args.poses_csv, key="line 1")
+    rows = []
+    for line, row in lines[1:]:
+        if not row or all(not c.strip() for c in row):
+            continue
+        try:
+            vals = [float(row[header.index(c)]) for c in names]
+        except (ValueError, IndexError):
+            raise MeasurementFileError("x,y,z,roll_deg,pitch_deg,yaw_deg must be numbers", source=args.poses_csv,
+                                       key=f"line {line}") from None
+        if not np.all(np.isfinite(vals)):
+            raise MeasurementFileError("values must be finite", source=args.poses_csv, key=f"line {line}")
+        rows.append(vals)
+    if not rows:
+        raise MeasurementFileError("no data rows", source=args.poses_csv)
+    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True))
+    pv = ident.parameters
+    kinds = np.array([k == "R" for k in pv.robot.actuated_kinds])
+    out = {}
+    coords = np.array(rows)
+    for k, n in enumerate(names):
+        out[n] = coords[:, k]
+    for k, name in enumerate(spatial_command_columns(pv.robot)):
+        f = np.degrees if kinds[k] else (lambda v: v)
+        out[name] = f(comp.commands[:, k])
+        out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
+    if args.out:
+        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal")}, args.out)
+    _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0

@@ -39,12 +39,13 @@ import numpy as np
 from scipy import optimize, stats
 from threadpoolctl import threadpool_limits
 
-from ...errors import MeasurementFileError, PoseError
+from ...errors import ConfigError, MeasurementFileError, PoseError
 from ...kinematics.spatial import closure, forward_kinematics
 from ...numerics.spatial import rotations, rotvecs, skew
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse
 from .identify import MAX_ROUNDS, OUTLIER_QUANTILE, ROBUST_F_SCALE, UNDERSTATED, UNREACHABLE, covariance
-from .spatial_parameters import SpatialManipulator, SpatialParameterVector, _leg_fields, set_leg_values
+from .spatial_parameters import (SpatialManipulator, SpatialParameterVector, _leg_fields, set_leg_values,
+                                 spatial_error_parameters)
 
 #: Default 1-sigma of a reading: 0.01 mm, 0.01 deg.
 DEFAULT_SIGMA_MM = 0.01
@@ -491,3 +492,54 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> Spa
                                  rms_after=float(np.sqrt(np.mean(res ** 2))),
                                  outliers=tuple(int(i) for i in np.flatnonzero(~keep)), scale=float(np.sqrt(s2)),
                                  nfev=nfev)
+
+
+def spatial_identification_to_dict(ident: SpatialIdentification) -> dict:
+    """A JSON-ready record of ``ident``: the nominal robot file, the nominal targets (mm), every parameter
+    (nominal, estimate, sigma; rad for angles, units stated), the covariance of the identified ones, the
+    identifiability (fixed parameters and their combinations in words) and the fit."""
+    idf = ident.identifiability
+    pv = ident.parameters
+    return {"robot": pv.robot.to_dict(), "targets_mm": pv.split(pv.nominal)[4].tolist(),
+            "parameters": ident.estimates(), "covariance": ident.covariance.tolist(),
+            "identifiability": {"identified": list(idf.identified), "fixed": list(idf.fixed),
+                                "combinations": list(idf.combinations), "practical": list(idf.practical),
+                                "singular_values": idf.singular_values.tolist(), "condition": idf.condition},
+            "fit": {"readings": len(ident.residuals_before), "kind": pv.kind, "rms_before_sigmas": ident.rms_before,
+                    "rms_after_sigmas": ident.rms_after, "scale": ident.scale,
+                    "outlier_rows": [i + 1 for i in ident.outliers], "nfev": ident.nfev}}
+
+
+def spatial_identification_from_dict(record: dict, source: str = "<identification>") -> SpatialIdentification:
+    """Rebuild a :class:`SpatialIdentification` from :func:`spatial_identification_to_dict` (for compensation;
+    no residuals). Raises :class:`~pmaccuracy.errors.ConfigError` naming the source of a malformed record."""
+    from_dict = SpatialManipulator.from_dict
+    try:
+        robot = from_dict(record["robot"], source=source)
+        targets = record.get("targets_mm") or None
+        pv = spatial_error_parameters(robot, targets=targets)
+        by_name = {p["name"]: p for p in record["parameters"]}
+        values = np.array([float(by_name[n]["estimate"]) for n in pv.names])
+        sigma = np.array([float(by_name[n]["sigma"]) for n in pv.names])
+        idf = record["identifiability"]
+        fit = record["fit"]
+        L = len(idf["identified"])
+        cov = np.array(record["covariance"], dtype=float).reshape(L, L)
+        pv.index(idf["identified"])
+        ident = Identifiability(identified=tuple(idf["identified"]), fixed=tuple(idf["fixed"]),
+                                combinations=tuple(idf["combinations"]),
+                                null_directions=np.zeros((len(idf["fixed"]), len(pv.names))),
+                                singular_values=np.array(idf["singular_values"], dtype=float),
+                                condition=float(idf["condition"]), O1=float("nan"), O2=float("nan"),
+                                O3=float("nan"), O4=float("nan"), practical=tuple(idf.get("practical", ())))
+        empty = np.zeros((0, 6 if pv.kind == "pose" else 3))
+        return SpatialIdentification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=ident,
+                                     residuals_before=empty, residuals_after=empty,
+                                     rms_before=float(fit["rms_before_sigmas"]), rms_after=float(fit["rms_after_sigmas"]),
+                                     outliers=tuple(int(r) - 1 for r in fit["outlier_rows"]), scale=float(fit["scale"]),
+                                     nfev=int(fit["nfev"]))
+    except ConfigError as exc:
+        raise ConfigError(exc.message, source=source, key=exc.key) from None
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"not a spatial identification record ({exc.__class__.__name__}: {exc})",
+                          source=source) from None
