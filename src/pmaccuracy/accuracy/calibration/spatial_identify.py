@@ -13,7 +13,8 @@ Jacobian, through the closure: at the pose, the closure equations ``e(pose, q, t
 platform twist per parameter ``t = -W^-1 de/dtheta`` (``W`` the closure wrenches). ``de/dq`` is ``-G`` (the
 closure's gains), so ``de/d offset_i = -G_i`` and ``de/d gain_i = -G_i c_i``; the derivatives of a leg's
 closure with respect to its joint centres and lengths are central differences of that leg's closure
-equations alone (smooth, closed-form: error ~1e-10 relative), not of the forward kinematics. Then
+equations alone (smooth, closed-form: error ~1e-10 relative), not of the forward kinematics; a 6-UPS leg's
+in closed form (``de/dA = -u``, ``de/db = R^T u``, ``u`` the unit vector along the leg). Then
 ``d(t_F + R_F x) = R_F (v + w x (x - p))`` for the platform point ``x``, ``d log(R_F R) = R_F w``, and the
 frame's own derivatives ``dm/dt_F = I``, ``dm/dr_F = -[R_F x]x J_l(r_F)``, ``d log/dr_F = J_l(r_F)``
 (``J_l`` the left Jacobian of SO(3)).
@@ -41,7 +42,8 @@ from threadpoolctl import threadpool_limits
 
 from ...errors import ConfigError, MeasurementFileError, PoseError
 from ...kinematics.spatial import closure, forward_kinematics
-from ...numerics.spatial import rotations, rotvecs, skew
+from ...model.spatial_legs import UPSLeg
+from ...numerics.spatial import normalize, rotations, rotvecs, skew
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse
 from .identify import MAX_ROUNDS, OUTLIER_QUANTILE, ROBUST_F_SCALE, UNDERSTATED, UNREACHABLE, covariance
 from .spatial_parameters import (SpatialManipulator, SpatialParameterVector, _leg_fields, set_leg_values,
@@ -157,8 +159,9 @@ def residuals(pv: SpatialParameterVector, values, data: SpatialCalibrationData, 
 
 
 def _closure_partials(robot: SpatialManipulator, pv: SpatialParameterVector, poses, q, values, leg_rows):
-    """``de/dtheta`` ``(N, 6, P)`` of the closure for the legs' geometric parameters (central differences of
-    each leg's closure alone)."""
+    """``de/dtheta`` ``(N, 6, P)`` of the closure for the legs' geometric parameters: a 6-UPS leg's in closed
+    form (``e = |p + R b - A| - q``: ``de/dA = -u``, ``de/db = R^T u``), the other legs' by central differences
+    of that leg's closure alone."""
     N = len(poses)
     E = np.zeros((N, 6, len(pv.names)))
     p, r = poses[:, :3], poses[:, 3:]
@@ -167,6 +170,11 @@ def _closure_partials(robot: SpatialManipulator, pv: SpatialParameterVector, pos
         fields = _leg_fields(leg)
         base = values[sl]
         rows = leg_rows[i]
+        if type(leg) is UPSLeg:      # e = |p + R b - A| - q: de/dA = -u, de/db = R^T u (u along the leg)
+            u = normalize(p + R @ np.asarray(leg.platform) - np.asarray(leg.base))
+            E[:, rows[0], sl.start:sl.start + 3] = -u
+            E[:, rows[0], sl.start + 3:sl.start + 6] = np.einsum("nji,nj->ni", R, u)
+            continue
         for j, col in enumerate(range(sl.start, sl.stop)):
             h = 1e-5 * max(1.0, abs(base[j]))
             vals = []
