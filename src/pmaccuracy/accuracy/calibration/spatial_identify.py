@@ -258,10 +258,11 @@ class _Model:
         key = v.tobytes()
         if key in self.cache:
             return self.cache[key]
-        poses = platform_poses(self.pv, v, self.data.commands, self.guess)
-        bad = ~np.all(np.isfinite(poses), axis=1)
-        if np.any(bad) and self.guess is not None:       # retry from home where the warm start failed
-            poses[bad] = platform_poses(self.pv, v, self.data.commands[bad])
+        with np.errstate(all="ignore"):   # a trial step far out: no forward kinematics (NaN), not a warning
+            poses = platform_poses(self.pv, v, self.data.commands, self.guess)
+            bad = ~np.all(np.isfinite(poses), axis=1)
+            if np.any(bad) and self.guess is not None:       # retry from home where the warm start failed
+                poses[bad] = platform_poses(self.pv, v, self.data.commands[bad])
         ok = np.all(np.isfinite(poses), axis=1)
         if self.guess is None:
             self.guess = np.where(ok[:, None], poses, self.pv.robot.home_pose)
