@@ -20,7 +20,9 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
   (a box, a ``pm.Disc`` or a ``pm.Polygon``; ``pm.largest_disc`` where targets hold);
 * design: ``pm.synthesize`` (how loose may each joint be), ``pm.pose_statistics`` (Monte Carlo);
 * calibration: ``pm.plan_poses``, ``pm.identify`` (from ``pm.read_calibration_csv``), ``pm.compensate``,
-  ``pm.simulate_calibration`` (a virtual experiment), ``pm.calibration_report`` (its HTML report);
+  ``pm.simulate_calibration`` (a virtual experiment), ``pm.calibration_report`` (its HTML report); spatial
+  robots: ``pm.spatial_error_parameters``, ``pm.identify_spatial`` (from ``pm.read_spatial_csv``),
+  ``pm.simulate_spatial_calibration``;
 * kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``;
 * spatial robots (6-UPS, Delta, 3-RPS, 3-PRS, 3-UPU): the same kinematics with poses ``(N, 6)`` [x, y, z mm,
   rotation vector rad] (``pm.poses_from`` takes scipy ``Rotation`` objects), ``pm.complete_poses`` (controlled
@@ -106,6 +108,14 @@ _EXPORTS = {
     "compensate": "accuracy.calibration.compensate", "Compensation": "accuracy.calibration.compensate",
     "simulate_calibration": "accuracy.calibration.simulate", "Experiment": "accuracy.calibration.simulate",
     "calibration_report": "report.calibration_report",
+    # calibration of spatial robots (issue 39, first increment)
+    **{name: "accuracy.calibration.spatial_parameters" for name in ("spatial_error_parameters",
+                                                                    "SpatialParameterVector")},
+    **{name: "accuracy.calibration.spatial_identify" for name in ("identify_spatial", "SpatialIdentification",
+                                                                  "SpatialCalibrationData")},
+    **{name: "accuracy.calibration.spatial_data" for name in ("read_spatial_csv", "write_spatial_csv")},
+    **{name: "accuracy.calibration.spatial_simulate" for name in ("simulate_spatial_calibration",
+                                                                  "SpatialExperiment")},
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

@@ -167,6 +167,11 @@ NO_ORIENTATION = {
     "certify_preload": "a Region, checked where it is made (make_region)",
     "orientation_workspace_at": "a position (mm); the orientations are generated inside",
     "spatial_global_worst": "a SpatialRegion, checked where it is made (spatial_region)",
+    "spatial_error_parameters": "a robot and target points (mm)",
+    "read_spatial_csv": "a file (roll_deg, pitch_deg, yaw_deg, checked by the reader)",
+    "write_spatial_csv": "a SpatialCalibrationData and a path",
+    "identify_spatial": "a SpatialCalibrationData (read from a file)",
+    "simulate_spatial_calibration": "a parameter vector and counts (poses are drawn inside)",
 }
 
 

@@ -31,6 +31,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "arm's candidates are 4000 seeded configurations within its joint ranges")
     s.add_argument("--seed", type=int, default=0, help="seed of the random choices compared with the plan")
     s.add_argument("--out", metavar="FILE.csv", help="write the plan: the calibration CSV to fill with readings; missing parent folders are created")
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot: plan for a laser tracker measuring these target points on the platform "
+                        "(platform frame, mm; repeatable) instead of full poses")
+    s.add_argument("--candidates", type=_common.positive_int, default=None, metavar="N",
+                   help="spatial robot: random candidate poses drawn around home (default 20000; those within "
+                        "every leg's limits are kept)")
     _common.add_format(s)
     s.set_defaults(func=run_plan)
 
@@ -50,6 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP)
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot, position-only data: a target point on the platform (platform frame, mm; "
+                        "repeatable, in the order of the CSV's target numbers)")
     _common.add_format(s)
     s.set_defaults(func=run_identify)
 
@@ -87,6 +96,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: random states in the measurements, and the clearance floor. "
                         + _DEFAULT_HELP)
+    s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
+                   help="spatial robot: measure these target points on the platform (platform frame, mm; "
+                        "repeatable) with a laser tracker instead of the full pose")
+    s.add_argument("--noise-ppm", type=float, default=0.0,
+                   help="spatial robot with --target: the tracker's distance-dependent 1-sigma, 1e-6 per mm of "
+                        "distance, added to --noise-mm")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     s.add_argument("--report", metavar="FILE.html",
@@ -236,10 +251,20 @@ def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
         raise
 
 
-def _robot(args: argparse.Namespace):
-    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``."""
-    from . import serial_cmd
+#: Steps of ``calibrate`` that take spatial robots so far.
+SPATIAL_STEPS = ("plan", "identify", "simulate")
 
+
+def _robot(args: argparse.Namespace):
+    """The parallel robot or, for a file with ``architecture = "serial"``, the serial arm of ``--robot``; a
+    spatial robot for :data:`SPATIAL_STEPS`."""
+    from . import serial_cmd
+    from ..model.spatial import is_spatial
+
+    if getattr(args, "step", None) in SPATIAL_STEPS and not serial_cmd.is_serial_robot(args.robot):
+        robot = _common.robot_arg(args.robot)
+        if is_spatial(robot):
+            return robot
     if serial_cmd.is_serial_robot(args.robot):
         from ..model.serial import SerialArm
 
@@ -312,6 +337,11 @@ def run_plan(args: argparse.Namespace) -> int:
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
     robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _plan_spatial(args, robot)
+    for opt in ("target", "candidates"):
+        if getattr(args, opt):
+            raise ConfigError("only for a spatial robot", key="--" + opt)
     pv = error_parameters(robot)
     if isinstance(robot, SerialArm):
         for opt, value in (("--grid", args.grid), ("--phi-range-deg", args.phi_range_deg)):
@@ -356,7 +386,14 @@ def run_identify(args: argparse.Namespace) -> int:
     for opt, path, kinds in (("--out", args.out, (".json",)), ("--robot-out", args.robot_out, (".toml",))):
         if path:
             _common.prepare_output(path, opt, kinds)
-    pv = error_parameters(_robot(args))
+    robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _identify_spatial(args, robot)
+    if args.target:
+        from ..errors import ConfigError
+
+        raise ConfigError("only for a spatial robot's position-only data", key="--target")
+    pv = error_parameters(robot)
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
     frame = None if args.frame is None else np.array([args.frame[0], args.frame[1], np.radians(args.frame[2])])
@@ -378,10 +415,12 @@ def run_compensate(args: argparse.Namespace) -> int:
     from ..accuracy.calibration.parameters import actuators
     from ..accuracy.calibration.records import read_identification
 
-    targets = _common.poses_from_args(args.pose, args.poses_csv)
     if args.out:
         _common.prepare_output(args.out, "--out", (".csv",))
     ident = read_identification(args.identification)
+    if getattr(ident.parameters.robot, "dimension", 3) == 6:
+        return _compensate_spatial(args, ident)
+    targets = _common.poses_from_args(args.pose, args.poses_csv)
     comp = compensate(ident, targets, clearances=_clearances(args, ident.parameters.robot))
     pv = ident.parameters
     if args.out:
@@ -435,6 +474,11 @@ def run_simulate(args: argparse.Namespace) -> int:
     if args.mm_per_pixel is not None and not args.photos:
         raise ConfigError("only with --photos DIR", key="--mm-per-pixel")
     robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _simulate_spatial(args, robot)
+    for opt in ("target", "noise_ppm"):
+        if getattr(args, opt):
+            raise ConfigError("only for a spatial robot", key="--" + opt.replace("_", "-"))
     clearances = _clearances(args, robot)
     if args.photos:
         from ..vision.calibration_photos import PHOTO_MM_PER_PIXEL, photo_measurer
@@ -477,4 +521,204 @@ def run_simulate(args: argparse.Namespace) -> int:
         _common.emit([summary], "csv")
     else:
         _common.emit([summary], "table")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------- spatial robots
+def _spatial_rows(ident) -> list[dict]:
+    import numpy as np
+
+    rows = []
+    for e in ident.estimates():
+        deg = e["unit"] == "rad"
+        f = np.degrees if deg else float
+        rows.append({"parameter": e["name"], "unit": "deg" if deg else e["unit"], "nominal": f(e["nominal"]),
+                     "estimate": f(e["estimate"]), "change": f(e["estimate"] - e["nominal"]),
+                     "sigma": f(e["sigma"]) if e["identified"] else None,
+                     "status": "identified" if e["identified"] else "fixed"})
+    return rows
+
+
+def _spatial_record(ident) -> dict:
+    from ..accuracy.calibration.spatial_identify import spatial_identification_to_dict
+
+    return spatial_identification_to_dict(ident)
+
+
+def _print_spatial(ident, fmt: str, extra: dict | None = None) -> None:
+    rows = _spatial_rows(ident)
+    record = _spatial_record(ident)
+    if fmt == "json":
+        _common.emit({"estimates": rows, **record, **(extra or {})}, "json")
+        return
+    if fmt == "csv":
+        _common.emit(rows, "csv")
+        return
+    _common.emit(rows, "table")
+    print()
+    fit = record["fit"]
+    _common.emit([{**{k: v for k, v in fit.items() if k != "outlier_rows"}, "outliers": len(fit["outlier_rows"]),
+                   "identified": len(ident.identifiability.identified),
+                   "fixed": len(ident.identifiability.fixed), **(extra or {})}], "table")
+    for sentence in ident.identifiability.combinations:
+        print(f"note: {sentence}")
+    for row in fit["outlier_rows"]:
+        print(f"outlier: row {row} left out (its reading disagrees with the fitted robot)")
+
+
+def _targets(args):
+    import numpy as np
+
+    return None if not args.target else np.array(args.target, dtype=float)
+
+
+def _identify_spatial(args: argparse.Namespace, robot) -> int:
+    import json
+    from pathlib import Path
+
+    import tomli_w
+
+    from ..accuracy.calibration.spatial_data import read_spatial_csv
+    from ..accuracy.calibration.spatial_identify import identify_spatial
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
+    from ..errors import ConfigError
+
+    for opt, given in (("--frame", args.frame is not None), ("--clearances", args.clearances is not None)):
+        if given:
+            raise ConfigError("not for a spatial robot yet", key=opt)
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    pv.index(args.fix)
+    data = read_spatial_csv(args.data, pv)
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust)
+    if args.out:
+        Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
+    if args.robot_out:
+        Path(args.robot_out).write_text(tomli_w.dumps(spatial_robot_file(pv, ident.values)), encoding="utf-8")
+    _print_spatial(ident, args.format)
+    return 0
+
+
+def _simulate_spatial(args: argparse.Namespace, robot) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_data import write_spatial_csv
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
+    from ..errors import ConfigError
+
+    for opt in ("errors", "tolerances", "clearances", "report", "photos", "mm_per_pixel"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
+    if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
+        raise ConfigError(f"must be a finite number >= 0, got {args.noise_ppm!r}", key="--noise-ppm")
+    if args.noise_ppm and not args.target:
+        raise ConfigError("only with --target (a laser tracker's readings)", key="--noise-ppm")
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
+             "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
+    ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
+                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm)
+    if args.data_out:
+        write_spatial_csv(pv, ex.data, args.data_out)
+    z = ex.normalized_errors()
+    extra = {"max_abs_normalized_error": float(np.max(np.abs(z))) if z.size else None,
+             "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
+             "max_error_before_mm": float(np.nanmax(ex.errors_before[:, 0])),
+             "max_error_after_mm": float(np.nanmax(ex.errors_after[:, 0]))}
+    if args.format == "json":
+        extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
+    _print_spatial(ex.identification, args.format, extra)
+    return 0
+
+
+def _plan_spatial(args: argparse.Namespace, robot) -> int:
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_data import write_spatial_csv
+    from ..accuracy.calibration.spatial_identify import SpatialCalibrationData
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_plan import plan_spatial_poses
+    from ..errors import ConfigError
+    from ..kinematics.spatial import coordinates
+
+    for opt in ("phi_range_deg", "grid"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("for planar robots (a spatial robot's candidates: --candidates)",
+                              key="--" + opt.replace("_", "-"))
+    pv = spatial_error_parameters(robot, targets=_targets(args))
+    plan = plan_spatial_poses(pv, args.poses, n_candidates=args.candidates or 20000, seed=args.seed)
+    if args.out:
+        T = max(pv.n_targets, 1)
+        k = 6 if pv.kind == "pose" else 3
+        n = len(plan.commands) * T
+        labels = tuple(str(i) for i in np.repeat(np.arange(1, len(plan.commands) + 1), T))
+        sig = np.tile([0.01] * 3 + [np.radians(0.01)] * 3, (n, 1))[:, :k]
+        blank = SpatialCalibrationData(labels, np.repeat(plan.commands, T, axis=0), np.full((n, k), np.nan), sig,
+                                       np.tile(np.arange(T), len(plan.commands)), "<plan>")
+        write_spatial_csv(pv, blank, args.out)
+    rows = [{"choice": name, **idx} for name, idx in (("planned", plan.index), ("random (mean of 5)",
+                                                                                  plan.random_index))]
+    if args.format == "json":
+        c = coordinates(plan.poses, degrees=True)
+        _common.emit({"robot": pv.robot.name, "candidates": plan.n_candidates, "indices": rows,
+                      "poses": [dict(zip(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"), map(float, p)))
+                                for p in c]}, "json")
+    elif args.format == "csv":
+        _common.emit(rows, "csv")
+    else:
+        print(f"{len(plan.poses)} poses of {plan.n_candidates} candidates; observability indices:")
+        _common.emit(rows, "table")
+    return 0
+
+
+def _compensate_spatial(args: argparse.Namespace, ident) -> int:
+    import numpy as np
+
+    from .._textfile import read_csv
+    from ..accuracy.calibration.spatial_compensate import compensate_spatial
+    from ..accuracy.calibration.spatial_data import spatial_command_columns
+    from ..errors import ConfigError, MeasurementFileError
+    from ..io.csvio import write_csv_columns
+    from ..kinematics.spatial import poses_from_coordinates
+
+    if args.pose or not args.poses_csv:
+        raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
+                          "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
+    if args.clearances is not None:
+        raise ConfigError("not for a spatial robot yet", key="--clearances")
+    names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
+    lines = read_csv(args.poses_csv, MeasurementFileError)
+    header = [h.strip() for h in lines[0][1]] if lines else []
+    missing = [c for c in names if c not in header]
+    if missing:
+        raise MeasurementFileError(f"header must name {','.join(names)} (missing {','.join(missing)})",
+                                   source=args.poses_csv, key="line 1")
+    rows = []
+    for line, row in lines[1:]:
+        if not row or all(not c.strip() for c in row):
+            continue
+        try:
+            vals = [float(row[header.index(c)]) for c in names]
+        except (ValueError, IndexError):
+            raise MeasurementFileError("x,y,z,roll_deg,pitch_deg,yaw_deg must be numbers", source=args.poses_csv,
+                                       key=f"line {line}") from None
+        if not np.all(np.isfinite(vals)):
+            raise MeasurementFileError("values must be finite", source=args.poses_csv, key=f"line {line}")
+        rows.append(vals)
+    if not rows:
+        raise MeasurementFileError("no data rows", source=args.poses_csv)
+    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True))
+    pv = ident.parameters
+    kinds = np.array([k == "R" for k in pv.robot.actuated_kinds])
+    out = {}
+    coords = np.array(rows)
+    for k, n in enumerate(names):
+        out[n] = coords[:, k]
+    for k, name in enumerate(spatial_command_columns(pv.robot)):
+        f = np.degrees if kinds[k] else (lambda v: v)
+        out[name] = f(comp.commands[:, k])
+        out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
+    if args.out:
+        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal")}, args.out)
+    _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0

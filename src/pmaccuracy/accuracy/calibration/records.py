@@ -1,5 +1,6 @@
 """Reading an identification record from its file: the JSON that ``calibrate identify --out`` writes
-(:func:`~pmaccuracy.accuracy.calibration.identify.identification_to_dict`)."""
+(:func:`~pmaccuracy.accuracy.calibration.identify.identification_to_dict`, or for a spatial robot
+:func:`~pmaccuracy.accuracy.calibration.spatial_identify.spatial_identification_to_dict`)."""
 
 from __future__ import annotations
 
@@ -8,11 +9,14 @@ import os
 
 from ..._textfile import read_text
 from ...errors import ConfigError, PmAccuracyError
+from ...model.spatial import is_spatial_architecture
 from .identify import Identification, identification_from_dict
+from .spatial_identify import SpatialIdentification, spatial_identification_from_dict
 
 
-def read_identification(path: str | os.PathLike) -> Identification:
-    """The identification stored in a JSON file written by ``calibrate identify --out``.
+def read_identification(path: str | os.PathLike) -> Identification | SpatialIdentification:
+    """The identification stored in a JSON file written by ``calibrate identify --out`` (a spatial robot's:
+    a :class:`~.spatial_identify.SpatialIdentification`).
 
     Raises :class:`~pmaccuracy.errors.ConfigError` naming the file (and the line of a JSON syntax error, or the
     key of a malformed record): a missing, binary or non-UTF-8 file, text that is not JSON, JSON that is not an
@@ -30,6 +34,9 @@ def read_identification(path: str | os.PathLike) -> Identification:
         raise ConfigError(f"not an identification record: a JSON {type(record).__name__}, not an object written by "
                           "calibrate identify --out", source=src)
     try:
+        table = record.get("robot")
+        if isinstance(table, dict) and is_spatial_architecture(table.get("architecture")):
+            return spatial_identification_from_dict(record, source=src)
         return identification_from_dict(record, source=src)
     except PmAccuracyError as exc:
         if src in str(exc):
