@@ -54,6 +54,8 @@ bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_assembly_modes.py
 	$(BIN)/python benchmarks/bench_support.py
 	$(BIN)/python benchmarks/bench_spatial_bounds.py
+	$(BIN)/python benchmarks/bench_spatial_worst.py
+	$(BIN)/python benchmarks/bench_spatial_calibration.py
 
 clean:
 	rm -rf $(VENV) $(OUT) build src/*.egg-info .pytest_cache docs/_build docs/generated
