@@ -302,13 +302,16 @@ def bad_robot(request: pytest.FixtureRequest, tmp_path: Path) -> BadRobotFile:
     return BadRobotFile(request.param, write_bad_robot(request.param, tmp_path))
 
 
-#: Tests that run longest alone (each over a minute on one core: the console examples of the README and the guide): they start
-#: first, so that under ``pytest -n`` the other workers share the rest meanwhile instead of waiting for them at the end.
+#: Tests that run longest alone (the console examples of the README and the guide, one test per page; the
+#: commands and vision pages take 20-35 s each on one core): they start first, so that under ``pytest -n`` the
+#: other workers share the rest meanwhile instead of waiting for them at the end.
 LONGEST_FIRST = ("tests/test_readme.py::test_documented_examples_run_verbatim",)
 
 
 def pytest_collection_modifyitems(config, items):
-    """Move :data:`LONGEST_FIRST` to the front of the run (the order of the other tests is kept)."""
-    first = [it for it in items if any(it.nodeid.endswith(name.split("tests/", 1)[1]) for name in LONGEST_FIRST)]
+    """Move :data:`LONGEST_FIRST` (with their parameters) to the front of the run (the order of the other tests is
+    kept)."""
+    first = [it for it in items if any(it.nodeid.split("[", 1)[0].endswith(name.split("tests/", 1)[1])
+                                       for name in LONGEST_FIRST)]
     if first:
         items[:] = first + [it for it in items if it not in first]

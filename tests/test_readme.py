@@ -10,19 +10,18 @@ The documents: ``README.md``, then the guide's pages (``docs/guide/*.md``) in th
   exactly; numbers must agree to a relative 1e-4 (:func:`same_output`): the camera calibration
   (OpenCV) varies in the seventh significant digit from run to run, everything else is exact.
 * Every command runs through ``bash`` exactly as written (``# ...`` comments included), with the
-  test environment's ``pmaccuracy`` first on ``PATH``, in ONE temporary working folder shared by
-  all blocks of all the documents, in document order: a later example may read a file an earlier one
-  wrote (``m.csv``, ``cal.toml``, ...). The exit status is not checked, the printed text is.
+  test environment's ``pmaccuracy`` first on ``PATH``, in a temporary working folder of its document
+  (one test per document, so the pages run in parallel), in document order: a later example may read
+  a file an earlier one of the same page wrote (``m.csv``, ``cal.toml``, ...). The exit status is not
+  checked, the printed text is.
 * A command whose comment contains ``not run by tests`` (with the reason: minutes of run time,
   50 GB of disk) is skipped; the test counts the skipped lines and checks that they are exactly
   the marked ones.
-* Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in the same folder
-  after the console blocks of every document (so ``map.nc`` etc. may be overwritten freely).
+* Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in its document's folder
+  after that document's console blocks (so ``map.nc`` etc. may be overwritten freely).
 
-The whole module costs about 77 s of CPU (71 commands run, each a fresh interpreter; the vision examples
-about 22 s of it). Measured with the 2 cores shared by other jobs (load average about 10): 241 s of wall
-time, where the README's examples alone, before they were split between the README and the guide and the
-walk-through and the per-architecture examples added, took 67 s of CPU and 168 s of wall time.
+The whole module costs about 95 s of CPU on this machine (90 commands, each a fresh interpreter; the
+commands page about 33 s, the vision examples about 22 s), about 60 s of wall time on two workers.
 """
 
 from __future__ import annotations
@@ -190,7 +189,7 @@ def _label(path: Path) -> str:
     return path.relative_to(ROOT).as_posix()
 
 
-def test_documented_examples_run_verbatim(tmp_path):
+def test_documented_examples_are_collected():
     docs = [(path, path.read_text(encoding="utf-8")) for path in documents()]
     examples = [(path, ex) for path, text in docs for ex in console_examples(text, _label(path))]
     assert len(examples) > 40
@@ -199,8 +198,17 @@ def test_documented_examples_run_verbatim(tmp_path):
     # the only examples left out: the 50 GB map and the full reports (each minutes or gigabytes)
     assert len(skipped) <= 4, [e.command for e in skipped]
     assert all(re.search(r"#.*not run by tests: \S", e.command) for e in skipped)
+
+
+@pytest.mark.parametrize("path", [p for p in documents()
+                                  if "```console" in p.read_text(encoding="utf-8")
+                                  or "```python" in p.read_text(encoding="utf-8")], ids=_label)
+def test_documented_examples_run_verbatim(path, tmp_path):
+    """Each document's examples in order, in a folder of their own (a page's examples may use the files its
+    earlier examples wrote, never another page's): the pages run in parallel."""
+    text = path.read_text(encoding="utf-8")
     failures = []
-    for path, ex in examples:
+    for ex in console_examples(text, _label(path)):
         if ex.skipped:
             continue
         got = _run(ex, tmp_path)
@@ -208,15 +216,13 @@ def test_documented_examples_run_verbatim(tmp_path):
             failures.append(f"{_label(path)} line {ex.line}: $ {ex.command}\n--- document\n"
                             + "\n".join(ex.expected) + "\n--- printed\n" + "\n".join(got))
     assert not failures, "\n\n".join(failures)
-
-    for path, text in docs:
-        for first, code in python_blocks(text):
-            cwd = os.getcwd()
-            os.chdir(tmp_path)
-            try:
-                exec(compile(code, f"{_label(path)} (python block at line {first})", "exec"), {"__name__": "docs"})
-            finally:
-                os.chdir(cwd)
+    for first, code in python_blocks(text):
+        cwd = os.getcwd()
+        os.chdir(tmp_path)
+        try:
+            exec(compile(code, f"{_label(path)} (python block at line {first})", "exec"), {"__name__": "docs"})
+        finally:
+            os.chdir(cwd)
 
 
 def _leaf_parsers() -> dict[str, argparse.ArgumentParser]:

@@ -24,6 +24,7 @@ from conftest import run_cli
 from scipy.spatial.transform import Rotation
 
 import pmaccuracy as pm
+from robot_compare import assert_same_robot, random_poses
 from pmaccuracy.kinematics.spatial import inverse_kinematics
 from pmaccuracy.model.spatial import SpatialManipulator
 
@@ -32,31 +33,6 @@ rf = pytest.importorskip("pmaccuracy.io.robot_formats")
 
 DATA = Path(__file__).parents[1] / "data" / "formats"
 PRESETS = SpatialManipulator.preset_names()
-
-
-def _poses(robot, n=25, seed=0):
-    """Random poses around home: +-15 mm, +-3 deg (pure translations for a 3T robot)."""
-    rng = np.random.default_rng(seed)
-    poses = np.tile(np.asarray(robot.home, dtype=float), (n, 1))
-    poses[:, :3] += rng.uniform(-15, 15, (n, 3))
-    if robot.mobility != "3T":
-        poses[:, 3:] = (Rotation.from_rotvec(poses[:, 3:]) * Rotation.from_rotvec(
-            rng.uniform(-0.05, 0.05, (n, 3)))).as_rotvec()
-    return poses
-
-
-def _same_robot(a, b, tol=1e-9):
-    assert a.architecture == b.architecture and a.n_legs == b.n_legs
-    np.testing.assert_allclose(a.home, b.home, atol=tol, rtol=0)
-    for i, (la, lb) in enumerate(zip(a.legs, b.legs), start=1):
-        ta, tb = la.to_table(), lb.to_table()
-        assert set(ta) == set(tb), (i, set(ta) ^ set(tb))
-        for key in ta:
-            np.testing.assert_allclose(ta[key], tb[key], atol=tol, rtol=0, err_msg=f"leg {i} {key}")
-    poses = _poses(a)
-    qa, qb = inverse_kinematics(a, poses).q, inverse_kinematics(b, poses).q
-    assert np.all(np.isfinite(qa))
-    np.testing.assert_allclose(qb, qa, atol=tol, rtol=0)
 
 
 @pytest.mark.parametrize("name", PRESETS)
@@ -68,7 +44,7 @@ def test_every_spatial_preset_survives_a_round_trip(name, suffix, tmp_path):
     path = tmp_path / f"{name}{suffix}"
     (rf.write_mjcf if suffix == ".xml" else rf.write_urdf)(robot, path)
     back = pm.load_robot(path)
-    _same_robot(robot, back)
+    assert_same_robot(robot, back)
     assert back.name == robot.name and back.description == robot.description
 
 
@@ -98,7 +74,7 @@ def test_hand_written_files_import_to_their_hand_written_toml(stem):
         np.testing.assert_allclose(la.base, lb.base, atol=1e-9, rtol=0)
         np.testing.assert_allclose(la.platform, lb.platform, atol=1e-9, rtol=0)
         np.testing.assert_allclose(la.stroke, lb.stroke, atol=1e-9, rtol=0)
-    poses = _poses(written, seed=3)
+    poses = random_poses(written, seed=3)
     q = inverse_kinematics(imported, poses).q
     np.testing.assert_allclose(q, inverse_kinematics(written, poses).q, atol=1e-9, rtol=0)
     if stem != "delta":
@@ -124,7 +100,7 @@ def _with_sites(tmp_path):
 
 def test_site_based_connects_close_loops_and_move_with_the_calibration(tmp_path):
     path = _with_sites(tmp_path)
-    _same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(path))
+    assert_same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(path))
     cal = _calibrated(pm.load_robot(path), seed=9)
     out = rf.export_into(cal, path, tmp_path / "sites_calibrated.xml")
     m = mujoco.MjModel.from_xml_path(str(out))
@@ -134,7 +110,7 @@ def test_site_based_connects_close_loops_and_move_with_the_calibration(tmp_path)
         Rotation.from_rotvec(cal.home[3:]).as_matrix() @ np.asarray(cal.legs[5].platform) / 1000
     for site in ("plat6", "tip6"):
         np.testing.assert_allclose(d.site_xpos[m.site(site).id], B, atol=1e-12)
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
 
 
 def test_a_free_root_body_is_the_base(tmp_path):
@@ -142,14 +118,14 @@ def test_a_free_root_body_is_the_base(tmp_path):
     the base (the Delta's fixed frame body made free: the same robot)."""
     path = _edit(tmp_path, "delta", '<body name="frame" pos="0 0 1.2">',
                  '<body name="frame" pos="0 0 1.2">\n      <freejoint name="floating_base"/>')
-    _same_robot(pm.load_robot(DATA / "delta.toml"), pm.load_robot(path))
+    assert_same_robot(pm.load_robot(DATA / "delta.toml"), pm.load_robot(path))
 
 
 def test_delta_arm_angles_close_the_rods_of_the_hand_written_file():
     """The imported Delta's arm angles put each elbow ball one rod length from its platform ball, with the ball
     positions computed here from the MJCF's numbers (arm 0.35 m along x of each arm frame, balls +-0.05 m)."""
     robot = pm.load_robot(DATA / "delta.xml")
-    poses = _poses(robot, seed=5)
+    poses = random_poses(robot, seed=5)
     q = inverse_kinematics(robot, poses).q
     for i in range(3):
         c, s = np.cos(np.radians(120 * i)), np.sin(np.radians(120 * i))
@@ -196,7 +172,7 @@ def test_calibrated_hexapod_written_into_a_leg_hanging_from_the_platform(tmp_pat
     np.testing.assert_allclose(d.xanchor[m.joint("leg6_u1").id], A, atol=1e-12)
     # the slide's axis in the file still points from the ball towards the base joint
     np.testing.assert_allclose(d.xaxis[m.joint("leg6_slide").id], (A - B) / np.linalg.norm(A - B), atol=1e-12)
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
 
 
 def test_calibrated_hexapod_written_into_its_mjcf_is_mujocos_geometry(tmp_path):
@@ -222,7 +198,7 @@ def test_calibrated_hexapod_written_into_its_mjcf_is_mujocos_geometry(tmp_path):
     text = out.read_text()
     for kept in ('kp="2000"', 'rgba="0.8 0.5 0.2 1"', 'timestep="0.002"', 'name="floor"'):
         assert kept in text
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
 
 
 def test_calibrated_delta_written_into_its_mjcf_closes_its_rods(tmp_path):
@@ -248,7 +224,7 @@ def test_calibrated_delta_written_into_its_mjcf_closes_its_rods(tmp_path):
             sign = 1 if (elbow - mid) @ np.asarray(leg.axis) > 0 else -1
             ball = p + (np.asarray(leg.platform) + sign * 0.5 * leg.spacing * np.asarray(leg.axis)) / 1000
             assert np.linalg.norm(ball - elbow) == pytest.approx(leg.rod / 1000, abs=1e-12)
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
 
 
 @pytest.mark.parametrize("name", PRESETS)
@@ -256,7 +232,7 @@ def test_calibrated_preset_written_into_its_exported_mjcf_reads_back(name, tmp_p
     robot = SpatialManipulator.preset(name)
     original = rf.write_mjcf(robot, tmp_path / "original.xml")
     cal = _calibrated(robot, seed=7)
-    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.xml")))
+    assert_same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.xml")))
 
 
 # ---------------------------------------------------------------------------------------------- bad files
@@ -316,7 +292,7 @@ def test_import_writes_a_toml_every_command_reads(tmp_path, capsys):
     status, stdout, err = run_cli(["import", DATA / "hexapod.xml", "--out", out], capsys)
     assert status == 0, err
     assert "6-UPS" in stdout and "leg 6:" in stdout
-    _same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(out))
+    assert_same_robot(pm.load_robot(DATA / "hexapod.xml"), pm.load_robot(out))
     status, stdout, err = run_cli(["ik", "--robot", DATA / "hexapod.xml", "--pose", 0, 0, 400, 0, 0, 10], capsys)
     assert status == 0, err
 
@@ -324,13 +300,13 @@ def test_import_writes_a_toml_every_command_reads(tmp_path, capsys):
 def test_export_command_writes_fresh_files_and_into_the_original(tmp_path, capsys):
     status, _, err = run_cli(["export", "delta_clavel", "--to", tmp_path / "d.xml"], capsys)
     assert status == 0, err
-    _same_robot(pm.load_robot("delta_clavel"), pm.load_robot(tmp_path / "d.xml"))
+    assert_same_robot(pm.load_robot("delta_clavel"), pm.load_robot(tmp_path / "d.xml"))
     toml = tmp_path / "cal.toml"
     cal = _calibrated(pm.load_robot(DATA / "hexapod.xml"))
     cal.to_toml(toml)
     status, _, err = run_cli(["export", toml, "--to", tmp_path / "h.xml", "--like", DATA / "hexapod.xml"], capsys)
     assert status == 0, err
-    _same_robot(cal, pm.load_robot(tmp_path / "h.xml"))
+    assert_same_robot(cal, pm.load_robot(tmp_path / "h.xml"))
     status, _, err = run_cli(["export", "rps_3", "--to", tmp_path / "h2.xml", "--like", DATA / "hexapod.xml"], capsys)
     assert status == 2 and "holds a 6-UPS with 6 legs, the robot is a 3-RPS" in err
 
@@ -339,7 +315,7 @@ def test_export_command_writes_fresh_files_and_into_the_original(tmp_path, capsy
 PLANAR = ["aalborg_3ppr", "symmetric_3rrr", "symmetric_3rpr", "symmetric_3prr", "symmetric_3ppr"]
 
 
-def _planar_poses(n=25, seed=0):
+def _planarrandom_poses(n=25, seed=0):
     rng = np.random.default_rng(seed)
     return np.column_stack([rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(-0.1, 0.1, n)])
 
@@ -347,7 +323,7 @@ def _planar_poses(n=25, seed=0):
 def _same_planar(a, b):
     from pmaccuracy.kinematics import inverse_kinematics as planar_ik
 
-    poses = _planar_poses()
+    poses = _planarrandom_poses()
     qa, qb = planar_ik(a, poses).q, planar_ik(b, poses).q
     assert np.all(np.isfinite(qa))
     np.testing.assert_allclose(qb, qa, atol=1e-9, rtol=0)
@@ -397,7 +373,7 @@ def test_calibrated_tilt_head_written_into_its_urdf_is_yourdfpys_geometry(tmp_pa
             np.testing.assert_allclose(T[:3, 3] + T[:3, :3] @ xyz, B, atol=1e-12)
     text = out.read_text()
     assert "transmission_interface/SimpleTransmission" in text and 'radius="0.22"' in text
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
 
 
 @pytest.mark.parametrize("name", PRESETS)
@@ -406,7 +382,7 @@ def test_calibrated_preset_written_into_its_exported_urdf_reads_back(name, tmp_p
     robot = SpatialManipulator.preset(name)
     original = rf.write_urdf(robot, tmp_path / "original.urdf")
     cal = _calibrated(robot, seed=13)
-    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.urdf")))
+    assert_same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.urdf")))
 
 
 @pytest.mark.parametrize("axis", ["0 -1 0", "0 1 0"])
@@ -437,7 +413,7 @@ def test_a_planar_robot_drawn_in_the_xz_plane_has_plane_coordinates_x_z(axis, tm
     else:   # the same mechanism: the same actuated angles up to the sign of each motor's axis
         from pmaccuracy.kinematics import inverse_kinematics as planar_ik
 
-        poses = _planar_poses()
+        poses = _planarrandom_poses()
         qa = planar_ik(pm.load_robot("symmetric_3rrr"), poses).q
         qb = planar_ik(upright_robot, poses).q
         np.testing.assert_allclose(np.cos(qb), np.cos(qa), atol=1e-9)
@@ -452,7 +428,7 @@ def test_files_typed_to_ten_micrometres_import_within_their_typing_error(stem, t
     path = tmp_path / f"{stem}.xml"
     path.write_text(text)
     typed, exact = pm.load_robot(path), pm.load_robot(DATA / f"{stem}.toml")
-    poses = _poses(exact, seed=21)
+    poses = random_poses(exact, seed=21)
     err = np.abs(inverse_kinematics(typed, poses).q - inverse_kinematics(exact, poses).q)
     assert np.max(err) < (0.05 if stem == "hexapod" else 1e-4)
 
@@ -476,9 +452,9 @@ def _gazebo_loops(tmp_path):
 def test_gazebo_joints_close_urdf_loops(tmp_path):
     pytest.importorskip("yourdfpy")
     path = _gazebo_loops(tmp_path)
-    _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
+    assert_same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
     cal = _calibrated(pm.load_robot(path), seed=17)
-    _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_gazebo_calibrated.urdf")))
+    assert_same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_gazebo_calibrated.urdf")))
 
 
 def test_import_of_a_planar_file_prints_its_chains_and_writes_a_toml(tmp_path, capsys):
@@ -508,9 +484,9 @@ def test_onshape_closing_frames_close_urdf_loops(tmp_path):
     assert text.count("closing_") == 12 and "<loop name" not in text
     path = tmp_path / "tilt_closing.urdf"
     path.write_text(text)
-    _same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
+    assert_same_robot(pm.load_robot(DATA / "tilt_head.urdf"), pm.load_robot(path))
     cal = _calibrated(pm.load_robot(path), seed=19)
-    _same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_closing_calibrated.urdf")))
+    assert_same_robot(cal, pm.load_robot(rf.export_into(cal, path, tmp_path / "tilt_closing_calibrated.urdf")))
 
 
 def test_a_3upu_closed_by_connects_is_refused_with_the_reason(tmp_path, capsys):

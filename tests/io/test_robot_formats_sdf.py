@@ -31,6 +31,7 @@ from conftest import run_cli
 from scipy.spatial.transform import Rotation
 
 import pmaccuracy as pm
+from robot_compare import assert_same_robot, random_poses
 import sdf_frames_reference
 from pmaccuracy.kinematics.spatial import inverse_kinematics
 from pmaccuracy.model.spatial import SpatialManipulator
@@ -41,31 +42,6 @@ DATA = Path(__file__).parents[1] / "data" / "formats"
 PRESETS = SpatialManipulator.preset_names()
 
 
-def _poses(robot, n=25, seed=0):
-    """Random poses around home: +-15 mm, +-3 deg (pure translations for a 3T robot)."""
-    rng = np.random.default_rng(seed)
-    poses = np.tile(np.asarray(robot.home, dtype=float), (n, 1))
-    poses[:, :3] += rng.uniform(-15, 15, (n, 3))
-    if robot.mobility != "3T":
-        poses[:, 3:] = (Rotation.from_rotvec(poses[:, 3:]) * Rotation.from_rotvec(
-            rng.uniform(-0.05, 0.05, (n, 3)))).as_rotvec()
-    return poses
-
-
-def _same_robot(a, b, tol=1e-9):
-    assert a.architecture == b.architecture and a.n_legs == b.n_legs
-    np.testing.assert_allclose(a.home, b.home, atol=tol, rtol=0)
-    for i, (la, lb) in enumerate(zip(a.legs, b.legs), start=1):
-        ta, tb = la.to_table(), lb.to_table()
-        assert set(ta) == set(tb), (i, set(ta) ^ set(tb))
-        for key in ta:
-            np.testing.assert_allclose(ta[key], tb[key], atol=tol, rtol=0, err_msg=f"leg {i} {key}")
-    poses = _poses(a)
-    qa, qb = inverse_kinematics(a, poses).q, inverse_kinematics(b, poses).q
-    assert np.all(np.isfinite(qa))
-    np.testing.assert_allclose(qb, qa, atol=tol, rtol=0)
-
-
 def _same_kinematics(imported, written, tol=1e-9):
     assert imported.architecture == written.architecture
     np.testing.assert_allclose(imported.home, written.home, atol=tol, rtol=0)
@@ -73,7 +49,7 @@ def _same_kinematics(imported, written, tol=1e-9):
         np.testing.assert_allclose(la.base, lb.base, atol=tol, rtol=0)
         np.testing.assert_allclose(la.platform, lb.platform, atol=tol, rtol=0)
         np.testing.assert_allclose(la.stroke, lb.stroke, atol=tol, rtol=0)
-    poses = _poses(written, seed=3)
+    poses = random_poses(written, seed=3)
     q = inverse_kinematics(imported, poses).q
     assert np.all(np.isfinite(q))
     np.testing.assert_allclose(q, inverse_kinematics(written, poses).q, atol=tol, rtol=0)
@@ -95,7 +71,7 @@ def test_every_spatial_preset_survives_an_sdf_round_trip(name, tmp_path):
     robot = SpatialManipulator.preset(name)
     path = rf.write_sdf(robot, tmp_path / f"{name}.sdf")
     back = pm.load_robot(path)
-    _same_robot(robot, back)
+    assert_same_robot(robot, back)
     assert back.name == robot.name and back.description == robot.description
 
 
@@ -275,12 +251,12 @@ def test_import_and_export_commands_read_and_write_sdf(tmp_path, capsys):
     status, stdout, err = run_cli(["import", DATA / "hexapod.sdf", "--out", out], capsys)
     assert status == 0, err
     assert "6-UPS" in stdout and "leg 6:" in stdout
-    _same_robot(pm.load_robot(DATA / "hexapod.sdf"), pm.load_robot(out))
+    assert_same_robot(pm.load_robot(DATA / "hexapod.sdf"), pm.load_robot(out))
     status, stdout, err = run_cli(["ik", "--robot", DATA / "hexapod.sdf", "--pose", 0, 0, 400, 0, 0, 10], capsys)
     assert status == 0, err
     status, _, err = run_cli(["export", "rps_3", "--to", tmp_path / "r.sdf"], capsys)
     assert status == 0, err
-    _same_robot(pm.load_robot("rps_3"), pm.load_robot(tmp_path / "r.sdf"))
+    assert_same_robot(pm.load_robot("rps_3"), pm.load_robot(tmp_path / "r.sdf"))
     status, _, err = run_cli(["export", "symmetric_3rrr", "--to", tmp_path / "p.sdf"], capsys)
     assert status == 2 and "planar robot" in err
 
@@ -316,7 +292,7 @@ def test_calibrated_robot_written_into_its_sdf_changes_only_the_geometry(stem, t
     robot = pm.load_robot(DATA / f"{stem}.sdf")
     cal = _calibrated(robot, seed=5)
     out = pm.export_robot(cal, tmp_path / f"{stem}_calibrated.sdf", like=DATA / f"{stem}.sdf")
-    _same_robot(cal, pm.load_robot(out))
+    assert_same_robot(cal, pm.load_robot(out))
     assert _structure(out) == _structure(DATA / f"{stem}.sdf")
     original, written = (DATA / f"{stem}.sdf").read_text(), out.read_text()
     assert written[:written.index("<sdf")] == original[:original.index("<sdf")]     # the comments before <sdf>
@@ -359,7 +335,7 @@ def test_export_command_writes_a_calibrated_robot_into_its_sdf(tmp_path, capsys)
     cal.to_toml(toml)
     status, stdout, err = run_cli(["export", toml, "--to", tmp_path / "cal.sdf", "--like", DATA / "delta.sdf"], capsys)
     assert status == 0, err
-    _same_robot(pm.load_robot(toml), pm.load_robot(tmp_path / "cal.sdf"))
+    assert_same_robot(pm.load_robot(toml), pm.load_robot(tmp_path / "cal.sdf"))
     status, _, err = run_cli(["export", toml, "--to", tmp_path / "cal.xml", "--like", DATA / "delta.sdf"], capsys)
     assert status == 2 and "--to" in err and ".sdf" in err
 
@@ -369,7 +345,7 @@ def test_calibrated_preset_written_into_its_exported_sdf_reads_back(name, tmp_pa
     robot = SpatialManipulator.preset(name)
     original = rf.write_sdf(robot, tmp_path / "original.sdf")
     cal = _calibrated(robot, seed=13)
-    _same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.sdf")))
+    assert_same_robot(cal, pm.load_robot(rf.export_into(cal, original, tmp_path / "calibrated.sdf")))
 
 
 def test_a_joint_may_name_a_frame_attached_to_a_link(tmp_path):
@@ -397,4 +373,4 @@ def test_sdf_1_6_joints_may_share_their_link_names(tmp_path):
     slides = [j.name for e in rf.read_sdf(path).edges for j in e if j.kind == "slide" and j.actuated]
     assert slides == [f"joint 'leg{i}_piston'" for i in range(1, 7)]
     cal = _calibrated(imported, seed=21)
-    _same_robot(cal, pm.load_robot(pm.export_robot(cal, tmp_path / "shared_cal.sdf", like=path)))
+    assert_same_robot(cal, pm.load_robot(pm.export_robot(cal, tmp_path / "shared_cal.sdf", like=path)))
