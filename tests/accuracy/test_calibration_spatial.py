@@ -125,9 +125,11 @@ def _normalized(pv, seeds, noise, n_poses=30):
                            for seed in seeds])
 
 
-@pytest.mark.parametrize("name, targets", [("stewart_6ups", None),
-                                           ("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0]]),
-                                           ("delta_clavel", [[0.0, 0.0, -20.0]]), ("delta_clavel", None)])
+@pytest.mark.parametrize("name, targets", [
+    ("stewart_6ups", None),
+    pytest.param("stewart_6ups", [[0.0, 0.0, 30.0], [60.0, 0.0, 10.0]], marks=pytest.mark.slow),
+    ("delta_clavel", [[0.0, 0.0, -20.0]]),
+    pytest.param("delta_clavel", None, marks=pytest.mark.slow)])
 def test_sigmas_honest_over_20_seeds(name, targets):
     """(estimate - true) / sigma of every identified parameter over 20 seeds: RMS within 15 % of 1 (the
     covariance scaled by the residual is honest), none beyond 4.5."""

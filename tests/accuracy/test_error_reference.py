@@ -418,6 +418,7 @@ def test_dp_max_matches_vertex_enumeration(rng):
     assert np.hypot(*(G[:2] @ e)) == pytest.approx(wc["dp_max"], rel=1e-10)
 
 
+@pytest.mark.slow
 def test_dp_max_with_disks_matches_multistart_slsqp(rng):
     """dp_max = max |G_xy e| over the set (non-convex maximization): the best of several SLSQP runs from
     random starts reaches the direction search's value and never exceeds it."""

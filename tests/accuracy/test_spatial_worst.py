@@ -80,6 +80,7 @@ def test_hexapod_position_box_never_exceeded_and_attained():
     _check_attained(robot_dict, cl, res)
 
 
+@pytest.mark.slow
 def test_hexapod_orientation_box_never_exceeded():
     robot_dict, cl, robot, sources = _robot("6-UPS")
     o = np.radians([[0.0, 0.0], [0.0, 0.0], [-2.0, 2.0]])

@@ -231,6 +231,7 @@ def test_every_local_link_and_named_file_of_the_report_exists(report):
         assert "docs/guide/default-robot.md" in named       # the default robot's page is named, and exists
 
 
+@pytest.mark.slow
 def test_with_experiment_relative_folder(tmp_path, monkeypatch):
     """Experiment section on (grid 5; ~12 s, mostly the fixed 7 x 7 virtual experiment) in a relative folder."""
     monkeypatch.chdir(tmp_path)

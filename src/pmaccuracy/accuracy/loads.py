@@ -337,6 +337,10 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     """The pose error that ``load`` produces at ``poses`` ``(..., 3)`` with the clearances taken up along the
     joints' reactions (module docstring), first order and (with ``exact``) on the exact loop closure.
 
+    A spatial robot takes poses ``(..., 6)``, its error sources and a
+    :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`
+    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_loaded_error`; ``exact`` does not apply: first order).
+
     Parameters
     ----------
     robot, clearances : objects, preset names or paths (any architecture; the 3-PPR clearance format too)
@@ -347,10 +351,6 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     >>> b = max_pose_errors("aalborg_3ppr", "case1", [0.0, 0.0, 0.0])
     >>> bool(np.isclose(r.first_order[0], b.dx_max))     # a push along +x reaches +dx_max
     True
-
-    A spatial robot takes poses ``(..., 6)``, its error sources and a
-    :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`
-    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_loaded_error`; ``exact`` does not apply: first order).
     """
     robot = robot_arg(robot)
     if is_spatial(robot):

@@ -143,16 +143,26 @@ class SpatialLoad:
 class SpatialStatics:
     """Leg wrench intensities, actuator efforts and joint reactions at a batch of poses (:func:`spatial_statics`).
 
-    Attributes (leading shape ``(...)`` of the poses)
-    -------------------------------------------------
-    poses : ``(..., 6)`` [mm, rotation vector rad];  wrench : ``(..., 6)`` [N, N mm about P], the external load
-    intensity : ``(..., 6)``: ``lambda`` per closure row (N for a force row, N mm for a couple row)
-    leg_of_row : ``(6,)`` the leg (0-based) of each row
-    actuator : ``(..., n)``: ``tau = G^T lambda``, N for a prismatic actuator, N mm for a Delta's arm
-    leg_wrench : ``(..., n, 6)``: each leg's wrench on the platform ``[f N, m N mm about P]``
-    centres : ``(..., n, j, 3)`` mm: each joint's centre (module docstring)
-    reactions : ``(..., n, j, 6)``: the wrench each joint transmits to the platform side ``[f N, m N mm about
-        the joint's centre]``
+    The leading shape ``(...)`` is the poses'.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (..., 6)
+        The poses [mm, rotation vector rad].
+    wrench : ndarray, shape (..., 6)
+        The external load [N, N mm about P].
+    intensity : ndarray, shape (..., 6)
+        ``lambda`` per closure row (N for a force row, N mm for a couple row).
+    leg_of_row : ndarray, shape (6,)
+        The leg (0-based) of each row.
+    actuator : ndarray, shape (..., n)
+        ``tau = G^T lambda``: N for a prismatic actuator, N mm for a Delta's arm.
+    leg_wrench : ndarray, shape (..., n, 6)
+        Each leg's wrench on the platform [f N, m N mm about P].
+    centres : ndarray, shape (..., n, j, 3)
+        Each joint's centre, mm (module docstring).
+    reactions : ndarray, shape (..., n, j, 6)
+        The wrench each joint transmits to the platform side [f N, m N mm about the joint's centre].
     """
 
     poses: np.ndarray

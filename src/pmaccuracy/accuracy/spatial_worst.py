@@ -680,19 +680,24 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
     """The worst first-order errors of a spatial robot over ``region`` (:func:`spatial_region`): attained lower
     bounds and, for a 6-UPS, certified upper bounds within ``gap`` (module text).
 
-    Parameters
-    ----------
-    clearances : a :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset name or a file
-        (None: the architecture's typical preset)
-    gap : requested relative gap ``(upper - lower) / lower`` (default 1 %)
-    max_boxes : budget of evaluated boxes; when spent the bounds so far are returned, ``converged`` False
-    grid : initial samples per coordinate (a 6-UPS's orientation ranges: 3 per angle)
-    min_size : mm, boxes are not split below it (default ``1e-6`` of the characteristic length); a box that
-        small not proven regular raises :class:`SpatialSingularRegionError`
-    point_gap : the relative gap of ``dp`` and ``dtheta`` at each sampled pose (their attained values are used)
-
     Returns :class:`SpatialGlobalWorst` (``dp`` in mm, rotations in rad). Raises
     :class:`~pmaccuracy.errors.EmptyWorkspaceError` when no sampled pose of the region is in the workspace.
+
+    Parameters
+    ----------
+    clearances : SpatialErrorSources, str or path
+        The error sources, a preset name or a file (None: the architecture's typical preset).
+    gap : float
+        Requested relative gap ``(upper - lower) / lower`` (default 1 %).
+    max_boxes : int
+        Budget of evaluated boxes; when spent the bounds so far are returned, ``converged`` False.
+    grid : int
+        Initial samples per coordinate (a 6-UPS's orientation ranges: 3 per angle).
+    min_size : float
+        mm: boxes are not split below it (default ``1e-6`` of the characteristic length); a box that small not
+        proven regular raises :class:`SpatialSingularRegionError`.
+    point_gap : float
+        The relative gap of ``dp`` and ``dtheta`` at each sampled pose (their attained values are used).
 
     >>> robot = SpatialManipulator.preset("stewart_6ups")
     >>> region = spatial_region(robot, box=(-5, 5, -5, 5, 395, 405), orientation=(0.0, 0.0, 0.0))
