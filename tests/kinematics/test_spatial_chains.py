@@ -156,3 +156,24 @@ def test_u_joint_axes_must_be_perpendicular():
     with pytest.raises(GeometryError, match="perpendicular") as info:
         SpatialManipulator.from_dict(table, "bad.toml")
     assert info.value.key == "legs[1].joints[1].axes"
+
+
+def test_unreachable_points_are_outside_not_errors():
+    """Points a Delta's arms cannot reach: the chain's parasitic motions give NaN (not a crash, not a pose), its
+    inverse kinematics NaN, as the closed-form legs say."""
+    robot = SpatialManipulator.preset("delta_clavel")
+    chain = SpatialManipulator.from_dict(chain_table(robot), "chain.toml")
+    rng = np.random.default_rng(7)
+    pts = reference_pose(robot)[:3] + rng.uniform(-1, 1, (200, 3)) * np.repeat([[250.0], [900.0]], 100, axis=0)
+    ik = pm.inverse_kinematics(robot, np.concatenate([pts, 0 * pts], -1))
+    reach = np.all(np.isfinite(ik.q), axis=-1)
+    inside = np.asarray(ik.within_limits)
+    assert 10 < inside.sum() and reach.sum() < 190
+    poses = complete_poses(chain, pts, strict=False)
+    closes = np.all(np.isfinite(poses), axis=-1)
+    # never a pose where the legs cannot reach; every pose within the arms' ranges found (the numeric inverse
+    # kinematics follows each leg's branch from home: far outside the ranges it may miss a reachable point)
+    assert not np.any(closes & ~reach) and np.all(closes[inside])
+    assert np.max(np.abs(poses[closes, 3:])) < 1e-9         # pure translation where it closes
+    q = pm.inverse_kinematics(chain, np.concatenate([pts, 0 * pts], -1)).q
+    assert not np.any(np.all(np.isfinite(q), axis=-1) & ~reach)

@@ -381,17 +381,23 @@ def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int
     coords[:, fixed] = c.reshape(-1, len(fixed))
     converged = np.zeros(coords.shape[0], dtype=bool)
     active = np.arange(coords.shape[0])
-    for _ in range(iterations):
+    previous = np.full(coords.shape[0], np.inf)
+    for k in range(iterations):
         if not active.size:
             break
         p, R, _ = _split(poses_from_coordinates(coords[active]))
-        parts = [leg.solve_closure(p, R) for leg in robot.legs]          # one solve per leg
-        gains = np.concatenate([part[3] for part in parts], axis=-1)
-        rows = np.all(gains == 0, axis=0)
+        # one solve per leg; continuation (the leg's branch from home) once the first steps have settled the pose
+        parts = [leg.solve_closure(p, R, continuation=k >= 2) for leg in robot.legs]
+        # each chain leg's first row is its actuation row, the others its constraints (gain 0)
+        rows = np.concatenate([[False] + [True] * (leg.ROWS - 1) for leg in robot.legs])
         e = np.concatenate([part[1] for part in parts], axis=-1)[:, rows]
         wrenches = np.concatenate([part[2] for part in parts], axis=-2)
         done = np.all(np.abs(e) < NEWTON_TOL, axis=-1) & np.all([part[0] for part in parts], axis=0)
         finite = np.all(np.isfinite(e), axis=-1)
+        size = np.max(np.abs(e), axis=-1)
+        # Newton's residual falls fast where the legs can close: one that grows after the first steps cannot
+        finite &= (k < 3) | (size < previous[active])
+        previous[active] = size
         converged[active[done]] = True
         keep = ~done & finite
         T = np.zeros((keep.sum(), 6, 6))

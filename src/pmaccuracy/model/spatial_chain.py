@@ -403,7 +403,11 @@ class ChainLeg(SpatialLeg):
         """``xi = [t_e, rotvec(R_e)]`` of ``target D^-1`` ``(..., 6)``."""
         Re = target[0] @ np.swapaxes(D[0], -1, -2)
         te = target[1] - np.einsum("...ij,...j->...i", Re, D[1])
-        return np.concatenate([te, rotvecs(Re)], axis=-1)
+        finite = np.all(np.isfinite(Re), axis=(-2, -1))
+        r = np.full(te.shape, np.nan)
+        if np.any(finite):            # a diverged configuration (NaN) has no rotation vector: NaN residual
+            r[finite] = rotvecs(Re[finite])
+        return np.concatenate([te, r], axis=-1)
 
     def _target(self, p, R):
         R0 = rotations(np.asarray(self.home_pose[3:]))
@@ -411,13 +415,24 @@ class ChainLeg(SpatialLeg):
         return Rd, p - np.einsum("...ij,j->...i", Rd, np.asarray(self.home_pose[:3]))
 
     def _step(self, theta, Q, target, free: np.ndarray):
-        """One Gauss-Newton step on the ``free`` columns; returns the new state and the residual before it."""
+        """One Gauss-Newton step on the ``free`` columns, ``(J^T J + mu I) delta = J^T xi`` with the columns
+        scaled to mm and a damping ``mu`` of 1e-12 of the mean diagonal (Levenberg-Marquardt: a freedom that moves
+        nothing, a rod spinning between two balls, gets no step); returns the new state and the step's size."""
         D, J, _ = self._chain(theta, Q)
         xi = self._residual(target, D)
         w = self._metric()
-        Jw = J[..., free] * w[:, None]
-        with np.errstate(invalid="ignore"):
-            delta = np.einsum("...ij,...j->...i", np.linalg.pinv(Jw, rcond=1e-10), xi * w)
+        cw = self._column_weights()[free]
+        Jw = J[..., free] * w[:, None] / cw                      # columns per mm of motion
+        JtJ = np.swapaxes(Jw, -1, -2) @ Jw
+        mu = 1e-12 * np.trace(JtJ, axis1=-2, axis2=-1)[..., None, None] / JtJ.shape[-1] + 1e-300
+        rhs = np.einsum("...ji,...j->...i", Jw, xi * w)
+        with np.errstate(invalid="ignore", over="ignore"):
+            ok = np.all(np.isfinite(JtJ), axis=(-2, -1)) & np.all(np.isfinite(rhs), axis=-1)
+            A = np.where(ok[..., None, None], JtJ + mu * np.eye(JtJ.shape[-1]), np.eye(JtJ.shape[-1]))
+            delta = np.linalg.solve(A, np.where(ok[..., None], rhs, 0.0)[..., None])[..., 0] / cw
+            # a step larger than the leg itself is a divergence (near a singular configuration): NaN
+            ok &= np.all(np.abs(delta) < 1e3 * self.length_scale / cw, axis=-1)
+            delta = np.where(ok[..., None], delta, np.nan)
         full = np.zeros(theta.shape[:-1] + (J.shape[-1],))
         full[..., free] = np.where(np.isfinite(delta), delta, np.nan)
         size = np.max(np.abs(full * self._column_weights()), axis=-1)
@@ -457,13 +472,14 @@ class ChainLeg(SpatialLeg):
                 break
         return theta, Q, done
 
-    def solve(self, p: np.ndarray, R: np.ndarray, q: np.ndarray | None = None):
+    def solve(self, p: np.ndarray, R: np.ndarray, q: np.ndarray | None = None, *, continuation: bool = True):
         """The chain's freedoms at poses: ``theta`` ``(..., m)`` (scalar freedoms from home), ``Q`` (each S
         joint's rotation ``(..., 3, 3)``), the residual ``xi`` ``(..., 6)``, the Jacobian ``(..., 6, m)`` and each
         joint's prefix displacement; with ``q`` the actuated value is held there (passive freedoms only).
 
         Gauss-Newton from the home configuration; where it does not converge, again by continuation along the
-        platform's displacement from home (:data:`STAGES`), so that the leg stays on the branch of its home."""
+        platform's displacement from home (:data:`STAGES`), so that the leg stays on the branch of its home
+        (``continuation=False``: not, for the inner loops of iterations that start again anyway)."""
         p = np.asarray(p, dtype=float)
         R = np.asarray(R, dtype=float)
         shape = np.broadcast_shapes(p.shape[:-1], R.shape[:-2])
@@ -479,7 +495,7 @@ class ChainLeg(SpatialLeg):
         theta, Q = home(N)
         theta, Q, done = self._newton(theta, Q, (Rd, td), free, POLISH_ITERATIONS)
         bad = np.flatnonzero(~done)
-        if bad.size:
+        if bad.size and continuation:
             tb, Qb = home(bad.size)
             r = rotvecs(Rd[bad])
             for s in STAGES:
@@ -523,10 +539,10 @@ class ChainLeg(SpatialLeg):
         _, _, xi, J, _ = self.solve(p, R, q)
         return self._rows(p, xi, J)
 
-    def solve_closure(self, p, R):
+    def solve_closure(self, p, R, *, continuation: bool = True):
         """The closure at the least-squares solution of the whole chain (one solve): ``(closes, e, W, g)``, with
         ``closes`` True where the chain reaches the pose (no residual) and ``e, W, g`` as :meth:`closure`."""
-        _, _, xi, J, _ = self.solve(p, R)
+        _, _, xi, J, _ = self.solve(p, R, continuation=continuation)
         closes = np.max(np.abs(xi * self._metric()), axis=-1) <= REACH_TOL * self.length_scale
         return (closes, *self._rows(p, xi, J))
 
@@ -538,6 +554,10 @@ class ChainLeg(SpatialLeg):
         # reciprocal wrenches of the passive columns, found in coordinates where rotations are weighed by the
         # leg's length: n . (S J_p) = 0 with S = diag(1, 1, 1, L, L, L) gives w = S n, w . J_p = 0
         S = self._metric()
+        bad = ~np.all(np.isfinite(J), axis=(-2, -1)) | ~np.all(np.isfinite(xi), axis=-1)
+        if np.any(bad):            # a diverged solve: NaN rows (the SVD takes no NaN)
+            J = np.where(bad[..., None, None], self._home_jacobian(), J)
+            xi = np.where(bad[..., None], np.nan, xi)
         U = np.linalg.svd(J[..., keep] * S[:, None], full_matrices=True)[0]
         N = U[..., :, 6 - k:] * S[:, None]                       # (..., 6, k)
         sa = J[..., a]
@@ -545,6 +565,7 @@ class ChainLeg(SpatialLeg):
         if k == 1:
             Wo = np.swapaxes(N, -1, -2)
         else:
+            power = np.where(np.isfinite(power), power, 1.0)
             Vt = np.linalg.svd(power[..., None, :], full_matrices=True)[2]   # row 0 along power, rows 1.. orthogonal
             Wo = np.einsum("...ik,...jk->...ji", N, Vt)
         e = np.einsum("...ji,...i->...j", Wo, xi)
@@ -552,6 +573,9 @@ class ChainLeg(SpatialLeg):
         g = np.concatenate([g[..., :1], np.zeros_like(g[..., 1:])], axis=-1)
         f, mo = Wo[..., :3], Wo[..., 3:]
         W = np.concatenate([f, mo - np.cross(np.asarray(p)[..., None, :], f)], axis=-1)
+        if np.any(bad):
+            W = np.where(bad[..., None, None], np.nan, W)
+            g = np.where(bad[..., None], np.nan, g)
         return e, W, g
 
     def joint_values(self, p, R, q=None) -> dict[str, np.ndarray]:
