@@ -168,6 +168,7 @@ def test_map_dask_option(tmp_path, capsys):
 
 
 # ----------------------------------------------------------------------------- reproduce
+@pytest.mark.slow        # the same report as tests/report/test_report.py's, through the command line
 def test_reproduce_command(tmp_path, capsys):
     out_dir = tmp_path / "rep"
     status, out, err = run(["reproduce", "--out", out_dir, "--grid", 21, "--no-experiment"], capsys)
