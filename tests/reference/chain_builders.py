@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from pmaccuracy.kinematics.spatial import inverse_kinematics, reference_pose
 from pmaccuracy.model.spatial import SpatialManipulator
-from pmaccuracy.numerics.spatial import rotations
+from pmaccuracy.numerics.spatial import rotations, rotvec_to_euler_xyz
 
 
 def _unit(v):
@@ -18,15 +19,12 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def _frame(robot, home):
-    return home[:3], rotations(home[3:])
 
 
 def chain_table(robot: SpatialManipulator, home=None) -> dict:
     """The ``spatial-chain`` table of a preset's geometry at ``home`` (default its reference pose)."""
-    from pmaccuracy.kinematics.spatial import inverse_kinematics, reference_pose
     home = reference_pose(robot) if home is None else np.asarray(home, dtype=float)
-    p0, R0 = _frame(robot, home)
+    p0, R0 = home[:3], rotations(home[3:])
     q0 = inverse_kinematics(robot, home).q
     legs = []
     for leg, q in zip(robot.legs, q0):
@@ -67,7 +65,6 @@ def chain_table(robot: SpatialManipulator, home=None) -> dict:
         legs.append({"joints": joints})
     controlled = {"6": ["x", "y", "z", "roll", "pitch", "yaw"], "3T": ["x", "y", "z"],
                   "2R1T": ["z", "roll", "pitch"]}[robot.mobility]
-    from pmaccuracy.numerics.spatial import rotvec_to_euler_xyz
     return {"architecture": "spatial-chain", "name": f"{robot.name}_chain", "controlled": controlled,
             "home": {"position": p0.tolist(), "orientation_deg": rotvec_to_euler_xyz(home[3:], degrees=True).tolist()},
             "legs": legs}

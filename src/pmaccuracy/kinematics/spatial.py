@@ -294,8 +294,10 @@ def inverse_kinematics(robot: SpatialManipulator, poses, tol: float = LIMIT_TOLE
     """Actuated joint values of poses ``(..., 6)`` in closed form, leg by leg (:class:`SpatialIK`).
 
     6-UPS, 3-RPS, 3-UPU: the leg length ``|p + R b_i - A_i|``; 3-PRS: the slide from the rod's sphere; Delta: the
-    arm angle from ``e . d(theta) = K`` (:mod:`pmaccuracy.model.spatial_legs`). A lower-mobility robot's pose
-    must also satisfy its constraints (:func:`complete_poses` gives such poses from the controlled coordinates).
+    arm angle from ``e . d(theta) = K`` (:mod:`pmaccuracy.model.spatial_legs`); a chain robot's legs numerically
+    (:mod:`pmaccuracy.model.spatial_chain`: one solve per leg gives both its value and its constraint rows). A
+    lower-mobility robot's pose must also satisfy its constraints (:func:`complete_poses` gives such poses from
+    the controlled coordinates).
 
     >>> robot = SpatialManipulator.preset("stewart_6ups")
     >>> ik = inverse_kinematics(robot, robot.home_pose)
@@ -304,8 +306,19 @@ def inverse_kinematics(robot: SpatialManipulator, poses, tol: float = LIMIT_TOLE
     """
     poses = as_spatial_poses(poses)
     p, R, _ = _split(poses)
+    if robot.is_chain and robot.mobility != "6":
+        parts = [leg.solve_closure(p, R) for leg in robot.legs]
+        q = np.stack([part[0] for part in parts], axis=-1)
+        e = np.concatenate([part[1] for part in parts], axis=-1)[..., _chain_constraint_rows(robot)]
+        residual = np.max(np.abs(np.nan_to_num(e)), axis=-1, initial=0.0)     # an unreachable leg: q is NaN
+        return SpatialIK(robot=robot, poses=poses, q=q, constraint_residual=residual, tol=tol)
     q = _actuate(robot, p, R)
     return SpatialIK(robot=robot, poses=poses, q=q, constraint_residual=_constraint_residual(robot, poses, q), tol=tol)
+
+
+def _chain_constraint_rows(robot: SpatialManipulator) -> np.ndarray:
+    """Which of a chain robot's six closure rows are constraints: each leg's first row is its actuation row."""
+    return np.concatenate([[False] + [True] * (leg.ROWS - 1) for leg in robot.legs])
 
 
 # ---------------------------------------------------------------------------------------------- parasitic motions
@@ -316,7 +329,8 @@ def complete_poses(robot: SpatialManipulator, controlled, *, iterations: int = N
     6-UPS: ``[x, y, z, roll, pitch, yaw]``; Delta and 3-UPU: ``[x, y, z]`` with the identity orientation; 3-RPS and
     3-PRS: ``[z, roll, pitch]``, the parasitic ``x, y, yaw`` solved by Newton from 0 on the three constraint
     equations ``axis_i . (p + R b_i - base_i) = 0`` (derivatives: ``axis_i[:2]`` for x, y and
-    ``axis_i . (e_z x R b_i)`` for yaw). Raises :class:`~pmaccuracy.errors.NoSolutionError` where Newton does not
+    ``axis_i . (e_z x R b_i)`` for yaw). A chain robot (``spatial-chain``): Newton on its legs' constraint rows
+    for whichever coordinates it does not command (:func:`_complete_chain`). Raises :class:`~pmaccuracy.errors.NoSolutionError` where Newton does not
     converge (``strict=False``: NaN poses there instead).
     """
     c = np.asarray(controlled, dtype=float)
@@ -373,7 +387,9 @@ def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int
     actuator gain, reciprocal to every joint of their leg), from the home pose's values: the derivative of a
     constraint row ``w`` along coordinate ``k`` is ``w . t_k`` with ``t_k`` the twist of a unit rate of ``k``
     (``[e_k, 0]`` for x, y, z; ``[0, omega_k]`` for the angles,
-    :func:`~pmaccuracy.numerics.spatial.euler_xyz_rates`). Only the poses not yet converged are iterated."""
+    :func:`~pmaccuracy.numerics.spatial.euler_xyz_rates`). Only the poses not yet converged are iterated; the
+    legs follow their branch from home (continuation) from the third step on, and a pose whose residual grows
+    after it is given up (the legs cannot close there)."""
     fixed = list(CONTROLLED[robot.mobility])
     free = [k for k in range(6) if k not in fixed]
     shape = c.shape[:-1]
@@ -388,11 +404,10 @@ def _complete_chain(robot: SpatialManipulator, c: np.ndarray, *, iterations: int
         p, R, _ = _split(poses_from_coordinates(coords[active]))
         # one solve per leg; continuation (the leg's branch from home) once the first steps have settled the pose
         parts = [leg.solve_closure(p, R, continuation=k >= 2) for leg in robot.legs]
-        # each chain leg's first row is its actuation row, the others its constraints (gain 0)
-        rows = np.concatenate([[False] + [True] * (leg.ROWS - 1) for leg in robot.legs])
+        rows = _chain_constraint_rows(robot)
         e = np.concatenate([part[1] for part in parts], axis=-1)[:, rows]
         wrenches = np.concatenate([part[2] for part in parts], axis=-2)
-        done = np.all(np.abs(e) < NEWTON_TOL, axis=-1) & np.all([part[0] for part in parts], axis=0)
+        done = np.all(np.abs(e) < NEWTON_TOL, axis=-1) & np.all([np.isfinite(part[0]) for part in parts], axis=0)
         finite = np.all(np.isfinite(e), axis=-1)
         size = np.max(np.abs(e), axis=-1)
         # Newton's residual falls fast where the legs can close: one that grows after the first steps cannot

@@ -19,7 +19,8 @@ the velocity of the point at the base origin); an S joint contributes the three 
 
 **Closure equations.** For a pose and an actuated value ``q`` the passive freedoms are solved by Gauss-Newton
 on the residual twist ``xi = [t_e, rotvec(R_e)]`` of ``D_P D(theta)^{-1} = (R_e, t_e)`` (rotations weighed by the
-leg's length), from the solution of the whole chain reached by continuation from the home pose. The leg's
+leg's length; steps by damped normal equations, :meth:`ChainLeg._step`), from the solution of the whole chain:
+Gauss-Newton from home, and where that does not converge, continuation from the home pose. The leg's
 ``k = 6 - rank(J_passive)`` equations are the wrenches ``w`` reciprocal to every passive freedom
 (``w . J_p = 0``, Modern Robotics Sec. 12.1: the passive joints transmit them), applied to ``xi``:
 ``e = W xi``. One row is the actuation wrench (its gain ``g = w . J_a`` is the actuated freedom's power), the
@@ -540,11 +541,11 @@ class ChainLeg(SpatialLeg):
         return self._rows(p, xi, J)
 
     def solve_closure(self, p, R, *, continuation: bool = True):
-        """The closure at the least-squares solution of the whole chain (one solve): ``(closes, e, W, g)``, with
-        ``closes`` True where the chain reaches the pose (no residual) and ``e, W, g`` as :meth:`closure`."""
-        _, _, xi, J, _ = self.solve(p, R, continuation=continuation)
-        closes = np.max(np.abs(xi * self._metric()), axis=-1) <= REACH_TOL * self.length_scale
-        return (closes, *self._rows(p, xi, J))
+        """The inverse kinematics and the closure at the least-squares solution of the whole chain, from one
+        solve: ``(q, e, W, g)``, ``q`` as :meth:`actuate` gives it (NaN where the leg does not reach) and
+        ``e, W, g`` as :meth:`closure`."""
+        theta, _, xi, J, _ = self.solve(p, R, continuation=continuation)
+        return (self._actuated_value(theta, xi), *self._rows(p, xi, J))
 
     def _rows(self, p, xi, J):
         """The closure rows ``(e, W, g)`` from the residual and the Jacobian at the solution (module text)."""

@@ -44,6 +44,20 @@ class _Target:
     range: tuple[float, float] | None = None
 
 
+def _retargeted_legs(graph, platform, legs, old, robot, old_home, new_home):
+    """Per leg ``(paths, Q, targets, keys)`` of :func:`_retarget` (its extras read as the reader reads them; a leg
+    that cannot be moved raises :class:`GeometryError` naming it)."""
+    extras = graph.extras.get("legs") if isinstance(graph.extras.get("legs"), list) else []
+    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
+        extra = extras[i - 1] if i - 1 < len(extras) and isinstance(extras[i - 1], dict) else {}
+        reader = _LegReader(graph, platform, i, extra)
+        try:
+            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
+        except GeometryError as exc:
+            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+        yield paths, Q, tg, keys
+
+
 def _retarget(paths, old, new, old_home, new_home, normal) -> tuple[np.ndarray, dict, list]:
     """The rotation ``Q`` carrying the leg's bodies, the joints' targets by ``ident`` and the key points
     ``[(old, new)]`` of the leg (pair centres) for placing its bodies."""
@@ -205,13 +219,7 @@ def export_into(robot: SpatialManipulator, original: str | os.PathLike, out: str
     flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
     body_rot: dict[int, np.ndarray] = {}
     body_key: dict[int, tuple] = {}
-    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
-        reader = _LegReader(graph, platform, i, graph.extras.get("legs", [{}] * old.n_legs)[i - 1]
-                            if isinstance(graph.extras.get("legs"), list) else {})
-        try:
-            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
-        except GeometryError as exc:
-            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+    for paths, Q, tg, keys in _retargeted_legs(graph, platform, legs, old, robot, old_home, new_home):
         targets.update(tg)
         for path in paths:
             for j in path:
@@ -335,14 +343,7 @@ def _export_urdf_into(robot, source: str, out) -> Path:
     targets: dict = {}
     flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
     link_rot, link_key = {}, {}
-    leg_extras = graph.extras.get("legs") if isinstance(graph.extras.get("legs"), list) else []
-    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
-        extra = leg_extras[i - 1] if i - 1 < len(leg_extras) and isinstance(leg_extras[i - 1], dict) else {}
-        reader = _LegReader(graph, platform, i, extra)
-        try:
-            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
-        except GeometryError as exc:
-            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+    for paths, Q, tg, keys in _retargeted_legs(graph, platform, legs, old, robot, old_home, new_home):
         targets.update(tg)
         for path in paths:
             for j in path:
@@ -486,14 +487,7 @@ def _export_sdf_into(robot, source: str, out) -> Path:
     group_T[platform] = (pf, p1, R1 @ Rf.T)
     targets: dict = {}
     flipped = {j.ident for paths in legs for path in paths for j in path if j.flipped}
-    leg_extras = graph.extras.get("legs") if isinstance(graph.extras.get("legs"), list) else []
-    for i, (paths, lo, ln) in enumerate(zip(legs, old.legs, robot.legs), start=1):
-        extra = leg_extras[i - 1] if i - 1 < len(leg_extras) and isinstance(leg_extras[i - 1], dict) else {}
-        reader = _LegReader(graph, platform, i, extra)
-        try:
-            Q, tg, keys = _retarget(paths, lo, ln, old_home, new_home, reader.normal)
-        except GeometryError as exc:
-            raise GeometryError(exc.message, source=robot.name, key=f"legs[{i}]") from None
+    for paths, Q, tg, keys in _retargeted_legs(graph, platform, legs, old, robot, old_home, new_home):
         targets.update(tg)
         touched: dict[int, tuple | None] = {}
         for path in paths:

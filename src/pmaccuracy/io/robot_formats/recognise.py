@@ -116,6 +116,19 @@ def pairs_of(joints: list[FileJoint]) -> list[Pair]:
     return out
 
 
+def _component(adj, start: int, seen: set) -> set:
+    """The groups reachable from ``start`` through ``adj`` without entering ``seen`` (which they join)."""
+    comp, stack = {start}, [start]
+    seen.add(start)
+    while stack:
+        for v, _ in adj[stack.pop()]:
+            if v not in seen:
+                seen.add(v)
+                comp.add(v)
+                stack.append(v)
+    return comp
+
+
 def _legs(graph: KinematicGraph) -> tuple[int, list[list[list[FileJoint]]]]:
     """The platform group and, per leg, its paths from the base to the platform (lists of joints in order)."""
     n = len(graph.names)
@@ -130,15 +143,7 @@ def _legs(graph: KinematicGraph) -> tuple[int, list[list[list[FileJoint]]]]:
         for start in range(n):
             if start in seen or not adj[start]:
                 continue
-            comp, stack = {start}, [start]
-            seen.add(start)
-            while stack:
-                u = stack.pop()
-                for v, _ in adj[u]:
-                    if v not in seen:
-                        seen.add(v)
-                        comp.add(v)
-                        stack.append(v)
+            comp = _component(adj, start, seen)
             touches = {v for u in comp for v, _ in adj[u]}
             if 0 in touches and platform in touches:
                 comps.append(comp)
@@ -182,15 +187,7 @@ def _dangling(graph, adj, platform):
     for start in range(len(graph.names)):
         if start in seen:
             continue
-        comp, stack = {start}, [start]
-        seen.add(start)
-        while stack:
-            u = stack.pop()
-            for v, _ in adj[u]:
-                if v not in seen:
-                    seen.add(v)
-                    comp.add(v)
-                    stack.append(v)
+        comp = _component(adj, start, seen)
         touches = {v for u in comp for v, _ in adj[u]}
         if 0 in touches and platform not in touches:
             edges = [graph.edges[k] for u in comp for _, k in adj[u]]
