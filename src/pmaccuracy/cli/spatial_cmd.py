@@ -36,7 +36,7 @@ def poses(robot, pose_args, csv_path) -> np.ndarray:
     names = robot.controlled
     if bool(pose_args) == bool(csv_path):
         raise PmAccuracyError(f"give poses with --pose {' '.join(n.upper() for n in names)} (repeatable) or "
-                              "--poses-csv FILE, not both")
+                              "--poses-csv FILE" + (", not both" if pose_args else ""))
     if pose_args:
         bad = [k for k, v in enumerate(pose_args, start=1) if len(v) != len(names)]
         if bad:
