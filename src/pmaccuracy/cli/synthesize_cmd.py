@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from . import _common
-from .worst_cmd import add_region, parse_region, shape_key
+from .worst_cmd import add_region, add_spatial_region, parse_region, shape_key
 
 HELP = "tolerance synthesis: largest clearances per joint meeting worst-case targets everywhere in a region"
 
@@ -17,7 +17,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "cost sum b_j eps0_j / eps_j with --cost) to the largest values whose certified worst cases "
                     "over the region meet every --target (dx, dy, dp in mm, dphi_deg in deg). Prints each source's "
                     "template and synthesized value (mm or rad) and the certified worst cases; --out writes the "
-                    "per-joint clearance file that bounds and map read. --format csv prints the sources' table only.")
+                    "per-joint clearance file that bounds and map read. --format csv prints the sources' table only. "
+                    "A spatial robot (targets dx, dy, dz, dp mm; drx_deg, dry_deg, drz_deg, dtheta_deg deg): the "
+                    "uniform scaling exact at the points of its workspace grid, or, with a region (--workspace, "
+                    "--box with six numbers, --cylinder, --sphere, at --orientation-deg), certified over the "
+                    "region by its certified worst case (architectures with a certified upper bound only).")
     _common.add_robot(p)
     p.add_argument("--clearances", default=None, metavar="TEMPLATE",
                    help="template clearance preset or file: its non-zero keys are the unknowns (default: case1 "
@@ -25,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", action="append", required=True, metavar="NAME=VALUE",
                    help="a target, repeatable: dx=MM, dy=MM, dp=MM, dphi_deg=DEG")
     add_region(p, phi_required=False)
+    add_spatial_region(p)
+    p.set_defaults(gap_pct=None)   # 0.1 % for a planar robot, 1 % for a spatial one
     p.add_argument("--cost", metavar="FILE",
                    help="per-joint cost weights b_j (TOML laid out like a per-joint clearance file, "
                         "[[legs]] joints = [{key = weight}]); implies --mode min-cost")
@@ -60,6 +66,11 @@ def run(args: argparse.Namespace) -> int:
         from . import spatial_cmd
 
         return spatial_cmd.run_synthesize(args, robot0)
+    for option in ("cylinder", "sphere", "orientation_deg", "max_boxes"):
+        if getattr(args, option) is not None:
+            raise ConfigError(f"is for spatial robots; {robot0.name} is planar", key="--" + option.replace("_", "-"))
+    if args.gap_pct is None:
+        args.gap_pct = 0.1
     targets = parse_targets(args.target)
     mode = args.mode or ("min-cost" if args.cost else "uniform")
     if args.cost and mode != "min-cost":
