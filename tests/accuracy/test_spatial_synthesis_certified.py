@@ -209,3 +209,17 @@ def test_cli_certifies_over_a_box_and_refuses_in_one_line(tmp_path, capsys):
                           "--sphere: is for spatial robots")):
         status, text, err = run_cli(["synthesize", *extra], capsys)
         assert status == 2 and len(err.strip().splitlines()) == 1 and words in err, err
+
+
+def test_front_door_synthesize_dispatches_a_spatial_robot():
+    robot = pm.load_robot("stewart_6ups")
+    region = pm.spatial_region(robot, box=(-2.0, 2.0, -2.0, 2.0, 398.0, 402.0), orientation=(0.0, 0.0, 0.0))
+    res = pm.synthesize(robot, region, ["dp=0.05", "dz=0.01"], clearances="ups_typical")
+    direct = spatial_synthesize(robot, "ups_typical", {"dp": 0.05, "dz": 0.01}, region=region)
+    assert isinstance(res, pm.SpatialSynthesis) and res.scale == direct.scale and res.certified
+    for kw, key in (({"mode": "min-cost"}, "mode"), ({"costs": [1.0]}, "costs")):
+        with pytest.raises(ConfigError) as exc:
+            pm.synthesize(robot, region, {"dp": 0.05}, **kw)
+        assert exc.value.key == key
+    with pytest.raises(ConfigError, match="SpatialRegion"):
+        pm.synthesize(robot, pm.make_region(pm.load_robot("aalborg_3ppr"), (0.0, 0.0), None), {"dp": 0.05})

@@ -63,9 +63,7 @@ def run(args: argparse.Namespace) -> int:
 
     robot0 = _common.load_robot(args)
     if is_spatial(robot0):
-        from . import spatial_cmd
-
-        return spatial_cmd.run_synthesize(args, robot0)
+        return run_spatial(args, robot0)
     for option in ("cylinder", "sphere", "orientation_deg", "max_boxes"):
         if getattr(args, option) is not None:
             raise ConfigError(f"is for spatial robots; {robot0.name} is planar", key="--" + option.replace("_", "-"))
@@ -111,4 +109,109 @@ def run(args: argparse.Namespace) -> int:
         _common.emit(sources, "table")
         print()
         _common.emit(worst, "table")
+    return 0
+
+
+def run_spatial(args: argparse.Namespace, robot) -> int:
+    """``synthesize`` on a spatial robot: the largest uniform scaling of the template's sources meeting every
+    ``--target`` at every point of the workspace grid (20 points per axis), or, with a region (``--workspace``,
+    ``--box``, ``--cylinder``, ``--sphere``), at every pose of the region, certified by the global worst case."""
+    from pathlib import Path
+
+    import numpy as np
+    import tomli_w
+
+    from ..accuracy.spatial_synthesis import TARGETS, spatial_synthesize
+    from ..errors import ConfigError, EmptyWorkspaceError, PmAccuracyError, UnsupportedArchitectureError
+    from .spatial_cmd import _sources
+    from .worst_cmd import parse_spatial_region
+
+    for option, value in (("--cost", args.cost), ("--mode", args.mode not in (None, "uniform")),
+                          ("--phi-deg", getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]))):
+        if value:
+            raise PmAccuracyError(f"{option} is not available for spatial robots yet: they get the uniform scaling "
+                                  "of their template")
+    for option in ("disc", "polygon"):
+        if getattr(args, option, None) is not None:
+            raise PmAccuracyError(f"--{option} applies to planar robots; a spatial robot's region is --workspace, "
+                                  "--box (six numbers), --cylinder or --sphere")
+    certified = any(getattr(args, k, None) for k in ("workspace", "box", "region", "cylinder", "sphere"))
+    if not certified:
+        for option in ("orientation_deg", "gap_pct", "max_boxes"):
+            if getattr(args, option, None) is not None:
+                raise ConfigError("needs a region to certify over (--workspace, --box, --cylinder or --sphere); "
+                                  "without one the synthesis covers the workspace grid",
+                                  key="--" + option.replace("_", "-"))
+    targets = {}
+    for item in args.target:
+        name, sep, value = str(item).partition("=")
+        name = name.strip()
+        if not sep or name not in TARGETS:
+            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
+                                  f"got {item!r}")
+        if name in targets:
+            raise PmAccuracyError(f"--target: {name} given twice")
+        try:
+            v = float(value)
+        except ValueError:
+            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
+        if not (np.isfinite(v) and v > 0):
+            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
+        targets[name] = v
+    grid = 20
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        _common.prepare_output(out, "--out", (".toml",))
+    kw = {}
+    if certified:
+        gap_pct = 1.0 if args.gap_pct is None else args.gap_pct
+        _common.check_gap_pct(gap_pct)
+        kw["region"] = parse_spatial_region(robot, args)
+        kw["gap"] = gap_pct / 100
+        if args.max_boxes is not None:
+            kw["max_boxes"] = args.max_boxes
+    template = _sources(args, robot)
+    try:
+        res = spatial_synthesize(robot, template, targets, n=grid, **kw)
+    except (EmptyWorkspaceError, UnsupportedArchitectureError) as exc:
+        if not certified:
+            raise
+        raise ConfigError(getattr(exc, "message", str(exc)), key=shape_key(args)) from None
+    if certified and res.uncertified:
+        from ..model.plausibility import warn
+
+        warn([f"the certified worst case is not within --gap-pct {100 * kw['gap']:g} for "
+              + ", ".join(f"{k} ({100 * g:.3g} %)" for k, g in res.uncertified.items())
+              + ": the sources meet the targets but may be that much tighter than needed; raise --max-boxes"])
+    if out is not None:
+        text = tomli_w.dumps(res.sources.to_dict())
+        if certified:
+            text = (f"# Synthesized by pmaccuracy synthesize for {robot.name} over {res.region.describe()}, "
+                    f"certified: " + ", ".join(f"{r['target']} <= {r['upper']:.6g} {r['unit']} (target "
+                                              f"{r['value']:g})" for r in res.records()) + ".\n" + text)
+        out.write_text(text, encoding="utf-8")
+    rows = res.records()
+    data = {"scale": res.scale, "binding": res.binding, "binding_point": res.binding_point.tolist(),
+            "points": res.points, "targets": rows,
+            "sources": [{"leg": i + 1, "joint": j + 1, "key": key, "value": value}
+                        for i, leg in enumerate(res.sources.legs) for j, joint in enumerate(leg)
+                        for key, value in joint.items()]}
+    if certified:
+        data = {"scale": res.scale, "scale_upper": res.scale_upper, "certified": res.certified,
+                "region": res.region.describe(), "binding": res.binding,
+                "binding_point": res.binding_point.tolist(), "boxes": res.points, "targets": rows,
+                "sources": data["sources"]}
+    if args.format == "json":
+        _common.emit(data, "json")
+        return 0
+    if certified:
+        names = ", ".join(res.region.names)
+        print(f"scale {res.scale:.6g} of the template's half-widths, certified over {res.region.describe()} "
+              f"(the largest scale is below {res.scale_upper:.6g}); binding target {res.binding}, attained at "
+              f"({names}) = ({', '.join(f'{v:.4g}' for v in res.binding_point)})")
+    else:
+        print(f"scale {res.scale:.6g} of the template's half-widths; binding target {res.binding} at the grid "
+              f"point {', '.join(f'{v:.4g}' for v in res.binding_point)} ({res.points} grid points of the "
+              "workspace; exact at the grid points, not certified between them)")
+    _common.emit(rows, args.format)
     return 0
