@@ -113,9 +113,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_spatial(args: argparse.Namespace, robot) -> int:
-    """``synthesize`` on a spatial robot: the largest uniform scaling of the template's sources meeting every
-    ``--target`` at every point of the workspace grid (20 points per axis), or, with a region (``--workspace``,
-    ``--box``, ``--cylinder``, ``--sphere``), at every pose of the region, certified by the global worst case."""
+    """``synthesize`` on a spatial robot: the largest uniform scaling of the template's sources (or per-source
+    values at minimum cost, ``--mode min-cost`` / ``--cost``) meeting every ``--target`` at every point of the
+    workspace grid (20 points per axis), or, with a region (``--workspace``, ``--box``, ``--cylinder``,
+    ``--sphere``), at every pose of the region, certified by the global worst case."""
     from pathlib import Path
 
     import numpy as np
@@ -126,11 +127,12 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     from .spatial_cmd import _sources
     from .worst_cmd import parse_spatial_region
 
-    for option, value in (("--cost", args.cost), ("--mode", args.mode not in (None, "uniform")),
-                          ("--phi-deg", getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]))):
-        if value:
-            raise PmAccuracyError(f"{option} is not available for spatial robots yet: they get the uniform scaling "
-                                  "of their template")
+    if getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]):
+        raise PmAccuracyError("--phi-deg is a planar robot's orientation; a 6-UPS's is --orientation-deg (with a "
+                              "region)")
+    mode = args.mode or ("min-cost" if args.cost else "uniform")
+    if args.cost and mode != "min-cost":
+        raise ConfigError("a cost file needs --mode min-cost", key="--cost")
     for option in ("disc", "polygon"):
         if getattr(args, option, None) is not None:
             raise PmAccuracyError(f"--{option} applies to planar robots; a spatial robot's region is --workspace, "
@@ -172,7 +174,7 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
             kw["max_boxes"] = args.max_boxes
     template = _sources(args, robot)
     try:
-        res = spatial_synthesize(robot, template, targets, n=grid, **kw)
+        res = spatial_synthesize(robot, template, targets, n=grid, mode=mode, costs=args.cost, **kw)
     except (EmptyWorkspaceError, UnsupportedArchitectureError) as exc:
         if not certified:
             raise
@@ -196,7 +198,12 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
             "sources": [{"leg": i + 1, "joint": j + 1, "key": key, "value": value}
                         for i, leg in enumerate(res.sources.legs) for j, joint in enumerate(leg)
                         for key, value in joint.items()]}
-    if certified:
+    if mode == "min-cost":
+        data = {"mode": mode, "cost": res.cost, "cuts": res.cuts, "certified": res.certified,
+                "region": None if res.region is None else res.region.describe(), "binding": res.binding,
+                "binding_point": res.binding_point.tolist(), "targets": rows,
+                "factors": res.factors, "sources": data["sources"]}
+    elif certified:
         data = {"scale": res.scale, "scale_upper": res.scale_upper, "certified": res.certified,
                 "region": res.region.describe(), "binding": res.binding,
                 "binding_point": res.binding_point.tolist(), "boxes": res.points, "targets": rows,
@@ -204,7 +211,17 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     if args.format == "json":
         _common.emit(data, "json")
         return 0
-    if certified:
+    if mode == "min-cost":
+        where = f"certified over {res.region.describe()}" if certified else \
+            f"at the {res.points} points of the workspace grid (not certified between them)"
+        print(f"minimum cost {res.cost:.6g} (sum of weight / factor), {where}; binding target {res.binding}; "
+              f"{res.cuts} rounds of cuts")
+        srcs = [{"source": label, "template": tv, "synthesized": tv * f, "factor": f}
+                for (label, f), tv in zip(res.factors.items(),
+                                          (v for leg in template.legs for j in leg for _, v in j.items()))]
+        _common.emit(srcs, args.format)
+        print()
+    elif certified:
         names = ", ".join(res.region.names)
         print(f"scale {res.scale:.6g} of the template's half-widths, certified over {res.region.describe()} "
               f"(the largest scale is below {res.scale_upper:.6g}); binding target {res.binding}, attained at "
