@@ -206,7 +206,9 @@ def test_cli_certifies_over_a_box_and_refuses_in_one_line(tmp_path, capsys):
                          (["--robot", "stewart_6ups", "--target", "dp=0.05", "--disc", "0", "0", "5"],
                           "--disc applies to planar robots"),
                          (["--robot", "aalborg_3ppr", "--target", "dp=0.3", "--sphere", "0", "0", "0", "5"],
-                          "--sphere: is for spatial robots")):
+                          "--sphere: is for spatial robots"),
+                         (["--robot", "stewart_6ups", "--target", "dp=0.05", "--cost", tmp_path / "none.toml"],
+                          "no cost preset or file")):
         status, text, err = run_cli(["synthesize", *extra], capsys)
         assert status == 2 and len(err.strip().splitlines()) == 1 and words in err, err
 
@@ -217,9 +219,99 @@ def test_front_door_synthesize_dispatches_a_spatial_robot():
     res = pm.synthesize(robot, region, ["dp=0.05", "dz=0.01"], clearances="ups_typical")
     direct = spatial_synthesize(robot, "ups_typical", {"dp": 0.05, "dz": 0.01}, region=region)
     assert isinstance(res, pm.SpatialSynthesis) and res.scale == direct.scale and res.certified
-    for kw, key in (({"mode": "min-cost"}, "mode"), ({"costs": [1.0]}, "costs")):
+    for kw, key in (({"mode": "cheapest"}, "mode"), ({"costs": [1.0]}, "costs")):
         with pytest.raises(ConfigError) as exc:
             pm.synthesize(robot, region, {"dp": 0.05}, **kw)
         assert exc.value.key == key
     with pytest.raises(ConfigError, match="SpatialRegion"):
         pm.synthesize(robot, pm.make_region(pm.load_robot("aalborg_3ppr"), (0.0, 0.0), None), {"dp": 0.05})
+
+
+def _by_factor(cl: dict, factors: dict) -> dict:
+    """The reference clearance file with each source times its factor (``legs[i].joints[j].key`` labels)."""
+    out = copy.deepcopy(cl)
+    for i, leg in enumerate(out["legs"]):
+        for j, joint in enumerate(leg["joints"]):
+            for key in joint:
+                joint[key] *= factors[f"legs[{i + 1}].joints[{j + 1}].{key}"]
+    return out
+
+
+def test_min_cost_meets_the_targets_densely_and_costs_less_than_uniform(tmp_path):
+    pytest.importorskip("cvxpy")
+    robot_dict, cl, robot, sources = _hexapod()
+    box = (-6.0, 6.0, -6.0, 6.0, 298.0, 312.0)
+    region = spatial_region(robot, box=box, orientation=(0.0, 0.0, 0.0))
+    targets = {"dp": 0.05, "dtheta_deg": 0.02}
+    with pytest.warns(PlausibilityWarning, match="no first-order effect") as caught:
+        res = spatial_synthesize(robot, sources, targets, region=region, mode="min-cost", n=5)
+    uniform = spatial_synthesize(robot, sources, targets, region=region)
+    assert res.mode == "min-cost" and res.scale is None and all(res.worst[k] <= v for k, v in targets.items())
+    # a 6-UPS leg's sources act through its length only: rotations about the base joint (tilt, direction), the
+    # slide's lateral play and tilt do not move the platform (guide, spatial errors); they are kept, as said
+    kept = str(caught[0].message).split(": no first-order")[0].split(", ")
+    assert {label.rsplit(".", 1)[1] for label in kept} == {"tilt", "direction", "lateral"}
+    # the uniform design is feasible: the optimum costs no more (same sources, the moving ones; 1 % certificates)
+    moving = [label for label in res.factors if label not in kept]
+    assert res.cost <= len(moving) / uniform.scale * 1.02
+    assert res.cost == pytest.approx(sum(1.0 / res.factors[label] for label in moving), rel=1e-9)
+    # dense sampling with the reference (clearances scaled source by source by hand): never above a target
+    cl_syn = _by_factor(cl, res.factors)
+    lo = np.array([box[0], box[2], box[4], 0.0, 0.0, 0.0])
+    hi = np.array([box[1], box[3], box[5], 0.0, 0.0, 0.0])
+    pts = _samples(robot, lo, hi, np.random.default_rng(8), 3, 9)
+    values = np.array([_reference(robot_dict, cl_syn, p[:3], np.eye(3), True) for p in pts])
+    assert np.max(values[:, 6]) <= 0.05 * (1 + 1e-9) and np.max(values[:, 7]) <= np.radians(0.02)
+    # 5 % more of every source exceeds the binding target at the certificate's attained pose
+    pose = res.binding_pose
+    bigger = _reference(robot_dict, _by_factor(cl, {k: 1.05 * v for k, v in res.factors.items()}), pose[:3],
+                        ref.from_rotvec(pose[3:]), True, 4000)
+    k, unit = INDEX[res.binding]
+    assert bigger[k] > targets[res.binding] * unit
+    # a source weighing 4 times more is given more room (the optimum's factor grows with its weight)
+    label = "legs[1].joints[1].radial"
+    costs = tmp_path / "costs.toml"
+    costs.write_text("[[legs]]\njoints = [{radial = 4.0}]\n", encoding="utf-8")
+    with pytest.warns(PlausibilityWarning):
+        heavy = spatial_synthesize(robot, sources, targets, region=region, mode="min-cost", n=5, costs=costs)
+    assert heavy.factors[label] > 1.2 * res.factors[label]
+    assert all(heavy.worst[k] <= v for k, v in targets.items())
+
+
+def test_min_cost_on_the_grid_is_exact_there_and_bad_costs_are_refused(tmp_path):
+    pytest.importorskip("cvxpy")
+    robot = pm.load_robot("upu_3")
+    template = pm.load_clearances("upu_typical", robot)
+    with pytest.warns(PlausibilityWarning, match="lateral"):   # a 3-UPU slide's lateral play: no effect
+        res = spatial_synthesize(robot, template, {"dp": 0.1, "dz": 0.02}, mode="min-cost", n=6)
+    ds = pm.spatial_error_map(robot, res.sources, n=6)
+    assert float(np.nanmax(ds.dp_max.values)) <= 0.1 * (1 + 1e-9)
+    assert float(np.nanmax(ds.dz_max.values)) <= 0.02 * (1 + 1e-9)
+    assert max(float(np.nanmax(ds.dp_max.values)) / 0.1, float(np.nanmax(ds.dz_max.values)) / 0.02) \
+        == pytest.approx(1.0, rel=1e-9)
+    for text, key in (("[[legs]]\njoints = [{radial = -1.0}]\n", "legs[1].joints[1].radial"),
+                      ("[[legs]]\njoints = [{}, {}, {}, {}]\n", "legs[1].joints"),
+                      ("[[legs]]\njoints = [{nope = 1.0}]\n", "legs[1].joints[1].nope")):
+        path = tmp_path / "c.toml"
+        path.write_text(text, encoding="utf-8")
+        with pytest.raises(ConfigError) as exc:
+            spatial_synthesize(robot, template, {"dp": 0.1}, mode="min-cost", n=6, costs=path)
+        assert exc.value.key == key, exc.value
+    with pytest.raises(ConfigError) as exc:
+        spatial_synthesize(robot, template, {"dp": 0.1}, costs=[1.0])
+    assert exc.value.key == "costs"
+
+
+def test_cli_min_cost_over_a_box(tmp_path, capsys):
+    pytest.importorskip("cvxpy")
+    costs = tmp_path / "costs.toml"
+    costs.write_text("[[legs]]\njoints = [{radial = 4.0}]\n", encoding="utf-8")
+    status, text, err = run_cli(["synthesize", "--robot", "stewart_6ups", "--target", "dp=0.05", "--cost", costs,
+                                 "--box=-3,3,-3,3,397,403", "--orientation-deg", "0", "0", "0", "--format", "json"],
+                                capsys)
+    assert status == 0, err
+    data = json.loads(text)
+    assert data["mode"] == "min-cost" and data["targets"][0]["upper"] <= 0.05 and data["certified"]
+    moving = {k: v for k, v in data["factors"].items() if not k.endswith(("tilt", "direction", "lateral"))}
+    assert data["cost"] == pytest.approx(sum((4.0 if k == "legs[1].joints[1].radial" else 1.0) / v
+                                             for k, v in moving.items()), rel=1e-9)

@@ -389,8 +389,9 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
 
     A spatial robot takes a :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion`
     (:func:`~pmaccuracy.accuracy.spatial_worst.spatial_region`) and targets named as in
-    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS` (a mapping, or ``["dp=0.05", ...]``), uniform mode only,
-    and gives the certified :class:`~pmaccuracy.accuracy.spatial_synthesis.SpatialSynthesis` of
+    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS` (a mapping, or ``["dp=0.05", ...]``), both modes
+    (``costs``: :func:`~pmaccuracy.accuracy.spatial_synthesis.load_spatial_costs`), and gives the certified
+    :class:`~pmaccuracy.accuracy.spatial_synthesis.SpatialSynthesis` of
     :func:`~pmaccuracy.accuracy.spatial_synthesis.spatial_synthesize` (``gap`` default 1 %).
 
     Raises :class:`ConfigError` naming the argument: ``region`` not a :class:`Region` (clearances passed
@@ -477,9 +478,6 @@ def _spatial(robot, region, targets, given, costs, mode: str, gap, max_boxes):
     if not isinstance(region, SpatialRegion):
         raise ConfigError(f"the region of a spatial robot is a SpatialRegion (spatial_region), got "
                           f"{type(region).__name__}", key="region")
-    if mode != "uniform" or costs is not None:
-        raise ConfigError("a spatial robot's synthesis is the uniform scaling of its template (no min-cost mode, "
-                          "no costs)", key="mode" if mode != "uniform" else "costs")
     if isinstance(targets, (list, tuple)) and all(isinstance(t, str) for t in targets):
         pairs = {}
         for item in targets:
@@ -498,7 +496,7 @@ def _spatial(robot, region, targets, given, costs, mode: str, gap, max_boxes):
                           f"['dp=0.05', ...], got {type(targets).__name__}", key="targets")
     kw = {k: v for k, v in (("gap", gap), ("max_boxes", max_boxes)) if v is not None}
     return spatial_synthesize(robot, default_preset(robot) if given is None else given, dict(targets),
-                              region=region, **kw)
+                              region=region, mode=mode, costs=costs, **kw)
 
 
 def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str:
