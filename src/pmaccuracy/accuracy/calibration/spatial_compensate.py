@@ -32,7 +32,8 @@ from ...numerics.spatial import rotations, rotvecs, skew
 from ...numerics.support import max_norm
 from ..spatial_bounds import error_sources_at
 from ..spatial_statistics import sample_unit_set
-from .spatial_identify import SpatialCalibrationData, SpatialIdentification, measurement_jacobian, platform_poses
+from .spatial_identify import (SpatialCalibrationData, SpatialIdentification, measurement_jacobian, platform_poses,
+                               residuals)
 from .spatial_parameters import SpatialParameterVector, spatial_error_parameters
 
 
@@ -244,7 +245,7 @@ FLOOR_SIGMAS = 3.0
 
 
 def residuals_beside_floor(ident: SpatialIdentification, data: SpatialCalibrationData, clearances) -> dict:
-    """The fit's residual at each reading beside the clearance floor there (:func:`clearance_floor` on the
+    """The fit's residual at each reading (:func:`~.spatial_identify.residuals` of the identified robot) beside the clearance floor there (:func:`clearance_floor` on the
     identified robot at the pose it takes at the reading's commands; a position-only reading: at its target).
 
     Returns ``{"residual_mm" (N,), "residual_rad" (N,) (NaN for position-only data), "floor": {...} (N,) each,
@@ -252,11 +253,8 @@ def residuals_beside_floor(ident: SpatialIdentification, data: SpatialCalibratio
     residual within ``floor + FLOOR_SIGMAS sigma`` in position (and orientation for full poses), "outlier"
     (N,) bool}``."""
     pv = ident.parameters
-    r = np.asarray(ident.residuals_after, dtype=float)
-    if r.shape[0] != len(data):
-        raise ConfigError(f"the identification has {r.shape[0]} residuals for {len(data)} readings: identify these "
-                          "readings first", key="data")
     poses = platform_poses(pv, ident.values, data.commands)
+    r = residuals(pv, ident.values, data, poses)
     floor = clearance_floor(pv, ident.values, clearances, poses, data.target if pv.kind == "position" else None)
     res_mm = np.linalg.norm(r[:, :3], axis=1)
     sig_mm = np.sqrt(np.sum(data.sigmas[:, :3] ** 2, axis=1))
@@ -266,6 +264,6 @@ def residuals_beside_floor(ident: SpatialIdentification, data: SpatialCalibratio
         res_rad = np.linalg.norm(r[:, 3:], axis=1)
         within &= res_rad <= floor["dtheta_max"] + FLOOR_SIGMAS * np.sqrt(np.sum(data.sigmas[:, 3:] ** 2, axis=1))
     outlier = np.zeros(len(data), dtype=bool)
-    outlier[list(ident.outliers)] = True
+    outlier[[i for i in ident.outliers if i < len(data)]] = True
     return {"residual_mm": res_mm, "residual_rad": res_rad, "floor": floor, "sigma_mm": sig_mm, "within": within,
             "outlier": outlier}
