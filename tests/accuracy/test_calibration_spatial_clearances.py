@@ -108,8 +108,10 @@ def test_compensated_error_reaches_the_clearance_floor(name, clearances):
 
 
 def test_d_optimal_plan_gives_smaller_sigmas_than_random_poses():
-    """Same true robot, noise and number of readings: the D-optimal poses give every commonly identified
-    parameter's sigma smaller on (geometric) average by at least a quarter."""
+    """Same true robot, noise and number of readings: the D-optimal poses give the commonly identified
+    parameters' sigmas smaller on (geometric) average by at least a fifth (0.69 here; 0.45-0.72 over seeds and
+    presets), each taken without the residual scale s (sqrt of the diagonal of (J^T J)^-1: what the poses
+    give, not the noise drawn)."""
     pv = spatial_error_parameters(SpatialManipulator.preset("stewart_6ups"))
     runs = {plan: simulate_spatial_calibration(pv, 30, seed=2, plan=plan, n_targets=5, n_candidates=2000)
             for plan in ("d-optimal", "random")}
@@ -118,6 +120,6 @@ def test_d_optimal_plan_gives_smaller_sigmas_than_random_poses():
     common = sorted(set(idents["d-optimal"].identifiability.identified)
                     & set(idents["random"].identifiability.identified))
     idx = pv.index(common)
-    ratio = idents["d-optimal"].sigma[idx] / idents["random"].sigma[idx]
+    unscaled = {k: ident.sigma[idx] / ident.scale for k, ident in idents.items()}
     assert len(common) > 40
-    assert np.exp(np.mean(np.log(ratio))) < 0.75
+    assert np.exp(np.mean(np.log(unscaled["d-optimal"] / unscaled["random"]))) < 0.8
