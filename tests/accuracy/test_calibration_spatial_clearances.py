@@ -123,3 +123,32 @@ def test_d_optimal_plan_gives_smaller_sigmas_than_random_poses():
     unscaled = {k: ident.sigma[idx] / ident.scale for k, ident in idents.items()}
     assert len(common) > 40
     assert np.exp(np.mean(np.log(unscaled["d-optimal"] / unscaled["random"]))) < 0.8
+
+
+def test_residual_beside_floor_against_the_reference_model():
+    """The numbers the report sets side by side, from the reference: each reading's residual is the reading
+    minus what the reference robot with the identified parameters reads at its commands (its own forward
+    kinematics); the floor at a reading is the reference's largest |dp| of the identified geometry's error set
+    there (sampled support directions refined by ascent, within 0.1 %)."""
+    import spatial_calibration_reference as scr
+
+    from pmaccuracy.accuracy.calibration.spatial_identify import platform_poses
+    from pmaccuracy.accuracy.calibration.spatial_parameters import spatial_robot_file
+
+    pv = spatial_error_parameters(SpatialManipulator.preset("delta_clavel"))
+    cl_dict = eref.load_clearances("delta")
+    sources = SpatialErrorSources.from_dict(cl_dict, pv.robot, source="c.toml")
+    ex = simulate_spatial_calibration(pv, 20, seed=5, clearances=sources, n_targets=3, n_candidates=2000)
+    ident = ex.identification
+    r = residuals_beside_floor(ident, ex.data, sources)
+    poses = platform_poses(pv, ident.values, ex.data.commands)
+    guesses = [(p[:3], ref.from_rotvec(p[3:])) for p in poses]
+    predicted, _ = scr.readings(pv.robot.to_dict(), pv.table(ident.values), ex.data.commands, guesses)
+    np.testing.assert_allclose(r["residual_mm"], np.linalg.norm(ex.data.measured[:, :3] - predicted[:, :3], axis=1),
+                               atol=1e-7)
+    robot_dict = spatial_robot_file(pv, ident.values)
+    k = int(np.argmax(r["residual_mm"]))
+    M, ref_sources = eref.sensitivity(robot_dict, cl_dict, poses[k, :3],
+                                      ref.from_rotvec(poses[k, 3:]))
+    lower = eref.max_norm_sampled(M, ref_sources, n=20000)
+    assert lower * (1 - 1e-6) <= r["floor"]["dp_max"][k] <= lower * 1.001

@@ -109,6 +109,8 @@ def test_identify_record_then_compensate(tmp_path, capsys):
         length = np.linalg.norm(np.array([10.0, 20.0, 420.0]) + R @ b - A)
         q = (length - est[f"legs[{i}].actuator.offset"]) / est[f"legs[{i}].actuator.gain"]
         assert row[f"q{i}"] == pytest.approx(q, abs=1e-9)
+    # beside them the clearance floor of the default preset there and the compensated pose's predicted sigma
+    assert 0 < row["floor_dp_rms"] < row["floor_dp_max"] < 1.0 and 0 < row["predicted_sigma_p"] < 0.1
 
 
 def _simulate_with_report(tmp_path, capsys):

@@ -763,8 +763,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
     if args.pose or not args.poses_csv:
         raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
                           "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
-    if args.clearances is not None:
-        raise ConfigError("not for a spatial robot yet", key="--clearances")
+    sources = _spatial_sources(args, ident.parameters.robot)
     names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
     lines = read_csv(args.poses_csv, MeasurementFileError)
     header = [h.strip() for h in lines[0][1]] if lines else []
@@ -786,7 +785,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         rows.append(vals)
     if not rows:
         raise MeasurementFileError("no data rows", source=args.poses_csv)
-    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True))
+    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True), clearances=sources)
     pv = ident.parameters
     kinds = np.array([k == "R" for k in pv.robot.actuated_kinds])
     out = {}
@@ -797,7 +796,15 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         f = np.degrees if kinds[k] else (lambda v: v)
         out[name] = f(comp.commands[:, k])
         out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
+    out["predicted_sigma_p"] = comp.predicted_sigma[:, 0]
+    out["predicted_sigma_angle_deg"] = np.degrees(comp.predicted_sigma[:, 1])
+    if comp.floor is not None:
+        out["floor_dp_max"] = comp.floor["dp_max"]
+        out["floor_dp_rms"] = comp.floor["dp_rms"]
+        out["floor_dtheta_max_deg"] = np.degrees(comp.floor["dtheta_max"])
+        out["floor_dtheta_rms_deg"] = np.degrees(comp.floor["dtheta_rms"])
     if args.out:
-        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal")}, args.out)
+        write_csv_columns({k: v for k, v in out.items() if k.startswith("q") and not k.endswith("_nominal")
+                           or k in names}, args.out)
     _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0
