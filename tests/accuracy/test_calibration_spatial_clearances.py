@@ -54,6 +54,30 @@ def test_clearance_states_have_the_reference_covariance(hexapod_reference):
     assert np.max(np.abs(sample - cov) / np.outer(sd, sd)) < 0.05
 
 
+def test_readings_clearance_covariance_against_the_reference(hexapod_reference):
+    """The identification's clearance covariance of a reading: the reference covariance turned into the device's
+    frame, diag(R_F, R_F) Cov diag(R_F, R_F)^T for a full pose, R_F [I, -[R s]x] Cov (...)^T at a target."""
+    from pmaccuracy.accuracy.calibration.spatial_identify import SpatialCalibrationData, clearance_covariance
+
+    robot, sources, pose, R, cov, _, _ = hexapod_reference
+    s = np.array([40.0, -30.0, 20.0])
+    rF = np.array([0.1, -0.2, 0.3])
+    RF = Rotation.from_rotvec(rF).as_matrix()
+    for targets in (None, [s]):
+        pv = spatial_error_parameters(robot, targets=targets)
+        values = pv.nominal.copy()
+        values[pv.frame_index[3:]] = rF
+        k = 6 if targets is None else 3
+        data = SpatialCalibrationData(("1",), np.zeros((1, 6)), np.zeros((1, k)), np.ones((1, k)), np.zeros(1, int))
+        C = clearance_covariance(pv, values, data, pose[None], sources)[0]
+        if targets is None:
+            A = np.kron(np.eye(2), RF)
+        else:
+            a = R @ s
+            A = RF @ np.hstack([np.eye(3), -np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])])
+        np.testing.assert_allclose(C, A @ cov @ A.T, rtol=0, atol=1e-6 * np.max(np.abs(A @ cov @ A.T)))
+
+
 def test_clearance_floor_rms_and_worst_case_against_the_reference(hexapod_reference):
     """The floor's RMS is exact: sqrt(trace) of the reference covariance's position block, or for a target
     point s of [I, -[R s]x] Cov [I, -[R s]x]^T; its worst case is the reference's largest |dp| over the error
@@ -152,3 +176,16 @@ def test_residual_beside_floor_against_the_reference_model():
                                       ref.from_rotvec(poses[k, 3:]))
     lower = eref.max_norm_sampled(M, ref_sources, n=20000)
     assert lower * (1 - 1e-6) <= r["floor"]["dp_max"][k] <= lower * 1.001
+
+
+@pytest.mark.slow
+def test_sigmas_honest_with_clearances_in_the_weights():
+    """With a clearance state in every reading and the clearance covariance in the weights, the normalized
+    errors (estimate - true) / sigma over 12 seeds have RMS within 20 % of 1 (1.06 here), none beyond 4.5, and
+    the residual scale is about 1."""
+    pv = spatial_error_parameters(SpatialManipulator.preset("stewart_6ups"))
+    runs = [simulate_spatial_calibration(pv, 30, seed=s, clearances="ups_typical", n_targets=5, n_candidates=2000)
+            for s in range(12)]
+    z = np.concatenate([ex.normalized_errors() for ex in runs])
+    assert np.all(np.abs(z) < 4.5) and 0.8 < np.sqrt(np.mean(z ** 2)) < 1.2
+    assert 0.8 < np.mean([ex.identification.scale for ex in runs]) < 1.2

@@ -591,13 +591,14 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
     from ..errors import ConfigError
 
-    for opt, given in (("--frame", args.frame is not None), ("--clearances", args.clearances is not None)):
+    for opt, given in (("--frame", args.frame is not None),):
         if given:
             raise ConfigError("not for a spatial robot yet", key=opt)
     pv = spatial_error_parameters(robot, targets=_targets(args))
     pv.index(args.fix)
     data = read_spatial_csv(args.data, pv)
-    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust)
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust,
+                             clearances=_spatial_sources(args, robot))
     if args.out:
         Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
     if args.robot_out:

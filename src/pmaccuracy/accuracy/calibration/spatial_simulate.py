@@ -150,7 +150,7 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
     """Virtual calibration (module docstring): ``n_poses`` poses out of ``n_candidates`` random candidates
     (``plan``: ``"d-optimal"``, :func:`~.spatial_plan.plan_spatial_poses`, or ``"random"``: the first ones),
     readings of the true robot (with ``clearances``: a clearance state per reading),
-    :func:`~.spatial_identify.identify_spatial`; ``gross`` readings get a 100-sigma error; then the
+    :func:`~.spatial_identify.identify_spatial` (given the same clearances, as the planar experiment does); ``gross`` readings get a 100-sigma error; then the
     compensation (:func:`~.spatial_compensate.compensate_spatial`, with the clearance floor) at ``n_targets``
     other candidate poses, checked on the true robot (with a clearance state per target)."""
     if plan not in PLANS:
@@ -179,7 +179,7 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
         rng = np.random.default_rng(seed + 2)
         rows = rng.choice(len(data), gross, replace=False)
         data.measured[rows, :3] += 100.0 * data.sigmas[rows, :3] * rng.choice([-1.0, 1.0], (gross, 3))
-    ident = identify_spatial(data, pv)
+    ident = identify_spatial(data, pv, clearances=sources)
     rest = np.setdiff1d(np.arange(len(cand)), used)
     targets = cand[rest[:n_targets]]
     comp = compensate_spatial(ident, targets, clearances=sources)
