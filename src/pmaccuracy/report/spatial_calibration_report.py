@@ -234,9 +234,10 @@ def _intro(doc: Document, r: dict, ident: SpatialIdentification, experiment) -> 
                   f"from {src}: {len(ident.identifiability.identified)} parameters identified, {len(r['fixed'])} "
                   f"fixed at nominal, "
                   + (f"{len(outl)} outlier(s) left out (rows {', '.join(map(str, outl))})" if outl else "no outlier")
-                  + f"; clearances: {r['clearances'] or 'none given'}. Residual scale s = {r['scale']:.3g} (about 1 "
-                  "when the stated sigmas explain the residuals; larger with clearances, which the fit's weights do "
-                  "not hold). Lengths in mm, angles in degrees, gains as numbers (1 = nominal).")
+                  + f"; clearances: {r['clearances'] or 'none given'}; the fit weighed each reading by its stated "
+                  + ("sigmas and its clearance state's covariance" if ident.clearances is not None else "sigmas alone")
+                  + f". Residual scale s = {r['scale']:.3g} (about 1 when the weights explain the residuals). Lengths "
+                  "in mm, angles in degrees, gains as numbers (1 = nominal).")
 
 
 def _sorted_panels(fig, series: list[dict], xlabel: str):
@@ -436,7 +437,8 @@ def _method_section(doc: Document) -> None:
     doc.heading("Method", numbered=False)
     doc.paragraph("Identification (`calibrate identify`): nonlinear least squares on the exact model, the forward "
                   "residual (reading minus the model robot's forward kinematics at the commands, in the device's "
-                  "frame) divided by the readings' sigmas, a robust soft_l1 pass that leaves outliers out, then a "
+                  "frame) whitened by the readings' sigmas and, given clearances, the first-order covariance of "
+                  "each reading's clearance state, a robust soft_l1 pass that leaves outliers out, then a "
                   "plain pass whose covariance s^2 (J^T J)^-1 gives the 1-sigma uncertainties. Parameters whose "
                   "scaled Jacobian columns add a singular value below 1e-6 s_1 are fixed at nominal and named in "
                   "words. The clearance floor: the first-order worst case of the error sources (as `pmaccuracy "
