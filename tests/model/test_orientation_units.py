@@ -174,6 +174,7 @@ NO_ORIENTATION = {
     "write_spatial_csv": "a SpatialCalibrationData and a path",
     "identify_spatial": "a SpatialCalibrationData (read from a file)",
     "simulate_spatial_calibration": "a parameter vector and counts (poses are drawn inside)",
+    "spatial_calibration_report": "a SpatialIdentification and SpatialCalibrationData (read from files)",
 }
 
 

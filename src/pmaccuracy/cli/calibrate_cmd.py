@@ -102,6 +102,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--noise-ppm", type=float, default=0.0,
                    help="spatial robot with --target: the tracker's distance-dependent 1-sigma, 1e-6 per mm of "
                         "distance, added to --noise-mm")
+    s.add_argument("--plan", choices=("d-optimal", "random"), default=None,
+                   help="spatial robot: the readings' poses, D-optimal out of the random candidates around home "
+                        "(default) or the first random ones (to compare)")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     s.add_argument("--report", metavar="FILE.html",
@@ -210,6 +213,8 @@ def run_report(args: argparse.Namespace) -> int:
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if measured:
         ident = read_identification(args.identification)
+        if getattr(ident.parameters.robot, "dimension", 3) == 6:
+            return _report_spatial(args, ident=ident)
         data = read_calibration_csv(args.data, ident.parameters)
         try:
             _write_report(args.out, ident, data, clearances=_clearances(args, ident.parameters.robot),
@@ -220,7 +225,10 @@ def run_report(args: argparse.Namespace) -> int:
             raise ConfigError(exc.message, source=args.data, key="--data") from None
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
-    pv = error_parameters(_robot(args))
+    robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _report_spatial(args, robot)
+    pv = error_parameters(robot)
     clearances = _clearances(args, pv.robot)
     errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
     tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
@@ -252,7 +260,7 @@ def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
 
 
 #: Steps of ``calibrate`` that take spatial robots so far.
-SPATIAL_STEPS = ("plan", "identify", "simulate")
+SPATIAL_STEPS = ("plan", "identify", "simulate", "report")
 
 
 def _robot(args: argparse.Namespace):
@@ -476,7 +484,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     robot = _robot(args)
     if getattr(robot, "dimension", 3) == 6:
         return _simulate_spatial(args, robot)
-    for opt in ("target", "noise_ppm"):
+    for opt in ("target", "noise_ppm", "plan"):
         if getattr(args, opt):
             raise ConfigError("only for a spatial robot", key="--" + opt.replace("_", "-"))
     clearances = _clearances(args, robot)
@@ -583,13 +591,14 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
     from ..errors import ConfigError
 
-    for opt, given in (("--frame", args.frame is not None), ("--clearances", args.clearances is not None)):
+    for opt, given in (("--frame", args.frame is not None),):
         if given:
             raise ConfigError("not for a spatial robot yet", key=opt)
     pv = spatial_error_parameters(robot, targets=_targets(args))
     pv.index(args.fix)
     data = read_spatial_csv(args.data, pv)
-    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust)
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust,
+                             clearances=_spatial_sources(args, robot))
     if args.out:
         Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
     if args.robot_out:
@@ -598,15 +607,35 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     return 0
 
 
+def _spatial_sources(args: argparse.Namespace, robot):
+    """The spatial error sources of ``--clearances`` (default: the architecture's typical preset, said on stderr;
+    ``none``: no clearances, None)."""
+    from ..errors import PmAccuracyError
+    from ..model.spatial_sources import SpatialErrorSources, default_preset
+
+    if args.clearances is None:
+        args.clearances = default_preset(robot)
+        _common.announce_default_clearances(args.clearances, args)
+    if args.clearances == "none":
+        return None
+    try:
+        return SpatialErrorSources.load(args.clearances, robot)
+    except PmAccuracyError as exc:
+        if "--clearances" in str(exc):
+            raise
+        raise type(exc)(f"--clearances: {exc}") from None
+
+
 def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     import numpy as np
 
+    from ..accuracy.calibration.spatial_compensate import residuals_beside_floor
     from ..accuracy.calibration.spatial_data import write_spatial_csv
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
     from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
 
-    for opt in ("errors", "tolerances", "clearances", "report", "photos", "mm_per_pixel"):
+    for opt in ("errors", "tolerances", "photos", "mm_per_pixel"):
         if getattr(args, opt) is not None:
             raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
     if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
@@ -614,20 +643,71 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     if args.noise_ppm and not args.target:
         raise ConfigError("only with --target (a laser tracker's readings)", key="--noise-ppm")
     pv = spatial_error_parameters(robot, targets=_targets(args))
+    sources = _spatial_sources(args, robot)
     sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
              "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
     ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
-                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm)
+                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm,
+                                      clearances=sources, plan=args.plan or "d-optimal")
     if args.data_out:
         write_spatial_csv(pv, ex.data, args.data_out)
+    if args.report:
+        from ..report.spatial_calibration_report import spatial_calibration_report
+
+        spatial_calibration_report(args.report, ex.identification, ex.data, experiment=ex,
+                                   command=_common.command_line(args))
     z = ex.normalized_errors()
     extra = {"max_abs_normalized_error": float(np.max(np.abs(z))) if z.size else None,
              "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
+             "plan": args.plan or "d-optimal",
              "max_error_before_mm": float(np.nanmax(ex.errors_before[:, 0])),
              "max_error_after_mm": float(np.nanmax(ex.errors_after[:, 0]))}
+    comp = ex.compensation
+    extra["max_predicted_sigma_after_mm"] = float(np.nanmax(comp.predicted_sigma[:, 0]))
+    if sources is not None:
+        fit = residuals_beside_floor(ex.identification, ex.data, sources)
+        kept = ~fit["outlier"]
+        extra.update({"max_residual_mm": float(np.nanmax(fit["residual_mm"][kept])),
+                      "floor_readings_dp_max_mm": float(np.nanmax(fit["floor"]["dp_max"][kept])),
+                      "readings_within_floor": f"{int(np.sum(fit['within'] & kept))} of {int(kept.sum())}",
+                      "floor_dp_max_mm": float(np.nanmax(comp.floor["dp_max"])),
+                      "targets_within_floor": f"{int(np.sum(ex.errors_after[:, 0] <= comp.floor['dp_max'] + 3 * comp.predicted_sigma[:, 0]))} of {len(ex.targets)}"})
     if args.format == "json":
         extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
+        if ex.plan is not None:
+            extra["observability"] = {"planned": ex.plan.index, "random": ex.plan.random_index}
     _print_spatial(ex.identification, args.format, extra)
+    return 0
+
+
+def _report_spatial(args: argparse.Namespace, robot=None, ident=None) -> int:
+    """``calibrate report`` of a spatial robot: a virtual experiment of ``robot`` or the readings ``--data`` of
+    the identification ``ident``."""
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_data import read_spatial_csv
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
+    from ..errors import ConfigError
+    from ..report.spatial_calibration_report import spatial_calibration_report
+
+    for opt in ("errors", "tolerances"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("not for a spatial robot yet", key="--" + opt)
+    if ident is not None:
+        data = read_spatial_csv(args.data, ident.parameters)
+        sources = _spatial_sources(args, ident.parameters.robot)
+        spatial_calibration_report(args.out, ident, data, clearances=sources, command=_common.command_line(args))
+        print(f"wrote {args.out}: calibration report of {len(data)} readings ({args.data})")
+        return 0
+    pv = spatial_error_parameters(robot)
+    sources = _spatial_sources(args, robot)
+    values = {k: (v if getattr(args, k) is None else getattr(args, k)) for k, v in _SIMULATION_DEFAULTS.items()}
+    ex = simulate_spatial_calibration(pv, values["poses"], seed=values["seed"],
+                                      error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])},
+                                      noise=(values["noise_mm"], np.radians(values["noise_deg"])), clearances=sources)
+    spatial_calibration_report(args.out, ex.identification, ex.data, experiment=ex, command=_common.command_line(args))
+    print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} readings)")
     return 0
 
 
@@ -684,8 +764,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
     if args.pose or not args.poses_csv:
         raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
                           "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
-    if args.clearances is not None:
-        raise ConfigError("not for a spatial robot yet", key="--clearances")
+    sources = _spatial_sources(args, ident.parameters.robot)
     names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
     lines = read_csv(args.poses_csv, MeasurementFileError)
     header = [h.strip() for h in lines[0][1]] if lines else []
@@ -707,7 +786,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         rows.append(vals)
     if not rows:
         raise MeasurementFileError("no data rows", source=args.poses_csv)
-    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True))
+    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True), clearances=sources)
     pv = ident.parameters
     kinds = np.array([k == "R" for k in pv.robot.actuated_kinds])
     out = {}
@@ -718,7 +797,15 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         f = np.degrees if kinds[k] else (lambda v: v)
         out[name] = f(comp.commands[:, k])
         out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
+    out["predicted_sigma_p"] = comp.predicted_sigma[:, 0]
+    out["predicted_sigma_angle_deg"] = np.degrees(comp.predicted_sigma[:, 1])
+    if comp.floor is not None:
+        out["floor_dp_max"] = comp.floor["dp_max"]
+        out["floor_dp_rms"] = comp.floor["dp_rms"]
+        out["floor_dtheta_max_deg"] = np.degrees(comp.floor["dtheta_max"])
+        out["floor_dtheta_rms_deg"] = np.degrees(comp.floor["dtheta_rms"])
     if args.out:
-        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal")}, args.out)
+        write_csv_columns({k: v for k, v in out.items() if k.startswith("q") and not k.endswith("_nominal")
+                           or k in names}, args.out)
     _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0
