@@ -1,4 +1,7 @@
-"""Exact nonlinear error model of a 6-UPS at a pose, and certified bounds of its worst case (issue 37).
+"""Exact nonlinear error models of the spatial robots at a pose, and certified bounds of their worst case (issue 37).
+
+The 6-UPS (first part) reduces to one distance equation per leg; the 3-RPS, 3-PRS, 3-UPU and Delta (second part,
+at the end) are solved as serial chains.
 
 The nonlinear model
 -------------------
@@ -78,13 +81,66 @@ floating point.
 
 Refused (``certified`` False, upper ``inf``, with the reason): the box iteration does not close (the error
 set reaches a singularity, or ``U >= L``), or ``Lam`` is not a contraction. A pose that is unreachable,
-outside the joint limits or near-singular raises, as for the first-order bounds. Other architectures raise
-:class:`~pmaccuracy.errors.UnsupportedArchitectureError` (their legs have more than one closure row).
+outside the joint limits or near-singular raises, as for the first-order bounds. A chain robot
+(``spatial-chain``) raises :class:`~pmaccuracy.errors.UnsupportedArchitectureError`.
 
 The lower values are attained: the exact model (1) at the first-order worst configuration of each quantity
 (both signs for a component), improved by a few conditional-gradient steps over the sources' sets (gradients
 of the exact model by implicit differentiation), each accepted only if it increases the quantity; the configuration
 is returned (each source's displacement vector, base frame).
+
+Second part: 3-RPS, 3-PRS, 3-UPU and Delta as serial chains
+-----------------------------------------------------------
+The exact model (the same as the independent reference ``tests/reference/spatial_error_reference.py``): each
+leg is a chain from the base to the platform (a Delta leg two, one per rod, sharing the arm), written as a product
+of rigid displacements about the nominal configuration, every factor in the base frame at the given pose::
+
+    D_chain = prod_j E_j J_j = Delta,   Delta: x -> p + dp + Rot(w) (x - p),                               (4)
+
+``J_j`` the passive joint's motion (a universal joint: rotations about ``u1`` then ``u2`` about its centre; a
+revolute one; a spherical joint a rotation vector (3), a Delta's elbow ball a rotation vector normal to its rod
+(2, the rod's spin is idle); the actuated joint held) and ``E_j : x -> c_j + Rot(omega_j) (x - c_j) + t_j +
+sum_o (Rot(omega_o) - I)(c_j - O)`` the joint's sources summed into one rotation about its centre ``c_j`` (a
+slide: the carriage centre) and one translation, a slide's direction tolerance ``omega_o`` turning about the
+slide's origin ``O``. The unknowns ``y`` are ``dp, w`` and the passive rotations (18 for a 3-legged robot with
+one chain per leg, 36 for a Delta); the equations per chain, at its origin ``o`` (its platform joint's centre),
+``F = Phi_o(D_chain) - Phi_o(Delta) = 0`` with ``Phi_o(g) = (g(o) - o, vee(skew(R_g)))`` (equal skew parts
+of two rotations below 90 deg: equal rotations). :func:`_chain_solve` iterates ``y <- y - A^-1 F(y)`` from 0.
+
+Expansion. Each factor ``G_f`` is ``I + X_f + (G_f - I - X_f)`` (``X_f`` its twist, linear in its own
+variables), and telescoping ``prod G_f - I = sum_f (G_f - I) + sum_f (G_f - I)(P_>f - I)`` (``P_>f`` the
+product of the factors after ``f``) gives ``F = A y + B s + r`` exactly, ``A``, ``B`` the sums of the twists
+(:func:`_chain_linear`; ``-A^-1 B`` is the first-order model of
+:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`) and, with ``theta_f`` a bound of ``G_f``'s
+rotation angle, ``tau_f`` of its translation at ``o``, ``T_>f = sum_g>f tau_g``, ``Th_>f = sum_g>f theta_g``
+(the bounds of ``P_>f``'s translation and angle), ``|Rot - I| <= theta``, ``|Rot - I - [w]x| <= theta^2/2``
+and ``|vee skew(M)| <= |M|_2``::
+
+    |r_trans| <= sum_f dt_f + sum_f theta_f T_>f + Rw^2 |o - p| / 2,
+    |r_rot|   <= sum_f theta_f^3 / 6 + sum_f theta_f Th_>f (1 + theta_f + Th_>f + theta_f Th_>f / 2) / 2
+                 + Rw^3 / 6                                                                          (5)
+
+(``dt_f = theta_f^2 |c_f - o| / 2`` plus ``h^2 |c - O| / 2`` per origin-turn; the skew part of
+``(Rot_f - I)(Rot_P - I)`` is ``(w_f x W_P) / 2`` plus third-order terms). For a box ``Y`` of the unknowns (a
+bound of the norm of ``dp``, ``w`` and each passive joint's vector) the fixed-point map ``y -> -A^-1 (B s +
+r(y, s))`` sends ``Y`` into its interior when, for every group ``g``, ``max_s |(A^-1 B s)_g|`` (certified by
+:func:`~pmaccuracy.numerics.support.max_norm`) plus ``sum_chains |A^-1_g,trans| rho_t + |A^-1_g,rot| rho_r``
+is below ``Y_g`` (Brouwer: a solution in ``Y`` for every configuration ``s``). The derivative of ``r`` in a
+passive rotation ``e`` of factor ``f`` is ``Phi[P_<f (dG_f - X_e) P_>f + (P_<f - I) X_e P_>f + X_e (P_>f - I)]``,
+so its translation part is at most ``beta T_>f + beta |c_f - o| + Th_<f (T_>f + |c_f - o|) + T_>f`` and its
+rotation part ``beta + Th_<f + Th_>f`` (``beta = 3 theta / 2 + theta^2 / 6`` bounds ``|d Rot(phi)/de - [e]x|``);
+in ``w`` (the platform's own remainder) ``beta |o - p|`` and ``Rw^2 / 2``; in ``dp`` 0. If the nonnegative
+matrix ``Lam_gh = sum_chains |A^-1_g,block| k_block,h`` has spectral radius below 1 (Collatz-Wielandt bound
+from its computed Perron vector) the map is a contraction on ``Y``: the solution is unique there, the
+continuation of the nominal assembly that the iteration finds. Every quantity is then at most its first-order
+maximum (exact support functions of the components; ``max_norm``'s certified ``|dp|``, ``|dtheta|``) plus
+``sum_chains |A^-1_k,trans| rho_t + |A^-1_k,rot| rho_r`` (the remainder, quadratic in the half-widths).
+Rounding: ``A^-1`` enclosed as in the first part (``(n + 1) eps``); ``C B``'s rounding added per source.
+Refused as in the first part when the box does not close (its angles above 0.5 rad) or ``Lam`` is not a
+contraction. Lower values: the first-order worst configurations re-solved by (4) and improved by
+conditional-gradient steps (gradients ``-A^-1 dF/ds`` at the solution), each kept only if it increases the
+quantity. A 3-RPS or 3-PRS pose must satisfy its legs' constraints, a 3-UPU or Delta pose has no rotation
+(:class:`~pmaccuracy.errors.PoseError` otherwise).
 """
 
 from __future__ import annotations
@@ -374,7 +430,7 @@ def _configuration(geo: _Geometry, x: np.ndarray) -> dict[str, np.ndarray]:
 # ----------------------------------------------------------------------------------------------- the result
 @dataclass(frozen=True)
 class SpatialCertifiedBounds:
-    """Certified bounds of the exact nonlinear worst case of a 6-UPS at a pose (module text).
+    """Certified bounds of the exact nonlinear worst case of a spatial robot at a pose (module text).
 
     Attributes
     ----------
@@ -675,7 +731,8 @@ def _ascent(geo: _Geometry, x: np.ndarray, which: np.ndarray, sign: np.ndarray, 
 
 def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent_steps: int = 4,
                              allow_outside: bool = False) -> SpatialCertifiedBounds:
-    """Certified bounds of the exact nonlinear worst case of a 6-UPS's error at one pose (module text).
+    """Certified bounds of the exact nonlinear worst case of a 6-UPS's, 3-RPS's, 3-PRS's, 3-UPU's or Delta's error
+    at one pose (module text: Eq. 1 for a 6-UPS, Eq. 4 for the others).
 
     ``sources``: a :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset name or a TOML path;
     ``pose`` ``(6,)``: ``[x, y, z mm, rotation vector rad]``. Returns a :class:`SpatialCertifiedBounds`: per
@@ -683,10 +740,11 @@ def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent
     rad) the first-order maximum, a ``lower`` value attained by the exact model (Eq. 1) at a returned
     configuration of the sources (the first-order worst one improved by ``ascent_steps`` conditional-gradient
     steps), and an ``upper`` value proven never below the exact model's maximum over the whole error set
-    (first-order maximum plus the proven remainder, Eq. 3 and the theorem). Where the proof fails ``upper`` is
-    ``inf``, ``certified`` False and ``reason`` says why.
+    (first-order maximum plus the proven remainder: Eq. 3 and the theorem, Eq. 5). Where the proof fails
+    ``upper`` is ``inf``, ``certified`` False and ``reason`` says why.
 
-    Raises :class:`~pmaccuracy.errors.UnsupportedArchitectureError` for other architectures,
+    Raises :class:`~pmaccuracy.errors.UnsupportedArchitectureError` for a chain robot,
+    :class:`~pmaccuracy.errors.PoseError` for a lower-mobility robot's pose that its legs forbid,
     :class:`~pmaccuracy.errors.OutsideJointLimitsError` and :class:`~pmaccuracy.errors.SingularPoseError` as
     :func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors` does.
     """
