@@ -1352,6 +1352,7 @@ def _chain_certified_bounds(robot: SpatialManipulator, sources: SpatialErrorSour
     rows = [slice(k, k + 1) for k in range(6)] + [slice(0, 3), slice(3, 6)]
     Nb = _block_norms(C, c, rows, nc)
     rem = Nb[:, :, 0] @ rho_t + Nb[:, :, 1] @ rho_r
+    rem = np.minimum(rem, _chain_refined(geo, A, B, C, c, box, rho_t, rho_r))      # both proven: the smaller
     # rounding of C B: |A^-1 B - C B| <= c 1^T |B| (+ the product's own rounding), per unit variable
     err = (c[:6, None] * np.sum(np.abs(B), axis=0)[None] + (A.shape[0] + 2) * _EPS * (np.abs(C) @ np.abs(B))[:6])
     errs = np.array([sum(np.linalg.norm(err[k, geo.offsets[j]:geo.offsets[j + 1]]) for j in range(len(geo.sources)))
@@ -1362,3 +1363,114 @@ def _chain_certified_bounds(robot: SpatialManipulator, sources: SpatialErrorSour
     info = {"Rv": float(box[0]), "Rw": float(box[1]), "contraction": float(radius)}
     return SpatialCertifiedBounds(pose=pose, first_order=first, lower=lower, upper=upper, certified=True, reason="",
                                   configurations=configs, twists=twists, box=info)
+
+
+# ------------------------------------------------------------------ the second-order term as a quadratic form
+_LEVI = np.zeros((3, 3, 3))
+_LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
+_LEVI[0, 2, 1] = _LEVI[2, 1, 0] = _LEVI[1, 0, 2] = -1.0
+
+
+def _double_cross(c: np.ndarray) -> np.ndarray:
+    """``M_i`` ``(3, 3, 3)`` with ``(w x (w x c))_i = w^T M_i w``: ``sym(e_i c^T) - c_i I``."""
+    E = np.eye(3)
+    return np.array([0.5 * (np.outer(E[i], c) + np.outer(c, E[i])) - c[i] * E for i in range(3)])
+
+
+def _block_sum(H: np.ndarray, offsets: tuple) -> float:
+    """``sum_ab |H[a, b]|_2`` over the sources' blocks: a bound of ``max |x^T H x|`` over the product of unit
+    balls."""
+    total = 0.0
+    for a in range(len(offsets) - 1):
+        for b in range(len(offsets) - 1):
+            blk = H[offsets[a]:offsets[a + 1], offsets[b]:offsets[b + 1]]
+            total += float(np.linalg.norm(blk, ord=2)) if min(blk.shape) > 1 else float(np.linalg.norm(blk))
+    return total
+
+
+def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndarray, c: np.ndarray,
+                   box: np.ndarray, rho_t: np.ndarray, rho_r: np.ndarray) -> np.ndarray:
+    """The remainder of each quantity ``(8,)`` at the unique solution in ``box`` (module text, Eq. 6): the exact
+    second-order term of the closure as a quadratic form of the sources' variables, the rest (third order)
+    bounded by norms."""
+    m, nc = geo.offsets[-1], len(geo.chains)
+    L = -(C @ B)                                                   # y = L x + eta
+    rows = _rows_of_groups(geo)
+    Nb = _block_norms(C, c, rows, nc)
+    eps_g = Nb[:, :, 0] @ rho_t + Nb[:, :, 1] @ rho_r               # |eta_g| at any solution in the box
+    Ww = L[3:6]
+    gidx = {(li, lj, lf): g for g, (li, lj, lf, _, _) in enumerate(geo.groups)}
+    Hs = np.zeros((6, m, m))
+    delta_t, delta_r = np.zeros(nc), np.zeros(nc)
+    for r, (i, joints) in enumerate(geo.chains):
+        o = geo.origins[r]
+        Qt, Qr = np.zeros((3, m, m)), np.zeros((3, m, m))
+        cum = np.zeros((3, m))
+        th, tau, dt, ep, epc, cub_t, cub_r = [], [], [], [], [], [], []
+        for j in joints:
+            cj = geo.centres[i][j]
+            co = float(np.linalg.norm(cj - o))
+            facs = []
+            W, T, ro = np.zeros((3, m)), np.zeros((3, m)), []
+            om = tr = 0.0
+            for k, s in enumerate(geo.sources):
+                if s.leg != i or s.joint != j:
+                    continue
+                a, b = geo.offsets[k], geo.offsets[k + 1]
+                if s.role == "t":
+                    T[:, a:b] += s.half_width * s.basis
+                    tr += s.half_width
+                else:
+                    W[:, a:b] += s.half_width * s.basis
+                    om += s.half_width
+                    if s.role == "o":
+                        Ws = np.zeros((3, m))
+                        Ws[:, a:b] = s.half_width * s.basis
+                        ro.append((Ws, cj - s.origin, s.half_width))
+            if om > 0 or tr > 0:
+                V = T + skew(cj - o) @ W - sum(skew(e) @ Ws for Ws, e, _ in ro)
+                self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
+                for Ws, e, _ in ro:
+                    self_q = self_q + 0.5 * np.einsum("ja,ijk,kb->iab", Ws, _double_cross(e), Ws)
+                eo = [(h, float(np.linalg.norm(e))) for _, e, h in ro]
+                facs.append((W, V, self_q, om, tr + om * co + sum(h * e for h, e in eo),
+                             om * om * co / 2 + sum(h * h * e / 2 for h, e in eo), 0.0, 0.0,
+                             (om ** 3 / 6 + om ** 4 / 24) * co + sum((h ** 3 / 6 + h ** 4 / 24) * e for h, e in eo)))
+            for f, basis in enumerate(geo.passive[i][j]):
+                g = gidx[(i, j, f)]
+                off, k = geo.groups[g][3], geo.groups[g][4]
+                W = basis @ L[off:off + k]
+                V = skew(cj - o) @ W
+                self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
+                a = box[2 + g]
+                facs.append((W, V, self_q, a, a * co, a * a * co / 2, eps_g[2 + g], eps_g[2 + g] * co,
+                             (a ** 3 / 6 + a ** 4 / 24) * co))
+            for W, V, self_q, a, t_f, d_f, e_f, ec_f, cb in facs:
+                Qt += np.einsum("ja,ijk,kb->iab", cum, _LEVI, V) + self_q
+                Qr += 0.5 * np.einsum("ja,ijk,kb->iab", cum, _LEVI, W)
+                cum = cum + W
+                th.append(a), tau.append(t_f), dt.append(d_f), ep.append(e_f), epc.append(ec_f), cub_t.append(cb)
+                cub_r.append(a ** 3 / 6)
+        Qt -= 0.5 * np.einsum("ja,ijk,kb->iab", Ww, _double_cross(o), Ww)          # the platform's own
+        th, tau, dt, ep, epc = map(np.array, (th, tau, dt, ep, epc))
+
+        def after(v):
+            return np.concatenate([np.cumsum(v[::-1])[::-1][1:], [0.0]])
+        T_a, Th_a, E_a, Ec_a = after(tau), after(th), after(ep), after(epc)
+        # e_t, e_R of the products P_>f (second-order parts of their translation and rotation)
+        et = after(dt + th * T_a)
+        eR = after(th * th / 2 + th * Th_a)
+        Rw, ew, op = box[1], eps_g[1], float(np.linalg.norm(o))
+        delta_t[r] = (np.sum(cub_t) + np.sum(th * th / 2 * T_a + th * et) + (Rw ** 3 / 6 + Rw ** 4 / 24) * op
+                      + np.sum(ep * T_a + th * Ec_a) + np.sum(th * epc) + Rw * ew * op)
+        delta_r[r] = (np.sum(cub_r) + np.sum(th * th / 2 * Th_a + th * eR) + Rw ** 3 / 6
+                      + 0.5 * np.sum(ep * Th_a + th * E_a))
+        Hs -= np.einsum("ki,iab->kab", C[:6, 6 * r:6 * r + 3], Qt) + np.einsum("ki,iab->kab", C[:6, 6 * r + 3:6 * r + 6], Qr)
+    Hs = 0.5 * (Hs + np.swapaxes(Hs, 1, 2))
+    quad = np.array([_block_sum(Hs[k], geo.offsets) for k in range(6)])
+    # C for A^-1 in the quadratic term: |A^-1 - C| r <= c_k sum |r|
+    quad += c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r))
+    qrows = [slice(k, k + 1) for k in range(6)] + [slice(0, 3), slice(3, 6)]
+    Nq = _block_norms(C, c, qrows, nc)
+    rest = Nq[:, :, 0] @ delta_t + Nq[:, :, 1] @ delta_r
+    return np.concatenate([quad, [np.linalg.norm(quad[:3]), np.linalg.norm(quad[3:])]]) + rest
