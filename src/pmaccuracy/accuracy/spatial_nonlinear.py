@@ -135,6 +135,17 @@ from its computed Perron vector) the map is a contraction on ``Y``: the solution
 continuation of the nominal assembly that the iteration finds. Every quantity is then at most its first-order
 maximum (exact support functions of the components; ``max_norm``'s certified ``|dp|``, ``|dtheta|``) plus
 ``sum_chains |A^-1_k,trans| rho_t + |A^-1_k,rot| rho_r`` (the remainder, quadratic in the half-widths).
+Sharper, at the solution (Eq. 6): the second-order part of ``r`` is exactly the quadratic form ``Q(z) =
+sum_f q_f(z_f) + sum_f<g (w_f x v_g, (w_f x w_g) / 2) - (w x (w x (o - p))) / 2`` (``(v_f, w_f)`` the factors'
+twists at ``o``, ``q_f = -(w_f x (w_f x (c_f - o))) / 2`` plus ``(w_o x (w_o x (c_f - O))) / 2`` per origin-turn:
+the skew part of ``[w_f]x [w_g]x`` is ``[w_f x w_g]x / 2``). At the solution ``y = L s + eta`` (``L = -A^-1 B``,
+``|eta_g| <= sum |A^-1_g,block| rho_block``), so ``y_k = (L s)_k - (A^-1 Q(L s, s))_k - (A^-1 Delta)_k``: the
+middle term is a quadratic form ``s^T H_k s`` of the sources' variables, bounded over their sets by ``sum_ab
+|H_k[a, b]|_2`` (blocks per source: cancellations such as a 3-UPU's opposite universal-joint turns are kept),
+and ``Delta`` is third order: ``|Rot - I - [w]x - [w]x^2 / 2| <= theta^3 / 6 + theta^4 / 24``, the cross terms
+``(G_f - I - X_f)(P_>f - I) + X_f (P_>f - I - X_>f)`` bounded by ``theta_f^2 / 2`` times ``T_>f`` (``Th_>f``) plus
+``theta_f`` times the second-order parts of ``P_>f`` (sums as in (5)), and ``Q(z) - Q(L s, s)`` by ``eta``
+times the first-order bounds. The remainder of each quantity is the smaller of this and the bound from (5).
 Rounding: ``A^-1`` enclosed as in the first part (``(n + 1) eps``); ``C B``'s rounding added per source.
 Refused as in the first part when the box does not close (its angles above 0.5 rad) or ``Lam`` is not a
 contraction. Lower values: the first-order worst configurations re-solved by (4) and improved by
@@ -1325,8 +1336,8 @@ def _chain_certified_bounds(robot: SpatialManipulator, sources: SpatialErrorSour
     P = -(C @ B)[:6]                                              # first-order twist per unit variable
     blocks = [P[:, geo.offsets[k]:geo.offsets[k + 1]] for k in range(len(geo.sources))]
     comp = sum(np.linalg.norm(b, axis=-1) for b in blocks)
-    dpn = max_norm([b[:3][None] for b in blocks])
-    dtn = max_norm([b[3:][None] for b in blocks])
+    dpn = max_norm([b[:3][None] for b in blocks], gap=1e-4)
+    dtn = max_norm([b[3:][None] for b in blocks], gap=1e-4)
     first = np.concatenate([comp, [dpn.upper[0], dtn.upper[0]]])
     # lower: the first-order worst configurations (each component's + and -, |dp|'s, |dtheta|'s), improved
     g = [P[k] * sgn for k in range(6) for sgn in (1.0, -1.0)]
@@ -1392,12 +1403,15 @@ def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndar
                    box: np.ndarray, rho_t: np.ndarray, rho_r: np.ndarray) -> np.ndarray:
     """The remainder of each quantity ``(8,)`` at the unique solution in ``box`` (module text, Eq. 6): the exact
     second-order term of the closure as a quadratic form of the sources' variables, the rest (third order)
-    bounded by norms."""
+    bounded by norms. ``rho_t, rho_r`` the bounds (5) over the box."""
     m, nc = geo.offsets[-1], len(geo.chains)
     L = -(C @ B)                                                   # y = L x + eta
     rows = _rows_of_groups(geo)
     Nb = _block_norms(C, c, rows, nc)
-    eps_g = Nb[:, :, 0] @ rho_t + Nb[:, :, 1] @ rho_r               # |eta_g| at any solution in the box
+    # |eta_g| at any solution in the box: -A^-1 r, plus (C - A^-1) B x (rounding of L)
+    bsum = float(np.sum(np.abs(B)))
+    eps_g = Nb[:, :, 0] @ rho_t + Nb[:, :, 1] @ rho_r + np.array(
+        [np.sqrt(rs.stop - rs.start) * np.max(c[rs]) * bsum for rs in rows])
     Ww = L[3:6]
     gidx = {(li, lj, lf): g for g, (li, lj, lf, _, _) in enumerate(geo.groups)}
     Hs = np.zeros((6, m, m))
@@ -1469,7 +1483,7 @@ def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndar
     Hs = 0.5 * (Hs + np.swapaxes(Hs, 1, 2))
     quad = np.array([_block_sum(Hs[k], geo.offsets) for k in range(6)])
     # C for A^-1 in the quadratic term: |A^-1 - C| r <= c_k sum |r|
-    quad += c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r))
+    quad += c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r + delta_t + delta_r))     # |Q| <= |r| + |Delta|
     qrows = [slice(k, k + 1) for k in range(6)] + [slice(0, 3), slice(3, 6)]
     Nq = _block_norms(C, c, qrows, nc)
     rest = Nq[:, :, 0] @ delta_t + Nq[:, :, 1] @ delta_r
