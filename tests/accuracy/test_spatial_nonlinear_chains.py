@@ -151,7 +151,7 @@ def test_remainder_scales_like_the_square_of_the_half_widths():
 
 def test_refusals_and_cli(capsys):
     robot, src, pose, _ = _case("3-RPS", 100.0)
-    res = pm.spatial_certified_bounds(robot, src, pose)
+    res = pm.spatial_certified_bounds(robot, src, pose, ascent_steps=0)
     assert not res.certified and res.reason and np.all(np.isinf(res.upper)) and np.all(np.isfinite(res.lower))
     hexapod = pm.load_robot("stewart_6ups")
     chain = SpatialManipulator.from_dict(chain_table(hexapod), "chain.toml")

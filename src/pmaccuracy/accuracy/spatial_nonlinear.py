@@ -1388,15 +1388,16 @@ def _double_cross(c: np.ndarray) -> np.ndarray:
     return np.array([0.5 * (np.outer(E[i], c) + np.outer(c, E[i])) - c[i] * E for i in range(3)])
 
 
-def _block_sum(H: np.ndarray, offsets: tuple) -> float:
-    """``sum_ab |H[a, b]|_2`` over the sources' blocks: a bound of ``max |x^T H x|`` over the product of unit
-    balls."""
-    total = 0.0
-    for a in range(len(offsets) - 1):
-        for b in range(len(offsets) - 1):
-            blk = H[offsets[a]:offsets[a + 1], offsets[b]:offsets[b + 1]]
-            total += float(np.linalg.norm(blk, ord=2)) if min(blk.shape) > 1 else float(np.linalg.norm(blk))
-    return total
+def _block_sums(H: np.ndarray, offsets: tuple) -> np.ndarray:
+    """``sum_ab |H_k[a, b]|_2`` over the sources' blocks for each ``H_k`` ``(K, m, m)``: a bound of ``max |x^T H_k
+    x|`` over the product of the sources' unit balls (each block padded to 3 x 3: the same spectral norm)."""
+    n = len(offsets) - 1
+    P = np.zeros((H.shape[0], n, n, 3, 3))
+    for a in range(n):
+        for b in range(n):
+            blk = H[:, offsets[a]:offsets[a + 1], offsets[b]:offsets[b + 1]]
+            P[:, a, b, :blk.shape[1], :blk.shape[2]] = blk
+    return np.sum(np.linalg.norm(P, ord=2, axis=(-2, -1)), axis=(1, 2))
 
 
 def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndarray, c: np.ndarray,
@@ -1481,7 +1482,7 @@ def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndar
                       + 0.5 * np.sum(ep * Th_a + th * E_a))
         Hs -= np.einsum("ki,iab->kab", C[:6, 6 * r:6 * r + 3], Qt) + np.einsum("ki,iab->kab", C[:6, 6 * r + 3:6 * r + 6], Qr)
     Hs = 0.5 * (Hs + np.swapaxes(Hs, 1, 2))
-    quad = np.array([_block_sum(Hs[k], geo.offsets) for k in range(6)])
+    quad = _block_sums(Hs, geo.offsets)
     # C for A^-1 in the quadratic term: |A^-1 - C| r <= c_k sum |r|
     quad += c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r + delta_t + delta_r))     # |Q| <= |r| + |Delta|
     qrows = [slice(k, k + 1) for k in range(6)] + [slice(0, 3), slice(3, 6)]
