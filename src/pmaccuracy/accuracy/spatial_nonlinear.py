@@ -145,7 +145,9 @@ middle term is a quadratic form ``s^T H_k s`` of the sources' variables, bounded
 and ``Delta`` is third order: ``|Rot - I - [w]x - [w]x^2 / 2| <= theta^3 / 6 + theta^4 / 24``, the cross terms
 ``(G_f - I - X_f)(P_>f - I) + X_f (P_>f - I - X_>f)`` bounded by ``theta_f^2 / 2`` times ``T_>f`` (``Th_>f``) plus
 ``theta_f`` times the second-order parts of ``P_>f`` (sums as in (5)), and ``Q(z) - Q(L s, s)`` by ``eta``
-times the first-order bounds. The remainder of each quantity is the smaller of this and the bound from (5).
+times the first-order bounds. These bounds hold at the unique solution only, so they are iterated: the
+offset ``eta`` and the box shrink to ``|(A^-1 Q)_g| + |A^-1_g,block| Delta`` and ``max_s |(L s)_g|`` plus that
+(four passes). The remainder of each quantity is the smaller of this and the bound from (5).
 Rounding: ``A^-1`` enclosed as in the first part (``(n + 1) eps``); ``C B``'s rounding added per source.
 Refused as in the first part when the box does not close (its angles above 0.5 rad) or ``Lam`` is not a
 contraction. Lower values: the first-order worst configurations re-solved by (4) and improved by
@@ -1415,76 +1417,96 @@ def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndar
         [np.sqrt(rs.stop - rs.start) * np.max(c[rs]) * bsum for rs in rows])
     Ww = L[3:6]
     gidx = {(li, lj, lf): g for g, (li, lj, lf, _, _) in enumerate(geo.groups)}
-    Hs = np.zeros((6, m, m))
-    delta_t, delta_r = np.zeros(nc), np.zeros(nc)
-    for r, (i, joints) in enumerate(geo.chains):
-        o = geo.origins[r]
-        Qt, Qr = np.zeros((3, m, m)), np.zeros((3, m, m))
-        cum = np.zeros((3, m))
-        th, tau, dt, ep, epc, cub_t, cub_r = [], [], [], [], [], [], []
-        for j in joints:
-            cj = geo.centres[i][j]
-            co = float(np.linalg.norm(cj - o))
-            facs = []
-            W, T, ro = np.zeros((3, m)), np.zeros((3, m)), []
-            om = tr = 0.0
-            for k, s in enumerate(geo.sources):
-                if s.leg != i or s.joint != j:
-                    continue
-                a, b = geo.offsets[k], geo.offsets[k + 1]
-                if s.role == "t":
-                    T[:, a:b] += s.half_width * s.basis
-                    tr += s.half_width
-                else:
-                    W[:, a:b] += s.half_width * s.basis
-                    om += s.half_width
-                    if s.role == "o":
-                        Ws = np.zeros((3, m))
-                        Ws[:, a:b] = s.half_width * s.basis
-                        ro.append((Ws, cj - s.origin, s.half_width))
-            if om > 0 or tr > 0:
-                V = T + skew(cj - o) @ W - sum(skew(e) @ Ws for Ws, e, _ in ro)
-                self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
-                for Ws, e, _ in ro:
-                    self_q = self_q + 0.5 * np.einsum("ja,ijk,kb->iab", Ws, _double_cross(e), Ws)
-                eo = [(h, float(np.linalg.norm(e))) for _, e, h in ro]
-                facs.append((W, V, self_q, om, tr + om * co + sum(h * e for h, e in eo),
-                             om * om * co / 2 + sum(h * h * e / 2 for h, e in eo), 0.0, 0.0,
-                             (om ** 3 / 6 + om ** 4 / 24) * co + sum((h ** 3 / 6 + h ** 4 / 24) * e for h, e in eo)))
-            for f, basis in enumerate(geo.passive[i][j]):
-                g = gidx[(i, j, f)]
-                off, k = geo.groups[g][3], geo.groups[g][4]
-                W = basis @ L[off:off + k]
-                V = skew(cj - o) @ W
-                self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
-                a = box[2 + g]
-                facs.append((W, V, self_q, a, a * co, a * a * co / 2, eps_g[2 + g], eps_g[2 + g] * co,
-                             (a ** 3 / 6 + a ** 4 / 24) * co))
-            for W, V, self_q, a, t_f, d_f, e_f, ec_f, cb in facs:
-                Qt += np.einsum("ja,ijk,kb->iab", cum, _LEVI, V) + self_q
-                Qr += 0.5 * np.einsum("ja,ijk,kb->iab", cum, _LEVI, W)
-                cum = cum + W
-                th.append(a), tau.append(t_f), dt.append(d_f), ep.append(e_f), epc.append(ec_f), cub_t.append(cb)
-                cub_r.append(a ** 3 / 6)
-        Qt -= 0.5 * np.einsum("ja,ijk,kb->iab", Ww, _double_cross(o), Ww)          # the platform's own
-        th, tau, dt, ep, epc = map(np.array, (th, tau, dt, ep, epc))
 
-        def after(v):
-            return np.concatenate([np.cumsum(v[::-1])[::-1][1:], [0.0]])
-        T_a, Th_a, E_a, Ec_a = after(tau), after(th), after(ep), after(epc)
-        # e_t, e_R of the products P_>f (second-order parts of their translation and rotation)
-        et = after(dt + th * T_a)
-        eR = after(th * th / 2 + th * Th_a)
-        Rw, ew, op = box[1], eps_g[1], float(np.linalg.norm(o))
-        delta_t[r] = (np.sum(cub_t) + np.sum(th * th / 2 * T_a + th * et) + (Rw ** 3 / 6 + Rw ** 4 / 24) * op
-                      + np.sum(ep * T_a + th * Ec_a) + np.sum(th * epc) + Rw * ew * op)
-        delta_r[r] = (np.sum(cub_r) + np.sum(th * th / 2 * Th_a + th * eR) + Rw ** 3 / 6
-                      + 0.5 * np.sum(ep * Th_a + th * E_a))
-        Hs -= np.einsum("ki,iab->kab", C[:6, 6 * r:6 * r + 3], Qt) + np.einsum("ki,iab->kab", C[:6, 6 * r + 3:6 * r + 6], Qr)
+    def one_pass(box, eps_g, build):
+        Hs = np.zeros((geo.n, m, m)) if build else None
+        delta_t, delta_r = np.zeros(nc), np.zeros(nc)
+        for r, (i, joints) in enumerate(geo.chains):
+            o = geo.origins[r]
+            Qt, Qr = np.zeros((3, m, m)), np.zeros((3, m, m))
+            cum = np.zeros((3, m))
+            th, tau, dt, ep, epc, cub_t, cub_r = [], [], [], [], [], [], []
+            for j in joints:
+                cj = geo.centres[i][j]
+                co = float(np.linalg.norm(cj - o))
+                facs = []
+                W, T, ro = np.zeros((3, m)), np.zeros((3, m)), []
+                om = tr = 0.0
+                for k, s in enumerate(geo.sources):
+                    if s.leg != i or s.joint != j:
+                        continue
+                    a, b = geo.offsets[k], geo.offsets[k + 1]
+                    if s.role == "t":
+                        T[:, a:b] += s.half_width * s.basis
+                        tr += s.half_width
+                    else:
+                        W[:, a:b] += s.half_width * s.basis
+                        om += s.half_width
+                        if s.role == "o":
+                            Ws = np.zeros((3, m))
+                            Ws[:, a:b] = s.half_width * s.basis
+                            ro.append((Ws, cj - s.origin, s.half_width))
+                if om > 0 or tr > 0:
+                    V = T + skew(cj - o) @ W - sum(skew(e) @ Ws for Ws, e, _ in ro)
+                    self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
+                    for Ws, e, _ in ro:
+                        self_q = self_q + 0.5 * np.einsum("ja,ijk,kb->iab", Ws, _double_cross(e), Ws)
+                    eo = [(h, float(np.linalg.norm(e))) for _, e, h in ro]
+                    facs.append((W, V, self_q, om, tr + om * co + sum(h * e for h, e in eo),
+                                 om * om * co / 2 + sum(h * h * e / 2 for h, e in eo), 0.0, 0.0,
+                                 (om ** 3 / 6 + om ** 4 / 24) * co + sum((h ** 3 / 6 + h ** 4 / 24) * e for h, e in eo)))
+                for f, basis in enumerate(geo.passive[i][j]):
+                    g = gidx[(i, j, f)]
+                    off, k = geo.groups[g][3], geo.groups[g][4]
+                    W = basis @ L[off:off + k]
+                    V = skew(cj - o) @ W
+                    self_q = -0.5 * np.einsum("ja,ijk,kb->iab", W, _double_cross(cj - o), W)
+                    a = box[2 + g]
+                    facs.append((W, V, self_q, a, a * co, a * a * co / 2, eps_g[2 + g], eps_g[2 + g] * co,
+                                 (a ** 3 / 6 + a ** 4 / 24) * co))
+                for W, V, self_q, a, t_f, d_f, e_f, ec_f, cb in facs:
+                    Qt += np.einsum("ja,ijk,kb->iab", cum, _LEVI, V) + self_q
+                    Qr += 0.5 * np.einsum("ja,ijk,kb->iab", cum, _LEVI, W)
+                    cum = cum + W
+                    th.append(a), tau.append(t_f), dt.append(d_f), ep.append(e_f), epc.append(ec_f), cub_t.append(cb)
+                    cub_r.append(a ** 3 / 6)
+            Qt -= 0.5 * np.einsum("ja,ijk,kb->iab", Ww, _double_cross(o), Ww)          # the platform's own
+            th, tau, dt, ep, epc = map(np.array, (th, tau, dt, ep, epc))
+
+            def after(v):
+                return np.concatenate([np.cumsum(v[::-1])[::-1][1:], [0.0]])
+            T_a, Th_a, E_a, Ec_a = after(tau), after(th), after(ep), after(epc)
+            # e_t, e_R of the products P_>f (second-order parts of their translation and rotation)
+            et = after(dt + th * T_a)
+            eR = after(th * th / 2 + th * Th_a)
+            Rw, ew, op = box[1], eps_g[1], float(np.linalg.norm(o))
+            delta_t[r] = (np.sum(cub_t) + np.sum(th * th / 2 * T_a + th * et) + (Rw ** 3 / 6 + Rw ** 4 / 24) * op
+                          + np.sum(ep * T_a + th * Ec_a) + np.sum(th * epc) + Rw * ew * op)
+            delta_r[r] = (np.sum(cub_r) + np.sum(th * th / 2 * Th_a + th * eR) + Rw ** 3 / 6
+                          + 0.5 * np.sum(ep * Th_a + th * E_a))
+            if build:
+                Hs -= (np.einsum("ki,iab->kab", C[:, 6 * r:6 * r + 3], Qt)
+                       + np.einsum("ki,iab->kab", C[:, 6 * r + 3:6 * r + 6], Qr))
+        return delta_t, delta_r, Hs
+
+    factors = _chain_factors(geo)
+    FO = _group_maxima(geo, -L, c[:, None] * np.sum(np.abs(B), axis=0)[None]
+                       + (A.shape[0] + 2) * _EPS * np.abs(C) @ np.abs(B), rows)
+    delta_t, delta_r, Hs = one_pass(box, eps_g, True)
     Hs = 0.5 * (Hs + np.swapaxes(Hs, 1, 2))
-    quad = _block_sums(Hs, geo.offsets)
-    # C for A^-1 in the quadratic term: |A^-1 - C| r <= c_k sum |r|
-    quad += c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r + delta_t + delta_r))     # |Q| <= |r| + |Delta|
+    quad_rows = _block_sums(Hs, geo.offsets)                      # max |(C Q(L x, x))_row| over the sets
+    Nall = Nb
+    for _ in range(4):
+        # at the solution: |eta_g| <= |(A^-1 Q)_g| + |A^-1_g,block| Delta_block (+ rounding); |y_g| <= FO_g + that
+        rho_t, rho_r, _, _ = _chain_bounds(factors, box)
+        rowq = quad_rows + c * np.sum(np.sqrt(3.0) * (rho_t + rho_r + delta_t + delta_r))   # |Q| <= |r| + |Delta|
+        new = np.array([np.linalg.norm(rowq[rs]) for rs in rows]) + Nall[:, :, 0] @ delta_t \
+            + Nall[:, :, 1] @ delta_r + np.array([np.sqrt(rs.stop - rs.start) * np.max(c[rs]) * bsum for rs in rows])
+        eps_g = np.minimum(eps_g, new)
+        box = np.minimum(box, FO + eps_g)
+        delta_t, delta_r, _ = one_pass(box, eps_g, False)
+    rho_t, rho_r, _, _ = _chain_bounds(factors, box)
+    quad = quad_rows[:6] + c[:6] * np.sum(np.sqrt(3.0) * (rho_t + rho_r + delta_t + delta_r))
     qrows = [slice(k, k + 1) for k in range(6)] + [slice(0, 3), slice(3, 6)]
     Nq = _block_norms(C, c, qrows, nc)
     rest = Nq[:, :, 0] @ delta_t + Nq[:, :, 1] @ delta_r
