@@ -49,6 +49,10 @@ def _to_reference(model, conf):
     return x
 
 
+def _from_reference(model, x):
+    return {_label(s): sum(v * d for v, d in zip(x[s["columns"]], s["directions"])) for s in model.sources}
+
+
 def _to_ours(geo, model, X):
     """The reference's configurations ``X`` as our unit variables."""
     out = np.zeros((len(X), geo.offsets[-1]))
@@ -83,8 +87,10 @@ def test_exact_model_is_the_reference_closure(arch):
     rng = np.random.default_rng(2)
     X = [eref.random_extreme(model.sources, rng) for _ in range(2)] + [_vertex(model, rng)]
     T = np.array([model.solve(x) for x in X])
-    ours, ok = sn._chain_solve(geo, np.linalg.inv(A), _to_ours(geo, model, X))
-    assert np.all(ok) and np.max(np.abs(ours - T)) <= 1e-11 * np.max(np.abs(T))
+    ours = sn.spatial_error_twists(robot, src, pose, [_from_reference(model, x) for x in X])
+    assert np.max(np.abs(ours - T)) <= 1e-11 * np.max(np.abs(T))
+    t2, ok = sn._chain_solve(geo, np.linalg.inv(A), _to_ours(geo, model, X))
+    assert np.all(ok) and np.max(np.abs(t2 - ours)) <= 1e-12 * np.max(np.abs(T))
     # the closure's linear part: central differences of the exact residual
     E0 = sn._joint_displacements(geo, np.zeros((1, geo.offsets[-1])))
     h = 1e-6
@@ -157,6 +163,14 @@ def test_refusals_and_cli(capsys):
     chain = SpatialManipulator.from_dict(chain_table(hexapod), "chain.toml")
     with pytest.raises(UnsupportedArchitectureError, match="6-UPS, 3-RPS"):
         pm.spatial_certified_bounds(chain, "none", hexapod.home_pose)
+    upu = pm.load_robot("upu_3")
+    with pytest.raises(pm.PoseError, match="constraints"):
+        pm.spatial_certified_bounds(upu, "upu_typical", upu.home_pose + np.r_[0, 0, 0, 0, 0, 0.01])
+    src = pm.load_clearances("upu_typical", upu)
+    with pytest.raises(pm.ConfigError, match="outside its disc"):
+        sn.spatial_error_twists(upu, src, upu.home_pose, [{"legs[1].joints[1].radial[pin 1]": [0.0, 0, 1.0]}])
+    with pytest.raises(pm.ConfigError, match="no such source"):
+        sn.spatial_error_twists(upu, src, upu.home_pose, [{"legs[1].joints[1].position": [0.0, 0, 0.0]}])
     delta = pm.load_robot("delta_clavel")
     status, text, _ = run_cli(["bounds", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--certified",
                                "--format", "json"], capsys)

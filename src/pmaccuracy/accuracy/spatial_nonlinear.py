@@ -1325,6 +1325,28 @@ def _chain_solve_full(geo: _ChainGeometry, C: np.ndarray, x: np.ndarray, iterati
     return y[:, :6], y
 
 
+def spatial_error_twists(robot: SpatialManipulator, sources, pose, displacements) -> np.ndarray:
+    """The exact error twists ``[dp, dtheta]`` ``(N, 6)`` (mm, rotation vector rad: the displaced pose is ``p +
+    dp``, ``Rot(dtheta) R``) of a 6-UPS, 3-RPS, 3-PRS, 3-UPU or Delta at ``pose`` ``(6,)`` (rotation vector, rad)
+    for configurations of its sources.
+
+    ``displacements``: a list of ``N`` dicts ``{label: vector (3,)}`` (or one dict ``{label: (N, 3)}``), each
+    source's displacement (mm for translations, a rotation vector in rad for rotations; base frame; labels
+    ``legs[i].joints[j].key`` with ``[pin k]`` for a universal joint's pins; a missing label is 0); each vector must
+    lie in its source's set (segment, disc or ball of its half-width). A 6-UPS: Eq. 1 of the module text
+    (:func:`hexapod_error_twists`); the others: the chains' closure, Eq. 4, solved from the nominal
+    configuration. NaN where the solve does not converge.
+    """
+    check_angle_values(rotation_angles(pose), "pose[3:] (rotation vector)")
+    if getattr(robot, "architecture", None) == "6-UPS":
+        return hexapod_error_twists(robot, sources, pose, displacements)
+    sources, pose = _check(robot, sources, pose, CERTIFIED_ARCHITECTURES)
+    spatial_pose_errors(robot, sources, pose)      # reachability, joint limits, singularity: raise as it does
+    geo = _chain_geometry(robot, sources, pose)
+    A, _ = _chain_linear(geo)
+    return _chain_solve(geo, np.linalg.inv(A), _variables(geo, displacements))[0]
+
+
 def _chain_certified_bounds(robot: SpatialManipulator, sources: SpatialErrorSources, pose: np.ndarray,
                             ascent_steps: int) -> SpatialCertifiedBounds:
     """:func:`spatial_certified_bounds` for a 3-RPS, 3-PRS, 3-UPU or Delta (module text, second part)."""
