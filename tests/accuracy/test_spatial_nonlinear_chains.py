@@ -26,11 +26,19 @@ ARCHS = ("3-RPS", "3-PRS", "3-UPU", "delta")
 TOL = 1e-12
 
 
-def _case(arch, scale):
-    robot_d = ref.load_reference(arch)
-    p, R = eref.nominal_pose(robot_d)
+def _case(arch, scale, seed=None):
+    """The reference's robot and clearance file at its nominal pose, or (``seed``) a random robot, clearances and
+    pose (a 3-RPS / 3-PRS pose then turned by about 0.1 rad)."""
+    if seed is None:
+        robot_d = ref.load_reference(arch)
+        p, R = eref.nominal_pose(robot_d)
+        cl = eref.load_clearances(arch)
+    else:
+        robot_d = ref.random_robot(arch, seed)
+        p, R = ref.random_pose(robot_d, seed)
+        cl = eref.random_clearances(robot_d, seed)
     robot = SpatialManipulator.from_dict(robot_d, source="r.toml")
-    src = SpatialErrorSources.from_dict(eref.load_clearances(arch), robot, source="c.toml").scaled(scale)
+    src = SpatialErrorSources.from_dict(cl, robot, source="c.toml").scaled(scale)
     return robot, src, np.concatenate([p, rotvecs(R)]), eref.ErrorModel(robot_d, src.to_dict(), p, R)
 
 
@@ -99,10 +107,10 @@ def test_exact_model_is_the_reference_closure(arch):
     assert np.max(np.abs(fd - A)) <= 1e-8 * np.max(np.abs(A))
 
 
-@pytest.mark.parametrize("arch,scale,gap", [("3-RPS", 1.0, 0.005), ("3-PRS", 10.0, 0.06), ("3-UPU", 1.0, 0.04),
-                                            ("delta", 10.0, 0.03)])
-def test_reference_samples_never_above_the_upper_and_the_lower_is_attained(arch, scale, gap):
-    robot, src, pose, model = _case(arch, scale)
+@pytest.mark.parametrize("arch,scale,seed,gap", [("3-RPS", 1.0, 1, 0.005), ("3-PRS", 10.0, 2, 0.06),
+                                                 ("3-UPU", 1.0, None, 0.04), ("delta", 10.0, None, 0.03)])
+def test_reference_samples_never_above_the_upper_and_the_lower_is_attained(arch, scale, seed, gap):
+    robot, src, pose, model = _case(arch, scale, seed)
     res = pm.spatial_certified_bounds(robot, src, pose)
     assert res.certified, res.reason
     rng = np.random.default_rng(11)

@@ -167,7 +167,7 @@ from ..errors import ConfigError, PoseError, UnsupportedArchitectureError
 from ..kinematics.spatial import as_spatial_poses, inverse_kinematics
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
-from ..model.spatial_sources import SpatialErrorSources
+from ..model.spatial_sources import JOINTS, SpatialErrorSources
 from ..numerics.spatial import normalize, rotations, skew
 from ..numerics.support import max_norm
 from .spatial_bounds import hexapod_leg_terms, spatial_pose_errors
@@ -803,9 +803,6 @@ def spatial_certified_bounds(robot: SpatialManipulator, sources, pose, *, ascent
 # =========================================================================================================
 # The other architectures: legs as serial chains (3-RPS, 3-PRS, 3-UPU, Delta; module text, second part)
 # =========================================================================================================
-_KINDS = {"3-RPS": ("R", "P", "S"), "3-PRS": ("P", "R", "S"), "3-UPU": ("U", "P", "U"), "delta": ("R", "S", "S", "S", "S")}
-
-
 @dataclass(frozen=True)
 class ChainSource:
     """One error source of a chain robot at a pose: its displacement ``h basis x`` (``|x| <= 1``), base frame.
@@ -965,7 +962,7 @@ def _chain_geometry(robot: SpatialManipulator, sources: SpatialErrorSources, pos
             for f, basis in enumerate(factors):
                 groups.append((i, j, f, off, basis.shape[1]))
                 off += basis.shape[1]
-    kinds = _KINDS[arch]
+    kinds = JOINTS[arch]
     out, offsets, col = [], [], 0
     for i in range(robot.n_legs):
         for j, joint in enumerate(sources.legs[i]):
@@ -1474,9 +1471,9 @@ def _chain_refined(geo: _ChainGeometry, A: np.ndarray, B: np.ndarray, C: np.ndar
                     for Ws, e, _ in ro:
                         self_q = self_q + 0.5 * np.einsum("ja,ijk,kb->iab", Ws, _double_cross(e), Ws)
                     eo = [(h, float(np.linalg.norm(e))) for _, e, h in ro]
+                    cubic = (om ** 3 / 6 + om ** 4 / 24) * co + sum((h ** 3 / 6 + h ** 4 / 24) * e for h, e in eo)
                     facs.append((W, V, self_q, om, tr + om * co + sum(h * e for h, e in eo),
-                                 om * om * co / 2 + sum(h * h * e / 2 for h, e in eo), 0.0, 0.0,
-                                 (om ** 3 / 6 + om ** 4 / 24) * co + sum((h ** 3 / 6 + h ** 4 / 24) * e for h, e in eo)))
+                                 om * om * co / 2 + sum(h * h * e / 2 for h, e in eo), 0.0, 0.0, cubic))
                 for f, basis in enumerate(geo.passive[i][j]):
                     g = gidx[(i, j, f)]
                     off, k = geo.groups[g][3], geo.groups[g][4]
