@@ -1054,9 +1054,9 @@ def _chain_linear(geo: _ChainGeometry) -> tuple[np.ndarray, np.ndarray]:
     for r, (i, joints) in enumerate(geo.chains):
         A[6 * r:6 * r + 3, :3] = -np.eye(3)             # Delta: dp + w x (o - p), w
         A[6 * r + 3:6 * r + 6, 3:6] = -np.eye(3)
-        for (li, lj, _, off, k) in geo.groups:
+        for (li, lj, lf, off, k) in geo.groups:
             if li == i and lj in joints:
-                basis = geo.passive[li][lj][_]
+                basis = geo.passive[li][lj][lf]
                 c = geo.centres[li][lj]
                 A[6 * r:6 * r + 3, off:off + k] = np.cross(c, basis.T).T
                 A[6 * r + 3:6 * r + 6, off:off + k] = basis
