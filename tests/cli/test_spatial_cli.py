@@ -121,7 +121,6 @@ def test_map_of_a_spatial_robot_writes_netcdf_and_a_figure(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["bounds", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--certified"], "for the 6-UPS only"),
     (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--nonlinear"], "--nonlinear is not"),
     (["bounds", "--robot", "stewart_6ups", "--clearances", "nope.toml", "--pose", 0, 0, 400, 0, 0, 0],
      "--clearances: nope.toml"),

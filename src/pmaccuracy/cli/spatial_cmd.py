@@ -211,14 +211,15 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
 
 
 def _certified_bounds(args: argparse.Namespace, robot) -> int:
-    """``bounds --certified`` on a 6-UPS: per pose and quantity the first-order maximum, the exact nonlinear
+    """``bounds --certified`` (6-UPS, 3-RPS, 3-PRS, 3-UPU, Delta): per pose and quantity the first-order maximum, the exact nonlinear
     model's attained ``lower`` value and proven ``upper`` bound, and their gap in percent
     (:func:`pmaccuracy.accuracy.spatial_nonlinear.spatial_certified_bounds`)."""
-    from ..accuracy.spatial_nonlinear import spatial_certified_bounds
+    from ..accuracy.spatial_nonlinear import CERTIFIED_ARCHITECTURES, spatial_certified_bounds
 
-    if robot.architecture != "6-UPS":
-        raise PmAccuracyError(f"--certified: certified nonlinear bounds are available for the 6-UPS only ({robot.name} "
-                              f"is a {robot.architecture}; its first-order bounds are exact without --certified)")
+    if robot.architecture not in CERTIFIED_ARCHITECTURES:
+        raise PmAccuracyError(f"--certified: certified nonlinear bounds are available for the "
+                              f"{', '.join(CERTIFIED_ARCHITECTURES)} only ({robot.name} is a {robot.architecture}; "
+                              "its first-order bounds are exact without --certified)")
     if args.gap_pct is not None:
         raise PmAccuracyError("--gap-pct does not apply with --certified on a spatial robot (its bound is not refined)")
     sources = _sources(args, robot)
