@@ -141,7 +141,6 @@ def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch)
 @pytest.mark.parametrize("argv", [
     ["compare-designs", "--robot", "aalborg_3ppr", "stewart_6ups"],
     ["experiment", "simulate", "--robot", "prs_3", "--out", "x.csv"],
-    ["calibrate", "report", "--robot", "stewart_6ups", "--out", "r.html"],
 ])
 def test_commands_without_spatial_support_refuse_in_one_line(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
