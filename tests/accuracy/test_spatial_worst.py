@@ -122,12 +122,11 @@ def test_hexapod_sphere_and_cylinder_contain_their_brute_force():
 
 
 @pytest.mark.parametrize("arch, box", [
-    ("delta", (-20.0, 20.0, -20.0, 20.0, -810.0, -790.0)),
     ("3-RPS", (290.0, 310.0, np.radians(-3.0), np.radians(3.0), np.radians(-3.0), np.radians(3.0))),
 ])
 def test_lower_bounds_attained_and_not_below_a_coarse_grid(arch, box):
-    """Delta and 3-RPS: no certified upper bound (inf, certified False); the lower values are attained and at
-    least the reference's maxima over a 4 x 4 x 4 grid of the region (its points are among the initial samples)."""
+    """3-RPS: no certified upper bound (inf, certified False); the lower values are attained and at least the
+    reference's maxima over a 4 x 4 x 4 grid of the region (its points are among the initial samples)."""
     robot_dict, cl, robot, sources = _robot(arch)
     region = spatial_region(robot, box=box)
     res = spatial_global_worst(robot, sources, region)

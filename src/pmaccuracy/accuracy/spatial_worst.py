@@ -71,8 +71,10 @@ from ..kinematics.spatial import LIMIT_TOLERANCE, complete_poses, inverse_kinema
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, POSE_NAMES, SpatialManipulator
-from ..model.spatial_sources import SpatialErrorSources, default_preset
+from ..model.spatial_legs import DeltaLeg, PRSLeg, UPULeg
+from ..model.spatial_sources import JOINTS, SpatialErrorSources, default_preset
 from ..numerics.spatial import euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz
+from ..numerics.support import max_norm
 from .spatial_bounds import COMPONENTS, MAX_CONDITION, hexapod_leg_terms, spatial_pose_errors
 
 #: The quantities maximized, in order: the six components, then ``dp`` (mm) and ``dtheta`` (rad).
@@ -91,6 +93,8 @@ BOX_CHUNK = 4096
 WEIGHT_ITERATIONS = 8
 #: Region kinds.
 KINDS = ("box", "cylinder", "sphere", "workspace")
+#: The architectures whose upper bounds are certified (a robot of joint chains is not).
+CERTIFIED = ("6-UPS", "3-UPU", "delta")
 #: Why the upper bound of an architecture is not certified.
 UNCERTIFIED = ("no interval enclosure of the {arch} error set over a box is implemented (its joint motions are "
                "implicit functions of the controlled coordinates): the upper bound is not certified")
@@ -670,6 +674,337 @@ def _mean_value_bounds(robot, terms, boxes, geo):
     return np.where(np.isfinite(res), res, np.inf), np.where(np.isfinite(share), share, np.nan), proven
 
 
+# ---------------------------------------------------------------------------------------------- other architectures
+# Boxes of a 3-UPU, Delta, 3-RPS or 3-PRS: every closure row and every source's generator twists enclosed over the
+# box in midpoint-radius arithmetic (pairs ``(m, r)``, entrywise), W^-1 by the Neumann enclosure of the 6-UPS, each
+# source block ``M_s = W^-1[:, rows] E_s`` as ``Mm_s +- Mr_s``; then (module text)
+# ``dx_max <= sum_s || |Mm_s[0]| + Mr_s[0] ||`` and ``|dp|_max <= max_norm(Mm_s[:3]) + sum_s ||Mr_s[:3]||_F``.
+_EYE3 = np.eye(3)
+
+
+def _iv(m, r=None):
+    m = np.asarray(m, dtype=float)
+    return m, (np.zeros_like(m) if r is None else np.asarray(r, dtype=float))
+
+
+def _neg(a):
+    return -a[0], a[1]
+
+
+def _sub(a, b):
+    return a[0] - b[0], a[1] + b[1]
+
+
+def _scale(a, k: float):
+    return a[0] * k, a[1] * abs(k)
+
+
+def _unit(a):
+    """Unit vectors ``d / |d|`` of midpoint-radius vectors ``(..., 3)``: within ``min(2 delta / |m|,
+    delta / (|m| - delta))`` (2-norm, so entrywise) of ``m / |m|``, ``delta = |r|``; at most 2 (|u_i| <= 1 anyway)."""
+    m, r = a
+    L = np.linalg.norm(m, axis=-1)
+    delta = np.linalg.norm(r, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ru = np.minimum(2.0 * delta / L, np.where(L > delta, delta / (L - delta), np.inf))
+        u = np.where(L[..., None] > 0, m / L[..., None], 0.0)
+    ru = np.minimum(np.where(np.isfinite(ru), ru, np.inf), 2.0)
+    lo, hi = np.maximum(u - ru[..., None], -1.0), np.minimum(u + ru[..., None], 1.0)
+    return 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+
+def _proj_cols(a):
+    """The three columns of ``I - a a^T`` (a unit): they map the unit ball onto the unit disc normal to ``a``."""
+    return [_sub(_iv(np.broadcast_to(_EYE3[k], a[0].shape)), _mul(a, (a[0][..., k:k + 1], a[1][..., k:k + 1])))
+            for k in range(3)]
+
+
+def _const_vec(v, n: int):
+    return _iv(np.broadcast_to(np.asarray(v, dtype=float), (n, 3)).copy())
+
+
+def _square(lo, hi):
+    """Exact range of ``x^2`` over ``[lo, hi]``."""
+    a, b = lo * lo, hi * hi
+    return np.where((lo <= 0) & (hi >= 0), 0.0, np.minimum(a, b)), np.maximum(a, b)
+
+
+def _rot_gens(ws, centre, p):
+    """Rotation generators: twists ``[w x (P - c), w]``."""
+    arm = _sub(p, centre)
+    return [(_cross(w, arm), w) for w in ws]
+
+
+def _tr_gens(vs):
+    return [(v, None) for v in vs]
+
+
+def _revolute_iv(key, axis, centre, p):
+    if key == "radial":
+        return [_tr_gens(_proj_cols(axis))]
+    if key == "axial":
+        return [_tr_gens([axis])]
+    if key in ("tilt", "direction"):
+        return [_rot_gens(_proj_cols(axis), centre, p)]
+    raise ConfigError(f"no {key!r} source on a revolute")
+
+
+def _leg_box(leg, p, rot, n):
+    """Leg ``i``'s enclosures over the boxes: its closure rows ``[(f, m)]`` and a context for its sources, and
+    whether the leg provably cannot reach (or stays outside its stroke) on the whole box."""
+    A = _const_vec(leg.base, n)                 # rot: R (midpoint-radius) of a 3-RPS / 3-PRS, None: identity
+    b = np.asarray(leg.platform, dtype=float)
+    Rb = _const_vec(b, n) if rot is None else _matmul(rot, _iv(np.broadcast_to(b, (n, 3))[..., None]))
+    if rot is not None:
+        Rb = (Rb[0][..., 0], Rb[1][..., 0])
+    B = _add(p, Rb)
+    raw = _sub(B, A)
+    d = _unit(raw)
+    ctx = {"A": A, "B": B, "d": d, "p": p, "Rb": Rb, "rot": rot}
+    out = np.zeros(n, dtype=bool)
+    if isinstance(leg, DeltaLeg):
+        a, x, y = (np.asarray(v, dtype=float) for v in leg._frame())
+        lo, hi = raw[0] - raw[1], raw[0] + raw[1]
+        sq = _square(lo, hi)
+        K = ((np.sum(sq[0], -1) + leg.arm ** 2 - leg.rod ** 2) / (2 * leg.arm),
+             (np.sum(sq[1], -1) + leg.arm ** 2 - leg.rod ** 2) / (2 * leg.arm))
+        exy = np.stack([raw[0] @ x, raw[0] @ y], -1)
+        dxy = np.hypot(raw[1] @ np.abs(x), raw[1] @ np.abs(y))
+        rho = np.linalg.norm(exy, axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dpsi = np.where(rho > dxy, np.arcsin(np.minimum(dxy / rho, 1.0)), np.inf)
+            rlo = np.maximum(rho - dxy, 0.0)
+            clo = np.where(K[0] >= 0, K[0] / (rho + dxy), K[0] / rlo)
+            chi = np.where(K[1] >= 0, K[1] / rlo, K[1] / (rho + dxy))
+        out |= (clo > 1.0 + 1e-12) | (chi < -1.0 - 1e-12)      # no pose of the box reaches
+        acl, ach = np.arccos(np.clip(chi, -1.0, 1.0)), np.arccos(np.clip(clo, -1.0, 1.0))
+        psi = np.arctan2(exy[:, 1], exy[:, 0])
+        th_m = psi - leg.mode * 0.5 * (acl + ach)
+        th_r = dpsi + 0.5 * (ach - acl)
+        th_r = np.where(np.isfinite(th_r) & ~out, th_r, np.inf)
+        cs = (np.cos(th_m), np.minimum(th_r, 2.0))
+        sn = (np.sin(th_m), np.minimum(th_r, 2.0))
+        arm_dir = _add(_mul((cs[0][:, None], cs[1][:, None]), _iv(np.broadcast_to(x, (n, 3)))),
+                       _mul((sn[0][:, None], sn[1][:, None]), _iv(np.broadcast_to(y, (n, 3)))))
+        Cm = _add(A, _scale(arm_dir, leg.arm))
+        half = 0.5 * leg.spacing
+        Cs, Bs, rows = [], [], []
+        for s in (half, -half):
+            Cj = _add(Cm, _const_vec(s * a, n))
+            Bj = _add(B, _const_vec(s * a, n))
+            nj = _unit(_sub(Bj, Cj))
+            Cs.append(Cj)
+            Bs.append(Bj)
+            rows.append((nj, _cross(_add(Rb, _const_vec(s * a, n)), nj)))
+        ctx.update(C=Cs, Bs=Bs, arm_dir=arm_dir)
+        return rows, ctx, out
+    if isinstance(leg, PRSLeg):
+        s_ = np.asarray(leg.slide, dtype=float)
+        lo, hi = raw[0] - raw[1], raw[0] + raw[1]
+        se = (raw[0] @ s_, raw[1] @ np.abs(s_))
+        sq = _square(lo, hi)
+        ee = _of_interval(np.sum(sq[0], -1), np.sum(sq[1], -1))
+        se2 = _of_interval(*_square(se[0] - se[1], se[0] + se[1]))
+        disc = _add(_sub(se2, ee), _iv(np.full(n, leg.rod ** 2)))
+        dlo, dhi = disc[0] - disc[1], disc[0] + disc[1]
+        out |= dhi < 0
+        sq_ = _of_interval(np.sqrt(np.maximum(dlo, 0.0)), np.sqrt(np.maximum(dhi, 0.0)))
+        q = _sub(se, _scale(sq_, leg.mode))
+        lo_s, hi_s = leg.slide_range
+        tol = 2 * LIMIT_TOLERANCE * max(1.0, hi_s - lo_s, abs(hi_s), abs(lo_s))
+        out |= (q[0] - q[1] > hi_s + tol) | (q[0] + q[1] < lo_s - tol)
+        carriage = _add(A, _mul((q[0][:, None], q[1][:, None]), _iv(np.broadcast_to(s_, (n, 3)))))
+        nvec = _unit(_sub(B, carriage))
+        ax = _const_vec(leg.axis, n)
+        ctx.update(carriage=carriage, rod_dir=nvec)
+        return [(nvec, _cross(Rb, nvec)), (ax, _cross(Rb, ax))], ctx, out
+    # 3-UPU, 3-RPS: a leg of actuated length
+    L = np.linalg.norm(raw[0], axis=-1)
+    delta = np.linalg.norm(raw[1], axis=-1)
+    lo_s, hi_s = leg.stroke
+    tol = 2 * LIMIT_TOLERANCE * max(1.0, hi_s - lo_s, abs(hi_s), abs(lo_s))
+    out |= (L - delta > hi_s + tol) | (L + delta < lo_s - tol)
+    rows = [(d, _cross(Rb, d))]
+    if isinstance(leg, UPULeg):
+        u1 = _const_vec(leg.base_axis, n)
+        rows.append((_iv(np.zeros((n, 3))), _unit(_cross(u1, _cross(u1, raw)))))
+    else:
+        ax = _const_vec(leg.axis, n)
+        rows.append((ax, _cross(Rb, ax)))
+    return rows, ctx, out
+
+
+def _source_gens_iv(robot, leg, joint, key, ctx, n):
+    """A source's generator groups (each a list of twists ``(v, w)``, ``None`` for zero parts) over the boxes, and
+    the leg's rows it acts on (None: all); the same sets as ``spatial_bounds._joint_generators``."""
+    kind = JOINTS[robot.architecture][joint]
+    A, B, d, p = ctx["A"], ctx["B"], ctx["d"], ctx["p"]
+    basis = [_tr_gens([_const_vec(e, n) for e in _EYE3])]
+    if isinstance(leg, DeltaLeg):
+        rows = None
+        axis = _const_vec(leg.axis, n)
+        if joint == 0:
+            centre = A
+        else:
+            rod = (joint - 1) // 2
+            rows = [rod]
+            centre = ctx["C"][rod] if joint in (1, 3) else ctx["Bs"][rod]
+        if key == "position" or (kind == "S" and key == "radial"):
+            return basis, rows
+        if key == "actuator":
+            return [_rot_gens([axis], centre, p)], rows
+        if key == "length":
+            if joint == 0:
+                return [_tr_gens([ctx["arm_dir"]])], rows
+            return [_tr_gens([_unit(_sub(ctx["Bs"][rod], ctx["C"][rod]))])], rows
+        return _revolute_iv(key, axis, centre, p), rows
+    if key == "length":
+        if isinstance(leg, PRSLeg):
+            return [_tr_gens([ctx["rod_dir"] if kind == "R" else _const_vec(leg.slide, n)])], None
+        return [_tr_gens([d])], None
+    if kind == "S" or key == "position":
+        return basis, None
+    if kind == "P":
+        if isinstance(leg, PRSLeg):
+            axis, centre, origin = _const_vec(leg.slide, n), ctx["carriage"], A
+        else:
+            axis, centre, origin = d, _scale(_add(A, B), 0.5), A
+        if key in ("actuator", "backlash"):
+            return [_tr_gens([axis])], None
+        if key == "lateral":
+            return [_tr_gens(_proj_cols(axis))], None
+        if key == "tilt":
+            return [_rot_gens(_proj_cols(axis), centre, p)], None
+        if key == "direction":
+            return [_rot_gens(_proj_cols(axis), origin, p)], None
+    if kind == "R":
+        centre = ctx["carriage"] if isinstance(leg, PRSLeg) else A
+        return _revolute_iv(key, _const_vec(leg.axis, n), centre, p), None
+    if kind == "U":
+        if joint == 0:
+            centre = A
+            u1 = _const_vec(leg.base_axis, n)
+            u2 = _unit(_cross(u1, d))
+            m, fixed = _unit(_cross(u1, u2)), u1
+        else:
+            centre = B
+            u4 = _const_vec(leg.platform_axis, n)      # a 3-UPU's platform does not turn
+            u1 = _unit(_cross(u4, d))
+            u2, fixed = u4, u4
+            m = _unit(_cross(u1, u2))
+        if key == "radial":
+            return [_tr_gens(_proj_cols(u1)), _tr_gens(_proj_cols(u2))], None
+        if key == "axial":
+            return [_tr_gens([u1]), _tr_gens([u2])], None
+        if key == "tilt":
+            return [_rot_gens([m], centre, p)], None
+        if key == "direction":
+            return [_rot_gens(_proj_cols(fixed), centre, p)], None
+    raise ConfigError(f"no {key!r} source on joint {joint + 1} of a {robot.architecture} leg")
+
+
+def _inverse_enclosure(robot, Wm, Wr):
+    """``W^-1`` over ``Wm +- Wr`` ``(n, 6, 6)``: ``C = Wm^-1`` and ``Y >= |W^-1 - C|`` (the Neumann enclosure of
+    the module text), and whether every ``W`` of the boxes is proven regular."""
+    n = Wm.shape[0]
+    ok = np.all(np.isfinite(Wm), axis=(1, 2)) & np.all(np.isfinite(Wr), axis=(1, 2))
+    Wm0 = np.where(ok[:, None, None], Wm, np.eye(6))
+    ok &= np.abs(np.linalg.det(Wm0)) > 1e-300
+    C = np.zeros_like(Wm)
+    C[ok] = np.linalg.inv(Wm0[ok])
+    absC = np.abs(C)
+    with np.errstate(invalid="ignore", over="ignore"):
+        D = np.abs(np.eye(6) - C @ Wm0) + absC @ np.where(ok[:, None, None], Wr, 0.0)
+    w0 = np.array([1.0, 1.0, 1.0] + [1.0 / robot.characteristic_length] * 3)
+    w = np.broadcast_to(w0, (n, 6)).copy()
+    for _ in range(WEIGHT_ITERATIONS):
+        w = np.einsum("nij,nj->ni", D, w) + 1e-6 * np.max(w, axis=1, keepdims=True) * w0
+        w = w / np.max(w, axis=1, keepdims=True)
+    Dw = np.einsum("nij,nj->ni", D, w)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        beta = np.max(Dw / w, axis=1)
+        regular = ok & (beta < 1.0) & np.all(np.isfinite(D), axis=(1, 2))
+        DC = D @ absC
+        e = np.max(DC / w[:, :, None], axis=1) / (1.0 - beta)[:, None]
+        Y = DC + Dw[:, :, None] * e[:, None, :]
+    Y = np.where(regular[:, None, None], Y, np.inf)
+    return C, Y, regular
+
+
+def _legs_box_bounds(robot, sources, boxes, point_gap):
+    """Certified upper bounds ``(n, 8)`` over boxes ``(n, 3, 2)`` of a 3-UPU, Delta, 3-RPS or 3-PRS (the
+    enclosures above; ``inf`` where ``W`` is not proven regular), whether each box provably holds no pose of the
+    workspace, whether its ``W`` is not proven regular, and (NaN) split shares."""
+    n = boxes.shape[0]
+    mid = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
+    half = 0.5 * (boxes[:, :, 1] - boxes[:, :, 0])
+    ctx0 = {}
+    if robot.mobility == "2R1T":
+        p, ctx0["R"], out = _parasitic_box(robot, mid, half)
+    else:
+        p, out = (mid, half), np.zeros(n, dtype=bool)
+    rows, ctxs = [], []
+    for i, leg in enumerate(robot.legs):
+        r, c, o = _leg_box(leg, p, ctx0.get("R"), n)
+        rows.append(r)
+        ctxs.append(c)
+        out |= o
+    flat = [row for r in rows for row in r]
+    Wm = np.stack([np.concatenate([f[0], m[0]], -1) for f, m in flat], 1)
+    Wr = np.stack([np.concatenate([f[1], m[1]], -1) for f, m in flat], 1)
+    C, Y, regular = _inverse_enclosure(robot, Wm, Wr)
+    Mm, Mr = [], []
+    absW = np.abs(C) + Y          # |W^-1| over the box
+    row0 = 0
+    for i, leg in enumerate(robot.legs):
+        k = len(rows[i])
+        for j, joint in enumerate(sources.legs[i]):
+            for key, h in joint.items():
+                if h == 0:
+                    continue
+                kind = "actuator" if key == "backlash" and robot.actuated_kinds[i] == "R" else key
+                groups, which = _source_gens_iv(robot, leg, j, kind, ctxs[i], n)
+                for gens in groups:
+                    Em = np.zeros((n, k, len(gens)))
+                    Er = np.zeros((n, k, len(gens)))
+                    for r_, (f, m) in enumerate(rows[i]):
+                        if which is not None and r_ not in which:
+                            continue
+                        for c_, (v, w) in enumerate(gens):
+                            e = _dot(f, v)
+                            if w is not None:
+                                e = _add(e, _dot(m, w))
+                            Em[:, r_, c_], Er[:, r_, c_] = e
+                    # M(x) = W(x)^-1 E(x) (E padded to the six rows): with Mc = C Em,
+                    # M(x) - Mc = W(x)^-1 (E(x) - W(x) Mc), E(x) - W(x) Mc in (Em - Wm Mc) +- (Er + Wr |Mc|)
+                    Ep = np.zeros((n, 6, len(gens)))
+                    Erp = np.zeros((n, 6, len(gens)))
+                    Ep[:, row0:row0 + k], Erp[:, row0:row0 + k] = h * Em, h * Er
+                    with np.errstate(invalid="ignore", over="ignore"):
+                        Mc = C @ Ep
+                        res = np.abs(Ep - Wm @ Mc) + Erp + Wr @ np.abs(Mc)
+                        Mm.append(Mc)
+                        Mr.append(absW @ res)
+        row0 += k
+    upper = np.full((n, len(QUANTITIES)), np.inf)
+    if Mm:
+        sel = regular & ~out
+        with np.errstate(invalid="ignore", over="ignore"):
+            comp = sum(np.linalg.norm(np.abs(a) + b, axis=-1) for a, b in zip(Mm, Mr))
+            vals = [comp]
+            for rs in (slice(0, 3), slice(3, 6)):
+                extra = sum(np.linalg.norm(b[:, rs], axis=(1, 2)) for b in Mr)
+                mn = np.zeros(n)
+                if np.any(sel):
+                    mn[sel] = max_norm([a[sel][:, rs] for a in Mm], gap=point_gap).upper
+                vals.append((mn + extra)[:, None])
+        vals = np.concatenate(vals, axis=1) * (1 + ROUNDING)
+        upper[sel] = np.where(np.isfinite(vals[sel]), vals[sel], np.inf)
+    else:
+        upper[regular] = 0.0
+    return upper, out, ~regular, np.full((n, 3), np.nan)
+
+
 #: The 32 sign vectors of six segments up to a global sign.
 _SIGNS = np.array([s for s in itertools.product((1.0, -1.0), repeat=6) if s[0] > 0])
 
@@ -747,13 +1082,17 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
         lower_pt = np.where(better[:, None], pts[j], lower_pt)
 
     take(values, poses, samples)
-    certified = robot.architecture == "6-UPS"
+    certified = robot.architecture in CERTIFIED and not robot.is_chain
     reason = "" if certified else UNCERTIFIED.format(arch=robot.architecture)
     n_boxes = iterations = 0
     converged = np.zeros(len(QUANTITIES), dtype=bool)
     closed = np.zeros(len(QUANTITIES))
     if certified:
-        terms = hexapod_leg_terms(robot, sources)
+        if robot.architecture == "6-UPS":
+            terms = hexapod_leg_terms(robot, sources)
+            bound = lambda b: _hexapod_box_bounds(robot, terms, b)      # noqa: E731
+        else:
+            bound = lambda b: _legs_box_bounds(robot, sources, b, point_gap)      # noqa: E731
         boxes = root[None].copy()
         active = np.ones((1, len(QUANTITIES)), dtype=bool)
         converged[:] = True
@@ -764,7 +1103,7 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
             if not boxes.shape[0]:
                 break
             n_boxes += boxes.shape[0]
-            parts = [_hexapod_box_bounds(robot, terms, boxes[k:k + BOX_CHUNK])
+            parts = [bound(boxes[k:k + BOX_CHUNK])
                      for k in range(0, boxes.shape[0], BOX_CHUNK)]   # bounded memory
             upper, outside, unproven, share = (np.concatenate([part[i] for part in parts]) for i in range(4))
             keep = ~outside

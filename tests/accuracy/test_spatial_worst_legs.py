@@ -1,0 +1,87 @@
+"""The certified spatial global worst case of the 3-UPU, Delta, 3-RPS and 3-PRS (pmaccuracy.accuracy.spatial_worst,
+interval enclosures of their closure rows and sources over boxes): the upper values are never below the pointwise
+first-order worst case (spatial_pose_errors, checked against the independent screw-theory reference elsewhere) at
+a dense grid and random points of the region, and the lower values are attained: at the returned pose the
+component maxima equal those of the reference's finite differences of the exact nonlinear closure
+(tests/reference/spatial_error_reference.py, which does not import pmaccuracy)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import spatial_error_reference as eref
+import spatial_reference as ref
+
+from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
+from pmaccuracy.accuracy.spatial_worst import QUANTITIES, spatial_global_worst, spatial_region
+from pmaccuracy.kinematics.spatial import complete_poses, inverse_kinematics
+from pmaccuracy.model.spatial import SpatialManipulator
+from pmaccuracy.model.spatial_sources import SpatialErrorSources
+
+
+def _robot(arch):
+    robot_dict = ref.load_reference(arch)
+    cl = eref.load_clearances(arch)
+    robot = SpatialManipulator.from_dict(robot_dict, source="r.toml")
+    return robot_dict, cl, robot, SpatialErrorSources.from_dict(cl, robot, source="c.toml")
+
+
+def _centre(robot_dict):
+    p, R = eref.nominal_pose(robot_dict)
+    if robot_dict["architecture"] in ("3-RPS", "3-PRS"):
+        return np.array([p[2], *np.radians(ref.orientation_deg(R)[:2])])
+    return p
+
+
+def _sampled(robot, sources, region, n, rng):
+    """The pointwise worst values ``(m, 8)`` on an n^3 grid and 200 random points of the region's box."""
+    b = region.bounds
+    axes = [np.linspace(lo, hi, n) for lo, hi in b]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    pts = np.vstack([pts, b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((200, 3))])
+    poses = complete_poses(robot, pts)
+    assert np.all(inverse_kinematics(robot, poses).within_limits)     # the region is in the workspace
+    r = spatial_pose_errors(robot, sources, poses, gap=1e-4, details=False)
+    return np.column_stack([r.components, r.dp_lower, r.dtheta_lower])
+
+
+# half-widths (mm; rad for roll, pitch) of the small regions about the home pose
+SMALL = {"3-UPU": (0.5, 0.5, 0.5), "delta": (0.25, 0.25, 0.25)}
+
+
+@pytest.mark.parametrize("arch", sorted(SMALL))
+def test_certified_upper_never_below_the_region_and_lower_attained(arch):
+    robot_dict, cl, robot, sources = _robot(arch)
+    c, h = _centre(robot_dict), np.array(SMALL[arch])
+    region = spatial_region(robot, box=np.column_stack([c - h, c + h]).ravel())
+    res = spatial_global_worst(robot, sources, region, gap=0.01)
+    upper = np.array([res[q].upper for q in QUANTITIES])
+    lower = np.array([res[q].lower for q in QUANTITIES])
+    assert res.certified and not res.reason
+    assert all(res[q].converged for q in QUANTITIES), res.quantities
+    assert np.all(lower <= upper) and np.all(upper <= lower * 1.01 * (1 + 1e-9))
+    sampled = _sampled(robot, sources, region, 9, np.random.default_rng(7))
+    assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)
+    assert np.all(sampled.max(axis=0) >= lower * (1 - 0.011))      # near the maximum (gap 1 %)
+    # attained: at the returned pose the first-order map by finite differences of the exact nonlinear closure
+    for k, name in enumerate(QUANTITIES[:6]):
+        pose = res[name].pose
+        M, src = eref.sensitivity(robot_dict, cl, pose[:3], ref.from_rotvec(pose[3:]))
+        assert eref.component_bounds(M, src)[k] == pytest.approx(res[name].lower, rel=1e-5), name
+    pose = res["dp"].pose
+    M, src = eref.sensitivity(robot_dict, cl, pose[:3], ref.from_rotvec(pose[3:]))
+    dp = eref.max_norm_sampled(M, src, rows=slice(0, 3), n=4000, refine=15, n_best=5)
+    assert res["dp"].lower * (1 - 2e-3) <= dp <= res["dp"].lower * (1 + 2e-3)
+
+
+@pytest.mark.parametrize("arch, half", [("3-UPU", (6.0, 6.0, 6.0)), ("delta", (5.0, 5.0, 5.0))])
+def test_wider_regions_never_exceeded(arch, half):
+    """A wider region on a small box budget: the bounds are looser but hold."""
+    robot_dict, cl, robot, sources = _robot(arch)
+    c, h = _centre(robot_dict), np.array(half)
+    region = spatial_region(robot, box=np.column_stack([c - h, c + h]).ravel())
+    res = spatial_global_worst(robot, sources, region, gap=0.05, max_boxes=3000)
+    upper = np.array([res[q].upper for q in QUANTITIES])
+    assert res.certified and np.all(np.isfinite(upper))
+    sampled = _sampled(robot, sources, region, 7, np.random.default_rng(8))
+    assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)
