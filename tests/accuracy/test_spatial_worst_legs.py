@@ -46,7 +46,8 @@ def _sampled(robot, sources, region, n, rng):
 
 
 # half-widths (mm; rad for roll, pitch) of the small regions about the home pose
-SMALL = {"3-UPU": (0.5, 0.5, 0.5), "delta": (0.25, 0.25, 0.25)}
+SMALL = {"3-UPU": (0.5, 0.5, 0.5), "delta": (0.25, 0.25, 0.25), "3-RPS": (0.5, 0.002, 0.002),
+         "3-PRS": (0.25, 0.001, 0.001)}
 
 
 @pytest.mark.parametrize("arch", sorted(SMALL))
@@ -74,7 +75,8 @@ def test_certified_upper_never_below_the_region_and_lower_attained(arch):
     assert res["dp"].lower * (1 - 2e-3) <= dp <= res["dp"].lower * (1 + 2e-3)
 
 
-@pytest.mark.parametrize("arch, half", [("3-UPU", (6.0, 6.0, 6.0)), ("delta", (5.0, 5.0, 5.0))])
+@pytest.mark.parametrize("arch, half", [("3-UPU", (6.0, 6.0, 6.0)), ("delta", (5.0, 5.0, 5.0)),
+                                        ("3-RPS", (5.0, 0.03, 0.03)), ("3-PRS", (5.0, 0.03, 0.03))])
 def test_wider_regions_never_exceeded(arch, half):
     """A wider region on a small box budget: the bounds are looser but hold."""
     robot_dict, cl, robot, sources = _robot(arch)

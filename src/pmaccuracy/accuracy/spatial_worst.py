@@ -94,7 +94,7 @@ WEIGHT_ITERATIONS = 8
 #: Region kinds.
 KINDS = ("box", "cylinder", "sphere", "workspace")
 #: The architectures whose upper bounds are certified (a robot of joint chains is not).
-CERTIFIED = ("6-UPS", "3-UPU", "delta")
+CERTIFIED = ("6-UPS", "3-UPU", "delta", "3-RPS", "3-PRS")
 #: Why the upper bound of an architecture is not certified.
 UNCERTIFIED = ("no interval enclosure of the {arch} error set over a box is implemented (its joint motions are "
                "implicit functions of the controlled coordinates): the upper bound is not certified")
@@ -929,6 +929,102 @@ def _inverse_enclosure(robot, Wm, Wr):
         Y = DC + Dw[:, :, None] * e[:, None, :]
     Y = np.where(regular[:, None, None], Y, np.inf)
     return C, Y, regular
+
+
+#: Krawczyk iterations (with inflation) enclosing a 3-RPS / 3-PRS's parasitic motions over a box.
+PARASITIC_ITERATIONS = 6
+
+
+def _cos_sin(mid, half):
+    """``cos``, ``sin`` of angles ``mid +- half`` (midpoint-radius, Taylor with remainder ``half^2 / 2``)."""
+    c, s = np.cos(mid), np.sin(mid)
+    rem = 0.5 * half * half
+    return (c, np.abs(s) * half + rem), (s, np.abs(c) * half + rem)
+
+
+def _rotation_iv(angles_m, angles_r):
+    """``R = Rz(yaw) Ry(pitch) Rx(roll)`` (extrinsic x-y-z) over midpoint-radius angles ``(n, 3)``."""
+    n = angles_m.shape[0]
+    mats = []
+    for k in range(3):
+        (c, cr), (s, sr) = _cos_sin(angles_m[:, k], angles_r[:, k])
+        m = np.zeros((n, 3, 3))
+        r = np.zeros((n, 3, 3))
+        i, j = [(1, 2), (0, 2), (0, 1)][k]
+        other = 3 - i - j
+        m[:, other, other] = 1.0
+        m[:, i, i] = m[:, j, j] = c
+        r[:, i, i] = r[:, j, j] = cr
+        sign = -1.0 if k != 1 else 1.0        # Rx, Rz: [[c, -s], [s, c]]; Ry: [[c, s], [-s, c]] on (i, j)
+        m[:, i, j], m[:, j, i] = sign * s, -sign * s
+        r[:, i, j] = r[:, j, i] = sr
+        mats.append((m, r))
+    return _matmul(_matmul(mats[2], mats[1]), mats[0])
+
+
+def _parasitic_box(robot, mid, half):
+    """A 3-RPS / 3-PRS's parasitic ``x, y, yaw`` over boxes of ``z, roll, pitch`` ``(n, 3)``: the Krawczyk test
+    on ``g_i = axis_i . (p + R b_i - base_i) = 0`` around the solution ``s`` at the box centre
+    (:func:`~pmaccuracy.kinematics.spatial.complete_poses`) with ``Y`` the inverse of its Jacobian there: where
+    ``K = s - Y g(s, box) + (I - Y J(X, box)) (X - s)`` lies inside ``X = s +- rho``, every pose of the box has
+    exactly one solution in ``X`` (the branch of the centre's), and it lies in ``K``. Returns the position
+    ``(n, 3)`` and ``R`` ``(n, 3, 3)`` (midpoint-radius) and whether the centre has no solution; boxes where the
+    test fails get infinite radii (their ``W`` is not proven regular, so they are split)."""
+    n = mid.shape[0]
+    axes = np.array([leg.axis for leg in robot.legs], dtype=float)
+    bases = np.array([leg.base for leg in robot.legs], dtype=float)
+    b = np.array([leg.platform for leg in robot.legs], dtype=float)
+    full = complete_poses(robot, mid, strict=False)
+    bad = ~np.all(np.isfinite(full), axis=1)
+    s = np.zeros((n, 3))
+    s[~bad] = np.column_stack([full[~bad, :2], rotvec_to_euler_xyz(full[~bad, 3:])[:, 2]])
+    ez = np.array([0.0, 0.0, 1.0])
+
+    def g_and_jac(xm, xr):
+        """``g`` (n, 3) and ``J`` (n, 3, 3) over the parameter boxes and ``x`` in ``xm +- xr``."""
+        ang_m = np.column_stack([mid[:, 1], mid[:, 2], xm[:, 2]])
+        ang_r = np.column_stack([half[:, 1], half[:, 2], xr[:, 2]])
+        R = _rotation_iv(ang_m, ang_r)
+        Rb = _matmul(R, _iv(np.broadcast_to(b.T, (n, 3, 3))))          # columns R b_i
+        Rb = (np.swapaxes(Rb[0], 1, 2), np.swapaxes(Rb[1], 1, 2))      # (n, 3 legs, 3)
+        p = (np.column_stack([xm[:, :2], mid[:, 0]]), np.column_stack([xr[:, :2], half[:, 0]]))
+        e = _sub(_add((p[0][:, None], p[1][:, None]), Rb), _iv(np.broadcast_to(bases, (n, 3, 3))))
+        g = _dot(_iv(np.broadcast_to(axes, (n, 3, 3))), e)
+        dyaw = _dot(_iv(np.broadcast_to(axes, (n, 3, 3))), _cross(_iv(np.broadcast_to(ez, (n, 3, 3))), Rb))
+        Jm = np.concatenate([np.broadcast_to(axes[:, :2], (n, 3, 2)), dyaw[0][..., None]], axis=2)
+        Jr = np.concatenate([np.zeros((n, 3, 2)), dyaw[1][..., None]], axis=2)
+        return g, (Jm, Jr), R, p
+
+    g0, (J0, _), _, _ = g_and_jac(s, np.zeros((n, 3)))
+    ok = ~bad & (np.abs(np.linalg.det(np.where(bad[:, None, None], np.eye(3), J0))) > 1e-12)
+    Y = np.zeros((n, 3, 3))
+    Y[ok] = np.linalg.inv(J0[ok])
+    gc, _, _, _ = g_and_jac(s, np.zeros((n, 3)))
+    # g(s, box): the parameters vary, x = s fixed
+    base_r = np.einsum("nij,nj->ni", np.abs(Y), gc[1]) + np.abs(np.einsum("nij,nj->ni", Y, gc[0]))
+    rho = 2.0 * base_r + 1e-12 * (1.0 + np.abs(s))
+    proven = np.zeros(n, dtype=bool)
+    Kr = np.full((n, 3), np.inf)
+    Km = s.copy()
+    with np.errstate(invalid="ignore", over="ignore"):
+        for _ in range(PARASITIC_ITERATIONS):
+            _, (Jm, Jr), _, _ = g_and_jac(s, rho)
+            Mm = np.eye(3) - Y @ Jm
+            mag = np.abs(Mm) + np.abs(Y) @ Jr
+            km = s - np.einsum("nij,nj->ni", Y, gc[0])
+            kr = np.einsum("nij,nj->ni", np.abs(Y), gc[1]) + np.einsum("nij,nj->ni", mag, rho)
+            inside = np.all(np.abs(km - s) + kr < rho, axis=1) & ok & ~proven
+            Km[inside], Kr[inside] = km[inside], kr[inside] * (1 + ROUNDING) + 1e-15
+            proven |= inside
+            if np.all(proven | ~ok):
+                break
+            rho = np.where(proven[:, None], rho, 1.5 * (np.abs(km - s) + kr) + 1e-12)
+    Kr = np.where(proven[:, None], Kr, np.inf)
+    Km = np.where(np.isfinite(Km), Km, 0.0)
+    _, _, R, p = g_and_jac(Km, np.where(np.isfinite(Kr), Kr, 0.0))
+    R = (R[0], np.where(proven[:, None, None], R[1], np.inf))
+    p = (p[0], np.where(proven[:, None], p[1], np.inf))
+    return p, R, np.zeros(n, dtype=bool)
 
 
 def _legs_box_bounds(robot, sources, boxes, point_gap):
