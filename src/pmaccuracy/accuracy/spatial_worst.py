@@ -675,174 +675,230 @@ def _mean_value_bounds(robot, terms, boxes, geo):
 
 
 # ---------------------------------------------------------------------------------------------- other architectures
-# Boxes of a 3-UPU, Delta, 3-RPS or 3-PRS: every closure row and every source's generator twists enclosed over the
-# box in midpoint-radius arithmetic (pairs ``(m, r)``, entrywise), W^-1 by the Neumann enclosure of the 6-UPS, each
-# source block ``M_s = W^-1[:, rows] E_s`` as ``Mm_s +- Mr_s``; then (module text)
-# ``dx_max <= sum_s || |Mm_s[0]| + Mr_s[0] ||`` and ``|dp|_max <= max_norm(Mm_s[:3]) + sum_s ||Mr_s[:3]||_F``.
+# Boxes of a 3-UPU, Delta, 3-RPS or 3-PRS in first-order affine arithmetic: over a box with centre c and
+# half-widths h, x = c + h t with t in [-1, 1]^3, every quantity is a triple (m, G, r) standing for
+# m + G t + e with |e| <= r (entrywise; G's last axis is t's). Sums are exact, products keep the linear parts and
+# put (|G_a|_1 + r_a)(|G_b|_1 + r_b) into r, a smooth f is linearized at m with the Taylor remainder
+# max |f''| rad^2 / 2 over the range. So the closure rows W(t) and each source's image E_s(t) in its leg's rows
+# are affine forms whose remainders shrink with the square of the box (module text).
 _EYE3 = np.eye(3)
 
 
-def _iv(m, r=None):
+def _af(m):
+    """A constant affine form."""
     m = np.asarray(m, dtype=float)
-    return m, (np.zeros_like(m) if r is None else np.asarray(r, dtype=float))
+    return m, np.zeros(m.shape + (3,)), np.zeros(m.shape)
 
 
-def _neg(a):
-    return -a[0], a[1]
+def _arad(a):
+    """Largest deviation of an affine form from its centre."""
+    return np.sum(np.abs(a[1]), axis=-1) + a[2]
 
 
-def _sub(a, b):
-    return a[0] - b[0], a[1] + b[1]
+def _aadd(a, b):
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2]
 
 
-def _scale(a, k: float):
-    return a[0] * k, a[1] * abs(k)
+def _asub(a, b):
+    return a[0] - b[0], a[1] - b[1], a[2] + b[2]
 
 
-def _unit(a):
-    """Unit vectors ``d / |d|`` of midpoint-radius vectors ``(..., 3)``: within ``min(2 delta / |m|,
-    delta / (|m| - delta))`` (2-norm, so entrywise) of ``m / |m|``, ``delta = |r|``; at most 2 (|u_i| <= 1 anyway)."""
-    m, r = a
-    L = np.linalg.norm(m, axis=-1)
-    delta = np.linalg.norm(r, axis=-1)
+def _ascale(a, k: float):
+    return a[0] * k, a[1] * k, a[2] * abs(k)
+
+
+def _amul(a, b):
+    return (a[0] * b[0], a[0][..., None] * b[1] + b[0][..., None] * a[1],
+            np.abs(a[0]) * b[2] + np.abs(b[0]) * a[2] + _arad(a) * _arad(b))
+
+
+def _acomp(a, k: int):
+    """Component ``k`` of affine 3-vectors."""
+    return a[0][..., k], a[1][..., k, :], a[2][..., k]
+
+
+def _astack(parts):
+    return (np.stack([p[0] for p in parts], -1), np.stack([p[1] for p in parts], -2),
+            np.stack([p[2] for p in parts], -1))
+
+
+def _aexpand(a):
+    """A scalar form broadcast over a vector's last axis."""
+    return a[0][..., None], a[1][..., None, :], a[2][..., None]
+
+
+def _adot(a, b):
+    p = _amul(a, b)
+    return np.sum(p[0], -1), np.sum(p[1], -2), np.sum(p[2], -1)
+
+
+def _across(a, b):
+    return _astack([_asub(_amul(_acomp(a, i), _acomp(b, j)), _amul(_acomp(a, j), _acomp(b, i)))
+                    for i, j in ((1, 2), (2, 0), (0, 1))])
+
+
+def _amatmul(a, b):
+    """Batched products ``(n, i, k) @ (n, k, j)`` of affine matrices."""
+    return (a[0] @ b[0], np.einsum("nik,nkjl->nijl", a[0], b[1]) + np.einsum("nikl,nkj->nijl", a[1], b[0]),
+            np.abs(a[0]) @ b[2] + a[2] @ np.abs(b[0]) + _arad(a) @ _arad(b))
+
+
+def _aunivariate(a, f, df, d2max):
+    """``f`` of an affine form: ``f(m) + f'(m) (x - m)`` plus ``|f'(m)| r + max|f''| rad^2 / 2``."""
+    rad = _arad(a)
+    d1 = df(a[0])
+    return f(a[0]), d1[..., None] * a[1], np.abs(d1) * a[2] + 0.5 * d2max(a[0] - rad, a[0] + rad) * rad * rad
+
+
+def _ainv_sqrt(a):
+    """``1 / sqrt(x)`` (infinite remainder where ``x`` may reach 0)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        ru = np.minimum(2.0 * delta / L, np.where(L > delta, delta / (L - delta), np.inf))
-        u = np.where(L[..., None] > 0, m / L[..., None], 0.0)
-    ru = np.minimum(np.where(np.isfinite(ru), ru, np.inf), 2.0)
-    lo, hi = np.maximum(u - ru[..., None], -1.0), np.minimum(u + ru[..., None], 1.0)
-    return 0.5 * (lo + hi), 0.5 * (hi - lo)
+        out = _aunivariate(a, lambda m: m ** -0.5, lambda m: -0.5 * m ** -1.5,
+                           lambda lo, hi: np.where(lo > 0, 0.75 * lo ** -2.5, np.inf))
+    ok = (a[0] - _arad(a) > 0) & np.isfinite(out[2])
+    return (np.where(ok, out[0], 0.0), np.where(ok[..., None], out[1], 0.0), np.where(ok, out[2], np.inf))
 
 
-def _proj_cols(a):
+def _asqrt_feasible(a):
+    """``sqrt(x)`` where ``x >= 0`` (the poses that exist): linearized where the whole range is positive, else
+    the constant form of ``[sqrt(max(lo, 0)), sqrt(max(hi, 0))]``."""
+    rad = _arad(a)
+    lo, hi = a[0] - rad, a[0] + rad
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = _aunivariate(a, lambda m: np.sqrt(np.maximum(m, 0.0)), lambda m: 0.5 / np.sqrt(m),
+                           lambda lo_, hi_: np.where(lo_ > 0, 0.25 * lo_ ** -1.5, np.inf))
+    ok = (lo > 0) & np.isfinite(out[2]) & np.all(np.isfinite(out[1]), axis=-1)
+    s_lo, s_hi = np.sqrt(np.maximum(lo, 0.0)), np.sqrt(np.maximum(hi, 0.0))
+    return (np.where(ok, out[0], 0.5 * (s_lo + s_hi)), np.where(ok[..., None], out[1], 0.0),
+            np.where(ok, out[2], 0.5 * (s_hi - s_lo)))
+
+
+def _acos_sin(a):
+    """``cos`` and ``sin`` of an affine angle (``|f''| <= 1``)."""
+    one = lambda lo, hi: np.ones_like(lo)      # noqa: E731
+    return (_aunivariate(a, np.cos, lambda m: -np.sin(m), one), _aunivariate(a, np.sin, np.cos, one))
+
+
+def _aunit(a):
+    """``d / |d|`` of affine 3-vectors."""
+    return _amul(a, _aexpand(_ainv_sqrt(_adot(a, a))))
+
+
+def _aconst_vec(v, n: int):
+    return _af(np.broadcast_to(np.asarray(v, dtype=float), (n, 3)))
+
+
+def _aproj_cols(a):
     """The three columns of ``I - a a^T`` (a unit): they map the unit ball onto the unit disc normal to ``a``."""
-    return [_sub(_iv(np.broadcast_to(_EYE3[k], a[0].shape)), _mul(a, (a[0][..., k:k + 1], a[1][..., k:k + 1])))
-            for k in range(3)]
-
-
-def _const_vec(v, n: int):
-    return _iv(np.broadcast_to(np.asarray(v, dtype=float), (n, 3)).copy())
-
-
-def _square(lo, hi):
-    """Exact range of ``x^2`` over ``[lo, hi]``."""
-    a, b = lo * lo, hi * hi
-    return np.where((lo <= 0) & (hi >= 0), 0.0, np.minimum(a, b)), np.maximum(a, b)
+    n = a[0].shape[0]
+    return [_asub(_aconst_vec(_EYE3[k], n), _amul(a, _aexpand(_acomp(a, k)))) for k in range(3)]
 
 
 def _rot_gens(ws, centre, p):
     """Rotation generators: twists ``[w x (P - c), w]``."""
-    arm = _sub(p, centre)
-    return [(_cross(w, arm), w) for w in ws]
+    arm = _asub(p, centre)
+    return [(_across(w, arm), w) for w in ws]
 
 
 def _tr_gens(vs):
     return [(v, None) for v in vs]
 
 
-def _revolute_iv(key, axis, centre, p):
+def _revolute_af(key, axis, centre, p):
     if key == "radial":
-        return [_tr_gens(_proj_cols(axis))]
+        return [_tr_gens(_aproj_cols(axis))]
     if key == "axial":
         return [_tr_gens([axis])]
     if key in ("tilt", "direction"):
-        return [_rot_gens(_proj_cols(axis), centre, p)]
+        return [_rot_gens(_aproj_cols(axis), centre, p)]
     raise ConfigError(f"no {key!r} source on a revolute")
 
 
-def _leg_box(leg, p, rot, n):
-    """Leg ``i``'s enclosures over the boxes: its closure rows ``[(f, m)]`` and a context for its sources, and
-    whether the leg provably cannot reach (or stays outside its stroke) on the whole box."""
-    A = _const_vec(leg.base, n)                 # rot: R (midpoint-radius) of a 3-RPS / 3-PRS, None: identity
+def _stroke_out(q, stroke):
+    """Boxes on which the affine value ``q`` is surely outside ``stroke`` (with twice the limits' tolerance)."""
+    lo, hi = stroke
+    tol = 2 * LIMIT_TOLERANCE * max(1.0, hi - lo, abs(hi), abs(lo))
+    rad = _arad(q)
+    return (q[0] - rad > hi + tol) | (q[0] + rad < lo - tol)
+
+
+def _leg_box(leg, p, R, n):
+    """Leg ``i``'s affine forms over the boxes: its closure rows ``[(f, m)]``, a context for its sources, and
+    whether no pose of the box is reachable by it within its stroke. ``R``: the affine rotation of a 3-RPS /
+    3-PRS, None for the identity."""
+    A = _aconst_vec(leg.base, n)
     b = np.asarray(leg.platform, dtype=float)
-    Rb = _const_vec(b, n) if rot is None else _matmul(rot, _iv(np.broadcast_to(b, (n, 3))[..., None]))
-    if rot is not None:
-        Rb = (Rb[0][..., 0], Rb[1][..., 0])
-    B = _add(p, Rb)
-    raw = _sub(B, A)
-    d = _unit(raw)
-    ctx = {"A": A, "B": B, "d": d, "p": p, "Rb": Rb, "rot": rot}
+    if R is None:
+        Rb = _aconst_vec(b, n)
+    else:
+        Rb = _amatmul(R, _af(np.broadcast_to(b[:, None], (n, 3, 1))))
+        Rb = (Rb[0][..., 0], Rb[1][..., 0, :], Rb[2][..., 0])
+    B = _aadd(p, Rb)
+    raw = _asub(B, A)
+    ctx = {"A": A, "B": B, "p": p, "Rb": Rb, "R": R}
     out = np.zeros(n, dtype=bool)
     if isinstance(leg, DeltaLeg):
+        # theta = psi - mode alpha, cos alpha = K / rho, so d(theta) = cos(theta) x + sin(theta) y with
+        # cos(theta) = cos(psi) c + mode sin(psi) sqrt(1 - c^2), sin(theta) = sin(psi) c - mode cos(psi) sqrt(1 - c^2)
         a, x, y = (np.asarray(v, dtype=float) for v in leg._frame())
-        lo, hi = raw[0] - raw[1], raw[0] + raw[1]
-        sq = _square(lo, hi)
-        K = ((np.sum(sq[0], -1) + leg.arm ** 2 - leg.rod ** 2) / (2 * leg.arm),
-             (np.sum(sq[1], -1) + leg.arm ** 2 - leg.rod ** 2) / (2 * leg.arm))
-        exy = np.stack([raw[0] @ x, raw[0] @ y], -1)
-        dxy = np.hypot(raw[1] @ np.abs(x), raw[1] @ np.abs(y))
-        rho = np.linalg.norm(exy, axis=-1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dpsi = np.where(rho > dxy, np.arcsin(np.minimum(dxy / rho, 1.0)), np.inf)
-            rlo = np.maximum(rho - dxy, 0.0)
-            clo = np.where(K[0] >= 0, K[0] / (rho + dxy), K[0] / rlo)
-            chi = np.where(K[1] >= 0, K[1] / rlo, K[1] / (rho + dxy))
-        out |= (clo > 1.0 + 1e-12) | (chi < -1.0 - 1e-12)      # no pose of the box reaches
-        acl, ach = np.arccos(np.clip(chi, -1.0, 1.0)), np.arccos(np.clip(clo, -1.0, 1.0))
-        psi = np.arctan2(exy[:, 1], exy[:, 0])
-        th_m = psi - leg.mode * 0.5 * (acl + ach)
-        th_r = dpsi + 0.5 * (ach - acl)
-        th_r = np.where(np.isfinite(th_r) & ~out, th_r, np.inf)
-        cs = (np.cos(th_m), np.minimum(th_r, 2.0))
-        sn = (np.sin(th_m), np.minimum(th_r, 2.0))
-        arm_dir = _add(_mul((cs[0][:, None], cs[1][:, None]), _iv(np.broadcast_to(x, (n, 3)))),
-                       _mul((sn[0][:, None], sn[1][:, None]), _iv(np.broadcast_to(y, (n, 3)))))
-        Cm = _add(A, _scale(arm_dir, leg.arm))
-        half = 0.5 * leg.spacing
+        ex, ey = _adot(raw, _aconst_vec(x, n)), _adot(raw, _aconst_vec(y, n))
+        inv_rho = _ainv_sqrt(_aadd(_amul(ex, ex), _amul(ey, ey)))
+        K = _ascale(_aadd(_adot(raw, raw), _af(np.full(n, leg.arm ** 2 - leg.rod ** 2))), 1.0 / (2 * leg.arm))
+        c = _amul(K, inv_rho)
+        rad_c = _arad(c)
+        out |= (c[0] - rad_c > 1.0 + 1e-12) | (c[0] + rad_c < -1.0 - 1e-12)     # the arm cannot reach
+        sa = _asqrt_feasible(_asub(_af(np.ones(n)), _amul(c, c)))
+        cpsi, spsi = _amul(ex, inv_rho), _amul(ey, inv_rho)
+        cos_t = _aadd(_amul(cpsi, c), _ascale(_amul(spsi, sa), leg.mode))
+        sin_t = _asub(_amul(spsi, c), _ascale(_amul(cpsi, sa), leg.mode))
+        arm_dir = _aadd(_amul(_aexpand(cos_t), _aconst_vec(x, n)), _amul(_aexpand(sin_t), _aconst_vec(y, n)))
+        Cm = _aadd(A, _ascale(arm_dir, leg.arm))
         Cs, Bs, rows = [], [], []
-        for s in (half, -half):
-            Cj = _add(Cm, _const_vec(s * a, n))
-            Bj = _add(B, _const_vec(s * a, n))
-            nj = _unit(_sub(Bj, Cj))
+        for s in (0.5 * leg.spacing, -0.5 * leg.spacing):
+            Cj = _aadd(Cm, _aconst_vec(s * a, n))
+            Bj = _aadd(B, _aconst_vec(s * a, n))
+            nj = _aunit(_asub(Bj, Cj))
             Cs.append(Cj)
             Bs.append(Bj)
-            rows.append((nj, _cross(_add(Rb, _const_vec(s * a, n)), nj)))
+            rows.append((nj, _across(_aadd(Rb, _aconst_vec(s * a, n)), nj)))
         ctx.update(C=Cs, Bs=Bs, arm_dir=arm_dir)
         return rows, ctx, out
     if isinstance(leg, PRSLeg):
-        s_ = np.asarray(leg.slide, dtype=float)
-        lo, hi = raw[0] - raw[1], raw[0] + raw[1]
-        se = (raw[0] @ s_, raw[1] @ np.abs(s_))
-        sq = _square(lo, hi)
-        ee = _of_interval(np.sum(sq[0], -1), np.sum(sq[1], -1))
-        se2 = _of_interval(*_square(se[0] - se[1], se[0] + se[1]))
-        disc = _add(_sub(se2, ee), _iv(np.full(n, leg.rod ** 2)))
-        dlo, dhi = disc[0] - disc[1], disc[0] + disc[1]
-        out |= dhi < 0
-        sq_ = _of_interval(np.sqrt(np.maximum(dlo, 0.0)), np.sqrt(np.maximum(dhi, 0.0)))
-        q = _sub(se, _scale(sq_, leg.mode))
-        lo_s, hi_s = leg.slide_range
-        tol = 2 * LIMIT_TOLERANCE * max(1.0, hi_s - lo_s, abs(hi_s), abs(lo_s))
-        out |= (q[0] - q[1] > hi_s + tol) | (q[0] + q[1] < lo_s - tol)
-        carriage = _add(A, _mul((q[0][:, None], q[1][:, None]), _iv(np.broadcast_to(s_, (n, 3)))))
-        nvec = _unit(_sub(B, carriage))
-        ax = _const_vec(leg.axis, n)
-        ctx.update(carriage=carriage, rod_dir=nvec)
-        return [(nvec, _cross(Rb, nvec)), (ax, _cross(Rb, ax))], ctx, out
+        s_ = _aconst_vec(leg.slide, n)
+        se = _adot(raw, s_)
+        disc = _aadd(_asub(_amul(se, se), _adot(raw, raw)), _af(np.full(n, leg.rod ** 2)))
+        out |= disc[0] + _arad(disc) < 0
+        q = _asub(se, _ascale(_asqrt_feasible(disc), leg.mode))
+        out |= _stroke_out(q, leg.slide_range)
+        carriage = _aadd(A, _amul(_aexpand(q), s_))
+        nvec = _aunit(_asub(B, carriage))
+        ax = _aconst_vec(leg.axis, n)
+        ctx.update(carriage=carriage, rod_dir=nvec, d=_aunit(raw))
+        return [(nvec, _across(Rb, nvec)), (ax, _across(Rb, ax))], ctx, out
     # 3-UPU, 3-RPS: a leg of actuated length
-    L = np.linalg.norm(raw[0], axis=-1)
-    delta = np.linalg.norm(raw[1], axis=-1)
-    lo_s, hi_s = leg.stroke
-    tol = 2 * LIMIT_TOLERANCE * max(1.0, hi_s - lo_s, abs(hi_s), abs(lo_s))
-    out |= (L - delta > hi_s + tol) | (L + delta < lo_s - tol)
-    rows = [(d, _cross(Rb, d))]
+    L = _asqrt_feasible(_adot(raw, raw))
+    out |= _stroke_out(L, leg.stroke)
+    d = _aunit(raw)
+    ctx["d"] = d
+    rows = [(d, _across(Rb, d))]
     if isinstance(leg, UPULeg):
-        u1 = _const_vec(leg.base_axis, n)
-        rows.append((_iv(np.zeros((n, 3))), _unit(_cross(u1, _cross(u1, raw)))))
+        u1 = _aconst_vec(leg.base_axis, n)
+        rows.append((_aconst_vec(np.zeros(3), n), _aunit(_across(u1, _across(u1, raw)))))
     else:
-        ax = _const_vec(leg.axis, n)
-        rows.append((ax, _cross(Rb, ax)))
+        ax = _aconst_vec(leg.axis, n)
+        rows.append((ax, _across(Rb, ax)))
     return rows, ctx, out
 
 
-def _source_gens_iv(robot, leg, joint, key, ctx, n):
+def _source_gens_af(robot, leg, joint, key, ctx, n):
     """A source's generator groups (each a list of twists ``(v, w)``, ``None`` for zero parts) over the boxes, and
     the leg's rows it acts on (None: all); the same sets as ``spatial_bounds._joint_generators``."""
     kind = JOINTS[robot.architecture][joint]
-    A, B, d, p = ctx["A"], ctx["B"], ctx["d"], ctx["p"]
-    basis = [_tr_gens([_const_vec(e, n) for e in _EYE3])]
+    A, B, p = ctx["A"], ctx["B"], ctx["p"]
+    basis = [_tr_gens([_aconst_vec(e, n) for e in _EYE3])]
     if isinstance(leg, DeltaLeg):
         rows = None
-        axis = _const_vec(leg.axis, n)
+        axis = _aconst_vec(leg.axis, n)
         if joint == 0:
             centre = A
         else:
@@ -856,50 +912,51 @@ def _source_gens_iv(robot, leg, joint, key, ctx, n):
         if key == "length":
             if joint == 0:
                 return [_tr_gens([ctx["arm_dir"]])], rows
-            return [_tr_gens([_unit(_sub(ctx["Bs"][rod], ctx["C"][rod]))])], rows
-        return _revolute_iv(key, axis, centre, p), rows
+            return [_tr_gens([_aunit(_asub(ctx["Bs"][rod], ctx["C"][rod]))])], rows
+        return _revolute_af(key, axis, centre, p), rows
+    d = ctx["d"]
     if key == "length":
         if isinstance(leg, PRSLeg):
-            return [_tr_gens([ctx["rod_dir"] if kind == "R" else _const_vec(leg.slide, n)])], None
+            return [_tr_gens([ctx["rod_dir"] if kind == "R" else _aconst_vec(leg.slide, n)])], None
         return [_tr_gens([d])], None
     if kind == "S" or key == "position":
         return basis, None
     if kind == "P":
         if isinstance(leg, PRSLeg):
-            axis, centre, origin = _const_vec(leg.slide, n), ctx["carriage"], A
+            axis, centre, origin = _aconst_vec(leg.slide, n), ctx["carriage"], A
         else:
-            axis, centre, origin = d, _scale(_add(A, B), 0.5), A
+            axis, centre, origin = d, _ascale(_aadd(A, B), 0.5), A
         if key in ("actuator", "backlash"):
             return [_tr_gens([axis])], None
         if key == "lateral":
-            return [_tr_gens(_proj_cols(axis))], None
+            return [_tr_gens(_aproj_cols(axis))], None
         if key == "tilt":
-            return [_rot_gens(_proj_cols(axis), centre, p)], None
+            return [_rot_gens(_aproj_cols(axis), centre, p)], None
         if key == "direction":
-            return [_rot_gens(_proj_cols(axis), origin, p)], None
+            return [_rot_gens(_aproj_cols(axis), origin, p)], None
     if kind == "R":
         centre = ctx["carriage"] if isinstance(leg, PRSLeg) else A
-        return _revolute_iv(key, _const_vec(leg.axis, n), centre, p), None
+        return _revolute_af(key, _aconst_vec(leg.axis, n), centre, p), None
     if kind == "U":
         if joint == 0:
             centre = A
-            u1 = _const_vec(leg.base_axis, n)
-            u2 = _unit(_cross(u1, d))
-            m, fixed = _unit(_cross(u1, u2)), u1
+            u1 = _aconst_vec(leg.base_axis, n)
+            u2 = _aunit(_across(u1, d))
+            m, fixed = _aunit(_across(u1, u2)), u1
         else:
             centre = B
-            u4 = _const_vec(leg.platform_axis, n)      # a 3-UPU's platform does not turn
-            u1 = _unit(_cross(u4, d))
+            u4 = _aconst_vec(leg.platform_axis, n)      # a 3-UPU's platform does not turn
+            u1 = _aunit(_across(u4, d))
             u2, fixed = u4, u4
-            m = _unit(_cross(u1, u2))
+            m = _aunit(_across(u1, u2))
         if key == "radial":
-            return [_tr_gens(_proj_cols(u1)), _tr_gens(_proj_cols(u2))], None
+            return [_tr_gens(_aproj_cols(u1)), _tr_gens(_aproj_cols(u2))], None
         if key == "axial":
             return [_tr_gens([u1]), _tr_gens([u2])], None
         if key == "tilt":
             return [_rot_gens([m], centre, p)], None
         if key == "direction":
-            return [_rot_gens(_proj_cols(fixed), centre, p)], None
+            return [_rot_gens(_aproj_cols(fixed), centre, p)], None
     raise ConfigError(f"no {key!r} source on joint {joint + 1} of a {robot.architecture} leg")
 
 
@@ -931,6 +988,16 @@ def _inverse_enclosure(robot, Wm, Wr):
     return C, Y, regular
 
 
+def _iv(m, r=None):
+    """A midpoint-radius pair (radius 0 by default)."""
+    m = np.asarray(m, dtype=float)
+    return m, (np.zeros_like(m) if r is None else np.asarray(r, dtype=float))
+
+
+def _sub(a, b):
+    return a[0] - b[0], a[1] + b[1]
+
+
 #: Krawczyk iterations (with inflation) enclosing a 3-RPS / 3-PRS's parasitic motions over a box.
 PARASITIC_ITERATIONS = 6
 
@@ -942,34 +1009,40 @@ def _cos_sin(mid, half):
     return (c, np.abs(s) * half + rem), (s, np.abs(c) * half + rem)
 
 
+def _elementary(k, c, s, n, zero, one):
+    """``Rx``, ``Ry`` or ``Rz`` (``k`` = 0, 1, 2) from forms of its cosine and sine (tuples of arrays)."""
+    i, j = [(1, 2), (0, 2), (0, 1)][k]
+    other = 3 - i - j
+    sign = -1.0 if k != 1 else 1.0        # Rx, Rz: [[c, -s], [s, c]] on (i, j); Ry: [[c, s], [-s, c]]
+    entries = [[zero] * 3 for _ in range(3)]
+    entries[other][other] = one
+    entries[i][i] = entries[j][j] = c
+    entries[i][j] = tuple(sign * x if t == 0 or (t == 1 and len(c) == 3) else x for t, x in enumerate(s))
+    entries[j][i] = tuple(-sign * x if t == 0 or (t == 1 and len(c) == 3) else x for t, x in enumerate(s))
+    return tuple(np.stack([np.stack([entries[r][q][t] for q in range(3)], 1) for r in range(3)], 1)
+                 for t in range(len(c)))
+
+
 def _rotation_iv(angles_m, angles_r):
     """``R = Rz(yaw) Ry(pitch) Rx(roll)`` (extrinsic x-y-z) over midpoint-radius angles ``(n, 3)``."""
     n = angles_m.shape[0]
     mats = []
     for k in range(3):
-        (c, cr), (s, sr) = _cos_sin(angles_m[:, k], angles_r[:, k])
-        m = np.zeros((n, 3, 3))
-        r = np.zeros((n, 3, 3))
-        i, j = [(1, 2), (0, 2), (0, 1)][k]
-        other = 3 - i - j
-        m[:, other, other] = 1.0
-        m[:, i, i] = m[:, j, j] = c
-        r[:, i, i] = r[:, j, j] = cr
-        sign = -1.0 if k != 1 else 1.0        # Rx, Rz: [[c, -s], [s, c]]; Ry: [[c, s], [-s, c]] on (i, j)
-        m[:, i, j], m[:, j, i] = sign * s, -sign * s
-        r[:, i, j] = r[:, j, i] = sr
-        mats.append((m, r))
+        c, s = _cos_sin(angles_m[:, k], angles_r[:, k])
+        mats.append(_elementary(k, c, s, n, (np.zeros(n), np.zeros(n)), (np.ones(n), np.zeros(n))))
     return _matmul(_matmul(mats[2], mats[1]), mats[0])
 
 
 def _parasitic_box(robot, mid, half):
-    """A 3-RPS / 3-PRS's parasitic ``x, y, yaw`` over boxes of ``z, roll, pitch`` ``(n, 3)``: the Krawczyk test
-    on ``g_i = axis_i . (p + R b_i - base_i) = 0`` around the solution ``s`` at the box centre
-    (:func:`~pmaccuracy.kinematics.spatial.complete_poses`) with ``Y`` the inverse of its Jacobian there: where
-    ``K = s - Y g(s, box) + (I - Y J(X, box)) (X - s)`` lies inside ``X = s +- rho``, every pose of the box has
-    exactly one solution in ``X`` (the branch of the centre's), and it lies in ``K``. Returns the position
-    ``(n, 3)`` and ``R`` ``(n, 3, 3)`` (midpoint-radius) and whether the centre has no solution; boxes where the
-    test fails get infinite radii (their ``W`` is not proven regular, so they are split)."""
+    """A 3-RPS / 3-PRS's parasitic ``x, y, yaw`` over boxes of ``z, roll, pitch`` ``(n, 3)``, as affine forms in
+    ``t`` (module text): the Krawczyk test on ``g_i = axis_i . (p + R b_i - base_i) = 0`` around the solution
+    ``s`` at the box centre (:func:`~pmaccuracy.kinematics.spatial.complete_poses`), ``Y`` the inverse of its
+    Jacobian there: where ``K = s - Y g(s, box) + (I - Y J(X, box)) (X - s)`` lies inside ``X = s +- rho``, every
+    pose of the box has exactly one solution in ``X`` (the branch of the centre's). Then by the mean value
+    theorem ``y(t) - y(0)`` is in ``[A] t`` with ``[A] = -J(X, box)^-1 dg/dt(X, box)``, ``J^-1`` within
+    ``Z`` of ``Y`` (``|I - Y J| <= mag``, ``||mag||_inf = beta < 1``), and ``|y(0) - s| <= (|Y| + Z) |g(s, c)|``.
+    Returns the affine position ``(n, 3)`` and ``R`` ``(n, 3, 3)``; where the test fails their remainders are
+    infinite (``W`` is then not proven regular, and the box is split)."""
     n = mid.shape[0]
     axes = np.array([leg.axis for leg in robot.legs], dtype=float)
     bases = np.array([leg.base for leg in robot.legs], dtype=float)
@@ -979,78 +1052,109 @@ def _parasitic_box(robot, mid, half):
     s = np.zeros((n, 3))
     s[~bad] = np.column_stack([full[~bad, :2], rotvec_to_euler_xyz(full[~bad, 3:])[:, 2]])
     ez = np.array([0.0, 0.0, 1.0])
+    A3 = _iv(np.broadcast_to(axes, (n, 3, 3)))
 
-    def g_and_jac(xm, xr):
-        """``g`` (n, 3) and ``J`` (n, 3, 3) over the parameter boxes and ``x`` in ``xm +- xr``."""
-        ang_m = np.column_stack([mid[:, 1], mid[:, 2], xm[:, 2]])
-        ang_r = np.column_stack([half[:, 1], half[:, 2], xr[:, 2]])
-        R = _rotation_iv(ang_m, ang_r)
+    def evaluate(xm, xr, hv):
+        """``g`` (n, 3), ``J`` (n, 3, 3) and ``dg/dt`` (n, 3, 3) (midpoint-radius) for parameters ``mid +- hv``
+        and ``x`` in ``xm +- xr``."""
+        R = _rotation_iv(np.column_stack([mid[:, 1], mid[:, 2], xm[:, 2]]),
+                         np.column_stack([hv[:, 1], hv[:, 2], xr[:, 2]]))
         Rb = _matmul(R, _iv(np.broadcast_to(b.T, (n, 3, 3))))          # columns R b_i
         Rb = (np.swapaxes(Rb[0], 1, 2), np.swapaxes(Rb[1], 1, 2))      # (n, 3 legs, 3)
-        p = (np.column_stack([xm[:, :2], mid[:, 0]]), np.column_stack([xr[:, :2], half[:, 0]]))
+        p = (np.column_stack([xm[:, :2], mid[:, 0]]), np.column_stack([xr[:, :2], hv[:, 0]]))
         e = _sub(_add((p[0][:, None], p[1][:, None]), Rb), _iv(np.broadcast_to(bases, (n, 3, 3))))
-        g = _dot(_iv(np.broadcast_to(axes, (n, 3, 3))), e)
-        dyaw = _dot(_iv(np.broadcast_to(axes, (n, 3, 3))), _cross(_iv(np.broadcast_to(ez, (n, 3, 3))), Rb))
-        Jm = np.concatenate([np.broadcast_to(axes[:, :2], (n, 3, 2)), dyaw[0][..., None]], axis=2)
-        Jr = np.concatenate([np.zeros((n, 3, 2)), dyaw[1][..., None]], axis=2)
-        return g, (Jm, Jr), R, p
+        g = _dot(A3, e)
+        dyaw = _dot(A3, _cross(_iv(np.broadcast_to(ez, (n, 3, 3))), Rb))
+        J = (np.concatenate([np.broadcast_to(axes[:, :2], (n, 3, 2)), dyaw[0][..., None]], axis=2),
+             np.concatenate([np.zeros((n, 3, 2)), dyaw[1][..., None]], axis=2))
+        # dg/dt: z (axis_i[2] h_z), roll ((R e_x) x R b_i), pitch ((Rz e_y) x R b_i), times the half-widths
+        Rex = (np.repeat(R[0][:, None, :, 0], 3, axis=1), np.repeat(R[1][:, None, :, 0], 3, axis=1))
+        (cy, cyr), (sy, syr) = _cos_sin(xm[:, 2], xr[:, 2])
+        ey = (np.repeat(np.column_stack([-sy, cy, np.zeros(n)])[:, None], 3, axis=1),
+              np.repeat(np.column_stack([syr, cyr, np.zeros(n)])[:, None], 3, axis=1))
+        droll, dpitch = _dot(A3, _cross(Rex, Rb)), _dot(A3, _cross(ey, Rb))
+        Gt = (np.stack([axes[None, :, 2] * hv[:, 0:1], droll[0] * hv[:, 1:2], dpitch[0] * hv[:, 2:3]], axis=2),
+              np.stack([np.zeros((n, 3)), droll[1] * hv[:, 1:2], dpitch[1] * hv[:, 2:3]], axis=2))
+        return g, J, Gt
 
-    g0, (J0, _), _, _ = g_and_jac(s, np.zeros((n, 3)))
+    g0, (J0, _), _ = evaluate(s, np.zeros((n, 3)), np.zeros((n, 3)))
     ok = ~bad & (np.abs(np.linalg.det(np.where(bad[:, None, None], np.eye(3), J0))) > 1e-12)
     Y = np.zeros((n, 3, 3))
     Y[ok] = np.linalg.inv(J0[ok])
-    gc, _, _, _ = g_and_jac(s, np.zeros((n, 3)))
-    # g(s, box): the parameters vary, x = s fixed
-    base_r = np.einsum("nij,nj->ni", np.abs(Y), gc[1]) + np.abs(np.einsum("nij,nj->ni", Y, gc[0]))
-    rho = 2.0 * base_r + 1e-12 * (1.0 + np.abs(s))
+    absY = np.abs(Y)
+    gc, _, _ = evaluate(s, np.zeros((n, 3)), half)              # the parameters vary, x = s fixed
+    rho = 2.0 * (absY @ gc[1][..., None])[..., 0] + 2.0 * np.abs(np.einsum("nij,nj->ni", Y, gc[0])) \
+        + 1e-12 * (1.0 + np.abs(s))
     proven = np.zeros(n, dtype=bool)
-    Kr = np.full((n, 3), np.inf)
-    Km = s.copy()
+    X = np.zeros((n, 3))
     with np.errstate(invalid="ignore", over="ignore"):
         for _ in range(PARASITIC_ITERATIONS):
-            _, (Jm, Jr), _, _ = g_and_jac(s, rho)
-            Mm = np.eye(3) - Y @ Jm
-            mag = np.abs(Mm) + np.abs(Y) @ Jr
+            _, (Jm, Jr), _ = evaluate(s, rho, half)
+            mag = np.abs(np.eye(3) - Y @ Jm) + absY @ Jr
             km = s - np.einsum("nij,nj->ni", Y, gc[0])
-            kr = np.einsum("nij,nj->ni", np.abs(Y), gc[1]) + np.einsum("nij,nj->ni", mag, rho)
+            kr = np.einsum("nij,nj->ni", absY, gc[1]) + np.einsum("nij,nj->ni", mag, rho)
             inside = np.all(np.abs(km - s) + kr < rho, axis=1) & ok & ~proven
-            Km[inside], Kr[inside] = km[inside], kr[inside] * (1 + ROUNDING) + 1e-15
+            X[inside] = rho[inside]
             proven |= inside
             if np.all(proven | ~ok):
                 break
             rho = np.where(proven[:, None], rho, 1.5 * (np.abs(km - s) + kr) + 1e-12)
-    Kr = np.where(proven[:, None], Kr, np.inf)
-    Km = np.where(np.isfinite(Km), Km, 0.0)
-    _, _, R, p = g_and_jac(Km, np.where(np.isfinite(Kr), Kr, 0.0))
-    R = (R[0], np.where(proven[:, None, None], R[1], np.inf))
-    p = (p[0], np.where(proven[:, None], p[1], np.inf))
-    return p, R, np.zeros(n, dtype=bool)
+        X = np.where(proven[:, None], X, 0.0)
+        _, (Jm, Jr), (Gm, Gr) = evaluate(s, X, half)
+        mag = np.abs(np.eye(3) - Y @ Jm) + absY @ Jr
+        beta = np.max(np.sum(mag, axis=2), axis=1)
+        proven &= beta < 1.0
+        MY = mag @ absY
+        with np.errstate(divide="ignore"):
+            Z = MY + (beta / (1.0 - beta))[:, None, None] * np.max(MY, axis=1, keepdims=True)
+        Am = -(Y @ Gm)
+        Ar = absY @ Gr + Z @ (np.abs(Gm) + Gr)
+        g_c, _, _ = evaluate(s, np.zeros((n, 3)), np.zeros((n, 3)))
+        eps0 = ((absY + Z) @ (np.abs(g_c[0]) + g_c[1])[..., None])[..., 0]
+        rem = np.sum(Ar, axis=2) + eps0
+    rem = np.where(proven[:, None] & np.isfinite(rem), rem * (1 + ROUNDING), np.inf)
+    Am = np.where(proven[:, None, None] & np.isfinite(Am), Am, 0.0)
+    # affine forms in t: z = c_z + h_z t_0, roll = c + h t_1, pitch = c + h t_2; x, y, yaw = s + Am t +- rem
+    eye = np.eye(3)
+    z = (mid[:, 0], half[:, 0:1] * eye[0], np.zeros(n))
+    x_, y_, yaw = ((s[:, k], Am[:, k], rem[:, k]) for k in range(3))
+    p = _astack([x_, y_, z])
+    mats = []
+    for k, ang in enumerate(((mid[:, 1], half[:, 1:2] * eye[1], np.zeros(n)),
+                             (mid[:, 2], half[:, 2:3] * eye[2], np.zeros(n)), yaw)):
+        c, s_ = _acos_sin(ang)
+        mats.append(_elementary(k, c, s_, n, _af(np.zeros(n)), _af(np.ones(n))))
+    R = _amatmul(_amatmul(mats[2], mats[1]), mats[0])
+    return p, R
 
 
 def _legs_box_bounds(robot, sources, boxes, point_gap):
-    """Certified upper bounds ``(n, 8)`` over boxes ``(n, 3, 2)`` of a 3-UPU, Delta, 3-RPS or 3-PRS (the
-    enclosures above; ``inf`` where ``W`` is not proven regular), whether each box provably holds no pose of the
+    """Certified upper bounds ``(n, 8)`` over boxes ``(n, 3, 2)`` of a 3-UPU, Delta, 3-RPS or 3-PRS (the affine
+    forms above; ``inf`` where ``W`` is not proven regular), whether each box provably holds no pose of the
     workspace, whether its ``W`` is not proven regular, and (NaN) split shares."""
     n = boxes.shape[0]
     mid = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
     half = 0.5 * (boxes[:, :, 1] - boxes[:, :, 0])
-    ctx0 = {}
+    R = None
     if robot.mobility == "2R1T":
-        p, ctx0["R"], out = _parasitic_box(robot, mid, half)
+        p, R = _parasitic_box(robot, mid, half)
     else:
-        p, out = (mid, half), np.zeros(n, dtype=bool)
+        p = (mid, half[:, :, None] * np.eye(3), np.zeros((n, 3)))
+    out = np.zeros(n, dtype=bool)
     rows, ctxs = [], []
-    for i, leg in enumerate(robot.legs):
-        r, c, o = _leg_box(leg, p, ctx0.get("R"), n)
-        rows.append(r)
-        ctxs.append(c)
-        out |= o
-    flat = [row for r in rows for row in r]
-    Wm = np.stack([np.concatenate([f[0], m[0]], -1) for f, m in flat], 1)
-    Wr = np.stack([np.concatenate([f[1], m[1]], -1) for f, m in flat], 1)
-    C, Y, regular = _inverse_enclosure(robot, Wm, Wr)
+    with np.errstate(invalid="ignore", over="ignore"):
+        for leg in robot.legs:
+            r, c, o = _leg_box(leg, p, R, n)
+            rows.append(r)
+            ctxs.append(c)
+            out |= o
+        flat = [_astack([_acomp(f, 0), _acomp(f, 1), _acomp(f, 2), _acomp(m, 0), _acomp(m, 1), _acomp(m, 2)])
+                for r in rows for f, m in r]
+        W = (np.stack([f[0] for f in flat], 1), np.stack([f[1] for f in flat], 1),
+             np.stack([f[2] for f in flat], 1))                            # (n, 6, 6), G (n, 6, 6, 3)
+    C, Y, regular = _inverse_enclosure(robot, W[0], _arad(W))
+    absC = np.abs(C)
     Mm, Mr = [], []
-    absW = np.abs(C) + Y          # |W^-1| over the box
     row0 = 0
     for i, leg in enumerate(robot.legs):
         k = len(rows[i])
@@ -1059,44 +1163,46 @@ def _legs_box_bounds(robot, sources, boxes, point_gap):
                 if h == 0:
                     continue
                 kind = "actuator" if key == "backlash" and robot.actuated_kinds[i] == "R" else key
-                groups, which = _source_gens_iv(robot, leg, j, kind, ctxs[i], n)
+                groups, which = _source_gens_af(robot, leg, j, kind, ctxs[i], n)
                 for gens in groups:
-                    Em = np.zeros((n, k, len(gens)))
-                    Er = np.zeros((n, k, len(gens)))
-                    for r_, (f, m) in enumerate(rows[i]):
-                        if which is not None and r_ not in which:
-                            continue
-                        for c_, (v, w) in enumerate(gens):
-                            e = _dot(f, v)
-                            if w is not None:
-                                e = _add(e, _dot(m, w))
-                            Em[:, r_, c_], Er[:, r_, c_] = e
-                    # M(x) = W(x)^-1 E(x) (E padded to the six rows): with Mc = C Em,
-                    # M(x) - Mc = W(x)^-1 (E(x) - W(x) Mc), E(x) - W(x) Mc in (Em - Wm Mc) +- (Er + Wr |Mc|)
-                    Ep = np.zeros((n, 6, len(gens)))
-                    Erp = np.zeros((n, 6, len(gens)))
-                    Ep[:, row0:row0 + k], Erp[:, row0:row0 + k] = h * Em, h * Er
+                    d = len(gens)
+                    Em, EG, Er = np.zeros((n, 6, d)), np.zeros((n, 6, d, 3)), np.zeros((n, 6, d))
                     with np.errstate(invalid="ignore", over="ignore"):
-                        Mc = C @ Ep
-                        res = np.abs(Ep - Wm @ Mc) + Erp + Wr @ np.abs(Mc)
+                        for r_, (f, m) in enumerate(rows[i]):
+                            if which is not None and r_ not in which:
+                                continue
+                            for c_, (v, w) in enumerate(gens):
+                                e = _adot(f, v)
+                                if w is not None:
+                                    e = _aadd(e, _adot(m, w))
+                                Em[:, row0 + r_, c_], EG[:, row0 + r_, c_], Er[:, row0 + r_, c_] = \
+                                    h * e[0], h * e[1], h * e[2]
+                        # M(t) = W(t)^-1 E(t) (E padded to the six rows), Mc = C E(0):
+                        # M(t) - Mc = W(t)^-1 Res(t), Res(t) = E(t) - W(t) Mc = Res0 + D t + e,
+                        # |e| <= Er + Wr |Mc|; |W^-1 Res| <= |C Res0| + sum_l |C D_l| + |C| |e| + Y |Res|
+                        Mc = C @ Em
+                        res0 = Em - W[0] @ Mc
+                        D = EG - np.einsum("nikl,nkj->nijl", W[1], Mc)
+                        e_r = Er + W[2] @ np.abs(Mc)
+                        res_mag = np.abs(res0) + np.sum(np.abs(D), axis=-1) + e_r
+                        lin = np.abs(C @ res0) + np.sum(np.abs(np.einsum("nik,nkjl->nijl", C, D)), axis=-1)
                         Mm.append(Mc)
-                        Mr.append(absW @ res)
+                        Mr.append(lin + absC @ e_r + Y @ res_mag)
         row0 += k
     upper = np.full((n, len(QUANTITIES)), np.inf)
-    if Mm:
-        sel = regular & ~out
+    sel = regular & ~out
+    if Mm and np.any(sel):
         with np.errstate(invalid="ignore", over="ignore"):
             comp = sum(np.linalg.norm(np.abs(a) + b, axis=-1) for a, b in zip(Mm, Mr))
             vals = [comp]
             for rs in (slice(0, 3), slice(3, 6)):
                 extra = sum(np.linalg.norm(b[:, rs], axis=(1, 2)) for b in Mr)
                 mn = np.zeros(n)
-                if np.any(sel):
-                    mn[sel] = max_norm([a[sel][:, rs] for a in Mm], gap=point_gap).upper
+                mn[sel] = max_norm([a[sel][:, rs] for a in Mm], gap=point_gap).upper
                 vals.append((mn + extra)[:, None])
         vals = np.concatenate(vals, axis=1) * (1 + ROUNDING)
         upper[sel] = np.where(np.isfinite(vals[sel]), vals[sel], np.inf)
-    else:
+    elif not Mm:
         upper[regular] = 0.0
     return upper, out, ~regular, np.full((n, 3), np.nan)
 
