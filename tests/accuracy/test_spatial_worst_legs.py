@@ -17,6 +17,7 @@ from pmaccuracy.accuracy.spatial_worst import QUANTITIES, spatial_global_worst, 
 from pmaccuracy.kinematics.spatial import complete_poses, inverse_kinematics
 from pmaccuracy.model.spatial import SpatialManipulator
 from pmaccuracy.model.spatial_sources import SpatialErrorSources
+from pmaccuracy.numerics.spatial import rotvec_to_euler_xyz
 
 
 def _robot(arch):
@@ -33,6 +34,13 @@ def _centre(robot_dict):
     return p
 
 
+def _coordinates(robot, pose):
+    """The region coordinates of a full pose."""
+    if robot.mobility == "2R1T":
+        return np.array([pose[2], *rotvec_to_euler_xyz(pose[3:])[:2]])
+    return pose[:3]
+
+
 def _sampled(robot, sources, region, n, rng):
     """The pointwise worst values ``(m, 8)`` on an n^3 grid and 200 random points of the region's box."""
     b = region.bounds
@@ -45,9 +53,8 @@ def _sampled(robot, sources, region, n, rng):
     return np.column_stack([r.components, r.dp_lower, r.dtheta_lower])
 
 
-# half-widths (mm; rad for roll, pitch) of the small regions about the home pose
-SMALL = {"3-UPU": (0.5, 0.5, 0.5), "delta": (0.25, 0.25, 0.25), "3-RPS": (0.5, 0.002, 0.002),
-         "3-PRS": (0.25, 0.001, 0.001)}
+# half-widths (mm; rad for roll, pitch) of the regions about the home pose
+SMALL = {"3-UPU": (5.0, 5.0, 5.0), "delta": (5.0, 5.0, 5.0), "3-RPS": (5.0, 0.02, 0.02), "3-PRS": (5.0, 0.02, 0.02)}
 
 
 @pytest.mark.parametrize("arch", sorted(SMALL))
@@ -61,29 +68,34 @@ def test_certified_upper_never_below_the_region_and_lower_attained(arch):
     assert res.certified and not res.reason
     assert all(res[q].converged for q in QUANTITIES), res.quantities
     assert np.all(lower <= upper) and np.all(upper <= lower * 1.01 * (1 + 1e-9))
-    sampled = _sampled(robot, sources, region, 9, np.random.default_rng(7))
+    sampled = _sampled(robot, sources, region, 8, np.random.default_rng(7))
     assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)
     assert np.all(sampled.max(axis=0) >= lower * (1 - 0.011))      # near the maximum (gap 1 %)
-    # attained: at the returned pose the first-order map by finite differences of the exact nonlinear closure
-    for k, name in enumerate(QUANTITIES[:6]):
+    # attained: each lower value is the pointwise value at its pose, and at the pose of dp the first-order map by
+    # finite differences of the exact nonlinear closure gives those pointwise values and dp
+    for k, name in enumerate(QUANTITIES):
         pose = res[name].pose
-        M, src = eref.sensitivity(robot_dict, cl, pose[:3], ref.from_rotvec(pose[3:]))
-        assert eref.component_bounds(M, src)[k] == pytest.approx(res[name].lower, rel=1e-5), name
+        assert region.contains(_coordinates(robot, pose)), name
+        r = spatial_pose_errors(robot, sources, pose, gap=1e-4)
+        value = np.concatenate([r.components, [r.dp_upper, r.dtheta_upper]])[k]
+        assert res[name].lower <= value * (1 + 1e-12) and value <= res[name].lower * (1 + 2e-3), name
     pose = res["dp"].pose
     M, src = eref.sensitivity(robot_dict, cl, pose[:3], ref.from_rotvec(pose[3:]))
-    dp = eref.max_norm_sampled(M, src, rows=slice(0, 3), n=4000, refine=15, n_best=5)
+    r = spatial_pose_errors(robot, sources, pose)
+    assert eref.component_bounds(M, src) == pytest.approx(r.components, rel=1e-5)
+    dp = eref.max_norm_sampled(M, src, rows=slice(0, 3), n=2000, refine=15, n_best=5)
     assert res["dp"].lower * (1 - 2e-3) <= dp <= res["dp"].lower * (1 + 2e-3)
 
 
-@pytest.mark.parametrize("arch, half", [("3-UPU", (6.0, 6.0, 6.0)), ("delta", (5.0, 5.0, 5.0)),
-                                        ("3-RPS", (5.0, 0.03, 0.03)), ("3-PRS", (5.0, 0.03, 0.03))])
+@pytest.mark.parametrize("arch, half", [("3-UPU", (40.0, 40.0, 40.0)), ("delta", (40.0, 40.0, 40.0)),
+                                        ("3-RPS", (10.0, 0.05, 0.05)), ("3-PRS", (10.0, 0.05, 0.05))])
 def test_wider_regions_never_exceeded(arch, half):
     """A wider region on a small box budget: the bounds are looser but hold."""
     robot_dict, cl, robot, sources = _robot(arch)
     c, h = _centre(robot_dict), np.array(half)
     region = spatial_region(robot, box=np.column_stack([c - h, c + h]).ravel())
-    res = spatial_global_worst(robot, sources, region, gap=0.05, max_boxes=3000)
+    res = spatial_global_worst(robot, sources, region, gap=0.01, max_boxes=150)
     upper = np.array([res[q].upper for q in QUANTITIES])
     assert res.certified and np.all(np.isfinite(upper))
-    sampled = _sampled(robot, sources, region, 7, np.random.default_rng(8))
+    sampled = _sampled(robot, sources, region, 6, np.random.default_rng(8))
     assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)

@@ -1131,7 +1131,13 @@ def _parasitic_box(robot, mid, half):
 def _legs_box_bounds(robot, sources, boxes, point_gap):
     """Certified upper bounds ``(n, 8)`` over boxes ``(n, 3, 2)`` of a 3-UPU, Delta, 3-RPS or 3-PRS (the affine
     forms above; ``inf`` where ``W`` is not proven regular), whether each box provably holds no pose of the
-    workspace, whether its ``W`` is not proven regular, and (NaN) split shares."""
+    workspace, whether its ``W`` is not proven regular, and (NaN) split shares. An infinite remainder times 0
+    gives NaN, which every test reads as unproven (never as a finite bound)."""
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        return _legs_box_bounds_of(robot, sources, boxes, point_gap)
+
+
+def _legs_box_bounds_of(robot, sources, boxes, point_gap):
     n = boxes.shape[0]
     mid = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
     half = 0.5 * (boxes[:, :, 1] - boxes[:, :, 0])
