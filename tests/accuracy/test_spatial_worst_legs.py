@@ -13,7 +13,7 @@ import spatial_error_reference as eref
 import spatial_reference as ref
 
 from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
-from pmaccuracy.accuracy.spatial_worst import QUANTITIES, spatial_global_worst, spatial_region
+from pmaccuracy.accuracy.spatial_worst import QUANTITIES, SpatialRegion, spatial_global_worst, spatial_region
 from pmaccuracy.kinematics.spatial import complete_poses, inverse_kinematics
 from pmaccuracy.model.spatial import SpatialManipulator
 from pmaccuracy.model.spatial_sources import SpatialErrorSources
@@ -99,3 +99,22 @@ def test_wider_regions_never_exceeded(arch, half):
     assert res.certified and np.all(np.isfinite(upper))
     sampled = _sampled(robot, sources, region, 6, np.random.default_rng(8))
     assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)
+
+
+def test_whole_workspace_of_a_3rps_is_not_certified_and_the_delta_box_holds_its_workspace():
+    """Over a 3-RPS's workspace (its box of z, roll, pitch is sampled, not proven) the upper values are inf with
+    the reason; a Delta's workspace box (rods' midpoints within arm + rod of the base joints) holds every
+    reachable position, checked by sampling positions and the inverse kinematics."""
+    robot_dict, _, robot, sources = _robot("3-RPS")
+    c = _centre(robot_dict)          # a workspace region (its box as spatial_region would sample it, smaller)
+    region = SpatialRegion("workspace", ("z", "roll", "pitch"), np.column_stack([c - 1e-3, c + 1e-3]))
+    res = spatial_global_worst(robot, sources, region, grid=2)
+    assert not res.certified and "workspace" in res.reason
+    assert all(np.isinf(res[q].upper) and res[q].lower > 0 for q in QUANTITIES)
+    _, _, delta, _ = _robot("delta")
+    b = spatial_region(delta).bounds
+    rng = np.random.default_rng(9)
+    pts = rng.uniform(-2500.0, 2500.0, (50_000, 3))
+    reach = np.asarray(inverse_kinematics(delta, np.column_stack([pts, np.zeros_like(pts)])).reachable)
+    assert reach.sum() > 100
+    assert np.all((pts[reach] >= b[:, 0]) & (pts[reach] <= b[:, 1]))

@@ -11,7 +11,7 @@ reach, a limit is violated) are not part of the region. The quantities are the s
 the centres of the branch-and-bound boxes), exact there (:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`;
 for ``dp`` and ``dtheta`` its attained value), so attained at the pose returned.
 
-**Upper bound** (6-UPS only, branch and bound on boxes of ``x, y, z`` and the orientation angles): a 6-UPS's error
+**Upper bound of a 6-UPS** (branch and bound on boxes of ``x, y, z`` and the orientation angles): a 6-UPS's error
 set is six segments ``rho_i(c_i) W^-1 e_i`` (leg ``i``'s sources act through its length; ``c_i = |u_i . u1_i|``),
 so over a box with centre pose ``c``, position half-widths ``r`` and angle half-widths ``a``:
 
@@ -51,10 +51,36 @@ of the region with a condition number above
 :data:`~pmaccuracy.accuracy.spatial_bounds.MAX_CONDITION`, means the region reaches a singularity:
 :class:`SpatialSingularRegionError` (the errors are unbounded there), never a finite number.
 
-The other architectures (Delta, 3-UPU, 3-RPS, 3-PRS) get the attained lower bounds (grid then local grid
-refinement around the best poses) and ``upper = inf`` with ``certified = False``: their error sets have no
-enclosure over a box yet (the Delta's arm angles and the 3-RPS/3-PRS parasitic motions are implicit functions
-of the controlled coordinates, whose interval extension is not written).
+**Upper bound of a 3-UPU, Delta, 3-RPS or 3-PRS** (boxes of the three region coordinates): over a box with
+centre ``c`` and half-widths ``h``, ``x = c + h t`` with ``t`` in ``[-1, 1]^3``, every quantity is held as a
+first-order affine form ``m + G t + e``, ``|e| <= r`` (entrywise): sums exactly; products keep the linear parts
+and put ``(|G_a|_1 + r_a)(|G_b|_1 + r_b)`` into ``r``; a smooth function (``1/sqrt``, ``sqrt``, ``cos``,
+``sin``) is linearized at ``m`` with the Taylor remainder ``max |f''| rad^2 / 2`` over the range. So the
+remainders shrink with the square of the box. Built this way from the closed forms:
+
+* the legs' closure rows (:mod:`pmaccuracy.model.spatial_legs`) and every source's generator twists, the same
+  sets as :func:`~pmaccuracy.accuracy.spatial_bounds.error_sources_at` (a disc of translations or rotations
+  normal to ``a`` as the image of the unit ball by ``I - a a^T``, which spans the same set);
+* a Delta's arm direction without its angle: ``theta = psi - mode alpha`` with ``cos alpha = K / rho``,
+  ``(cos psi, sin psi) = (e.x, e.y) / rho``, so ``cos theta = cos psi c + mode sin psi sqrt(1 - c^2)`` (and the
+  sine); a box on which ``c`` is surely outside ``[-1, 1]`` is unreachable and dropped, and where ``1 - c^2``
+  may reach 0 its square root is the constant form of its range over the reachable poses;
+* a 3-PRS's slide value from its closed form ``q = s.e - mode sqrt(disc)`` (the same square root);
+* a 3-RPS's or 3-PRS's parasitic ``x, y, yaw``: the Krawczyk test on the three constraints around the solution
+  at the box centre proves that every pose of the box has exactly one solution near it (the branch of the
+  centre's), and the mean value theorem, ``dy/dt = -J^-1 dg/dt`` enclosed over that enclosure, gives the affine
+  forms (:func:`_parasitic_box`); ``R = Rz(yaw) Ry(pitch) Rx(roll)`` from them.
+
+Then ``W^-1`` over ``W``'s range by the Neumann enclosure above (``C = W_c^-1``, ``|W^-1 - C| <= Y``), and
+each source's block ``M_s = W^-1 E_s`` (``E_s`` its image in its leg's rows, padded to six) by the residual:
+``M_s(t) - M_c = W^-1 (E_s(t) - W(t) M_c)`` with ``M_c = C E_s(c)``, whose affine residual keeps the
+cancellation of ``E``'s and ``W``'s variations: ``|M_s(t) - M_c| <= |C R_0| + sum_l |C D_l| + |C| e + Y |R|``.
+So ``dx_max <= sum_s || |M_c| + Mr ||_2`` (and so on) and ``|dp|_max <= max_norm(M_c[:3]) + sum_s
+||Mr[:3]||_F`` (:func:`~pmaccuracy.numerics.support.max_norm`'s certified upper value; ``dtheta`` the same).
+A box on which a leg's length or slide value is surely outside its stroke is dropped. Over a 3-RPS's or
+3-PRS's whole workspace the box of ``z, roll, pitch`` is sampled, not proven, so the upper bound there is not
+certified (``inf``, with the reason); a robot of joint chains (``spatial-chain``) gets attained lower bounds
+only (grid then local grid refinement around the best poses), ``upper = inf`` and ``certified = False``.
 """
 
 from __future__ import annotations
@@ -96,8 +122,11 @@ KINDS = ("box", "cylinder", "sphere", "workspace")
 #: The architectures whose upper bounds are certified (a robot of joint chains is not).
 CERTIFIED = ("6-UPS", "3-UPU", "delta", "3-RPS", "3-PRS")
 #: Why the upper bound of an architecture is not certified.
-UNCERTIFIED = ("no interval enclosure of the {arch} error set over a box is implemented (its joint motions are "
-               "implicit functions of the controlled coordinates): the upper bound is not certified")
+UNCERTIFIED = ("no enclosure of the error set of a {arch} built of joint chains over a box is implemented: the upper "
+               "bound is not certified")
+#: Why the upper bound over a 3-RPS's or 3-PRS's whole workspace is not certified.
+UNBOUNDED = ("the box of z, roll, pitch holding a {arch}'s workspace is sampled, not proven: the upper bound over "
+             "the workspace is not certified (give a box)")
 
 
 class SpatialSingularRegionError(SingularPoseError):
@@ -184,8 +213,17 @@ def _finite(values, n: int, key: str, what: str) -> np.ndarray:
 
 def _workspace_bounds(robot: SpatialManipulator, orientation: np.ndarray | None) -> np.ndarray:
     """A box ``(3, 2)`` of the region coordinates holding the workspace: for legs with a length stroke (6-UPS,
-    3-UPU) every position within ``max stroke`` of ``A_i - R b_i`` for every ``R`` of the orientation box
-    (rigorous); otherwise a sampled workspace's bounding box widened by two cells (lower bounds only)."""
+    3-UPU) every position within ``max stroke`` of ``A_i - R b_i`` for every ``R`` of the orientation box, for a
+    Delta within ``arm + rod`` of ``A_i - b_i`` (the rods' midpoints are ``rod`` apart; rigorous); otherwise
+    (3-RPS, 3-PRS, chains) a sampled workspace's bounding box widened by two cells (lower bounds only)."""
+    if robot.architecture == "delta" and not robot.is_chain:
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        for leg in robot.legs:
+            c = np.asarray(leg.base, dtype=float) - np.asarray(leg.platform, dtype=float)
+            lo, hi = np.maximum(lo, c - (leg.arm + leg.rod)), np.minimum(hi, c + (leg.arm + leg.rod))
+        if np.any(lo > hi):
+            raise EmptyWorkspaceError(f"no position of {robot.name} is reachable")
+        return np.column_stack([lo, hi])
     if robot.architecture in ("6-UPS", "3-UPU"):
         o = np.zeros((3, 2)) if orientation is None else orientation
         Rc = rotations(euler_xyz_to_rotvec(o.mean(axis=1)))
@@ -321,7 +359,8 @@ class SpatialGlobalWorst:
     quantities : dict
         One :class:`SpatialQuantityWorst` per name of :data:`QUANTITIES`.
     certified : bool
-        Whether the upper bounds are certified (6-UPS); False: ``upper`` is ``inf``, see ``reason``.
+        Whether the upper bounds are certified (all but robots of joint chains and a 3-RPS's or 3-PRS's whole
+        workspace); False: ``upper`` is ``inf``, see ``reason``.
     reason : str
         Why the upper bounds are not certified ("" when they are).
     boxes, iterations : int
@@ -1221,7 +1260,8 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
                          gap: float = DEFAULT_GAP, max_boxes: int = DEFAULT_MAX_BOXES, grid: int = 7,
                          min_size: float | None = None, point_gap: float = 1e-3) -> SpatialGlobalWorst:
     """The worst first-order errors of a spatial robot over ``region`` (:func:`spatial_region`): attained lower
-    bounds and, for a 6-UPS, certified upper bounds within ``gap`` (module text).
+    bounds and certified upper bounds within ``gap`` (module text; not for a robot of joint chains, nor over a
+    3-RPS's or 3-PRS's whole workspace: ``inf`` there, with the reason).
 
     Returns :class:`SpatialGlobalWorst` (``dp`` in mm, rotations in rad). Raises
     :class:`~pmaccuracy.errors.EmptyWorkspaceError` when no sampled pose of the region is in the workspace.
@@ -1292,6 +1332,8 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
     take(values, poses, samples)
     certified = robot.architecture in CERTIFIED and not robot.is_chain
     reason = "" if certified else UNCERTIFIED.format(arch=robot.architecture)
+    if certified and region.kind == "workspace" and robot.mobility == "2R1T":
+        certified, reason = False, UNBOUNDED.format(arch=robot.architecture)
     n_boxes = iterations = 0
     converged = np.zeros(len(QUANTITIES), dtype=bool)
     closed = np.zeros(len(QUANTITIES))
