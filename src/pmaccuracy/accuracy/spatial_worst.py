@@ -63,8 +63,10 @@ remainders shrink with the square of the box. Built this way from the closed for
   normal to ``a`` as the image of the unit ball by ``I - a a^T``, which spans the same set);
 * a Delta's arm direction without its angle: ``theta = psi - mode alpha`` with ``cos alpha = K / rho``,
   ``(cos psi, sin psi) = (e.x, e.y) / rho``, so ``cos theta = cos psi c + mode sin psi sqrt(1 - c^2)`` (and the
-  sine); a box on which ``c`` is surely outside ``[-1, 1]`` is unreachable and dropped, and where ``1 - c^2``
-  may reach 0 its square root is the constant form of its range over the reachable poses;
+  sine); a box on which ``c`` is surely outside ``[-1, 1]``, or the arm angle (within
+  ``asin(|rad| / |(cos, sin)|)`` of the centre's) surely outside its range, holds no pose of the workspace and
+  is dropped; where ``1 - c^2`` may reach 0 its square root is the constant form of its range over the
+  reachable poses;
 * a 3-PRS's slide value from its closed form ``q = s.e - mode sqrt(disc)`` (the same square root);
 * a 3-RPS's or 3-PRS's parasitic ``x, y, yaw``: the Krawczyk test on the three constraints around the solution
   at the box centre proves that every pose of the box has exactly one solution near it (the branch of the
@@ -891,6 +893,16 @@ def _leg_box(leg, p, R, n):
         cos_t = _aadd(_amul(cpsi, c), _ascale(_amul(spsi, sa), leg.mode))
         sin_t = _asub(_amul(spsi, c), _ascale(_amul(cpsi, sa), leg.mode))
         arm_dir = _aadd(_amul(_aexpand(cos_t), _aconst_vec(x, n)), _amul(_aexpand(sin_t), _aconst_vec(y, n)))
+        # the arm angle within asin(|rad| / |(cos, sin)|) of the centre's: a box surely outside the angle range
+        # (mod 2 pi, with twice the limits' tolerance) holds no pose of the workspace
+        norm = np.hypot(cos_t[0], sin_t[0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dth = np.where(np.hypot(_arad(cos_t), _arad(sin_t)) < norm,
+                           np.arcsin(np.minimum(np.hypot(_arad(cos_t), _arad(sin_t)) / norm, 1.0)), np.inf)
+        lo_a, hi_a = leg.angle_range
+        tol = 2 * LIMIT_TOLERANCE
+        w = lo_a + np.mod(np.arctan2(sin_t[0], cos_t[0]) - lo_a, 2 * np.pi)
+        out |= np.isfinite(dth) & (w - dth > hi_a + tol) & (w + dth < lo_a + 2 * np.pi - tol)
         Cm = _aadd(A, _ascale(arm_dir, leg.arm))
         Cs, Bs, rows = [], [], []
         for s in (0.5 * leg.spacing, -0.5 * leg.spacing):
