@@ -20,9 +20,10 @@ from pmaccuracy.model.spatial_sources import SpatialErrorSources
 from pmaccuracy.numerics.spatial import rotvec_to_euler_xyz
 
 
-def _robot(arch):
+def _robot(arch, seed=None):
+    """The reference robot with its typical error sources, or (``seed``) random ones of every applicable key."""
     robot_dict = ref.load_reference(arch)
-    cl = eref.load_clearances(arch)
+    cl = eref.load_clearances(arch) if seed is None else eref.random_clearances(robot_dict, seed)
     robot = SpatialManipulator.from_dict(robot_dict, source="r.toml")
     return robot_dict, cl, robot, SpatialErrorSources.from_dict(cl, robot, source="c.toml")
 
@@ -59,7 +60,8 @@ SMALL = {"3-UPU": (5.0, 5.0, 5.0), "delta": (5.0, 5.0, 5.0), "3-RPS": (5.0, 0.02
 
 @pytest.mark.parametrize("arch", sorted(SMALL))
 def test_certified_upper_never_below_the_region_and_lower_attained(arch):
-    robot_dict, cl, robot, sources = _robot(arch)
+    """Random error sources of every key the joints take (every kind of generator), 1 % gap."""
+    robot_dict, cl, robot, sources = _robot(arch, seed=1)
     c, h = _centre(robot_dict), np.array(SMALL[arch])
     region = spatial_region(robot, box=np.column_stack([c - h, c + h]).ravel())
     res = spatial_global_worst(robot, sources, region, gap=0.01)
@@ -85,6 +87,21 @@ def test_certified_upper_never_below_the_region_and_lower_attained(arch):
     assert eref.component_bounds(M, src) == pytest.approx(r.components, rel=1e-5)
     dp = eref.max_norm_sampled(M, src, rows=slice(0, 3), n=2000, refine=15, n_best=5)
     assert res["dp"].lower * (1 - 2e-3) <= dp <= res["dp"].lower * (1 + 2e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("arch", sorted(SMALL))
+@pytest.mark.parametrize("seed", [2, 3])
+def test_tight_gap_never_exceeded(arch, seed):
+    """A 0.3 % gap with random sources: the dense samples come within 0.3 % of the upper values, never above."""
+    robot_dict, _, robot, sources = _robot(arch, seed=seed)
+    c, h = _centre(robot_dict), 0.5 * np.array(SMALL[arch])
+    region = spatial_region(robot, box=np.column_stack([c - h, c + h]).ravel())
+    res = spatial_global_worst(robot, sources, region, gap=0.003)
+    upper = np.array([res[q].upper for q in QUANTITIES])
+    assert all(res[q].converged for q in QUANTITIES)
+    sampled = _sampled(robot, sources, region, 9, np.random.default_rng(seed))
+    assert np.all(sampled <= upper * (1 + 1e-12)), (sampled.max(axis=0), upper)
 
 
 @pytest.mark.parametrize("arch, half", [("3-UPU", (40.0, 40.0, 40.0)), ("delta", (40.0, 40.0, 40.0)),
