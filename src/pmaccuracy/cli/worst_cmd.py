@@ -308,8 +308,9 @@ def parse_spatial_region(robot, args: argparse.Namespace):
 
 def run_spatial(args: argparse.Namespace, robot) -> int:
     """``worst`` on a spatial robot: the worst first-order errors over a 3D region
-    (:func:`pmaccuracy.accuracy.spatial_worst.spatial_global_worst`): attained lower values, certified upper
-    values for a 6-UPS (``inf`` with certified false otherwise)."""
+    (:func:`pmaccuracy.accuracy.spatial_worst.spatial_global_worst`): attained lower values and certified upper
+    values (``inf`` with certified false for a robot of joint chains and over a 3-RPS's or 3-PRS's whole
+    workspace)."""
     import numpy as np
 
     from ..accuracy.spatial_worst import spatial_global_worst
