@@ -57,12 +57,14 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import xarray as xr
 from scipy.optimize import linprog
 
 from .._display import html_table, summary, value_range
 from ..errors import ConfigError, UnsupportedArchitectureError
 from ..io.resolve import robot_arg
 from ..kinematics.spatial import as_spatial_poses, closure, coordinates, inverse_kinematics
+from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator, is_spatial
 from ..model.spatial_chain import ChainLeg
@@ -70,6 +72,7 @@ from ..model.spatial_legs import DeltaLeg, PRSLeg
 from ..model.spatial_sources import SpatialErrorSources
 from ..numerics.spatial import rotations
 from .spatial_bounds import COMPONENTS, error_sources_at, spatial_pose_errors
+from .spatial_maps import grid_poses
 
 #: Standard gravity (m/s^2), as :data:`pmaccuracy.accuracy.loads.G0`.
 G0 = 9.80665
@@ -476,24 +479,11 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
         d = np.asarray(direction, dtype=float).reshape(-1)
         if d.shape != (6,) or not np.all(np.isfinite(d)) or not np.any(d):
             raise ConfigError(f"expected six finite numbers, not all zero, got {direction!r}", key="direction")
-    best = None
-    for s in _PATTERNS:
-        rhs = margin - s * (Lmap @ c) + np.abs(Lmap) @ h
-        if direction is None:
-            A_ub = np.vstack([np.column_stack([-(s[:, None] * Lmap), np.zeros(6)]),
-                              np.column_stack([np.diag(1 / scale), -np.ones(6)]),
-                              np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
-            b_ub = np.concatenate([-rhs, np.zeros(12)])
-            res = linprog(np.r_[np.zeros(6), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 7, method="highs")
-            if res.status == 0 and (best is None or res.fun < best[0]):
-                best = (float(res.fun), res.x[:6], s)
-        else:
-            a = s * (Lmap @ d)
-            if np.any((a <= 0) & (rhs > 0)):
-                continue
-            alpha = max(0.0, float(np.max(np.where(a > 0, rhs / np.where(a > 0, a, 1.0), 0.0))))
-            if best is None or alpha < best[0]:
-                best = (alpha, alpha * d, s)
+    if direction is None:
+        best = _preload_lp(Lmap[None], c, h, margin, scale)
+    else:
+        alpha, pat = _direction_alpha(Lmap, c, h, margin, d)
+        best = (float(alpha), float(alpha) * d, pat) if np.isfinite(alpha) else None
     if best is None:
         raise ConfigError("no multiple of this direction keeps every closure row's sign over the box", key="direction")
     size, P, pattern = best
@@ -518,3 +508,392 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
     worst = spatial_pose_errors(robot, sources, pose).components
     return SpatialPreload(wrench=np.asarray(P, dtype=float), size=size, pattern=pattern, offset=offset, worst=worst,
                           held=held, max_angle_deg=angles)
+
+
+def _preload_lp(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray):
+    """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` subject to ``s_k L_nk (P + W) >= margin``
+    for every pose ``n`` of ``Lmaps`` ``(m, 6, 6)`` and every wrench ``W`` of the box (scipy HiGHS), or None.
+
+    The 64 patterns are tried in increasing order of the lower bound ``max_{n,k} rhs_nk / sum_j |L_nkj| scale_j``
+    (``|s_k L_k P| <= sum_j |L_kj| scale_j z``); a pattern whose bound is not below the best size found is skipped
+    (exact: it cannot do better)."""
+    Lc = Lmaps @ c                                                          # (m, 6)
+    Lh = np.abs(Lmaps) @ h
+    norm1 = np.abs(Lmaps) @ scale                                           # (m, 6)
+    rhs = margin - _PATTERNS[:, None, :] * Lc[None] + Lh[None]             # (64, m, 6)
+    bound = np.max(np.maximum(rhs, 0.0) / np.where(norm1 > 0, norm1, np.inf)[None], axis=(1, 2))
+    best = None
+    for p in np.argsort(bound, kind="stable"):
+        if best is not None and bound[p] >= best[0]:
+            break
+        s = _PATTERNS[p]
+        rows = (s[None, :, None] * Lmaps).reshape(-1, 6)
+        A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
+                          np.column_stack([np.diag(1 / scale), -np.ones(6)]),
+                          np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
+        b_ub = np.concatenate([-rhs[p].reshape(-1), np.zeros(12)])
+        res = linprog(np.r_[np.zeros(6), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 7, method="highs")
+        if res.status == 0 and (best is None or res.fun < best[0]):
+            best = (float(res.fun), res.x[:6], s)
+    return best
+
+
+def _direction_alpha(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, d: np.ndarray):
+    """``(alpha (...), pattern (..., 6))``: the smallest ``alpha >= 0`` with ``s_k L_k (alpha d + W) >= margin`` for
+    every wrench of the box, the best pattern, vectorized over poses ``Lmaps`` ``(..., 6, 6)`` (``inf`` where no
+    multiple of ``d`` holds every row's sign)."""
+    a = _PATTERNS * (Lmaps @ d)[..., None, :]                                       # (..., 64, 6)
+    rhs = margin - _PATTERNS * (Lmaps @ c)[..., None, :] + (np.abs(Lmaps) @ h)[..., None, :]
+    pos = a > 0
+    need = np.where(pos, rhs / np.where(pos, a, 1.0), np.where(rhs > 0, np.inf, 0.0))
+    alpha = np.maximum(np.max(need, axis=-1), 0.0)                                   # (..., 64)
+    k = np.argmin(alpha, axis=-1)
+    return np.take_along_axis(alpha, k[..., None], axis=-1)[..., 0], _PATTERNS[k]
+
+
+# ----------------------------------------------------------------------------------------- wrench sets
+@dataclass(frozen=True)
+class SpatialWrenchSetErrors:
+    """The first-order loaded error of a spatial robot when the process wrench ranges over a box
+    (:func:`spatial_wrench_set_errors`), at a batch of ``n`` poses.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (n, 6)
+        The poses [mm, rotation vector rad].
+    center, half : ndarray, shape (6,)
+        The box ``center +- half`` [N x3, N mm x3 about P].
+    lower, upper : ndarray, shape (n, 6)
+        [mm, rad]: an enclosure of the loaded error (clearances, with the undetermined ones' spread) over every
+        wrench of the box: guaranteed to contain it (the sum of each clearance's own range).
+    attained_lower, attained_upper : ndarray, shape (n, 6)
+        [mm, rad]: the range over the box's centre and its 64 corners: values the loaded error does take.
+        The exact range lies between the two ranges.
+    tolerance : ndarray, shape (n, 6)
+        [mm, rad]: the worst case of the sources no load moves (to add on either side, as
+        :attr:`SpatialLoadedError.tolerance`).
+    labels : list of str
+        The clearances' labels.
+    held : dict
+        ``{label: (n,) bool}``: the clearance's reaction ``M_s^T F`` stays strictly on one side over the box
+        (``u0 . M_s^T F > threshold`` at every corner, ``u0`` its direction at the centre wrench): a segment's sign
+        is then constant (exact: False means it flips or vanishes in the box); a disc's or ball's direction stays
+        within ``max_angle_deg`` of ``u0``. A clearance without first-order effect (``M_s = 0``) counts as held.
+    max_angle_deg : dict
+        ``{label: (n,)}``: the largest angle between the reaction and ``u0`` over the box (deg; 180 where not
+        held).
+    """
+
+    poses: np.ndarray
+    center: np.ndarray
+    half: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    attained_lower: np.ndarray
+    attained_upper: np.ndarray
+    tolerance: np.ndarray
+    labels: list
+    held: dict = field(repr=False)
+    max_angle_deg: dict = field(repr=False)
+
+    @property
+    def not_held(self) -> np.ndarray:
+        """``(n,)`` the number of clearances not held over the box at each pose."""
+        return sum((~v).astype(int) for v in self.held.values()) if self.held else np.zeros(len(self.poses), int)
+
+    def records(self) -> list[dict]:
+        """One dict per pose (mm, deg): the pose, the enclosure ``*_lo, *_hi``, the attained range
+        ``*_attained_lo, *_attained_hi`` and the clearances not held."""
+        coords = coordinates(self.poses, degrees=True)
+        out = []
+        for k in range(self.poses.shape[0]):
+            rec = {n: float(v) for n, v in zip(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"), coords[k])}
+            for what, arr in (("_lo", self.lower), ("_hi", self.upper), ("_attained_lo", self.attained_lower),
+                              ("_attained_hi", self.attained_upper)):
+                for c, name in enumerate(COMPONENTS):
+                    rec[f"{name}{'_deg' if c >= 3 else ''}{what}"] = float(arr[k, c]) if c < 3 else \
+                        math.degrees(arr[k, c])
+            rec["not_held"] = ",".join(name for name, v in self.held.items() if not v[k]) or "-"
+            out.append(rec)
+        return out
+
+    def __repr__(self) -> str:
+        return summary("SpatialWrenchSetErrors", self.poses.shape[0], [
+            f"dz range {value_range(self.upper[:, 2] - self.lower[:, 2], 'mm')} (enclosure)",
+            f"{int(np.sum(self.not_held))} clearances not held"])
+
+
+def _wrench_set(robot: SpatialManipulator, info: dict, c: np.ndarray, h: np.ndarray, threshold: float) -> dict:
+    """The enclosure, the attained range, the tolerances and each clearance's hold over the box ``c +- h`` at the
+    poses of ``info`` (:class:`SpatialWrenchSetErrors`; leading shape of ``info["Winv"]``).
+
+    Per clearance ``s`` the reaction ``g = M_s^T F`` maps the box onto a zonotope, the hull of the 64 corners'
+    images. When ``u0 . g_k > t`` at every corner (``u0`` the centre's direction, ``t`` the threshold), the whole
+    zonotope lies in the convex cone ``angle(g, u0) <= theta``, ``theta`` the corners' largest angle (< 90 deg),
+    so ``x_s = g / |g|`` lies in that cap and component ``c`` of ``M_s x_s`` (row ``m``, at the angle ``phi`` from
+    ``u0``) in ``[-|m| cos(max(pi - phi - theta, 0)), |m| cos(max(phi - theta, 0))]`` (exact for a segment:
+    ``theta = 0``); otherwise in ``[-|m|, |m|]``. The enclosure sums these ranges."""
+    Lc = robot.characteristic_length
+    F = np.vstack([c, _corners(c, h)])                                              # (65, 6)
+    shape = info["Winv"].shape[:-2]
+    err = np.zeros(shape + (65, 6))
+    spread = np.zeros(shape + (65, 6))
+    tolerance = np.zeros(shape + (6,))
+    lower = np.zeros(shape + (6,))
+    upper = np.zeros(shape + (6,))
+    held, angles, labels = {}, {}, []
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for src in info["sources"]:
+            M = src.matrix                                                          # (..., 6, d)
+            rown = np.linalg.norm(M, axis=-1)                                       # (..., 6)
+            if src.key not in CLEARANCE_KEYS:
+                tolerance = tolerance + rown
+                continue
+            scale = Lc if _is_rotation(robot, src) else 1.0
+            t = threshold * scale * src.half_width
+            active = np.max(np.abs(src.E), axis=(-1, -2)) > 1e-9 * src.half_width * scale
+            g = np.einsum("...id,ki->...kd", M, F)                                 # (..., 65, d)
+            gn = np.linalg.norm(g, axis=-1)
+            und = active[..., None] & (gn <= t)
+            sel = active[..., None] & ~und
+            x = np.where(sel[..., None], g / np.where(sel, gn, 1.0)[..., None], 0.0)
+            err = err + np.einsum("...id,...kd->...ki", M, x)
+            spread = spread + np.where(und[..., None], rown[..., None, :], 0.0)
+            n0 = gn[..., 0]
+            u0 = g[..., 0, :] / np.where(n0 > 0, n0, 1.0)[..., None]
+            along = np.einsum("...kd,...d->...k", g[..., 1:, :], u0)               # (..., 64)
+            ok = active & (n0 > 0) & (np.min(along, axis=-1) > t)
+            cos = np.min(along / np.where(gn[..., 1:] > 0, gn[..., 1:], 1.0), axis=-1)
+            theta = np.where(ok, np.arccos(np.clip(cos, -1.0, 1.0)), np.pi)
+            mu = np.einsum("...id,...d->...i", M, u0)
+            phi = np.arccos(np.clip(mu / np.where(rown > 0, rown, 1.0), -1.0, 1.0))
+            th = theta[..., None]
+            hi = np.where(ok[..., None], rown * np.cos(np.maximum(phi - th, 0.0)), rown)
+            lo = np.where(ok[..., None], -rown * np.cos(np.maximum(np.pi - phi - th, 0.0)), -rown)
+            upper, lower = upper + hi, lower + lo
+            # a clearance without first-order effect (M_s = 0) is held trivially
+            held[src.label] = ok | ~active
+            angles[src.label] = np.where(active, np.degrees(theta), 0.0)
+            labels.append(src.label)
+    return {"lower": lower, "upper": upper, "attained_lower": np.min(err - spread, axis=-2),
+            "attained_upper": np.max(err + spread, axis=-2), "tolerance": tolerance, "labels": labels,
+            "held": held, "max_angle_deg": angles}
+
+
+def _threshold(threshold) -> None:
+    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {threshold!r}", key="threshold")
+
+
+def spatial_wrench_set_errors(robot: SpatialManipulator | str, clearances, poses, center, half, *,
+                              threshold: float = DEFAULT_THRESHOLD_N) -> SpatialWrenchSetErrors:
+    """The first-order loaded error at ``poses`` ``(..., 6)`` when the process wrench may be anywhere in the box
+    ``center +- half`` ``(6,)`` [N x3, N mm x3 about P]: an enclosure and the attained range of each component,
+    and which clearances the box leaves on one side (the spatial counterpart of
+    :func:`pmaccuracy.accuracy.loads.wrench_set_errors`).
+
+    The loaded error at a wrench ``F`` is ``sum_s M_s x_s(F)``, ``x_s = M_s^T F / |M_s^T F|`` (module docstring).
+    A planar robot's clearances are segments whose signs form finitely many contact patterns, so its range over
+    the box is exact; a spatial robot's discs and balls turn continuously with ``F``, and the range of a sum of
+    such terms over a box has no closed form. So two ranges are given: ``lower, upper``, guaranteed to contain
+    the loaded error for every wrench of the box (each clearance's own range, summed: :func:`_wrench_set`), and
+    ``attained_lower, attained_upper``, the loaded error (with the undetermined clearances' spread) at the box's
+    centre and 64 corners, which it does reach. The exact range lies between them. The tolerances stay apart
+    (``tolerance``).
+
+    Parameters
+    ----------
+    robot : a :class:`~pmaccuracy.model.spatial.SpatialManipulator`, preset name or path
+    clearances : a :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, preset name or path
+    poses : ``(..., 6)`` [x, y, z mm, rotation vector rad], flattened to ``(n, 6)``
+    center, half : ``(6,)`` the box [N x3, N mm x3]
+    threshold : N (N mm over ``L`` for rotation sources), as :func:`spatial_loaded_error`
+
+    >>> robot = SpatialManipulator.preset("stewart_6ups")
+    >>> r = spatial_wrench_set_errors(robot, "ups_typical", robot.home_pose, [0, 0, -50, 0, 0, 0],
+    ...                               [5, 5, 5, 0, 0, 0])
+    >>> bool(np.all(r.lower <= r.attained_lower) and np.all(r.attained_upper <= r.upper))
+    True
+    """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+    robot = _robot(robot)
+    sources = _sources(robot, clearances)
+    c, h = _box(center, half)
+    _threshold(threshold)
+    poses = as_spatial_poses(poses).reshape(-1, 6)
+    _, info = error_sources_at(robot, sources, poses, keep=True)
+    return SpatialWrenchSetErrors(poses=poses, center=c, half=h, **_wrench_set(robot, info, c, h, threshold))
+
+
+# ----------------------------------------------------------------------------------------------------- maps
+#: Poses per block of the maps (bounded memory).
+MAP_BLOCK = 4096
+
+
+def _map_grid(robot: SpatialManipulator, n: int, orientation):
+    """The workspace grid of :func:`pmaccuracy.accuracy.spatial_maps.spatial_error_map`: ``(region, inside,
+    poses (m, 6))`` with the poses of the grid points inside (NaN where a parasitic motion has no solution)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise ConfigError(f"must be a whole number >= 2, got {n!r}", key="n")
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
+    region = spatial_workspace(robot, orientation=orientation, n=n, tilt=False).region
+    grid = np.stack(np.meshgrid(*region.axes, indexing="ij"), axis=-1)
+    return region, region.inside, grid_poses(robot, grid[region.inside], orientation)
+
+
+def _valid(robot: SpatialManipulator, sources: SpatialErrorSources, poses: np.ndarray) -> np.ndarray:
+    """``(m,)`` bool: poses that are finite, within the joint limits and away from singularities."""
+    ok = np.all(np.isfinite(poses), axis=-1)
+    if np.any(ok):
+        _, info = error_sources_at(robot, sources, poses[ok], strict=False, keep=False)
+        good = np.asarray(info["valid"]) & np.asarray(inverse_kinematics(robot, poses[ok]).within_limits)
+        ok[ok] = good
+    return ok
+
+
+def _map_dataset(robot, sources, region, inside, values: dict, units: dict, attrs: dict) -> xr.Dataset:
+    out = {}
+    for name, col in values.items():
+        arr = np.full(inside.shape, np.nan)
+        arr[inside] = col
+        out[name] = (region.names, arr, {"units": units[name]})
+    ds = xr.Dataset(out, coords={d: (d, a, {"units": u}) for d, a, u in zip(region.names, region.axes, region.units)})
+    ds.attrs.update(robot=robot.name, architecture=robot.architecture, clearances=sources.name, **attrs)
+    return ds
+
+
+def _components(arr: np.ndarray, suffix: str = "") -> tuple[dict, dict]:
+    vals = {f"{c}{suffix}": arr[:, k] for k, c in enumerate(COMPONENTS)}
+    units = {f"{c}{suffix}": "mm" if k < 3 else "rad" for k, c in enumerate(COMPONENTS)}
+    return vals, units
+
+
+def spatial_loaded_error_map(robot: SpatialManipulator | str, clearances, load: SpatialLoad, *, n: int = 10,
+                             orientation=None, threshold: float = DEFAULT_THRESHOLD_N) -> xr.Dataset:
+    """The loaded error (:func:`spatial_loaded_error`) under one ``load`` at every point of the workspace's
+    ``n``-per-axis grid (the grid, dims and coordinates of
+    :func:`pmaccuracy.accuracy.spatial_maps.spatial_error_map`: x, y, z mm at the fixed ``orientation`` (a
+    rotation vector, rad) of a 6-UPS; roll, pitch deg and z mm for a 3-RPS/3-PRS), NaN outside the workspace and
+    near singularities.
+
+    Variables: ``dx, dy, dz`` (mm), ``drx, dry, drz`` (rad) the first-order loaded error, ``dp`` (mm) and
+    ``dtheta`` (rad) its magnitudes, ``*_spread`` the half-width the undetermined clearances leave,
+    ``*_tolerance`` the tolerances' worst case (kept apart, as in :class:`SpatialLoadedError`), ``lambda1..6``
+    the closure rows' intensities (N, or N mm for a couple row) and ``undetermined`` the number of undetermined
+    clearances. Vectorized over blocks of :data:`MAP_BLOCK` poses.
+
+    >>> robot = SpatialManipulator.preset("upu_3")
+    >>> ds = spatial_loaded_error_map(robot, "upu_typical", SpatialLoad(force=(0.0, 0.0, -50.0)), n=5)
+    >>> sorted(ds.sizes.items()), bool(float(ds.dz.max()) < 0)
+    ([('x', 5), ('y', 5), ('z', 5)], True)
+    """
+    robot = _robot(robot)
+    sources = _sources(robot, clearances)
+    _check_load(load)
+    _threshold(threshold)
+    region, inside, poses = _map_grid(robot, n, orientation)
+    names = ["error", "spread", "tolerance"]
+    cols = {k: np.full((len(poses), 6), np.nan) for k in names + ["lambda"]}
+    und = np.full(len(poses), np.nan)
+    for start in range(0, len(poses), MAP_BLOCK):
+        block = poses[start:start + MAP_BLOCK]
+        ok = _valid(robot, sources, block)
+        if not np.any(ok):
+            continue
+        res = spatial_loaded_error(robot, sources, block[ok], load, threshold=threshold)
+        idx = np.arange(start, start + len(block))[ok]
+        for k in names:
+            cols[k][idx] = getattr(res, k)
+        cols["lambda"][idx] = res.statics.intensity
+        und[idx] = sum(np.asarray(v, dtype=float) for v in res.undetermined.values()) if res.undetermined else 0.0
+    values, units = _components(cols["error"])
+    for what in ("spread", "tolerance"):
+        v, u = _components(cols[what], f"_{what}")
+        values.update(v)
+        units.update(u)
+    values.update(dp=np.linalg.norm(cols["error"][:, :3], axis=-1), dtheta=np.linalg.norm(cols["error"][:, 3:], axis=-1))
+    units.update(dp="mm", dtheta="rad")
+    for r in range(6):
+        values[f"lambda{r + 1}"], units[f"lambda{r + 1}"] = cols["lambda"][:, r], "N or N mm"
+    values["undetermined"], units["undetermined"] = und, "1"
+    F = load.wrench(np.zeros(6))
+    return _map_dataset(robot, sources, region, inside, values, units,
+                        {"load": f"force {F[:3].tolist()} N, moment {load.moment} N mm about P, mass {load.mass:g} kg "
+                                 f"at {load.com} mm (platform frame), gravity {load.gravity}",
+                         "threshold_N": threshold,
+                         "description": "first-order loaded error (clearances taken up along the joints' "
+                                        "reactions); tolerances apart; NaN outside the workspace or near a "
+                                        "singularity"})
+
+
+def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, half, *, n: int = 8,
+                           orientation=None, threshold: float = DEFAULT_THRESHOLD_N, preload: bool = True,
+                           direction=None, margin: float = DEFAULT_THRESHOLD_N) -> xr.Dataset:
+    """For process wrenches anywhere in the box ``center +- half`` ``(6,)`` [N x3, N mm x3 about P], at every point
+    of the workspace's ``n``-per-axis grid (as :func:`spatial_loaded_error_map`): the loaded error's enclosure
+    ``d*_lo, d*_hi`` and attained range ``d*_attained_lo, d*_attained_hi`` (mm, rad;
+    :func:`spatial_wrench_set_errors`), ``not_held`` the number of clearances the box does not keep on one side,
+    and the preload each point needs (:func:`spatial_design_preload`): ``preload_size`` (N, the size
+    ``max(|P_f|, |P_m| / L)`` of the smallest free preload, 64 linear programs per point pruned by a bound:
+    about 10 ms per point) or, with ``direction`` ``(6,)``, the smallest multiple ``preload_alpha`` of it
+    (closed form, vectorized; ``inf`` where no multiple holds every row). ``preload=False`` skips the free
+    preload. NaN outside the workspace and near singularities.
+
+    >>> robot = SpatialManipulator.preset("stewart_6ups")
+    >>> ds = spatial_wrench_set_map(robot, "ups_typical", [0, 0, -50, 0, 0, 0], [5, 5, 5, 100, 100, 100], n=4,
+    ...                             orientation=[0.0, 0.0, 0.0], preload=False)
+    >>> bool(float((ds.dz_hi - ds.dz_attained_hi).min()) >= 0)
+    True
+    """
+    robot = _robot(robot)
+    sources = _sources(robot, clearances)
+    c, h = _box(center, half)
+    _threshold(threshold)
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {margin!r}", key="margin")
+    if direction is not None:
+        d = np.asarray(direction, dtype=float).reshape(-1)
+        if d.shape != (6,) or not np.all(np.isfinite(d)) or not np.any(d):
+            raise ConfigError(f"expected six finite numbers, not all zero, got {direction!r}", key="direction")
+    region, inside, poses = _map_grid(robot, n, orientation)
+    m = len(poses)
+    keys = ("lower", "upper", "attained_lower", "attained_upper")
+    cols = {k: np.full((m, 6), np.nan) for k in keys}
+    not_held, size, alpha = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
+    scale = np.array([1.0] * 3 + [robot.characteristic_length] * 3)
+    for start in range(0, m, MAP_BLOCK):
+        block = poses[start:start + MAP_BLOCK]
+        ok = _valid(robot, sources, block)
+        if not np.any(ok):
+            continue
+        idx = np.arange(start, start + len(block))[ok]
+        _, info = error_sources_at(robot, sources, block[ok], keep=True)
+        res = _wrench_set(robot, info, c, h, threshold)
+        for k in keys:
+            cols[k][idx] = res[k]
+        not_held[idx] = sum((~v).astype(float) for v in res["held"].values()) if res["held"] else 0.0
+        Lmaps = -np.swapaxes(info["Winv"], -1, -2)
+        if direction is not None:
+            alpha[idx] = _direction_alpha(Lmaps, c, h, margin, d)[0]
+        if preload:
+            for j, L in zip(idx, Lmaps):
+                best = _preload_lp(L[None], c, h, margin, scale)
+                size[j] = np.nan if best is None else best[0]
+    values, units = {}, {}
+    for k, suffix in zip(keys, ("_lo", "_hi", "_attained_lo", "_attained_hi")):
+        v, u = _components(cols[k], suffix)
+        values.update(v)
+        units.update(u)
+    values["not_held"], units["not_held"] = not_held, "1"
+    if preload:
+        values["preload_size"], units["preload_size"] = size, "N"
+    if direction is not None:
+        values["preload_alpha"], units["preload_alpha"] = alpha, "1"
+    attrs = {"wrench_box_lo": (c - h).tolist(), "wrench_box_hi": (c + h).tolist(), "threshold_N": threshold,
+             "margin_N": margin, "description": "loaded error over a box of process wrenches: a guaranteed "
+             "enclosure (*_lo, *_hi) and the range at the box's centre and corners (*_attained_*); the preload "
+             "each point needs; NaN outside the workspace or near a singularity"}
+    if direction is not None:
+        attrs["preload_direction"] = d.tolist()
+    return _map_dataset(robot, sources, region, inside, values, units, attrs)
