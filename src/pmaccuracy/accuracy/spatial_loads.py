@@ -61,7 +61,7 @@ import xarray as xr
 from scipy.optimize import linprog
 
 from .._display import html_table, summary, value_range
-from ..errors import ConfigError, UnsupportedArchitectureError
+from ..errors import ConfigError, EmptyWorkspaceError, UnsupportedArchitectureError
 from ..io.resolve import robot_arg
 from ..kinematics.spatial import as_spatial_poses, closure, coordinates, inverse_kinematics
 from ..kinematics.spatial_workspace import spatial_workspace
@@ -73,6 +73,7 @@ from ..model.spatial_sources import SpatialErrorSources
 from ..numerics.spatial import rotations
 from .spatial_bounds import COMPONENTS, error_sources_at, spatial_pose_errors
 from .spatial_maps import grid_poses
+from .spatial_worst import SpatialRegion, SpatialSingularRegionError, _box_dims, _full_poses, _grid
 
 #: Standard gravity (m/s^2), as :data:`pmaccuracy.accuracy.loads.G0`.
 G0 = 9.80665
@@ -510,31 +511,46 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
                           held=held, max_angle_deg=angles)
 
 
+def _pattern_lp(Lmaps: np.ndarray, rhs: np.ndarray, s: np.ndarray, scale: np.ndarray):
+    """``(size, P)`` of ``min z`` s.t. ``s_k L_nk P >= rhs_nk``, ``|P_j| / scale_j <= z`` (scipy HiGHS); ``(inf,
+    None)`` when infeasible."""
+    rows = (s[None, :, None] * Lmaps).reshape(-1, 6)
+    A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
+                      np.column_stack([np.diag(1 / scale), -np.ones(6)]),
+                      np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
+    b_ub = np.concatenate([-rhs.reshape(-1), np.zeros(12)])
+    res = linprog(np.r_[np.zeros(6), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 7, method="highs")
+    return (float(res.fun), res.x[:6]) if res.status == 0 else (math.inf, None)
+
+
+#: Poses of the subsample whose per-pattern optima bound the full programs from below (:func:`_preload_lp`).
+_SUBSAMPLE = 24
+
+
 def _preload_lp(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray):
     """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` subject to ``s_k L_nk (P + W) >= margin``
     for every pose ``n`` of ``Lmaps`` ``(m, 6, 6)`` and every wrench ``W`` of the box (scipy HiGHS), or None.
 
-    The 64 patterns are tried in increasing order of the lower bound ``max_{n,k} rhs_nk / sum_j |L_nkj| scale_j``
-    (``|s_k L_k P| <= sum_j |L_kj| scale_j z``); a pattern whose bound is not below the best size found is skipped
-    (exact: it cannot do better)."""
+    The 64 patterns are tried in increasing order of a lower bound of their optimum, and a pattern whose bound
+    is not below the best size found is skipped (exact: it cannot do better). The bound: ``max_{n,k} rhs_nk /
+    sum_j |L_nkj| scale_j`` (``|s_k L_k P| <= sum_j |L_kj| scale_j z``) and, for more than :data:`_SUBSAMPLE`
+    poses, the pattern's optimum over a subsample of them (fewer constraints; ``inf`` when infeasible there)."""
     Lc = Lmaps @ c                                                          # (m, 6)
     Lh = np.abs(Lmaps) @ h
     norm1 = np.abs(Lmaps) @ scale                                           # (m, 6)
     rhs = margin - _PATTERNS[:, None, :] * Lc[None] + Lh[None]             # (64, m, 6)
     bound = np.max(np.maximum(rhs, 0.0) / np.where(norm1 > 0, norm1, np.inf)[None], axis=(1, 2))
+    m = Lmaps.shape[0]
+    if m > _SUBSAMPLE:
+        sub = np.unique(np.linspace(0, m - 1, _SUBSAMPLE).round().astype(int))
+        bound = np.maximum(bound, [_pattern_lp(Lmaps[sub], rhs[p, sub], _PATTERNS[p], scale)[0] for p in range(64)])
     best = None
     for p in np.argsort(bound, kind="stable"):
-        if best is not None and bound[p] >= best[0]:
+        if not np.isfinite(bound[p]) or (best is not None and bound[p] >= best[0]):
             break
-        s = _PATTERNS[p]
-        rows = (s[None, :, None] * Lmaps).reshape(-1, 6)
-        A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
-                          np.column_stack([np.diag(1 / scale), -np.ones(6)]),
-                          np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
-        b_ub = np.concatenate([-rhs[p].reshape(-1), np.zeros(12)])
-        res = linprog(np.r_[np.zeros(6), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 7, method="highs")
-        if res.status == 0 and (best is None or res.fun < best[0]):
-            best = (float(res.fun), res.x[:6], s)
+        size, P = _pattern_lp(Lmaps, rhs[p], _PATTERNS[p], scale)
+        if P is not None and (best is None or size < best[0]):
+            best = (size, P, _PATTERNS[p])
     return best
 
 
@@ -897,3 +913,183 @@ def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, 
     if direction is not None:
         attrs["preload_direction"] = d.tolist()
     return _map_dataset(robot, sources, region, inside, values, units, attrs)
+
+
+# ------------------------------------------------------------------------------------------ preload over a region
+#: Most poses of the check sample of :func:`spatial_design_region_preload` (a seeded random sample beyond it).
+MAX_CHECK = 20_000
+
+
+@dataclass(frozen=True)
+class SpatialRegionPreload:
+    """One constant platform wrench holding every closure row's sign for every process wrench of a box at every
+    sampled pose of a region (:func:`spatial_design_region_preload`).
+
+    Attributes
+    ----------
+    region : str
+        The region in words.
+    center, half : ndarray, shape (6,)
+        The process box [N x3, N mm x3 about P].
+    wrench : ndarray, shape (6,)
+        The preload [N x3, N mm x3 about P, base frame].
+    size : float
+        ``max(|P_f|, |P_m| / L)`` (N): the optimum over the design poses, so no smaller preload holds there (a
+        lower bound of the smallest preload for the whole region).
+    pattern : ndarray, shape (6,)
+        The rows' intensity signs it holds.
+    attaining : ndarray, shape (6,)
+        The design pose whose constraint binds [mm, rotation vector rad].
+    per_pose_size : float
+        The size :func:`spatial_design_preload` needs at ``attaining`` alone (N).
+    min_intensity : float
+        The smallest ``s_k lambda_k`` (N, or N mm for a couple row) over the check poses and the box's worst
+        wrench (``>= margin`` where the design holds).
+    n_design, n_check : int
+        Poses in the linear program; poses checked.
+    offset_max : ndarray, shape (6,)
+        [mm, rad]: the largest ``|loaded error|`` at ``P + center`` over the design grid's poses.
+    worst_max : ndarray, shape (6,)
+        [mm, rad]: the unloaded worst case over the same poses.
+    not_held : list of str
+        The clearances whose reaction is not kept on one side at some pose of the design grid (discs and balls may turn
+        by 90 deg or more although every row keeps its sign).
+    """
+
+    region: str
+    center: np.ndarray
+    half: np.ndarray
+    wrench: np.ndarray
+    size: float
+    pattern: np.ndarray
+    attaining: np.ndarray
+    per_pose_size: float
+    min_intensity: float
+    n_design: int
+    n_check: int
+    offset_max: np.ndarray
+    worst_max: np.ndarray
+    not_held: list
+
+    def record(self) -> dict:
+        """The command line's record (N, N mm, mm, deg)."""
+        keys = ("fx_N", "fy_N", "fz_N", "mx_Nmm", "my_Nmm", "mz_Nmm")
+        rec = {"region": self.region, "pattern": "".join("+" if v > 0 else "-" for v in self.pattern)}
+        rec.update({f"preload_{k}": float(v) + 0.0 for k, v in zip(keys, self.wrench)})
+        rec["preload_size_N"] = self.size
+        a = coordinates(self.attaining, degrees=True)
+        rec.update({f"attaining_{n}": float(v) for n, v in zip(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"),
+                                                               a)})
+        rec.update(per_pose_size_N=self.per_pose_size, min_intensity=self.min_intensity, n_design=self.n_design,
+                   n_check=self.n_check)
+        for what, arr in (("offset_", self.offset_max), ("", self.worst_max)):
+            for c, name in enumerate(COMPONENTS):
+                rec[f"{what}{name}{'_deg' if c >= 3 else ''}_max"] = float(arr[c]) if c < 3 else \
+                    math.degrees(arr[c])
+        rec["not_held"] = ",".join(self.not_held) or "-"
+        return rec
+
+    def __repr__(self) -> str:
+        return (f"SpatialRegionPreload({self.region}: preload size {self.size:.4g} N, holds on {self.n_check} "
+                f"checked poses with min s_k lambda_k {self.min_intensity:.3g}; not proved between them)")
+
+
+def _region_sample(robot: SpatialManipulator, region, n: int) -> np.ndarray:
+    """Full poses ``(m, 6)`` of an ``n``-per-axis grid of the region's box (and a 6-UPS's orientation ranges;
+    one value along a point interval), in the region's shape and the joint limits; raises
+    :class:`~pmaccuracy.accuracy.spatial_worst.SpatialSingularRegionError` where one is near-singular."""
+    root = _box_dims(robot, region)
+    pts = _grid(root, n)
+    if len(pts) > MAX_CHECK:
+        rng = np.random.default_rng(0)
+        pts = root[:, 0] + rng.random((MAX_CHECK, root.shape[0])) * (root[:, 1] - root[:, 0])
+    pts = pts[region.contains(pts[:, :3])]
+    full = _full_poses(robot, pts)
+    full = full[np.all(np.isfinite(full), axis=1)]
+    if not len(full):
+        return full
+    full = full[np.asarray(inverse_kinematics(robot, full).within_limits)]
+    if len(full):
+        _, info = error_sources_at(robot, SpatialErrorSources.zero(robot), full, strict=False, keep=False)
+        bad = ~np.asarray(info["valid"])
+        if np.any(bad):
+            c = coordinates(full[int(np.argmax(bad))], degrees=True)
+            raise SpatialSingularRegionError(
+                f"{region.describe()} reaches a singularity of {robot.name} near (x, y, z, roll, pitch, yaw) = "
+                f"({', '.join(f'{v:.4g}' for v in c)}): the rows' intensities, and the preload keeping their signs, "
+                "are unbounded there; narrow the region")
+    return full
+
+
+def _intensity_maps(robot: SpatialManipulator, poses: np.ndarray) -> np.ndarray:
+    _, info = error_sources_at(robot, SpatialErrorSources.zero(robot), poses, keep=False)
+    return -np.swapaxes(info["Winv"], -1, -2)
+
+
+def spatial_design_region_preload(robot: SpatialManipulator | str, clearances, region, center, half, *,
+                                  grid: int = 5, margin: float = DEFAULT_THRESHOLD_N,
+                                  rounds: int = 4) -> SpatialRegionPreload:
+    """The smallest constant platform wrench ``P`` (size ``max(|P_f|, |P_m| / L)``) keeping every closure row's
+    intensity on one side, with at least ``margin``, for every process wrench of the box ``center +- half``
+    ``(6,)`` at the sampled poses of ``region`` (a :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion`:
+    :func:`~pmaccuracy.accuracy.spatial_worst.spatial_region`), the spatial counterpart of
+    :func:`pmaccuracy.accuracy.loads.design_region_preload`.
+
+    As for planar robots, a preload keeping every row loaded over a connected region keeps one sign pattern
+    ``s`` there (the intensities are continuous and never cross ``(-margin, margin)``), so one linear program
+    per pattern takes every design pose at once: ``s_k L_k(p) P >= margin - s_k L_k(p) center + |L_k(p)| half``
+    (the box's worst wrench, exact: ``lambda`` is linear in the wrench), ``min max_j |P_j| / scale_j``
+    (:func:`_preload_lp`), over a ``grid``-per-axis sample of the region's box (x, y, z or z, roll, pitch, and
+    a 6-UPS's orientation ranges). Its optimum is a **lower bound** of the smallest preload for the region. The
+    design is then checked on a sample twice as dense (``2 grid - 1`` per axis; a seeded random sample of
+    :data:`MAX_CHECK` poses when that is larger) and the poses where it fails join the program, ``rounds``
+    times at most. **Guaranteed**: every ``s_k lambda_k >= margin`` at every checked pose for every wrench of the
+    box. **Weaker than the planar one**: nothing is proved between the checked poses (no interval certificate
+    of a spatial ``W^-1`` over a box of poses is written here). A region reaching a singularity is refused
+    (:class:`~pmaccuracy.accuracy.spatial_worst.SpatialSingularRegionError`).
+    """
+    robot = _robot(robot)
+    sources = _sources(robot, clearances)
+    c, h = _box(center, half)
+    if not isinstance(region, SpatialRegion):
+        raise ConfigError(f"expected a SpatialRegion (pmaccuracy.accuracy.spatial_worst.spatial_region), got "
+                          f"{region!r}", key="region")
+    for key, value, least in (("grid", grid, 2), ("rounds", rounds, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+            raise ConfigError(f"must be a whole number >= {least}, got {value!r}", key=key)
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin > 0):
+        raise ConfigError(f"must be > 0 (N), got {margin!r}", key="margin")
+    design = _region_sample(robot, region, grid)
+    if not len(design):
+        raise EmptyWorkspaceError(f"no pose of the {grid}-per-axis grid of {region.describe()} is in the workspace")
+    n_grid = len(design)
+    check = np.vstack([design, _region_sample(robot, region, 2 * grid - 1)])
+    Ld, Lk = _intensity_maps(robot, design), _intensity_maps(robot, check)
+    scale = np.array([1.0] * 3 + [robot.characteristic_length] * 3)
+    for _ in range(rounds):
+        best = _preload_lp(Ld, c, h, margin, scale)
+        if best is None:
+            raise ConfigError(f"no constant preload holds every row's sign over {region.describe()}: narrow the "
+                              "region", key="region")
+        size, P, s = best
+        slack = np.min(s * (Lk @ (P + c)) - np.abs(Lk) @ h, axis=-1)
+        bad = slack < margin * (1 - 1e-9)
+        if not np.any(bad):
+            break
+        design, Ld = np.vstack([design, check[bad]]), np.concatenate([Ld, Lk[bad]])
+    binding = np.min(s * (Ld @ (P + c)) - np.abs(Ld) @ h, axis=-1)
+    attaining = design[int(np.argmin(binding))]
+    per_pose = spatial_design_preload(robot, sources, attaining, c, h, margin=margin).size
+    grid_poses_ = design[:n_grid]                     # the statistics over the design grid (as the planar ones)
+    _, info = error_sources_at(robot, sources, grid_poses_, keep=True)
+    ws = _wrench_set(robot, info, P + c, h, DEFAULT_THRESHOLD_N) if np.any(h) else None
+    chosen, _ = _selection(robot, info, np.broadcast_to(P + c, grid_poses_.shape), DEFAULT_THRESHOLD_N)
+    offset = sum(np.einsum("...ij,...j->...i", M, x) for _, M, x, _, _ in chosen) if chosen else \
+        np.zeros(grid_poses_.shape)
+    worst = spatial_pose_errors(robot, sources, grid_poses_, strict=False, details=False).components
+    not_held = [k for k, v in ws["held"].items() if not np.all(v)] if ws is not None else []
+    return SpatialRegionPreload(region=region.describe(), center=c, half=h, wrench=np.asarray(P, dtype=float),
+                                size=float(size), pattern=s, attaining=attaining, per_pose_size=float(per_pose),
+                                min_intensity=float(np.min(slack)), n_design=int(len(design)),
+                                n_check=int(len(check)), offset_max=np.max(np.abs(offset), axis=0),
+                                worst_max=np.max(worst, axis=0), not_held=not_held)
