@@ -144,6 +144,15 @@ def _spatial_calls():
                                                                       pm.SpatialLoad(force=(0, 0, -1.0))),
         "spatial_design_preload_front_door": lambda phi: pm.design_preload(hexapod, "ups_typical", pose(phi),
                                                                            [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
+        "spatial_wrench_set_errors": lambda phi: pm.spatial_wrench_set_errors(hexapod, "ups_typical", pose(phi),
+                                                                              [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
+        "spatial_wrench_set_errors_front_door": lambda phi: pm.wrench_set_errors(hexapod, "ups_typical", pose(phi),
+                                                                                 [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
+        "spatial_loaded_error_map": lambda phi: pm.spatial_loaded_error_map(
+            hexapod, "ups_typical", pm.SpatialLoad(force=(0, 0, -1.0)), n=3, orientation=[0.0, 0.0, phi]),
+        "spatial_wrench_set_map": lambda phi: pm.spatial_wrench_set_map(
+            hexapod, "ups_typical", [0, 0, -1.0, 0, 0, 0], [1.0] * 6, n=3, orientation=[0.0, 0.0, phi],
+            preload=False),
         "spatial_region": lambda phi: pm.spatial_region(hexapod, box=(-1.0, 1.0, -1.0, 1.0, 399.0, 401.0),
                                                         orientation=[0.0, 0.0, phi]),
         "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
@@ -157,6 +166,7 @@ NO_ORIENTATION = {
     "load_robot": "a robot spec", "export_robot": "a robot spec and a file path", "load_clearances": "a clearance spec", "save_map": "a dataset and a path",
     "load_map": "a path (the map's phi coordinate is in degrees)",
     "synthesize": "a Region, checked where it is made (make_region)",
+    "spatial_design_region_preload": "a SpatialRegion, checked where it is made (spatial_region)",
     "load_polygon": "a polygon file (mm)",
     "error_parameters": "a robot", "read_calibration_csv": "a file (phi_deg, checked by the reader)",
     "write_calibration_csv": "a CalibrationData and a path", "identify": "a CalibrationData (read from a file)",

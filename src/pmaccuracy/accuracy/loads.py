@@ -503,9 +503,16 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     ``A^{-1} diag(c) (-s)`` (module docstring) and the range is taken over the possible patterns: the exact
     range of the loaded error over the box (the error set at one wrench is the convex hull of its possible
     patterns). A leg flips when both its sides are possible (its intensity's range over the box reaches zero).
+
+    A spatial robot takes poses ``(..., 6)`` and a box of six-component wrenches
+    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_wrench_set_errors`: a guaranteed enclosure and the range
+    attained at the box's centre and corners, since its discs and balls turn continuously with the wrench).
     """
-    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+        return _spatial.spatial_wrench_set_errors(robot, clearances, poses, center, half, threshold=threshold)
+    plausibility.check_orientations(poses, "poses", poses=True)
     c, h = _box(center, half)
     if not (math.isfinite(threshold) and threshold >= 0):
         raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")

@@ -728,7 +728,7 @@ def spatial_wrench_set_errors(robot: SpatialManipulator | str, clearances, poses
     >>> robot = SpatialManipulator.preset("stewart_6ups")
     >>> r = spatial_wrench_set_errors(robot, "ups_typical", robot.home_pose, [0, 0, -50, 0, 0, 0],
     ...                               [5, 5, 5, 0, 0, 0])
-    >>> bool(np.all(r.lower <= r.attained_lower) and np.all(r.attained_upper <= r.upper))
+    >>> bool(np.all(r.lower <= r.attained_lower + 1e-12) and np.all(r.attained_upper <= r.upper + 1e-12))
     True
     """
     check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
@@ -751,8 +751,6 @@ def _map_grid(robot: SpatialManipulator, n: int, orientation):
     poses (m, 6))`` with the poses of the grid points inside (NaN where a parasitic motion has no solution)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise ConfigError(f"must be a whole number >= 2, got {n!r}", key="n")
-    if orientation is not None:
-        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
     region = spatial_workspace(robot, orientation=orientation, n=n, tilt=False).region
     grid = np.stack(np.meshgrid(*region.axes, indexing="ij"), axis=-1)
     return region, region.inside, grid_poses(robot, grid[region.inside], orientation)
@@ -804,6 +802,8 @@ def spatial_loaded_error_map(robot: SpatialManipulator | str, clearances, load: 
     >>> sorted(ds.sizes.items()), bool(float(ds.dz.max()) < 0)
     ([('x', 5), ('y', 5), ('z', 5)], True)
     """
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
     robot = _robot(robot)
     sources = _sources(robot, clearances)
     _check_load(load)
@@ -862,6 +862,8 @@ def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, 
     >>> bool(float((ds.dz_hi - ds.dz_attained_hi).min()) >= 0)
     True
     """
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
     robot = _robot(robot)
     sources = _sources(robot, clearances)
     c, h = _box(center, half)
