@@ -30,6 +30,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
+    p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
+                   help="spatial robots, without poses: the region is the cylinder of axis (X, Y), radius R and "
+                        "heights Z0..Z1 (mm)")
+    p.add_argument("--sphere", nargs=4, type=_common.finite_float, metavar=("X", "Y", "Z", "R"),
+                   help="spatial robots, without poses: the region is the sphere of centre X, Y, Z, radius R (mm)")
     _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
                         "error's range without preload beside the constant offset with it and the worst case; with "
                         "--map: the ranges over the box and the flipping legs, one figure per --phi-deg")

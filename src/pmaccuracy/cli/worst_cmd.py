@@ -263,7 +263,7 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     values for a 6-UPS (``inf`` with certified false otherwise)."""
     import numpy as np
 
-    from ..accuracy.spatial_worst import spatial_global_worst, spatial_region
+    from ..accuracy.spatial_worst import spatial_global_worst
     from ..errors import ConfigError, EmptyWorkspaceError
     from ..model.plausibility import warn
     from .spatial_cmd import _sources
@@ -279,6 +279,41 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
         raise ConfigError("a spatial robot's box is --box (six numbers)", key="--region")
     gap_pct = 1.0 if args.gap_pct is None else args.gap_pct
     _common.check_gap_pct(gap_pct)
+    region = spatial_cli_region(args, robot)
+    sources = _sources(args, robot)
+    max_boxes = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
+    try:
+        res = spatial_global_worst(robot, sources, region, gap=gap_pct / 100, **max_boxes)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    records = res.records()
+    for r in records:
+        if not np.isfinite(r["upper"]):
+            r["upper"], r["gap_pct"] = None, None
+    if not res.certified:
+        warn([f"{res.reason}; the lower values are attained"])
+    elif not all(r["certified"] for r in records):
+        gaps = [r["gap_pct"] for r in records if r["gap_pct"] is not None]
+        apart = f"{max(gaps):.3g} % apart" if len(gaps) == len(records) else \
+            "some upper values empty (boxes whose W could not be proven regular: near a singularity?)"
+        warn([f"the worst case is not certified within --gap-pct {gap_pct:g} (box budget spent): the bounds hold, "
+              f"{apart}; raise --max-boxes or narrow the region"])
+    data = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
+            "model": "first-order", "region": region.describe(), "target_gap_pct": gap_pct,
+            "upper_certified": res.certified, "boxes": res.boxes, "iterations": res.iterations,
+            "seconds": res.seconds, "quantities": records}
+    _common.emit(data, args.format, records=records)
+    return 0
+
+
+def spatial_cli_region(args: argparse.Namespace, robot):
+    """The :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion` of ``--box`` (six numbers), ``--cylinder``,
+    ``--sphere`` or the workspace, with ``--orientation-deg`` (a 6-UPS's fixed angles or ranges)."""
+    import numpy as np
+
+    from ..accuracy.spatial_worst import spatial_region
+    from ..errors import ConfigError
+
     kw = {}
     if args.box is not None:
         text = box_text(args.box)
@@ -309,27 +344,4 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
         key = {"box": "--box", "cylinder": "--cylinder", "sphere": "--sphere",
                "orientation": "--orientation-deg"}.get(exc.key, exc.key)
         raise ConfigError(exc.message, source=exc.source, key=key) from None
-    sources = _sources(args, robot)
-    max_boxes = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
-    try:
-        res = spatial_global_worst(robot, sources, region, gap=gap_pct / 100, **max_boxes)
-    except EmptyWorkspaceError as exc:
-        raise ConfigError(str(exc), key=shape_key(args)) from None
-    records = res.records()
-    for r in records:
-        if not np.isfinite(r["upper"]):
-            r["upper"], r["gap_pct"] = None, None
-    if not res.certified:
-        warn([f"{res.reason}; the lower values are attained"])
-    elif not all(r["certified"] for r in records):
-        gaps = [r["gap_pct"] for r in records if r["gap_pct"] is not None]
-        apart = f"{max(gaps):.3g} % apart" if len(gaps) == len(records) else \
-            "some upper values empty (boxes whose W could not be proven regular: near a singularity?)"
-        warn([f"the worst case is not certified within --gap-pct {gap_pct:g} (box budget spent): the bounds hold, "
-              f"{apart}; raise --max-boxes or narrow the region"])
-    data = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
-            "model": "first-order", "region": region.describe(), "target_gap_pct": gap_pct,
-            "upper_certified": res.certified, "boxes": res.boxes, "iterations": res.iterations,
-            "seconds": res.seconds, "quantities": records}
-    _common.emit(data, args.format, records=records)
-    return 0
+    return region
