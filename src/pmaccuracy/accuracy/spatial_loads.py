@@ -918,6 +918,8 @@ def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, 
 
 
 # ------------------------------------------------------------------------------------------ preload over a region
+#: Absolute slack (N per N of preload) allowed to the linear programs' feasibility tolerance.
+_LP_TOLERANCE = 1e-9
 #: Most poses of the check sample of :func:`spatial_design_region_preload` (a seeded random sample beyond it).
 MAX_CHECK = 20_000
 
@@ -1045,8 +1047,9 @@ def spatial_design_region_preload(robot: SpatialManipulator | str, clearances, r
     a 6-UPS's orientation ranges). Its optimum is a **lower bound** of the smallest preload for the region. The
     design is then checked on a sample twice as dense (``2 grid - 1`` per axis; a seeded random sample of
     :data:`MAX_CHECK` poses when that is larger) and the poses where it fails join the program, ``rounds``
-    times at most. **Guaranteed**: every ``s_k lambda_k >= margin`` at every checked pose for every wrench of the
-    box. **Weaker than the planar one**: nothing is proved between the checked poses (no interval certificate
+    times at most (then every check pose joins it once more). **Guaranteed**: every ``s_k lambda_k >= margin``
+    (to the linear programs' feasibility tolerance; ``min_intensity`` reports it) at every checked pose for every
+    wrench of the box. **Weaker than the planar one**: nothing is proved between the checked poses (no interval certificate
     of a spatial ``W^-1`` over a box of poses is written here). A region reaching a singularity is refused
     (:class:`~pmaccuracy.accuracy.spatial_worst.SpatialSingularRegionError`).
     """
@@ -1068,14 +1071,16 @@ def spatial_design_region_preload(robot: SpatialManipulator | str, clearances, r
     check = np.vstack([design, _region_sample(robot, region, 2 * grid - 1)])
     Ld, Lk = _intensity_maps(robot, design), _intensity_maps(robot, check)
     scale = np.array([1.0] * 3 + [robot.characteristic_length] * 3)
-    for _ in range(rounds):
+    for k in range(rounds + 1):
+        if k == rounds:                  # the exchange did not settle: every check pose joins the program
+            design, Ld = np.vstack([design, check]), np.concatenate([Ld, Lk])
         best = _preload_lp(Ld, c, h, margin, scale)
         if best is None:
             raise ConfigError(f"no constant preload holds every row's sign over {region.describe()}: narrow the "
                               "region", key="region")
         size, P, s = best
         slack = np.min(s * (Lk @ (P + c)) - np.abs(Lk) @ h, axis=-1)
-        bad = slack < margin * (1 - 1e-9)
+        bad = slack < margin * (1 - 1e-6) - _LP_TOLERANCE * (1.0 + np.max(np.abs(P)))
         if not np.any(bad):
             break
         design, Ld = np.vstack([design, check[bad]]), np.concatenate([Ld, Lk[bad]])
