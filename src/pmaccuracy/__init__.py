@@ -98,7 +98,8 @@ _EXPORTS = {
                                                    "spatial_design_preload", "SpatialWrenchSetErrors",
                                                    "spatial_wrench_set_errors", "spatial_loaded_error_map",
                                                    "spatial_wrench_set_map", "SpatialRegionPreload",
-                                                   "spatial_design_region_preload")},
+                                                   "spatial_design_region_preload", "SpatialSpringPreload",
+                                                   "spatial_spring_preload")},
     **{name: "accuracy.serial_loads" for name in ("serial_statics", "SerialStatics", "loaded_serial_error",
                                                   "SerialLoadedError")},
     # calibration and compensation (issue 23)

@@ -172,3 +172,60 @@ def test_bad_input():
     with pytest.raises(ConfigError) as exc:
         spatial_design_region_preload(robot, "ups_typical", "workspace", np.zeros(6), np.ones(6))
     assert exc.value.key == "region"
+
+
+def _spring_columns(rdict, p, R):
+    """(6, n): a unit spring force along each leg from A_i to B_i, pushing the platform at B_i (about P)."""
+    cols = []
+    for leg in ref.legs(rdict):
+        B = p + R @ leg["platform"]
+        u = (B - leg["base"]) / np.linalg.norm(B - leg["base"])
+        cols.append(np.concatenate([u, np.cross(B - p, u)]))
+    return np.array(cols).T
+
+
+def test_springs_on_a_hexapod_per_leg_closed_form():
+    """A 6-UPS's spring only shifts its own leg's force (lambda_i - sigma_i): the smallest springs follow per leg
+    from the reference's member forces at the box's corners."""
+    from pmaccuracy.accuracy.spatial_loads import spatial_spring_preload
+
+    rdict, cl, p, R, pose = _reference("stewart_6ups", "ups_typical", 4)
+    robot = SpatialManipulator.preset("stewart_6ups")
+    center, half = np.array([3.0, 0.0, -20.0, 0.0, 100.0, 0.0]), np.array([10.0, 10.0, 15.0, 400.0, 400.0, 400.0])
+    sp = spatial_spring_preload(robot, "ups_typical", pose, center, half, margin=1.0)
+    corners = lref.box_corners(center, half)
+    lam = np.array([lref.member_forces(rdict, p, R, F) for F in corners])
+    lo, hi = lam.min(axis=0), lam.max(axis=0)
+    cost = np.minimum(np.maximum(0.0, hi + 1.0), np.maximum(0.0, 1.0 - lo))
+    assert sp.size == pytest.approx(cost.max(), rel=1e-7)
+    want = np.where(sp.pattern > 0, np.minimum(0.0, lo - 1.0), np.maximum(0.0, hi + 1.0))
+    assert np.allclose(sp.forces, want, rtol=1e-7, atol=1e-7)
+    S = _spring_columns(rdict, p, R)
+    with_springs = np.array([lref.member_forces(rdict, p, R, F + S @ sp.forces) for F in corners])
+    assert np.all(with_springs * sp.pattern >= 1.0 - 1e-6)
+    assert np.allclose(with_springs, lam - sp.forces, rtol=0, atol=1e-8 * np.abs(lam).max())
+    assert all(sp.held.values())
+
+
+def test_springs_on_a_3rps_cannot_hold_its_revolute_rows():
+    """A 3-RPS spring moves its leg's axial row only: a box flipping a revolute row is refused; a box that keeps
+    them is held per the reference's member forces with the springs' wrenches built from the geometry."""
+    from pmaccuracy.accuracy.spatial_loads import spatial_spring_preload
+
+    rdict, cl, p, R, pose = _reference("rps_3", "rps_typical", 5)
+    robot = SpatialManipulator.preset("rps_3")
+    with pytest.raises(ConfigError) as exc:
+        spatial_spring_preload(robot, "rps_typical", pose, np.zeros(6), [20.0, 20.0, 20.0, 800.0, 800.0, 800.0])
+    assert exc.value.key == "half" and "rows" in str(exc.value)
+    W = lref.member_wrenches(rdict, p, R)           # a box loading the revolute rows, flipping the legs' forces
+    center = -W @ np.array([0.0, 40.0, 0.0, 40.0, 0.0, 40.0])
+    half = np.abs(W[:, [0, 2, 4]]).sum(axis=1) * 10.0
+    lam = np.array([lref.member_forces(rdict, p, R, F) for F in lref.box_corners(center, half)])
+    assert np.all(lam[:, 1::2] > 1.0) and np.all(lam[:, 0::2].min(axis=0) < 0) and np.all(lam[:, 0::2].max(axis=0) > 0)
+    sp = spatial_spring_preload(robot, "rps_typical", pose, center, half, margin=0.5)
+    S = _spring_columns(rdict, p, R)
+    lam = np.array([lref.member_forces(rdict, p, R, F + S @ sp.forces) for F in lref.box_corners(center, half)])
+    assert np.all(lam * sp.pattern >= 0.5 - 1e-6)
+    weaker = np.array([lref.member_forces(rdict, p, R, F + S @ (0.99 * sp.forces))
+                       for F in lref.box_corners(center, half)])
+    assert sp.size > 0 and not np.all(weaker * sp.pattern >= 0.5 - 1e-9)

@@ -79,6 +79,10 @@ def test_preload_holds_the_rows_signs_per_the_reference(capsys):
     (["preload", "--robot", "rps_3", "--fz", -1, 1, "--map", "--out", "m.nc", "--orientation-deg", 0, 0, 0],
      "--orientation-deg"),
     (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.txt"], "--out"),
+    (["preload", "--robot", "delta_clavel", "--pose", 0, 0, -900, "--fx", -10, 10, "--springs"], "--springs"),
+    (["preload", "--robot", "rps_3", "--pose", 350, 2, -1, "--fx", -10, 10, "--springs"], "--springs: no springs"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--springs"], "--springs"),
+    (["preload", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fx", -1, 1, "--springs"], "--springs"),
     (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--grid", 1], "--grid"),
     (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--details"], "--details"),
     (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--box=0,1,0,1,400,401"],
@@ -131,3 +135,23 @@ def test_region_preload_holds_per_the_reference(capsys):
         lam = np.linalg.solve(lref.member_wrenches(rdict, p, np.eye(3)), -(P + corners).T).T
         assert np.all(lam * pattern >= 1e-6 * (1 - 1e-6)), (p, lam)
     assert rec["n_check"] >= 8 and rec["preload_size_N"] > 0
+
+
+def test_springs_hold_every_leg_per_the_reference(capsys):
+    """``preload --springs`` on a 6-UPS at two poses: with the springs' forces along the legs every member keeps
+    its sign at every corner of the process box at both poses (reference member forces)."""
+    argv = ["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--pose", 5, 5, 420, 1, 2, 3,
+            "--fx", -10, 10, "--fz", -30, 10, "--springs", "--format", "json"]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    sigma = np.array([rec[f"spring{i}_N"] for i in range(1, 7)])
+    pattern = np.array([1.0 if c == "+" else -1.0 for c in rec["pattern"]])
+    rdict = ref.load(Path(__file__).resolve().parents[2] / "src" / "pmaccuracy" / "data" / "robots" /
+                     "stewart_6ups.toml")
+    corners = lref.box_corners([0, 0, -10, 0, 0, 0], [10, 0, 20, 0, 0, 0])
+    for coords in ([0, 0, 400, 0, 0, 0], [5, 5, 420, 1, 2, 3]):
+        p, R = np.array(coords[:3], float), ref.rotation(coords[3:])
+        lam = np.array([lref.member_forces(rdict, p, R, F) for F in corners]) - sigma   # a spring along each leg
+        assert np.all(lam * pattern >= 1e-6 * (1 - 1e-6)), lam
+    assert rec["springs_size_N"] == pytest.approx(np.abs(sigma).max())

@@ -148,6 +148,8 @@ def _spatial_calls():
                                                                               [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
         "spatial_wrench_set_errors_front_door": lambda phi: pm.wrench_set_errors(hexapod, "ups_typical", pose(phi),
                                                                                  [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
+        "spatial_spring_preload": lambda phi: pm.spatial_spring_preload(hexapod, "ups_typical", pose(phi),
+                                                                        [0, 0, -1.0, 0, 0, 0], [1.0] * 6),
         "spatial_loaded_error_map": lambda phi: pm.spatial_loaded_error_map(
             hexapod, "ups_typical", pm.SpatialLoad(force=(0, 0, -1.0)), n=3, orientation=[0.0, 0.0, phi]),
         "spatial_wrench_set_map": lambda phi: pm.spatial_wrench_set_map(

@@ -511,44 +511,51 @@ def spatial_design_preload(robot: SpatialManipulator | str, clearances, pose, ce
                           held=held, max_angle_deg=angles)
 
 
-def _pattern_lp(Lmaps: np.ndarray, rhs: np.ndarray, s: np.ndarray, scale: np.ndarray):
-    """``(size, P)`` of ``min z`` s.t. ``s_k L_nk P >= rhs_nk``, ``|P_j| / scale_j <= z`` (scipy HiGHS); ``(inf,
-    None)`` when infeasible."""
-    rows = (s[None, :, None] * Lmaps).reshape(-1, 6)
+def _pattern_lp(A: np.ndarray, rhs: np.ndarray, s: np.ndarray, scale: np.ndarray):
+    """``(size, P)`` of ``min z`` s.t. ``s_k A_nk P >= rhs_nk``, ``|P_j| / scale_j <= z`` (``A`` ``(m, 6, v)``,
+    ``P`` ``(v,)``; scipy HiGHS); ``(inf, None)`` when infeasible."""
+    v = A.shape[-1]
+    rows = (s[None, :, None] * A).reshape(-1, v)
     A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape[0])]),
-                      np.column_stack([np.diag(1 / scale), -np.ones(6)]),
-                      np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
-    b_ub = np.concatenate([-rhs.reshape(-1), np.zeros(12)])
-    res = linprog(np.r_[np.zeros(6), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 7, method="highs")
-    return (float(res.fun), res.x[:6]) if res.status == 0 else (math.inf, None)
+                      np.column_stack([np.diag(1 / scale), -np.ones(v)]),
+                      np.column_stack([-np.diag(1 / scale), -np.ones(v)])])
+    b_ub = np.concatenate([-rhs.reshape(-1), np.zeros(2 * v)])
+    res = linprog(np.r_[np.zeros(v), 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * (v + 1), method="highs")
+    return (float(res.fun), res.x[:v]) if res.status == 0 else (math.inf, None)
 
 
 #: Poses of the subsample whose per-pattern optima bound the full programs from below (:func:`_preload_lp`).
 _SUBSAMPLE = 24
 
 
-def _preload_lp(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray):
-    """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` subject to ``s_k L_nk (P + W) >= margin``
+def _preload_lp(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, scale: np.ndarray, A=None):
+    """Best pattern's ``(size, P, s)`` of ``min max_j |P_j| / scale_j`` subject to ``s_k L_nk (A_n P + W) >= margin``
     for every pose ``n`` of ``Lmaps`` ``(m, 6, 6)`` and every wrench ``W`` of the box (scipy HiGHS), or None.
+    ``A`` ``(m, 6, v)`` maps the unknowns to a platform wrench (default the identity: ``P`` is the wrench).
 
     The 64 patterns are tried in increasing order of a lower bound of their optimum, and a pattern whose bound
     is not below the best size found is skipped (exact: it cannot do better). The bound: ``max_{n,k} rhs_nk /
-    sum_j |L_nkj| scale_j`` (``|s_k L_k P| <= sum_j |L_kj| scale_j z``) and, for more than :data:`_SUBSAMPLE`
-    poses, the pattern's optimum over a subsample of them (fewer constraints; ``inf`` when infeasible there)."""
+    sum_j |(L A)_nkj| scale_j`` (``|s_k (L A)_k P| <= sum_j |(L A)_kj| scale_j z``; ``inf`` where a row that
+    ``P`` cannot move needs moving) and, for more than :data:`_SUBSAMPLE` poses, the pattern's optimum over a
+    subsample of them (fewer constraints; ``inf`` when infeasible there)."""
+    LA = Lmaps if A is None else Lmaps @ A                                  # (m, 6, v)
     Lc = Lmaps @ c                                                          # (m, 6)
     Lh = np.abs(Lmaps) @ h
-    norm1 = np.abs(Lmaps) @ scale                                           # (m, 6)
+    norm1 = np.abs(LA) @ scale                                              # (m, 6)
     rhs = margin - _PATTERNS[:, None, :] * Lc[None] + Lh[None]             # (64, m, 6)
-    bound = np.max(np.maximum(rhs, 0.0) / np.where(norm1 > 0, norm1, np.inf)[None], axis=(1, 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(norm1[None] > 0, np.maximum(rhs, 0.0) / norm1[None], np.where(rhs > 0, np.inf, 0.0))
+    bound = np.max(ratio, axis=(1, 2))
     m = Lmaps.shape[0]
     if m > _SUBSAMPLE:
         sub = np.unique(np.linspace(0, m - 1, _SUBSAMPLE).round().astype(int))
-        bound = np.maximum(bound, [_pattern_lp(Lmaps[sub], rhs[p, sub], _PATTERNS[p], scale)[0] for p in range(64)])
+        bound = np.maximum(bound, [_pattern_lp(LA[sub], rhs[p, sub], _PATTERNS[p], scale)[0]
+                                   if np.isfinite(bound[p]) else np.inf for p in range(64)])
     best = None
     for p in np.argsort(bound, kind="stable"):
         if not np.isfinite(bound[p]) or (best is not None and bound[p] >= best[0]):
             break
-        size, P = _pattern_lp(Lmaps, rhs[p], _PATTERNS[p], scale)
+        size, P = _pattern_lp(LA, rhs[p], _PATTERNS[p], scale)
         if P is not None and (best is None or size < best[0]):
             best = (size, P, _PATTERNS[p])
     return best
@@ -640,8 +647,8 @@ class SpatialWrenchSetErrors:
 
 
 def _wrench_set(robot: SpatialManipulator, info: dict, c: np.ndarray, h: np.ndarray, threshold: float) -> dict:
-    """The enclosure, the attained range, the tolerances and each clearance's hold over the box ``c +- h`` at the
-    poses of ``info`` (:class:`SpatialWrenchSetErrors`; leading shape of ``info["Winv"]``).
+    """The enclosure, the attained range, the tolerances and each clearance's hold over the box ``c +- h`` (``c``
+    ``(6,)`` or one centre per pose) at the poses of ``info`` (:class:`SpatialWrenchSetErrors`; leading shape of ``info["Winv"]``).
 
     Per clearance ``s`` the reaction ``g = M_s^T F`` maps the box onto a zonotope, the hull of the 64 corners'
     images. When ``u0 . g_k > t`` at every corner (``u0`` the centre's direction, ``t`` the threshold), the whole
@@ -650,8 +657,9 @@ def _wrench_set(robot: SpatialManipulator, info: dict, c: np.ndarray, h: np.ndar
     ``u0``) in ``[-|m| cos(max(pi - phi - theta, 0)), |m| cos(max(phi - theta, 0))]`` (exact for a segment:
     ``theta = 0``); otherwise in ``[-|m|, |m|]``. The enclosure sums these ranges."""
     Lc = robot.characteristic_length
-    F = np.vstack([c, _corners(c, h)])                                              # (65, 6)
     shape = info["Winv"].shape[:-2]
+    c = np.broadcast_to(c, shape + (6,))                                            # a centre per pose allowed
+    F = np.concatenate([c[..., None, :], c[..., None, :] + _PATTERNS * h], axis=-2)  # (..., 65, 6)
     err = np.zeros(shape + (65, 6))
     spread = np.zeros(shape + (65, 6))
     tolerance = np.zeros(shape + (6,))
@@ -668,7 +676,7 @@ def _wrench_set(robot: SpatialManipulator, info: dict, c: np.ndarray, h: np.ndar
             scale = Lc if _is_rotation(robot, src) else 1.0
             t = threshold * scale * src.half_width
             active = np.max(np.abs(src.E), axis=(-1, -2)) > 1e-9 * src.half_width * scale
-            g = np.einsum("...id,ki->...kd", M, F)                                 # (..., 65, d)
+            g = np.einsum("...id,...ki->...kd", M, F)                              # (..., 65, d)
             gn = np.linalg.norm(g, axis=-1)
             und = active[..., None] & (gn <= t)
             sel = active[..., None] & ~und
@@ -956,7 +964,7 @@ class SpatialRegionPreload:
     worst_max : ndarray, shape (6,)
         [mm, rad]: the unloaded worst case over the same poses.
     not_held : list of str
-        The clearances whose reaction is not kept on one side at some pose of the design grid (discs and balls may turn
+        The clearances whose reaction is not kept strictly on one side at some pose of the design grid (discs and balls may turn
         by 90 deg or more although every row keeps its sign).
     """
 
@@ -1089,7 +1097,7 @@ def spatial_design_region_preload(robot: SpatialManipulator | str, clearances, r
     per_pose = spatial_design_preload(robot, sources, attaining, c, h, margin=margin).size
     grid_poses_ = design[:n_grid]                     # the statistics over the design grid (as the planar ones)
     _, info = error_sources_at(robot, sources, grid_poses_, keep=True)
-    ws = _wrench_set(robot, info, P + c, h, DEFAULT_THRESHOLD_N) if np.any(h) else None
+    ws = _wrench_set(robot, info, P + c, h, 0.0) if np.any(h) else None
     chosen, _ = _selection(robot, info, np.broadcast_to(P + c, grid_poses_.shape), DEFAULT_THRESHOLD_N)
     offset = sum(np.einsum("...ij,...j->...i", M, x) for _, M, x, _, _ in chosen) if chosen else \
         np.zeros(grid_poses_.shape)
@@ -1100,3 +1108,132 @@ def spatial_design_region_preload(robot: SpatialManipulator | str, clearances, r
                                 min_intensity=float(np.min(slack)), n_design=int(len(design)),
                                 n_check=int(len(check)), offset_max=np.max(np.abs(offset), axis=0),
                                 worst_max=np.max(worst, axis=0), not_held=not_held)
+
+
+# ------------------------------------------------------------------------------------ springs along the legs
+#: Architectures whose actuated legs run from a base joint centre ``A_i`` to a platform joint centre ``B_i``
+#: (a spring alongside the leg between those centres).
+SPRING_ARCHITECTURES = ("6-UPS", "3-RPS", "3-UPU")
+
+
+@dataclass(frozen=True)
+class SpatialSpringPreload:
+    """Constant-force springs alongside the legs holding every closure row's sign (:func:`spatial_spring_preload`).
+
+    Attributes
+    ----------
+    forces : ndarray, shape (n,)
+        Each leg's spring force (N), positive when it pushes the platform away from the base (compression).
+    size : float
+        ``max |forces|`` (N), the smallest possible; each force is then as weak as the others allow (least sum).
+    pattern : ndarray, shape (6,)
+        The rows' intensity signs held.
+    poses : ndarray, shape (m, 6)
+        The poses it holds at [mm, rotation vector rad].
+    min_intensity : float
+        The smallest ``s_k lambda_k`` over the poses and the box's worst wrench (N, or N mm for a couple row).
+    offset : ndarray, shape (m, 6)
+        [mm, rad]: the first-order loaded error at the box's centre plus the springs.
+    held : dict
+        ``{label: bool}``: the clearance's reaction stays strictly on one side at every pose for every wrench of
+        the box (:class:`SpatialWrenchSetErrors` with a zero threshold).
+    """
+
+    forces: np.ndarray
+    size: float
+    pattern: np.ndarray
+    poses: np.ndarray
+    min_intensity: float
+    offset: np.ndarray
+    held: dict = field(repr=False)
+
+
+def _spring_wrenches(robot: SpatialManipulator, poses: np.ndarray) -> np.ndarray:
+    """``S`` ``(m, 6, n)``: column ``i`` the wrench about ``P`` of a unit force pushing the platform at ``B_i``
+    along ``u_i = (B_i - A_i) / |B_i - A_i|``: ``[u_i, (B_i - P) x u_i]``."""
+    p, R = poses[..., :3], rotations(poses[..., 3:])
+    cols = []
+    for leg in robot.legs:
+        B = leg.platform_point(p, R)
+        u = B - np.asarray(leg.base, dtype=float)
+        u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+        cols.append(np.concatenate([u, np.cross(B - p, u)], axis=-1))
+    return np.stack(cols, axis=-1)
+
+
+def _weakest(LS: np.ndarray, c, h, margin: float, Lmaps: np.ndarray, s: np.ndarray, size: float,
+             sigma: np.ndarray) -> np.ndarray:
+    """The springs of pattern ``s`` with ``max |sigma_i| <= size`` and the least ``sum |sigma_i|`` (each as weak as
+    the others allow; scipy HiGHS), or ``sigma`` when that program fails."""
+    n = LS.shape[-1]
+    rows = (s[None, :, None] * LS).reshape(-1, n)
+    rhs = (margin - s[None] * (Lmaps @ c) + np.abs(Lmaps) @ h).reshape(-1)
+    eye = np.eye(n)
+    A_ub = np.vstack([np.column_stack([-rows, np.zeros(rows.shape)]),
+                      np.column_stack([eye, -eye]), np.column_stack([-eye, -eye])])
+    b_ub = np.concatenate([-rhs, np.zeros(2 * n)])
+    res = linprog(np.r_[np.zeros(n), np.ones(n)], A_ub=A_ub, b_ub=b_ub,
+                  bounds=[(-size, size)] * n + [(0, None)] * n, method="highs")
+    return res.x[:n] if res.status == 0 else sigma
+
+
+def spatial_spring_preload(robot: SpatialManipulator | str, clearances, poses, center, half, *,
+                           margin: float = DEFAULT_THRESHOLD_N) -> SpatialSpringPreload:
+    """The smallest constant-force springs alongside the legs (one per leg, between the leg's base and platform
+    joint centres ``A_i``, ``B_i``, e.g. gas springs) keeping every closure row's intensity on one side, with at
+    least ``margin``, for every process wrench of the box ``center +- half`` ``(6,)`` at every pose of ``poses``
+    ``(..., 6)``: the preload as springs on the actuated legs instead of a constant platform wrench
+    (:func:`spatial_design_preload`).
+
+    A spring of force ``sigma_i`` pushes the platform with ``sigma_i S_i``, ``S_i = [u_i, (B_i - P) x u_i]``
+    (:func:`_spring_wrenches`), a wrench that moves with the pose; it bypasses the leg, so the rows' intensities
+    become ``lambda = L (F + S sigma)`` (``L = -W^{-T}``). Where ``S_i`` is leg ``i``'s axial row (a 6-UPS leg, a
+    3-RPS or 3-UPU leg's force row), ``lambda_i = lambda_i(F) - sigma_i``: the spring only shifts its own leg's
+    axial force, so it cannot hold a 3-RPS revolute row or a 3-UPU couple row that the box flips
+    (:class:`~pmaccuracy.errors.ConfigError`, key ``half``). One linear program per sign pattern over the poses
+    (:func:`_preload_lp` with ``A = S``): ``min max |sigma_i|`` subject to the box's worst wrench at every pose,
+    then, at that size, the least ``sum |sigma_i|`` (:func:`_weakest`).
+    Springs with a stiffness (force changing with the leg's length) are not modelled.
+    Architectures: :data:`SPRING_ARCHITECTURES` (the others' actuators are not a leg between two joint centres:
+    :class:`~pmaccuracy.errors.UnsupportedArchitectureError`).
+
+    >>> robot = SpatialManipulator.preset("stewart_6ups")
+    >>> sp = spatial_spring_preload(robot, "ups_typical", robot.home_pose, np.zeros(6), [10, 10, 10, 0, 0, 0],
+    ...                             margin=1.0)
+    >>> bool(sp.size > 0 and all(sp.held.values()))
+    True
+    """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+    robot = _robot(robot)
+    if robot.architecture not in SPRING_ARCHITECTURES or any(isinstance(leg, ChainLeg) for leg in robot.legs):
+        raise UnsupportedArchitectureError(
+            f"springs alongside the legs are modelled for {', '.join(SPRING_ARCHITECTURES)} (legs from a base to a "
+            f"platform joint centre); {robot.name} is a {robot.architecture}: use a platform preload "
+            "(spatial_design_preload)", key="robot")
+    sources = _sources(robot, clearances)
+    c, h = _box(center, half)
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise ConfigError(f"must be finite and >= 0 (N), got {margin!r}", key="margin")
+    poses = as_spatial_poses(poses).reshape(-1, 6)
+    _, info = error_sources_at(robot, sources, poses, keep=True)
+    Lmaps = -np.swapaxes(info["Winv"], -1, -2)
+    S = _spring_wrenches(robot, poses)
+    best = _preload_lp(Lmaps, c, h, margin, np.ones(robot.n_legs), A=S)
+    if best is None:
+        lam_lo = np.min(Lmaps @ c - np.abs(Lmaps) @ h, axis=0)
+        lam_hi = np.max(Lmaps @ c + np.abs(Lmaps) @ h, axis=0)
+        moved = np.any(np.abs(Lmaps @ S) > 1e-12, axis=(0, 2))
+        rows = [str(k + 1) for k in range(6) if not moved[k] and lam_lo[k] < margin and lam_hi[k] > -margin]
+        raise ConfigError("no springs alongside the legs hold every row's sign over the box"
+                          + (f": rows {', '.join(rows)} (not along a leg) change sign with the process wrench and "
+                             "no spring moves them" if rows else " at these poses"), key="half")
+    size, sigma, pattern = best
+    sigma = _weakest(Lmaps @ S, c, h, margin, Lmaps, pattern, size, sigma)
+    P = np.einsum("mij,j->mi", S, sigma)                                          # the springs' wrench per pose
+    slack = np.min(pattern * np.einsum("mij,mj->mi", Lmaps, P + c) - np.abs(Lmaps) @ h)
+    ws = _wrench_set(robot, info, P + c, h, 0.0)
+    chosen, _ = _selection(robot, info, P + c, DEFAULT_THRESHOLD_N)
+    offset = sum(np.einsum("...ij,...j->...i", M, x) for _, M, x, _, _ in chosen) if chosen else np.zeros(P.shape)
+    return SpatialSpringPreload(forces=np.asarray(sigma, dtype=float), size=float(size), pattern=pattern,
+                                poses=poses, min_intensity=float(slack), offset=offset,
+                                held={k: bool(np.all(v)) for k, v in ws["held"].items()})

@@ -30,6 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
+    p.add_argument("--springs", action="store_true",
+                   help="spatial 6-UPS, 3-RPS, 3-UPU at poses: the preload as constant-force springs alongside the "
+                        "legs (one per leg, base to platform joint centre) holding at every --pose at once, instead "
+                        "of a platform wrench (spring1_N, ...: positive pushes the platform away from the base)")
     p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
                    help="spatial robots, without poses: the region is the cylinder of axis (X, Y), radius R and "
                         "heights Z0..Z1 (mm)")

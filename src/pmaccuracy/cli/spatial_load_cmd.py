@@ -23,7 +23,7 @@ _UNSET = {"m": (0.0, (0.0, 0.0)), "gravity_deg": (-90.0,), "phi_deg": (None,), "
 #: The spatial-only options and their values when not given.
 SPATIAL_ONLY = {"fz": (0.0, (0.0, 0.0)), "mx": (0.0, (0.0, 0.0)), "my": (0.0, (0.0, 0.0)), "mz": (0.0, (0.0, 0.0)),
                 "gravity": (None,), "direction": (None,), "orientation_deg": (None,), "cylinder": (None,),
-                "sphere": (None,)}
+                "sphere": (None,), "springs": (False,)}
 #: Default grids (points per axis) of the spatial maps and the region preload.
 LOAD_MAP_GRID, PRELOAD_MAP_GRID, REGION_GRID = 10, 6, 5
 
@@ -170,12 +170,16 @@ def run_preload(args: argparse.Namespace, robot) -> int:
                         {"|--mx/--my/--mz|": float(np.linalg.norm(ends[3:]))}, robot.characteristic_length))
     center, half = (lo + hi) / 2, (hi - lo) / 2
     direction = None if args.direction is None else np.array(args.direction, dtype=float)
+    if args.springs and not at_poses:
+        raise ConfigError("springs are designed at poses: give --pose (or --poses-csv)", key="--springs")
     if args.map:
         return _preload_map(args, robot, center, half, direction)
     if not at_poses:
         return _region_preload(args, robot, center, half, direction)
     sources = _sources(args, robot)
     full = poses(robot, args.pose, args.poses_csv)
+    if args.springs:
+        return _springs(args, robot, sources, full, center, half, direction)
     rows = []
     from ..kinematics.spatial import coordinates
 
@@ -304,4 +308,30 @@ def _region_preload(args: argparse.Namespace, robot, center, half, direction) ->
     except EmptyWorkspaceError as exc:
         raise ConfigError(str(exc), key=shape_key(args)) from None
     _common.emit([res.record()], args.format)
+    return 0
+
+
+def _springs(args: argparse.Namespace, robot, sources, full, center, half, direction) -> int:
+    """``preload --springs``: constant-force springs alongside the legs holding every row at every pose."""
+    from ..accuracy.spatial_loads import spatial_spring_preload
+    from ..errors import UnsupportedArchitectureError
+
+    if direction is not None:
+        raise ConfigError("a spring acts along its leg: --direction is for a platform preload", key="--direction")
+    with _pose_errors():
+        try:
+            sp = spatial_spring_preload(robot, sources, full, center, half)
+        except UnsupportedArchitectureError as exc:
+            raise ConfigError(exc.message, key="--springs") from None
+        except ConfigError as exc:
+            if exc.key != "half":
+                raise
+            raise ConfigError(exc.message, key="--springs") from None
+    rec = {f"spring{i + 1}_N": float(v) + 0.0 for i, v in enumerate(sp.forces)}
+    rec.update(springs_size_N=sp.size, pattern="".join("+" if s > 0 else "-" for s in sp.pattern),
+               min_intensity=sp.min_intensity, poses=len(full),
+               not_held=",".join(k for k, v in sp.held.items() if not v) or "-")
+    for k in range(len(full)):
+        _error_columns(rec, sp.offset[k], prefix=f"pose{k + 1}.offset_")
+    _common.emit([rec], args.format)
     return 0
