@@ -536,16 +536,25 @@ def _preload_lp(Lmaps: np.ndarray, c: np.ndarray, h: np.ndarray, margin: float, 
     The 64 patterns are tried in increasing order of a lower bound of their optimum, and a pattern whose bound
     is not below the best size found is skipped (exact: it cannot do better). The bound: ``max_{n,k} rhs_nk /
     sum_j |(L A)_nkj| scale_j`` (``|s_k (L A)_k P| <= sum_j |(L A)_kj| scale_j z``; ``inf`` where a row that
-    ``P`` cannot move needs moving) and, for more than :data:`_SUBSAMPLE` poses, the pattern's optimum over a
+    ``P`` cannot move needs moving), the same for the rows' combinations weighted by their needed moves ``d_k``
+    and by ``d_k > 0`` (``sum mu_k d_k <= |sum mu_k s_k (L A)_k P|``), and, for more than :data:`_SUBSAMPLE` poses, the pattern's optimum over a
     subsample of them (fewer constraints; ``inf`` when infeasible there)."""
     LA = Lmaps if A is None else Lmaps @ A                                  # (m, 6, v)
     Lc = Lmaps @ c                                                          # (m, 6)
     Lh = np.abs(Lmaps) @ h
     norm1 = np.abs(LA) @ scale                                              # (m, 6)
     rhs = margin - _PATTERNS[:, None, :] * Lc[None] + Lh[None]             # (64, m, 6)
+    d = np.maximum(rhs, 0.0)                                                # (64, m, 6) each row's needed move
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(norm1[None] > 0, np.maximum(rhs, 0.0) / norm1[None], np.where(rhs > 0, np.inf, 0.0))
-    bound = np.max(ratio, axis=(1, 2))
+        ratio = np.where(norm1[None] > 0, d / norm1[None], np.where(rhs > 0, np.inf, 0.0))
+        bound = np.max(ratio, axis=(1, 2))
+        # rows combined (weights mu >= 0: z >= sum mu_k d_k / sum_j |sum_k mu_k s_k (L A)_kj| scale_j), per pose
+        sLA = _PATTERNS[:, None, :, None] * LA[None]                        # (64, m, 6, v)
+        for mu in (d, (d > 0).astype(float)):
+            num = np.sum(mu * d, axis=-1)
+            den = np.abs(np.einsum("pmk,pmkj->pmj", mu, sLA)) @ scale
+            both = np.where(den > 0, num / den, np.where(num > 0, np.inf, 0.0))
+            bound = np.maximum(bound, np.max(both, axis=1))
     m = Lmaps.shape[0]
     if m > _SUBSAMPLE:
         sub = np.unique(np.linspace(0, m - 1, _SUBSAMPLE).round().astype(int))
@@ -859,8 +868,8 @@ def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, 
     ``d*_lo, d*_hi`` and attained range ``d*_attained_lo, d*_attained_hi`` (mm, rad;
     :func:`spatial_wrench_set_errors`), ``not_held`` the number of clearances the box does not keep on one side,
     and the preload each point needs (:func:`spatial_design_preload`): ``preload_size`` (N, the size
-    ``max(|P_f|, |P_m| / L)`` of the smallest free preload, 64 linear programs per point pruned by a bound:
-    about 10 ms per point) or, with ``direction`` ``(6,)``, the smallest multiple ``preload_alpha`` of it
+    ``max(|P_f|, |P_m| / L)`` of the smallest free preload, 64 linear programs per point pruned by lower bounds, a quarter
+    of them solved per point on average on a 6-UPS: about 0.1 s per point) or, with ``direction`` ``(6,)``, the smallest multiple ``preload_alpha`` of it
     (closed form, vectorized; ``inf`` where no multiple holds every row). ``preload=False`` skips the free
     preload. NaN outside the workspace and near singularities.
 
