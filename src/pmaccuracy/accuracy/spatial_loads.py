@@ -868,9 +868,9 @@ def spatial_wrench_set_map(robot: SpatialManipulator | str, clearances, center, 
     ``d*_lo, d*_hi`` and attained range ``d*_attained_lo, d*_attained_hi`` (mm, rad;
     :func:`spatial_wrench_set_errors`), ``not_held`` the number of clearances the box does not keep on one side,
     and the preload each point needs (:func:`spatial_design_preload`): ``preload_size`` (N, the size
-    ``max(|P_f|, |P_m| / L)`` of the smallest free preload, 64 linear programs per point pruned by lower bounds, a quarter
-    of them solved per point on average on a 6-UPS: about 0.1 s per point) or, with ``direction`` ``(6,)``, the smallest multiple ``preload_alpha`` of it
-    (closed form, vectorized; ``inf`` where no multiple holds every row). ``preload=False`` skips the free
+    ``max(|P_f|, |P_m| / L)`` of the smallest free preload: 64 linear programs per point pruned by lower bounds,
+    about a third of them solved on a 6-UPS, ~0.1 s per point) or, with ``direction`` ``(6,)``, the smallest
+    multiple ``preload_alpha`` of it (closed form, vectorized; ``inf`` where no multiple holds every row). ``preload=False`` skips the free
     preload. NaN outside the workspace and near singularities.
 
     >>> robot = SpatialManipulator.preset("stewart_6ups")
