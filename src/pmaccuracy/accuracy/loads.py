@@ -337,9 +337,17 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     """The pose error that ``load`` produces at ``poses`` ``(..., 3)`` with the clearances taken up along the
     joints' reactions (module docstring), first order and (with ``exact``) on the exact loop closure.
 
+    Every source of ``clearances`` follows the load here, tolerances included (``position``, ``direction``,
+    ``length`` and the polar keys go to the extreme the reactions select, like the clearances): right for a
+    clearance file; with tolerances in the file the result is their worst state aligned with the load, a bound
+    rather than a prediction (a load does not move a manufacturing error). Give the clearances alone and take
+    the tolerances' worst case from :func:`~pmaccuracy.accuracy.bounds.max_pose_errors`.
+
     A spatial robot takes poses ``(..., 6)``, its error sources and a
     :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`
     (:func:`pmaccuracy.accuracy.spatial_loads.spatial_loaded_error`; ``exact`` does not apply: first order).
+    It keeps the tolerances apart: only the clearances follow the load, the tolerances' worst case is given
+    beside it (:attr:`~pmaccuracy.accuracy.spatial_loads.SpatialLoadedError.tolerance`).
 
     Parameters
     ----------

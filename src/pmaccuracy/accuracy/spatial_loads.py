@@ -34,7 +34,9 @@ power with its leg's wrench, i.e. each clearance is taken up along its joint's r
 its socket opposite the force it transmits). Only clearances follow the load (keys ``radial``, ``axial``,
 ``tilt``, ``backlash``, ``lateral``); the geometric tolerances and the actuator's own error (``position``,
 ``direction``, ``length``, ``actuator``) are constant unknowns that no load moves: their worst case is given
-apart as :attr:`SpatialLoadedError.tolerance`. Where the load does not select a point, ``|M_s^T F| / h_s`` at
+apart as :attr:`SpatialLoadedError.tolerance` (the planar :func:`pmaccuracy.accuracy.loads.loaded_pose_error`
+takes every source of its file to the load's extreme, tolerances included: docs/guide/loads.md, "Tolerances
+under load"). Where the load does not select a point, ``|M_s^T F| / h_s`` at
 or below ``threshold`` (N; for rotation sources ``threshold L`` N mm, ``L`` the robot's characteristic
 length), the source's state is **undetermined**: it is left at its centre and its half-width is reported in
 :attr:`SpatialLoadedError.spread` (the loaded error then lies in ``error +- spread`` componentwise) instead of
@@ -48,6 +50,13 @@ pattern, the best of the ``2^6``), or the smallest multiple ``alpha >= 0`` of a 
 source whose reaction then stays on one side is *held*: a segment's reaction keeps its sign, a disc's or ball's
 keeps its direction within :attr:`SpatialPreload.max_angle_deg` (0 only for a one-dimensional reaction, e.g. a
 6-UPS leg's or a Delta rod's balls, whose reaction is along the leg or rod).
+
+**Over sets** (issue 37): :func:`spatial_wrench_set_errors` (the loaded error over a box of process wrenches: a
+guaranteed enclosure and the range attained at its corners), :func:`spatial_loaded_error_map` and
+:func:`spatial_wrench_set_map` (the loaded error, its range over a box and the preload each point needs, over the
+workspace's 3D grid), :func:`spatial_design_region_preload` (one preload for every sampled pose of a region:
+guaranteed at the checked poses, not proved between them) and :func:`spatial_spring_preload` (constant-force
+springs alongside the legs instead of a platform wrench).
 """
 
 from __future__ import annotations
