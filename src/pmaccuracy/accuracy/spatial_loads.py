@@ -745,12 +745,19 @@ def spatial_wrench_set_errors(robot: SpatialManipulator | str, clearances, poses
 
     Parameters
     ----------
-    robot : a :class:`~pmaccuracy.model.spatial.SpatialManipulator`, preset name or path
-    clearances : a :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, preset name or path
-    poses : ``(..., 6)`` [x, y, z mm, rotation vector rad], flattened to ``(n, 6)``
-    center, half : ``(6,)`` the box [N x3, N mm x3]
-    threshold : N (N mm over ``L`` for rotation sources), as :func:`spatial_loaded_error`
+    robot : SpatialManipulator or str
+        The robot, a preset name or a path.
+    clearances : SpatialErrorSources or str
+        The error sources, a preset name or a path.
+    poses : array_like, shape (..., 6)
+        [x, y, z mm, rotation vector rad], flattened to ``(n, 6)``.
+    center, half : array_like, shape (6,)
+        The box [N x3, N mm x3].
+    threshold : float
+        N (N mm over ``L`` for rotation sources), as :func:`spatial_loaded_error`.
 
+    Examples
+    --------
     >>> robot = SpatialManipulator.preset("stewart_6ups")
     >>> r = spatial_wrench_set_errors(robot, "ups_typical", robot.home_pose, [0, 0, -50, 0, 0, 0],
     ...                               [5, 5, 5, 0, 0, 0])
