@@ -181,7 +181,7 @@ def smallest_preload(robot, positions_and_rotations, center, half, margin, lengt
     sign pattern over the member wrenches (the intensities are linear in the wrench, so the corners suffice)."""
     from scipy.optimize import linprog
 
-    corners = box_corners(center, half)
+    corners = np.unique(box_corners(center, half), axis=0)     # a flat box repeats corners
     Ls = [-np.linalg.inv(member_wrenches(robot, p, R)) for p, R in positions_and_rotations]   # lambda = L F
     scale = np.array([1.0, 1.0, 1.0, length, length, length])
     best = None
