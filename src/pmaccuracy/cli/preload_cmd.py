@@ -51,7 +51,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.epilog = ((p.epilog or "") + " Without poses and without --map: the smallest constant preload for every "
                 "process wrench of the box at every pose of the region (--workspace, default, --box, --disc, "
                 "--polygon; --phi-deg PHI or LO HI): a linear program over a --grid N x N (default 21) by "
-                "--phi-steps sample, checked on a twice denser sample and refined at its worst poses.").strip()
+                "--phi-steps sample, checked on a twice denser sample and refined at its worst poses. Spatial robots "
+                "(--fz, --mx, --my, --mz too): at poses the loaded error's range over the box (an enclosure and the "
+                "range attained at its corners) and the preload; --map over the 3D workspace grid (--grid, "
+                "--orientation-deg); without poses one preload for a region (--workspace, --box with six numbers, "
+                "--cylinder, --sphere; checked on a sample, not proved); --springs: springs alongside the legs "
+                "instead of a platform wrench.").strip()
     p.set_defaults(func=run)
 
 

@@ -155,6 +155,9 @@ def run_preload(args: argparse.Namespace, robot) -> int:
 
     at_poses = bool(args.pose or args.poses_csv)
     refuse_planar_options(args, robot, region=not at_poses and not args.map)
+    if getattr(args, "phi_steps", 5) != 5:
+        raise ConfigError(f"{robot.name} is a spatial robot: the region's orientations are --orientation-deg "
+                          "(a 6-UPS's ranges) and --grid", key="--phi-steps")
     if at_poses:
         _map_only(args)
     keys = ("fx", "fy", "fz", "mx", "my", "mz")
