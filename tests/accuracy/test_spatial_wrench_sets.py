@@ -229,3 +229,20 @@ def test_springs_on_a_3rps_cannot_hold_its_revolute_rows():
     weaker = np.array([lref.member_forces(rdict, p, R, F + S @ (0.99 * sp.forces))
                        for F in lref.box_corners(center, half)])
     assert sp.size > 0 and not np.all(weaker * sp.pattern >= 0.5 - 1e-9)
+
+
+def test_region_preload_refuses_a_singular_region():
+    """A hexapod whose legs reach the yaw-90-deg singularity: the rows' intensities are unbounded there, so no
+    finite preload is returned."""
+    from pmaccuracy.accuracy.spatial_worst import SpatialSingularRegionError
+
+    d = SpatialManipulator.preset("stewart_6ups").to_dict()
+    for leg in d["legs"]:
+        leg["stroke"] = [1.0, 5000.0]
+        for key in ("base_cone_deg", "platform_cone_deg", "radius"):
+            leg.pop(key, None)
+    robot = SpatialManipulator.from_dict(d)
+    region = spatial_region(robot, box=(-1.0, 1.0, -1.0, 1.0, 399.0, 401.0),
+                            orientation=np.radians([[0.0, 0.0], [0.0, 0.0], [80.0, 100.0]]))
+    with pytest.raises(SpatialSingularRegionError):
+        spatial_design_region_preload(robot, "ups_typical", region, np.zeros(6), np.ones(6), grid=3)

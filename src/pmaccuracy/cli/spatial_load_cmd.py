@@ -262,6 +262,7 @@ def write_map(ds, out: str) -> list[dict]:
         for name, var in ds.data_vars.items():
             if var.attrs.get("units") == "rad":
                 df.insert(df.columns.get_loc(name), f"{name}_deg", np.degrees(df.pop(name)))
+        df = df.rename(columns={n: f"{n}_deg" for n, c in ds.coords.items() if c.attrs.get("units") == "deg"})
         df.to_csv(path, index=False, float_format="%.17g")
     rows = []
     for name, var in ds.data_vars.items():
