@@ -65,9 +65,13 @@ class SpatialSynthesis:
 
 
 def spatial_synthesize(robot: SpatialManipulator, template: SpatialErrorSources, targets: dict[str, float], *,
-                       n: int = 20, orientation=None) -> SpatialSynthesis:
+                       n: int = 20, orientation=None, error_map=None) -> SpatialSynthesis:
     """The largest uniform scaling of ``template`` meeting ``targets`` (``{"dp": mm, "dtheta_deg": deg, ...}``,
     names in :data:`TARGETS`) at every point of the workspace's ``n``-per-axis grid (Eq. 1).
+
+    ``error_map``: the template's map already computed (:func:`~pmaccuracy.accuracy.spatial_maps.spatial_error_map`
+    of ``robot`` and ``template`` at ``orientation``, e.g. by a report), used instead of computing it again; its
+    grid replaces ``n``.
 
     >>> import pmaccuracy as pm
     >>> robot = pm.load_robot("upu_3")
@@ -87,7 +91,13 @@ def spatial_synthesize(robot: SpatialManipulator, template: SpatialErrorSources,
             raise ConfigError(f"{name} must be finite and > 0, got {value!r}", key="targets")
     if not any(v for leg in template.legs for j in leg for _, v in j.items()):
         raise ConfigError("the template has no non-zero error source to scale", key="clearances")
-    ds = spatial_error_map(robot, template, n=n, orientation=orientation)
+    if error_map is None:
+        ds = spatial_error_map(robot, template, n=n, orientation=orientation)
+    else:
+        ds = error_map
+        if ds.attrs.get("robot") != robot.name or ds.attrs.get("clearances") != template.name:
+            raise ConfigError(f"the error map is of {ds.attrs.get('robot')!r} with {ds.attrs.get('clearances')!r}, "
+                              f"not of {robot.name!r} with {template.name!r}", key="error_map")
     best, binding, point = np.inf, None, None
     for name, target in targets.items():
         var, unit = TARGETS[name]
