@@ -371,6 +371,30 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
     return 0
 
 
+def parse_targets(items) -> dict[str, float]:
+    """``--target NAME=VALUE`` items of a spatial robot as ``{name: value}`` (names of
+    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS`: mm, deg); a bad item raises naming ``--target``."""
+    from ..accuracy.spatial_synthesis import TARGETS
+
+    targets = {}
+    for item in items:
+        name, sep, value = str(item).partition("=")
+        name = name.strip()
+        if not sep or name not in TARGETS:
+            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
+                                  f"got {item!r}")
+        if name in targets:
+            raise PmAccuracyError(f"--target: {name} given twice")
+        try:
+            v = float(value)
+        except ValueError:
+            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
+        if not (np.isfinite(v) and v > 0):
+            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
+        targets[name] = v
+    return targets
+
+
 def run_synthesize(args: argparse.Namespace, robot) -> int:
     """``synthesize`` on a spatial robot: the largest uniform scaling of the template's sources meeting every
     ``--target`` at every point of the workspace grid (20 points per axis)."""
@@ -388,22 +412,7 @@ def run_synthesize(args: argparse.Namespace, robot) -> int:
     if any(getattr(args, k, None) for k in ("disc", "box", "polygon", "region")):
         raise PmAccuracyError("a region (--disc, --box, --polygon, --region) applies to planar robots; a spatial "
                               "synthesis covers the workspace grid")
-    targets = {}
-    for item in args.target:
-        name, sep, value = str(item).partition("=")
-        name = name.strip()
-        if not sep or name not in TARGETS:
-            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
-                                  f"got {item!r}")
-        if name in targets:
-            raise PmAccuracyError(f"--target: {name} given twice")
-        try:
-            v = float(value)
-        except ValueError:
-            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
-        if not (np.isfinite(v) and v > 0):
-            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
-        targets[name] = v
+    targets = parse_targets(args.target)
     grid = 20
     out = Path(args.out) if args.out else None
     if out is not None:

@@ -88,6 +88,20 @@ def _percent(value: float) -> str:
     return "0 %" if abs(value) < 1e-9 else f"{value:.3g} %"
 
 
+def _pose_compact(robot, pose: np.ndarray) -> str:
+    """A full pose ``(6,)`` in the robot's controlled coordinates, compactly: ``(x, y, z) = (1, 2, 3) mm, (roll,
+    pitch, yaw) = (0, 0, 0) deg``."""
+    c = coordinates(pose, degrees=True)
+    names = ("x", "y", "z", "roll", "pitch", "yaw")
+    parts = []
+    for group, unit in ((range(3), "mm"), (range(3, 6), "deg")):
+        shown = [i for i in group if names[i] in robot.controlled]
+        if shown:
+            parts.append(f"({', '.join(names[i] for i in shown)}) = ({', '.join(f'{c[i]:.4g}' for i in shown)}) "
+                         f"{unit}")
+    return ", ".join(parts)
+
+
 def _pose_words(robot, pose: np.ndarray) -> str:
     """A full pose ``(6,)`` in the robot's controlled coordinates: ``x = 1 mm, ..., roll = 2 deg``."""
     c = coordinates(pose, degrees=True)
@@ -269,22 +283,32 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
                          f"{COMPONENTS[k]} at the binding point ({where}), sources `{sources.name}`.")
         doc.paragraph(f"**{lead[0]}** dominates ({_percent(100 * lead[1] / total)}){second} (Figure {n}): "
                       "tightening it pays most; a uniform scaling keeps every kind's share.")
+    idle = [rec["kind"] for rec in kinds if not any(np.any(np.ravel(v) > 1e-12 * max(float(np.max(at.components[0])),
+                                                                                    1e-300))
+                                                  for lab, v in at.shares().items()
+                                                  if kind_of(robot.architecture, lab) == rec["kind"])]
+    data["idle_kinds"] = idle
+    if idle:
+        why = (" (a 6-UPS leg, a ball at one end and a universal joint at the other, only transmits its length: the "
+               "rod's play in its guide does not change it)" if robot.architecture == "6-UPS" else "")
+        doc.paragraph(f"No share at all at the binding point for: {'; '.join(idle)}. No component of the pose error "
+                      f"moves with them at first order{why}, so these targets do not limit their half-widths there.")
     if glob_error is not None:
         doc.failure("Global worst case over the workspace", glob_error)
         return
     g = data["global"]
-    grows = []
+    grows, where_att = [], []
     for name in targets:
         rec = g["quantities"][name]
         up = "-" if rec["upper"] is None else _g(rec["upper"])
-        grows.append([_WORDS[name], _g(rec["grid_max"]), _g(rec["attained"]), up, _unit(name),
-                      _pose_words(robot, np.asarray(rec["pose"]))])
+        grows.append([f"{_WORDS[name]} [{_unit(name)}]", _g(rec["grid_max"]), _g(rec["attained"]), up])
+        where_att.append(f"{_WORDS[name]} at {_pose_compact(robot, np.asarray(rec['pose']))}")
     how = (f"a branch and bound over {glob.boxes} boxes certifies an upper bound" if glob.certified else
            "a grid, then finer grids around the worst points, find attained values")
     doc.paragraph(f"Between grid points the errors may be larger. Over the whole {_region_words(robot, region)}, "
                   f"{how} ({glob.seconds:.1f} s; sources `{sources.name}`):")
-    doc.table(["quantity", "grid maximum", "attained (a pose)", "certified upper bound", "unit", "attained at"],
-              grows)
+    doc.table(["quantity", "grid maximum", "attained (at a pose)", "certified upper bound"], grows)
+    doc.paragraph("Attained: " + "; ".join(where_att) + ".")
     if g["scale_certified"] is not None:
         doc.paragraph(f"The upper bounds are certified (relative gap at most {100 * GLOBAL_GAP:g} %): a scale of at "
                       f"most **{_g(g['scale_certified'])}** meets the targets at every pose of the workspace, not "
@@ -356,11 +380,11 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
     doc.paragraph(f"How far is the platform off, typically? Every source takes an independent value uniformly "
                   f"distributed in its set (segment, disc or ball); {SAMPLES} Monte Carlo samples (seed {SEED}) "
                   "of the first-order error at each pose, beside the exact RMS from the error's covariance "
-                  "(analytic) and the worst case. Percentiles and RMS of the magnitudes |q|; the ± and the "
-                  "brackets are the Monte Carlo's standard error and 95 % interval.")
+                  "(analytic) and the worst case. Percentiles of the magnitudes |q|; the ± is the Monte Carlo RMS's "
+                  "relative standard error, the brackets the percentile's 95 % interval.")
     panels = []
     for pose, label in poses:
-        short = "reference pose" if label == "reference pose" else "worst pose"
+        short = "reference pose" if label == "reference pose" else "worst-|dp| pose"
         st = spatial_pose_statistics(robot, sources, pose, samples=SAMPLES, seed=SEED, percentiles=PERCENTILES,
                                      thresholds=thresholds, keep_samples=True)
         results["statistics"]["poses"].append({"label": label, "pose": pose.tolist(),
@@ -368,14 +392,15 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
                                                "within_worst": st.within_worst, "quantities": st.quantities})
         rows = []
         for q, rec in st.quantities.items():
-            unit = _unit(q)
-            rows.append([q.removesuffix("_deg"), _g(rec["mean_abs"]), f"{_g(rec['rms'])} ± {_g(rec['se_rms'], 2)}",
-                         _g(rec["rss"]), f"{_g(rec['p95'])} [{_g(rec['p95_lo'])}, {_g(rec['p95_hi'])}]",
+            se = f" (± {100 * rec['se_rms'] / rec['rms']:.2g} %)" if rec["rms"] > 0 else ""
+            rows.append([f"{_WORDS.get(q, q).replace('|', '')} [{_unit(q)}]" if q not in ("dp", "dtheta_deg") else
+                         f"{_WORDS[q]} [{_unit(q)}]", f"{_g(rec['rms'])}{se}", _g(rec["rss"]),
+                         f"{_g(rec['p95'])} [{_g(rec['p95_lo'])}, {_g(rec['p95_hi'])}]",
                          _g(rec["p99"]), _g(rec["worst"]), _percent(100 * rec["p99"] / rec["worst"])
-                         if rec["worst"] > 0 else "-", unit])
-        doc.paragraph(f"At the {label} ({_pose_words(robot, pose)}):")
-        doc.table(["quantity", "mean |q|", "RMS (Monte Carlo)", "RMS (analytic)", "95th percentile", "99th",
-                   "worst case", "99th / worst", "unit"], rows)
+                         if rec["worst"] > 0 else "-"])
+        doc.paragraph(f"At the {label}, {_pose_compact(robot, pose)}:")
+        doc.table(["quantity", "RMS (Monte Carlo)", "RMS (analytic)", "95th percentile [95 % interval]", "99th",
+                   "worst case", "99th / worst"], rows)
         dev = max(abs(rec["rms"] - rec["rss"]) / rec["se_rms"] for rec in st.quantities.values() if rec["se_rms"] > 0)
         dp, dth = st.quantities["dp"], st.quantities["dtheta_deg"]
         exceed = "; ".join(f"P({_WORDS[n]} > {_g(v)} {_unit(n)}) = {_g(100 * st.quantities[n]['exceed'], 3)} % "
