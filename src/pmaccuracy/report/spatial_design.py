@@ -96,7 +96,9 @@ def _pose_compact(robot, pose: np.ndarray) -> str:
     parts = []
     for group, unit in ((range(3), "mm"), (range(3, 6), "deg")):
         shown = [i for i in group if names[i] in robot.controlled]
-        if shown:
+        if len(shown) == 1:
+            parts.append(f"{names[shown[0]]} = {c[shown[0]]:.4g} {unit}")
+        elif shown:
             parts.append(f"({', '.join(names[i] for i in shown)}) = ({', '.join(f'{c[i]:.4g}' for i in shown)}) "
                          f"{unit}")
     return ", ".join(parts)

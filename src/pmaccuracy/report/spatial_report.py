@@ -218,7 +218,7 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
     worst_axis = int(np.argmax(comp[:3]))
     on_edge = _on_edge(finite, np.unravel_index(int(np.nanargmax(ds["dp_max"].values)), finite.shape))
     results["headline"]["dp_max_on_edge"] = on_edge
-    doc.bullets([
+    state["summary"] = items = [
         f"Over the workspace ({n_in} of the {finite.size} points of a {grid} x {grid} x {grid} grid): worst "
         f"position error **|dp| = {_g(dp_max)} mm** (at {_where_text(ds, dp_where)}), worst rotation "
         f"**|dtheta| = {_g(np.degrees(dth_max))} deg** (at {_where_text(ds, dth_where)}).",
@@ -228,7 +228,8 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
         f"The map's worst |dp| is {_g(dp_max / ref_json['dp_max'], 3)} times the reference pose's; it is reached "
         + ("on the edge of the workspace (a neighbouring grid point is outside it)." if on_edge else
            "inside the workspace (every neighbouring grid point is inside it)."),
-    ])
+    ]
+    doc.bullets(items)      # the design and statistics sections add their conclusions to this list
 
 
 def _on_edge(inside: np.ndarray, index: tuple) -> bool:
@@ -462,13 +463,27 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
 
 
 def _design(doc, robot, sources, ds, state, results, figure, out, targets) -> None:
-    doc.heading(TITLES["design"])
+    number = doc.heading(TITLES["design"])
     design_section(doc, robot, sources, ds, state, results, figure, out, targets)
+    d = results["design"]
+    tgt = " and ".join(f"{'|dtheta|' if n == 'dtheta_deg' else '|dp|' if n == 'dp' else n.removesuffix('_deg')} "
+                       f"<= {_g(v)} {'deg' if n.endswith('_deg') else 'mm'}" for n, v in d["targets"].items())
+    cert = (d.get("global") or {}).get("scale_certified")
+    scale = (f"at most **{_g(cert)}** (certified over the whole workspace)" if cert is not None else
+             f"at most **{_g(d['scale_grid'])}** on the map's grid (at most {_g(d['global']['scale_attained_limit'])} "
+             "anywhere)" if d.get("global") else f"at most **{_g(d['scale_grid'])}** on the map's grid")
+    state.get("summary", []).append(f"Design (section {number}): for {tgt} everywhere, every half-width may be "
+                                    f"multiplied by {scale}.")
 
 
 def _statistics(doc, robot, sources, state, results, figure, out, targets) -> None:
-    doc.heading(TITLES["statistics"])
+    number = doc.heading(TITLES["statistics"])
     statistics_section(doc, robot, sources, state, results, figure, out, targets)
+    q = results["statistics"]["poses"][0]["quantities"]["dp"]
+    state.get("summary", []).append(
+        f"Statistics (section {number}): with every source independent and uniform in its set, |dp| at the "
+        f"reference pose is {_g(q['rms'], 3)} mm RMS and below {_g(q['p99'], 3)} mm in 99 % of the robots "
+        f"({_percent(100 * q['p99'] / q['worst'])} of its worst case).")
 
 
 def _percent(value: float) -> str:
