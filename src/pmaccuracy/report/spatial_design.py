@@ -45,8 +45,8 @@ from .workspace3d_figures import FONT_PT, TITLE_PT, WIDTH_IN
 
 #: Default design targets of the synthesis: ``|dp|`` in mm, ``|dtheta|`` in deg (``reproduce --target``).
 TARGETS = {"dp": 0.1, "dtheta_deg": 0.05}
-#: Relative gap of the certified global worst case (6-UPS).
-GLOBAL_GAP = 1e-2
+#: Relative gap of the certified global worst case (6-UPS): 2 % (1 % takes about a third longer).
+GLOBAL_GAP = 2e-2
 #: Monte Carlo samples and seed of the statistics.
 SAMPLES, SEED = 50_000, 0
 #: Percentiles of the statistics.
@@ -346,8 +346,9 @@ def save_histograms_figure(robot, panels: list[dict], path: Path, *, sources: st
         x0 = left + c * (w + gap_x)
         y0 = height - top - (r + 1) * panel_h - r * gap
         ax = fig.add_axes((x0 / WIDTH_IN, y0 / height, w / WIDTH_IN, panel_h / height))
-        ax.hist(p["values"], bins=100, range=(0, p["worst"]), color="#9ecae1", edgecolor="#4a90c2", linewidth=0.3,
-                density=True)
+        counts, edges = np.histogram(p["values"], bins=100, range=(0, p["worst"]), density=True)
+        ax.stairs(counts, edges, fill=True, color="#9ecae1")        # one artist: fast to draw
+        ax.stairs(counts, edges, color="#4a90c2", linewidth=0.8)
         lines = [ax.axvline(p["p95"], color="#08306b", lw=1.4, label="95th percentile"),
                  ax.axvline(p["p99"], color="#08306b", lw=1.4, ls="--", label="99th percentile"),
                  ax.axvline(p["rss"], color="#1a7f37", lw=1.4, ls=":", label="RMS (analytic)"),
@@ -382,8 +383,8 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
     doc.paragraph(f"How far is the platform off, typically? Every source takes an independent value uniformly "
                   f"distributed in its set (segment, disc or ball); {SAMPLES} Monte Carlo samples (seed {SEED}) "
                   "of the first-order error at each pose, beside the exact RMS from the error's covariance "
-                  "(analytic) and the worst case. Percentiles of the magnitudes |q|; the ± is the Monte Carlo RMS's "
-                  "relative standard error, the brackets the percentile's 95 % interval.")
+                  "(analytic) and the worst case. Percentiles of the magnitudes |q|, with their 95 % intervals in "
+                  "brackets.")
     panels = []
     for pose, label in poses:
         short = "reference pose" if label == "reference pose" else "worst-|dp| pose"
@@ -394,9 +395,8 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
                                                "within_worst": st.within_worst, "quantities": st.quantities})
         rows = []
         for q, rec in st.quantities.items():
-            se = f" (± {100 * rec['se_rms'] / rec['rms']:.2g} %)" if rec["rms"] > 0 else ""
             rows.append([f"{_WORDS.get(q, q).replace('|', '')} [{_unit(q)}]" if q not in ("dp", "dtheta_deg") else
-                         f"{_WORDS[q]} [{_unit(q)}]", f"{_g(rec['rms'])}{se}", _g(rec["rss"]),
+                         f"{_WORDS[q]} [{_unit(q)}]", _g(rec["rms"]), _g(rec["rss"]),
                          f"{_g(rec['p95'])} [{_g(rec['p95_lo'])}, {_g(rec['p95_hi'])}]",
                          _g(rec["p99"]), _g(rec["worst"]), _percent(100 * rec["p99"] / rec["worst"])
                          if rec["worst"] > 0 else "-"])
@@ -404,6 +404,7 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
         doc.table(["quantity", "RMS (Monte Carlo)", "RMS (analytic)", "95th percentile [95 % interval]", "99th",
                    "worst case", "99th / worst"], rows)
         dev = max(abs(rec["rms"] - rec["rss"]) / rec["se_rms"] for rec in st.quantities.values() if rec["se_rms"] > 0)
+        rel = [100 * rec["se_rms"] / rec["rms"] for rec in st.quantities.values() if rec["rms"] > 0]
         dp, dth = st.quantities["dp"], st.quantities["dtheta_deg"]
         exceed = "; ".join(f"P({_WORDS[n]} > {_g(v)} {_unit(n)}) = {_g(100 * st.quantities[n]['exceed'], 3)} % "
                            f"(± {_g(100 * st.quantities[n]['se_exceed'], 2)})" if st.quantities[n]["exceed"] > 0 else
@@ -417,8 +418,9 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
             f"mm, {_percent(100 * dp['p99'] / dp['worst'])} of the worst case {_g(dp['worst'], 3)} mm; |dtheta|: "
             f"{_g(dth['rms'], 3)} deg RMS, 99th percentile {_g(dth['p99'], 3)} deg "
             f"({_percent(100 * dth['p99'] / dth['worst'])} of {_g(dth['worst'], 3)} deg).",
-            f"Analytic and Monte Carlo RMS agree within {dev:.2g} standard errors (largest over the eight "
-            f"quantities); no sample exceeds the worst case: {'yes' if st.within_worst else 'NO'}.",
+            f"Analytic and Monte Carlo RMS agree within {dev:.2g} standard errors of the Monte Carlo (largest over "
+            f"the eight quantities; a standard error is {min(rel):.2g} to {max(rel):.2g} % of the RMS); no sample "
+            f"exceeds the worst case: {'yes' if st.within_worst else 'NO'}.",
             *([f"The design targets with these sources: {exceed}."] if exceed else []),
             *([f"If 1 % of the robots may miss the targets at this pose (a statistical tolerance instead of the "
                f"worst case), the half-widths may be scaled by up to **{_g(stat_scale, 3)}** (target / 99th "
