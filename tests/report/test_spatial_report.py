@@ -332,3 +332,23 @@ def test_design_targets_are_checked_before_anything_is_written(tmp_path):
         with pytest.raises(ConfigError, match="target"):
             sr.spatial_accuracy_report(tmp_path / "x", "stewart_6ups", targets=bad)
     assert not (tmp_path / "x").exists()
+
+
+def test_a_failing_global_worst_case_is_a_box_and_the_rest_is_written(tmp_path, monkeypatch):
+    from pmaccuracy.accuracy.spatial_worst import SpatialSingularRegionError
+    from pmaccuracy.report import spatial_design as sd
+
+    def singular(*args, **kwargs):
+        raise SpatialSingularRegionError("the region reaches a singularity near (1, 2, 3) mm")
+    monkeypatch.setattr(sd, "spatial_global_worst", singular)
+    with pytest.warns(SectionFailedWarning, match="global worst case"):
+        results = sr.spatial_accuracy_report(tmp_path, "upu_3", grid=5)
+    assert results["failed_sections"] == [{"section": "Design: global worst case",
+                                           "reason": "the region reaches a singularity near (1, 2, 3) mm"}]
+    assert "global" not in results["design"] and results["design"]["scale_grid"] > 0
+    md = (tmp_path / "report.md").read_text()
+    assert "Global worst case over the workspace: not computed" in md
+    # the statistics fall back to the synthesis' binding grid point for their second pose
+    assert [p["label"] for p in results["statistics"]["poses"]] == ["reference pose",
+                                                                    "binding grid point of the synthesis"]
+    assert "on the map's grid" in md         # the summary does not claim a certified or global scale

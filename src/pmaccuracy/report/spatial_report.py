@@ -48,7 +48,7 @@ TITLES = {"summary": "Summary", "robot": "The robot", "workspace": "Workspace", 
 #: machine: the estimates printed before the report runs (never used for a decision).
 MAP_SECONDS_PER_POINT = {"6": 3e-5, "3T": 4e-5, "2R1T": 7.5e-5}      # by mobility (2R1T: parasitic motions solved)
 WORKSPACE_SECONDS_PER_POINT = 1e-5
-FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "design": 1.5,
+FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "design": 2.0,
                  "statistics": 1.2, "method": 0.1}
 _UNITS = ("mm", "mm", "mm", "deg", "deg", "deg")
 #: Rows of the table of single sources (the rest summed in one row; all of them in results.json).
