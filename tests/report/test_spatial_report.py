@@ -351,4 +351,4 @@ def test_a_failing_global_worst_case_is_a_box_and_the_rest_is_written(tmp_path, 
     # the statistics fall back to the synthesis' binding grid point for their second pose
     assert [p["label"] for p in results["statistics"]["poses"]] == ["reference pose",
                                                                     "binding grid point of the synthesis"]
-    assert "on the map's grid" in md         # the summary does not claim a certified or global scale
+    assert "at the map's grid points only" in md     # the summary claims no certified or global scale

@@ -258,8 +258,8 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
     # ---- text
     tgt = ", ".join(f"{_WORDS[n]} <= {_g(v)} {_unit(n)}" for n, v in targets.items())
     where = ", ".join(f"{d} = {_g(v)} {u}".strip() for (d, v), u in zip(point.items(), units))
-    now = ("may grow to {} times its present value (the sources meet the targets with a margin)" if lam > 1 else
-           "must shrink to {} of its present value (the sources miss the targets now)").format(_g(lam, 3))
+    now = ("may grow up to {} times its present value (the sources meet the targets with a margin)" if lam > 1 else
+           "must shrink to at most {} of its present value (the sources miss the targets now)").format(_g(lam, 3))
     doc.paragraph(f"How loose may the joints be? The targets are **{tgt}** everywhere in the workspace (change "
                   f"them with `--target NAME=VALUE`). Every worst case grows in proportion to the half-widths, so "
                   f"the sources `{sources.name}` scaled by one factor meet them at every one of the {syn.points} "

@@ -468,12 +468,20 @@ def _design(doc, robot, sources, ds, state, results, figure, out, targets) -> No
     d = results["design"]
     tgt = " and ".join(f"{'|dtheta|' if n == 'dtheta_deg' else '|dp|' if n == 'dp' else n.removesuffix('_deg')} "
                        f"<= {_g(v)} {'deg' if n.endswith('_deg') else 'mm'}" for n, v in d["targets"].items())
-    cert = (d.get("global") or {}).get("scale_certified")
-    scale = (f"at most **{_g(cert)}** (certified over the whole workspace)" if cert is not None else
-             f"at most **{_g(d['scale_grid'])}** on the map's grid (at most {_g(d['global']['scale_attained_limit'])} "
-             "anywhere)" if d.get("global") else f"at most **{_g(d['scale_grid'])}** on the map's grid")
-    state.get("summary", []).append(f"Design (section {number}): for {tgt} everywhere, every half-width may be "
-                                    f"multiplied by {scale}.")
+    glob = d.get("global") or {}
+    cert = glob.get("scale_certified")
+    if cert is not None:
+        lam, how = cert, "certified over the whole workspace"
+    elif glob:
+        lam = min(d["scale_grid"], glob["scale_attained_limit"])
+        how = (f"from the worst poses found over the workspace, not certified; {_g(d['scale_grid'])} at the map's "
+               "grid points")
+    else:
+        lam, how = d["scale_grid"], "at the map's grid points only"
+    verb = (f"may grow up to {_g(lam, 3)} times its value" if lam > 1 else
+            f"must shrink to at most {_g(lam, 3)} of its value")
+    state.get("summary", []).append(f"Design (section {number}): for {tgt} everywhere, every half-width {verb} "
+                                    f"({how}).")
 
 
 def _statistics(doc, robot, sources, state, results, figure, out, targets) -> None:
