@@ -402,7 +402,7 @@ def run_synthesize(args: argparse.Namespace, robot) -> int:
 
     import tomli_w
 
-    from ..accuracy.spatial_synthesis import TARGETS, spatial_synthesize
+    from ..accuracy.spatial_synthesis import spatial_synthesize
 
     for option, value in (("--cost", args.cost), ("--mode", args.mode not in (None, "uniform")),
                           ("--phi-deg", getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]))):

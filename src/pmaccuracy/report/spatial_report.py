@@ -214,7 +214,7 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
     doc.paragraph(f"Worst-case first-order pose errors of `{robot.name}`, a {robot.label} with {robot.n_legs} legs "
                   f"(joints from base to platform: {legs}), with the error sources `{sources.name}` ({n_src} "
                   f"non-zero half-widths). It controls {', '.join(robot.controlled)}. Lengths in mm, angles in "
-                  "degrees; every value is a worst case over all the sources acting at once.")
+                  "degrees; the values are worst cases over all the sources acting at once unless said otherwise.")
     worst_axis = int(np.argmax(comp[:3]))
     on_edge = _on_edge(finite, np.unravel_index(int(np.nanargmax(ds["dp_max"].values)), finite.shape))
     results["headline"]["dp_max_on_edge"] = on_edge
