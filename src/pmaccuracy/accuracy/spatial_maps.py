@@ -172,7 +172,6 @@ class _Plan:
                               f"{robot.architecture}", key="sources")
         if orientation is not None:
             orientation = np.asarray(orientation, dtype=float)
-            check_angle_values(np.linalg.norm(orientation), "orientation (rotation vector)")
         self.robot, self.sources, self.orientation, self.gap = robot, sources, orientation, gap
         self.ws = spatial_workspace(robot, orientation=orientation, n=n, tilt=False)
         region = self.ws.region
@@ -269,6 +268,15 @@ def _scheduler(use_dask):
                       key="use_dask")
 
 
+def _orientation_angle(orientation) -> float:
+    """The rotation angle (rad) of a 6-UPS's rotation vector ``(3,)``, for the degree-slip warning."""
+    try:
+        return float(np.linalg.norm(np.asarray(orientation, dtype=float)))
+    except (TypeError, ValueError):
+        raise ConfigError(f"must be a rotation vector of 3 numbers (rad), got {orientation!r}",
+                          key="orientation") from None
+
+
 def _check_block(block) -> int:
     if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or block < 1:
         raise ConfigError(f"the block size must be a positive whole number, got {block!r}", key="block")
@@ -322,6 +330,8 @@ def spatial_error_map(robot: SpatialManipulator, sources: SpatialErrorSources, *
     >>> sorted(ds.sizes.items()), float(ds.dp_max.max()) > 0
     ([('x', 8), ('y', 8), ('z', 8)], True)
     """
+    if orientation is not None:
+        check_angle_values(_orientation_angle(orientation), "orientation (rotation vector)")
     block = _check_block(block)
     plan = _worst_plan(robot, sources, n, orientation, gap)
     check_spatial_fits_in_memory(n, len(plan.names))
@@ -351,6 +361,8 @@ def spatial_percentile_map(robot: SpatialManipulator, sources: SpatialErrorSourc
     >>> bool((ds.dp_p95 <= ds.dp_max).sum() == ds.dp_max.notnull().sum())
     True
     """
+    if orientation is not None:
+        check_angle_values(_orientation_angle(orientation), "orientation (rotation vector)")
     plan = _percentile_plan(robot, sources, n, orientation, gap, samples, seed, distribution, sigma, percentiles,
                             thresholds)
     block = _check_block(_percentile_block(samples) if block is None else block)
@@ -393,6 +405,8 @@ def write_spatial_map(path: str | Path, robot: SpatialManipulator, sources: Spat
 
     Returns ``{variable: [min, max]}`` over the map (NaN-ignoring; mm, rad, 1).
     """
+    if orientation is not None:
+        check_angle_values(_orientation_angle(orientation), "orientation (rotation vector)")
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".zarr", ".nc"):
