@@ -41,7 +41,8 @@ import xarray as xr
 from .._optional import require
 from ..errors import ConfigError
 from ..kinematics.spatial import complete_poses, reference_pose
-from ..kinematics.spatial_workspace import spatial_workspace
+from ..kinematics.spatial_workspace import workspace_box
+from ..kinematics.workspace3d import cell_centres
 from ..model.plausibility import check_angle_values
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_sources import SpatialErrorSources
@@ -159,8 +160,21 @@ def _stats_block(robot, sources, pts: np.ndarray, orientation, gap: float, X: np
 
 
 # ------------------------------------------------------------------------------------------------ the engine
+def _run_block(kernel, inside, m: int, robot, sources, pts: np.ndarray, orientation, gap: float, *args
+               ) -> np.ndarray:
+    """One block of grid points ``(k, 3)``: the workspace's membership, then ``kernel`` at the inside points;
+    ``(k, m)`` columns, NaN outside (one Dask task)."""
+    ok = np.asarray(inside(pts), dtype=bool)
+    out = np.full((len(pts), m), np.nan)
+    if np.any(ok):
+        out[ok] = kernel(robot, sources, pts[ok], orientation, gap, *args)
+    return out
+
+
 class _Plan:
-    """A map to compute: its grid, kernel and variables (internal)."""
+    """A map to compute: its grid, kernel and variables (internal). The grid is the one of
+    :func:`~pmaccuracy.kinematics.spatial_workspace.spatial_workspace` (``n`` cell centres per axis of its
+    box); its membership is evaluated block by block with the errors, never for the whole grid at once."""
 
     def __init__(self, robot, sources, n, orientation, gap, kernel, kernel_args, names, extra, attrs):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
@@ -173,82 +187,82 @@ class _Plan:
         if orientation is not None:
             orientation = np.asarray(orientation, dtype=float)
         self.robot, self.sources, self.orientation, self.gap = robot, sources, orientation, gap
-        self.ws = spatial_workspace(robot, orientation=orientation, n=n, tilt=False)
-        region = self.ws.region
-        self.axes, self.dims, self.units = region.axes, region.names, region.units
-        self.inside = region.inside
+        wb = workspace_box(robot, orientation)
+        self.inside = wb.inside
+        self.axes, self.dims, self.units = cell_centres(wb.box, (n, n, n)), wb.names, wb.units
+        self.shape = (int(n),) * 3
         self.kernel, self.kernel_args = kernel, kernel_args
         self.names, self.extra = names, extra       # variables -> units; trailing kernel columns (not stored)
         self.attrs = {"robot": robot.name, "architecture": robot.architecture, "clearances": sources.name,
-                      "workspace": self.ws.kind, "gap": gap, **attrs}
-
-    def points(self, index: np.ndarray | None = None) -> tuple[np.ndarray, tuple]:
-        """The inside grid points ``(k, 3)`` (of planes ``index`` of the first axis) and their indices."""
-        inside = self.inside if index is None else self.inside[index]
-        idx = np.nonzero(inside)
-        coords = [a[i] for a, i in zip(self.axes, idx)]
-        if index is not None:
-            coords[0] = self.axes[0][index][idx[0]]
-        return np.stack(coords, axis=-1), idx
+                      "workspace": wb.kind, "gap": gap, **attrs}
 
     def slabs(self) -> list[slice]:
         """The partition of the grid: slabs of whole planes of the first axis, about :data:`ZARR_POINTS` grid
-        points each (a Zarr chunk; the in-memory map is computed in the same slabs, so both give the same
-        numbers to the last bit)."""
-        shape = self.inside.shape
-        planes = max(1, ZARR_POINTS // (shape[1] * shape[2]))
-        return [slice(i0, min(i0 + planes, shape[0])) for i0 in range(0, shape[0], planes)]
+        points each (a Zarr chunk; the in-memory map is computed in the same slabs and blocks, so both give
+        the same numbers to the last bit)."""
+        n0, n1, n2 = self.shape
+        planes = max(1, ZARR_POINTS // (n1 * n2))
+        return [slice(i0, min(i0 + planes, n0)) for i0 in range(0, n0, planes)]
 
-    def compute(self, parts: list[np.ndarray], block: int, use_dask) -> list[np.ndarray]:
-        """The kernel's columns ``(k, m)`` at each array of grid points ``(k, 3)`` of ``parts``, each in blocks
-        of ``block`` points (Dask tasks with ``use_dask``)."""
+    def points(self, index: slice) -> np.ndarray:
+        """The grid points ``(k, 3)`` of planes ``index`` of the first axis, in C order."""
+        g = np.meshgrid(self.axes[0][index], self.axes[1], self.axes[2], indexing="ij")
+        return np.stack(g, axis=-1).reshape(-1, 3)
+
+    def compute(self, slabs: list[slice], block: int, use_dask) -> list[np.ndarray]:
+        """The columns ``(planes, n, n, m)`` of each slab, in blocks of ``block`` grid points (Dask tasks with
+        ``use_dask``)."""
         m = len(self.names) + self.extra
-        jobs = [(k, pts[s:s + block]) for k, pts in enumerate(parts) for s in range(0, len(pts), block)]
+        jobs = []
+        for k, index in enumerate(slabs):
+            pts = self.points(index)
+            jobs += [(k, pts[s:s + block]) for s in range(0, len(pts), block)]
+        head = (self.kernel, self.inside, m, self.robot, self.sources)
         if use_dask is False or use_dask is None:
-            results = [self.kernel(self.robot, self.sources, pts, self.orientation, self.gap, *self.kernel_args)
-                       for _, pts in jobs]
+            results = [_run_block(*head, pts, self.orientation, self.gap, *self.kernel_args) for _, pts in jobs]
         else:
             dask = _dask()
-            task = dask.delayed(self.kernel, pure=True)
+            task = dask.delayed(_run_block, pure=True)
             shared = [dask.delayed(a, pure=True) if isinstance(a, np.ndarray) else a for a in self.kernel_args]
-            results = dask.compute(*[task(self.robot, self.sources, pts, self.orientation, self.gap, *shared)
-                                     for _, pts in jobs], scheduler=_scheduler(use_dask))
-        out = [[] for _ in parts]
+            results = dask.compute(*[task(*head, pts, self.orientation, self.gap, *shared) for _, pts in jobs],
+                                   scheduler=_scheduler(use_dask))
+        out = [[] for _ in slabs]
         for (k, _), r in zip(jobs, results):
             out[k].append(r)
-        return [np.concatenate(o) if o else np.zeros((0, m)) for o in out]
+        return [np.concatenate(o).reshape((index.stop - index.start,) + self.shape[1:] + (m,))
+                for o, index in zip(out, slabs)]
 
-    def dataset(self, columns: np.ndarray, idx: tuple, shape: tuple, coords: dict | None) -> xr.Dataset:
-        data = {}
-        for v, (name, unit) in enumerate(self.names.items()):
-            a = np.full(shape, np.nan)
-            a[idx] = columns[:, v]
-            data[name] = (self.dims, a, {"units": unit})
-        return xr.Dataset(data, coords=coords)
+    def dataset(self, columns: np.ndarray, coords: dict | None) -> xr.Dataset:
+        """The variables of ``columns`` ``(..., m)`` (the trailing ``extra`` columns left out)."""
+        return xr.Dataset({name: (self.dims, np.ascontiguousarray(columns[..., v]), {"units": unit})
+                           for v, (name, unit) in enumerate(self.names.items())}, coords=coords)
 
     def coords(self) -> dict:
         return {d: (d, a, {"units": u}) for d, a, u in zip(self.dims, self.axes, self.units)}
 
     def in_memory(self, block: int, use_dask) -> xr.Dataset:
-        slabs = self.slabs()
-        points = [self.points(index) for index in slabs]
-        parts = self.compute([pts for pts, _ in points], block, use_dask)
-        columns = np.concatenate(parts)
-        idx = tuple(np.concatenate([i[d] + (index.start if d == 0 else 0) for index, (_, i) in zip(slabs, points)])
-                    for d in range(3))
-        ds = self.dataset(columns, idx, self.inside.shape, self.coords())
+        """The whole map, slab after slab (each slab's blocks as Dask tasks with ``use_dask``): memory holds the
+        result arrays and one slab's columns."""
+        arrays = {name: np.empty(self.shape) for name in self.names}
+        largest = None
+        for index in self.slabs():
+            columns = self.compute([index], block, use_dask)[0]
+            for v, name in enumerate(self.names):
+                arrays[name][index] = columns[..., v]
+            top = np.fmax.reduce(columns.reshape(-1, columns.shape[-1]), axis=0)
+            largest = top if largest is None else np.fmax(largest, top)
+        ds = xr.Dataset({name: (self.dims, a, {"units": unit}) for (name, unit), a in
+                         zip(self.names.items(), arrays.values())}, coords=self.coords())
         ds.attrs.update(self.attrs)
-        self.finish(ds.attrs, columns)
+        self.finish(ds.attrs, largest)
         return ds
 
-    def finish(self, attrs: dict, columns: np.ndarray) -> None:
-        """Attributes from the trailing columns: each percentile's largest Monte Carlo half-width."""
-        if not self.extra:
-            return
-        keys = attrs.pop("_percentile_keys")
-        for k, key in enumerate(keys):
-            h = columns[:, len(self.names) + k]
-            attrs[f"{key}_error"] = float(np.nanmax(h)) if np.isfinite(h).any() else float("nan")
+    def finish(self, attrs: dict, largest: np.ndarray) -> None:
+        """Attributes from the trailing columns' largest values ``largest`` ``(m,)``: each percentile's largest
+        Monte Carlo half-width."""
+        keys = attrs.pop("_percentile_keys", None)
+        for k, key in enumerate(keys or ()):
+            attrs[f"{key}_error"] = float(largest[len(self.names) + k])
 
 
 def _dask():
@@ -379,11 +393,17 @@ def spatial_map_nbytes(n: int, n_variables: int) -> int:
     return 8 * n_variables * n ** 3
 
 
+#: Memory of an in-memory map beyond its result arrays, bytes: one slab's columns and one block's temporaries
+#: (measured with tracemalloc: a 3-UPU's worst-case map at n = 80 peaked at 216 MB with 41 MB of results,
+#: default blocks; a block of 4096 points: 120 MB).
+WORKING_BYTES = 256 * 10**6
+
+
 def check_spatial_fits_in_memory(n: int, n_variables: int = len(WORST_VARIABLES)) -> None:
     """Refuse (:class:`~pmaccuracy.errors.ConfigError`, key ``grid``) an in-memory ``n x n x n`` map whose peak,
-    ``MEMORY_FACTOR`` x its ``n_variables`` float64 arrays plus the grid's points (3 float64 each), exceeds the
-    available memory; the message says to write a ``.zarr`` store."""
-    need = MEMORY_FACTOR * 8 * (n_variables + 3) * n ** 3
+    ``MEMORY_FACTOR`` x its ``n_variables`` float64 arrays plus :data:`WORKING_BYTES`, exceeds the available
+    memory; the message says to write a ``.zarr`` store."""
+    need = MEMORY_FACTOR * spatial_map_nbytes(n, n_variables) + WORKING_BYTES
     free = available_memory()
     if free is not None and need > free:
         raise ConfigError(f"a {n} x {n} x {n} spatial map needs about {format_bytes(need)} of memory but only "
@@ -440,9 +460,9 @@ def _ranges(ds: xr.Dataset) -> dict[str, list[float]]:
 def _write_zarr(plan: _Plan, path: Path, block: int, use_dask, workers) -> dict[str, list[float]]:
     dask = require("dask")
     da = require("dask.array")
-    shape = plan.inside.shape
-    planes = plan.slabs()[0].stop
-    chunks = (planes, shape[1], shape[2])
+    shape = plan.shape
+    slabs = plan.slabs()
+    chunks = (slabs[0].stop,) + shape[1:]
     template = xr.Dataset({name: (plan.dims, da.full(shape, np.nan, chunks=chunks), {"units": unit})
                            for name, unit in plan.names.items()}, coords=plan.coords())
     attrs = dict(plan.attrs)
@@ -450,43 +470,37 @@ def _write_zarr(plan: _Plan, path: Path, block: int, use_dask, workers) -> dict[
     template.attrs.update(attrs)
     encoding = {name: {"chunks": chunks} for name in plan.names}
 
-    def slab(i0: int) -> np.ndarray:
-        """Compute planes ``i0:i0 + planes`` and write them in place; returns (inside points, minima, maxima,
-        largest percentile half-widths) of the slab."""
-        index = slice(i0, min(i0 + planes, shape[0]))
-        pts, idx = plan.points(index)
-        columns = plan.compute([pts], block, False)[0]
-        part = plan.dataset(columns, idx, (index.stop - index.start,) + shape[1:], None)
+    def slab(index: slice) -> np.ndarray:
+        """Compute planes ``index`` and write them in place; returns the slab's minima and maxima ``(2, m)``
+        (NaN-ignoring)."""
+        columns = plan.compute([index], block, False)[0]
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
-            part.to_zarr(path, region={plan.dims[0]: index})
-        if not len(pts):
-            return np.concatenate([[0], np.full(2 * columns.shape[1], np.nan)])
-        # fmin/fmax ignore NaN (NaN only where a column is NaN at every point)
-        return np.concatenate([[len(pts)], np.fmin.reduce(columns, axis=0), np.fmax.reduce(columns, axis=0)])
+            plan.dataset(columns, None).to_zarr(path, region={plan.dims[0]: index})
+        flat = columns.reshape(-1, columns.shape[-1])
+        return np.stack([np.fmin.reduce(flat, axis=0), np.fmax.reduce(flat, axis=0)])
 
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
-        template.to_zarr(path, mode="w", compute=False, encoding=encoding)
-        # the coordinates are written by the template (small, computed)
-    starts = list(range(0, shape[0], planes))
+        template.to_zarr(path, mode="w", compute=False, encoding=encoding)   # metadata and coordinates
     if use_dask is False and not workers:
-        records = [slab(i0) for i0 in starts]
+        records = [slab(index) for index in slabs]
     else:
         scheduler = _scheduler(True if use_dask is False else use_dask)
         task = dask.delayed(slab, pure=False)
         if scheduler is None:
-            records = dask.compute(*[task(i0) for i0 in starts], scheduler="threads",
+            records = dask.compute(*[task(index) for index in slabs], scheduler="threads",
                                    num_workers=workers or os.cpu_count() or 1)
         else:
-            records = dask.compute(*[task(i0) for i0 in starts], scheduler=scheduler)
+            records = dask.compute(*[task(index) for index in slabs], scheduler=scheduler)
     rec = np.array(records)
-    m = len(plan.names) + plan.extra
-    lo, hi = np.fmin.reduce(rec[:, 1:1 + m], axis=0), np.fmax.reduce(rec[:, 1 + m:], axis=0)
+    lo, hi = np.fmin.reduce(rec[:, 0], axis=0), np.fmax.reduce(rec[:, 1], axis=0)
     if keys:   # the Monte Carlo half-widths' largest values, as attributes of the store
         zarr = require("zarr")
         group = zarr.open_group(str(path), mode="r+")
-        group.attrs.update({f"{key}_error": float(hi[len(plan.names) + k]) for k, key in enumerate(keys)})
+        extra = {"_percentile_keys": keys}
+        plan.finish(extra, hi)
+        group.attrs.update(extra)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
             zarr.consolidate_metadata(str(path))
