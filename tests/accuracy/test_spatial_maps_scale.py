@@ -35,6 +35,12 @@ def test_dask_blocks_give_the_numpy_numbers(name, clearances, n):
     b = sm.spatial_error_map(robot, sources, n=n, block=7, use_dask=True)
     xr.testing.assert_identical(a, b)
     assert int(a.dp_max.notnull().sum()) > 14          # a real workspace, three blocks or more
+    # the grid and the points inside are the workspace's (its membership evaluated block by block here)
+    region = pm.spatial_workspace(robot, n=n, tilt=False).region
+    for d, axis in zip(a.dp_max.dims, region.axes):
+        np.testing.assert_array_equal(a[d].values, axis)
+    assert not np.any(np.isfinite(a.dp_max.values) & ~region.inside)
+    assert np.isfinite(a.dp_max.values).sum() >= 0.9 * region.inside.sum()   # only near-singular points lost
     if name == "stewart_6ups":
         p = sm.spatial_percentile_map(robot, sources, n=4, samples=1000, block=5)
         q = sm.spatial_percentile_map(robot, sources, n=4, samples=1000, block=5, use_dask=True)
