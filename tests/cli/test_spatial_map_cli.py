@@ -81,3 +81,10 @@ def test_map_too_large_for_memory_says_zarr(capsys, tmp_path, monkeypatch):
     assert status == 2 and len(lines) == 1, err
     assert "--grid:" in lines[0] and "--out FILE.zarr" in lines[0], err
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_spatial_statistics_with_out_points_to_the_percentile_map(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, out, err = run_cli(["statistics", "--robot", "upu_3", "--out", "p.nc"], capsys)
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and "pmaccuracy map --robot upu_3 --percentile P" in lines[0], err

@@ -374,8 +374,10 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
                                                            for k in ("box", "disc", "polygon", "region"))))
     for option, value in unavailable:
         if value:
+            maps = (f"; percentile maps of a spatial robot: pmaccuracy map --robot {robot.name} --percentile P "
+                    f"--out FILE.nc|.zarr" if option in ("--phi-deg", "--out", "--plot") else "")
             raise PmAccuracyError(f"{option} is not available for spatial robots' statistics yet ({robot.name} is "
-                                  f"a {robot.architecture}): give one --pose")
+                                  f"a {robot.architecture}): give one --pose{maps}")
     names = robot.controlled
     if args.pose is None:
         raise PmAccuracyError(f"--pose: give one pose {' '.join(n.upper() for n in names)} (mm, deg) of the "
