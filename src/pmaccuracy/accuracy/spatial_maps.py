@@ -19,13 +19,17 @@ dp (mm, ``|t[:3]|``) and dtheta (rad, ``|t[3:]|``): ``q_p{p}`` the ``p``-th perc
 ``q_max`` of :func:`spatial_error_map`. Attributes ``q_p{p}_error``: the largest half-width over the map of the
 percentile's 95 % order-statistic interval (units of ``q``).
 
-Scale. Both maps are computed in blocks of grid points (:data:`BLOCK`); ``use_dask=True`` makes each block a
-Dask task on the active scheduler (threads by default), ``use_dask=client`` (a ``dask.distributed.Client``)
-on that client; the blocks and their numbers are the same either way. :func:`write_spatial_map` streams a map
-into a Zarr store slab by slab (a few grid planes of the first axis per chunk, each written in place as soon
-as it is computed, as Dask tasks with ``use_dask``), so memory holds a few slabs whatever ``n``; a ``.nc`` file
-is computed in memory and written. :func:`check_spatial_fits_in_memory` refuses an in-memory map that would
-not fit (use a ``.zarr`` store).
+Scale. The grid is cut into slabs of whole planes of its first axis (about :data:`ZARR_POINTS` points each),
+each slab into blocks of grid points (:data:`BLOCK` for the worst case; a percentile map's blocks hold
+:data:`MAX_VALUES` twist values); a block evaluates the workspace's membership
+(:func:`~pmaccuracy.kinematics.spatial_workspace.workspace_box`) and the errors at its inside points, so the
+whole grid's membership is never held. ``use_dask=True`` makes each block a Dask task on the active scheduler
+(threads by default), ``use_dask=client`` (a ``dask.distributed.Client``) on that client: the same blocks, the
+same numbers. :func:`write_spatial_map` streams a map into a Zarr store, one chunk per slab, each slab
+computed and written in place as soon as it is done (a Dask task per slab with ``use_dask``), so memory holds
+a few slabs whatever ``n``; the store reads back (``xarray.open_zarr``) as the in-memory map to the last bit.
+A ``.nc`` file is computed in memory, which :func:`check_spatial_fits_in_memory` refuses (use a ``.zarr``
+store) when the results and the working memory (:data:`WORKING_BYTES`) would not fit.
 """
 
 from __future__ import annotations
