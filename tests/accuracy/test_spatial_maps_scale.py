@@ -202,3 +202,19 @@ def test_percentile_map_is_the_pose_statistics_at_each_point():
     for q, key, scale in (("dp", "dp", 1.0), ("dtheta", "dtheta_deg", math.degrees(1)), ("dy", "dy", 1.0)):
         assert float(ds[f"{q}_p90"].values[where]) * scale == pytest.approx(st[key]["p90"], rel=1e-9)
         assert float(ds[f"{q}_std"].values[where]) * scale == pytest.approx(st[key]["std"], rel=1e-9)
+
+
+@pytest.mark.slow
+def test_a_chain_robots_map_with_dask_and_its_percentiles():
+    # a 3-UPU written as joint chains (tests/reference/chain_builders.py): the same machinery, slower kernels
+    from chain_builders import chain_table
+
+    upu = pm.load_robot("upu_3")
+    chain = SpatialManipulator.from_dict(chain_table(upu), "chain.toml")
+    sources = SpatialErrorSources.from_dict(pm.load_clearances("upu_typical", upu).to_dict(), chain)
+    a = sm.spatial_error_map(chain, sources, n=4, block=20)
+    xr.testing.assert_identical(a, sm.spatial_error_map(chain, sources, n=4, block=20, use_dask=True))
+    assert int(a.dp_max.notnull().sum()) > 0
+    p = sm.spatial_percentile_map(chain, sources, n=4, samples=1000)
+    inside = np.isfinite(p.dp_max.values)
+    assert np.all(p.dp_p95.values[inside] <= p.dp_max.values[inside])
