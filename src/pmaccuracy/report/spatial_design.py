@@ -249,7 +249,10 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
         att = min(targets[n] / g[n]["attained"] for n in targets if g[n]["attained"] > 0)
         cert = min(targets[n] / g[n]["upper"] for n in targets) if all(
             g[n]["upper"] for n in targets) and glob.certified else None
-        data["global"] = {"region": _region_words(robot, region), "certified": glob.certified, "reason": glob.reason,
+        data["global"] = {"region": _region_words(robot, region), "certified": cert is not None,
+                          "reason": glob.reason or ("" if cert is not None else
+                                                    f"boxes near the workspace's border could not be proven regular "
+                                                    f"within the budget of {GLOBAL_BOXES} boxes"),
                           "gap": GLOBAL_GAP, "boxes": glob.boxes, "seconds": glob.seconds, "quantities": g,
                           "scale_attained_limit": att, "scale_certified": cert}
         dp_pose = glob["dp"].pose
@@ -309,7 +312,8 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
         up = "-" if rec["upper"] is None else _g(rec["upper"])
         grows.append([f"{_WORDS[name]} [{_unit(name)}]", _g(rec["grid_max"]), _g(rec["attained"]), up])
         where_att.append(f"{_WORDS[name]} at {_pose_compact(robot, np.asarray(rec['pose']))}")
-    how = (f"a branch and bound over {glob.boxes} boxes certifies an upper bound" if glob.certified else
+    how = (f"a branch and bound over {glob.boxes} boxes certifies an upper bound" if g["certified"] else
+           f"a search over {glob.boxes} boxes finds attained values" if glob.boxes else
            "a grid, then finer grids around the worst points, find attained values")
     doc.paragraph(f"Between grid points the errors may be larger. Over the whole {_region_words(robot, region)}, "
                   f"{how} ({glob.seconds:.1f} s; sources `{sources.name}`):")
@@ -321,7 +325,7 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
                       f"only at the grid points ({_g(lam)}); no scale above {_g(g['scale_attained_limit'])} can "
                       "(the attained pose would exceed its target).")
     else:
-        reason = (glob.reason or "the branch and bound's budget ran out").rstrip(".")
+        reason = g["reason"].rstrip(".")
         doc.paragraph(f"No upper bound is certified here ({reason}): the attained "
                       f"values are lower bounds of the true worst case. So no scale above "
                       f"**{_g(g['scale_attained_limit'])}** can meet the targets (the attained pose would exceed "
