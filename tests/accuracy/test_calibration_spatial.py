@@ -9,7 +9,7 @@ import pytest
 import spatial_calibration_reference as scr
 import spatial_reference as sr
 from pmaccuracy.accuracy.calibration.spatial_identify import (SpatialCalibrationData, identify_spatial,
-                                                              platform_poses, residual_jacobian, residuals,
+                                                              platform_poses, predict, residual_jacobian, residuals,
                                                               spatial_identifiability)
 from pmaccuracy.accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
 from pmaccuracy.accuracy.calibration.spatial_simulate import (PRACTICAL_MAX_SIGMA, candidate_poses,
@@ -218,7 +218,6 @@ def test_gross_reading_flagged():
 
 
 def _clean(pv, ex):
-    from pmaccuracy.accuracy.calibration.spatial_identify import predict
     poses = platform_poses(pv, ex.true, ex.data.commands)
     return predict(pv, ex.true, poses, ex.data.target)
 
@@ -278,3 +277,36 @@ def test_virtual_calibration_of_every_preset(name):
     assert np.all(np.abs(ex.normalized_errors()) < 4.5)
     # down to the noise: a quarter of the error before, or two reading sigmas where that was small already
     assert np.nanmax(ex.errors_after[:, 0]) < max(0.25 * np.nanmax(ex.errors_before[:, 0]), 2 * SIG_MM)
+
+
+def test_chain_robot_identification_agrees_with_the_designer_type():
+    """A 3-RPS written joint by joint (R-P-S chains, tests/reference/chain_builders.py): its parameters (joint
+    centres, axis angles, actuators) identified through the chain's numeric closure from noise-free readings
+    of the reference's true 3-RPS fit them, as the designer type's identification does, and both identified
+    robots predict the same readings at other commands: to 1e-4 mm against the nominal's error of ~1 mm (the
+    chain's R joint heights are practically unidentifiable there, fixed at nominal: they leave ~3e-5 mm). The
+    two are compared by their readings, not their parameters: each fixes its own gauge (frame or base)."""
+    from chain_builders import chain_table
+
+    pvd, poses, commands = _setup("rps_3", None, 15)
+    fixed = spatial_identifiability(pvd, _probe(pvd, commands), max_sigma=PRACTICAL_MAX_SIGMA).fixed
+    true = spatial_true_parameters(pvd, seed=4, fixed=fixed)
+    data = _reference_data(pvd, true, commands, poses)
+    chain = SpatialManipulator.from_dict(chain_table(pvd.robot), source="chain")
+    pvc = spatial_error_parameters(chain)
+    assert {"legs[1].joints[1].centre.x", "legs[1].joints[1].axis.a", "legs[1].joints[2].axis.b",
+            "legs[1].joints[3].centre.z", "legs[3].actuator.gain"} <= set(pvc.names)
+    designer, chained = identify_spatial(data, pvd), identify_spatial(data, pvc)
+    assert designer.rms_after < 1e-6 and chained.rms_after < 1e-2 < 10 < chained.rms_before
+    assert {"legs[1].joints[1].axis.a", "legs[1].joints[1].axis.b"} <= set(chained.identifiability.identified)
+    other = inverse_kinematics(pvd.robot, candidate_poses(pvd, 200, seed=9)[:5]).q
+    pd = predict(pvd, designer.values, platform_poses(pvd, designer.values, other))
+    pc = predict(pvc, chained.values, platform_poses(pvc, chained.values, other))
+    pn = predict(pvc, pvc.nominal, platform_poses(pvc, pvc.nominal, other))
+    assert np.max(np.abs(pd - pn)[:, :3]) > 0.1
+    assert np.max(np.abs(pd - pc)[:, :3]) < 1e-4 and np.max(np.abs(pd - pc)[:, 3:]) < 1e-6
+    back = SpatialManipulator.from_dict(spatial_robot_file(pvc, chained.values), source="identified")
+    moved = pvc.split(chained.values)[0]
+    for b, m in zip(back.legs, moved.legs):
+        assert np.allclose([j.centre for j in b.joints], [j.centre for j in m.joints], atol=1e-12)
+        assert np.allclose(b.joints[0].axes[0], m.joints[0].axes[0], atol=1e-15)
