@@ -47,8 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "sigma_phi_deg), or an experiment / vision batch measurement file")
     s.add_argument("--fix", action="append", default=[], metavar="NAME",
                    help="keep a parameter at nominal (repeatable), e.g. leg1.actuator.gain")
-    s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
-                   help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
+    s.add_argument("--frame", type=_common.finite_float, nargs="+", metavar="V",
+                   help="starting pose of the measurement frame in the robot frame: X Y PHI_DEG (mm, mm, deg); a "
+                        "spatial robot's X Y Z ROLL PITCH YAW (mm, deg; extrinsic x-y-z)")
     s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: add each point's clearance pose covariance (first order, the "
@@ -389,10 +390,12 @@ def run_identify(args: argparse.Namespace) -> int:
     robot = _robot(args)
     if getattr(robot, "dimension", 3) == 6:
         return _identify_spatial(args, robot)
-    if args.target:
-        from ..errors import ConfigError
+    from ..errors import ConfigError
 
+    if args.target:
         raise ConfigError("only for a spatial robot's position-only data", key="--target")
+    if args.frame is not None and len(args.frame) != 3:
+        raise ConfigError(f"a planar robot's frame is X Y PHI_DEG (3 numbers), got {len(args.frame)}", key="--frame")
     pv = error_parameters(robot)
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
@@ -583,19 +586,54 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
     from ..errors import ConfigError
 
-    for opt, given in (("--frame", args.frame is not None), ("--clearances", args.clearances is not None)):
-        if given:
-            raise ConfigError("not for a spatial robot yet", key=opt)
     pv = spatial_error_parameters(robot, targets=_targets(args))
     pv.index(args.fix)
+    start = None if args.frame is None else _spatial_start(pv, args.frame)
+    sources = _spatial_clearances(args, robot)
     data = read_spatial_csv(args.data, pv)
-    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust)
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust, start=start,
+                             clearances=sources)
     if args.out:
         Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
     if args.robot_out:
         Path(args.robot_out).write_text(tomli_w.dumps(spatial_robot_file(pv, ident.values)), encoding="utf-8")
     _print_spatial(ident, args.format)
     return 0
+
+
+def _spatial_clearances(args: argparse.Namespace, robot):
+    """A spatial robot's ``--clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`), or
+    None: not given (unlike a planar robot's, no default: the spatial calibration's results stay those of
+    the readings alone unless asked) or ``none``."""
+    from ..errors import PmAccuracyError
+    from ..model.spatial_sources import SpatialErrorSources
+
+    if args.clearances is None or args.clearances == "none":
+        return None
+    try:
+        return SpatialErrorSources.load(args.clearances, robot)
+    except PmAccuracyError as exc:
+        if "--clearances" in str(exc):
+            raise
+        raise type(exc)(f"--clearances: {exc}") from None
+
+
+def _spatial_start(pv, frame):
+    """The identification's start: the nominal with ``--frame X Y Z ROLL PITCH YAW`` (the device frame's pose in
+    the robot's base frame, mm and deg, as a planar robot's) turned into the frame parameters (the base frame in
+    the device's: ``R_F = R_d^T``, ``t_F = -R_d^T t_d``)."""
+    import numpy as np
+
+    from ..errors import ConfigError
+    from ..numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
+
+    if len(frame) != 6:
+        raise ConfigError(f"a spatial robot's frame is X Y Z ROLL PITCH YAW (6 numbers: mm, deg), got {len(frame)}",
+                          key="--frame")
+    Rd = rotations(euler_xyz_to_rotvec(np.array(frame[3:]), degrees=True))
+    start = pv.nominal.copy()
+    start[pv.frame_index] = np.concatenate([-Rd.T @ np.array(frame[:3]), rotvecs(Rd.T[None])[0]])
+    return start
 
 
 def _simulate_spatial(args: argparse.Namespace, robot) -> int:
@@ -606,7 +644,7 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
 
-    for opt in ("errors", "tolerances", "clearances", "report", "photos", "mm_per_pixel"):
+    for opt in ("report", "photos", "mm_per_pixel"):
         if getattr(args, opt) is not None:
             raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
     if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
@@ -616,8 +654,13 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     pv = spatial_error_parameters(robot, targets=_targets(args))
     sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
              "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
-    ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
-                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm)
+    sources = _spatial_clearances(args, robot)
+    noise = (args.noise_mm, np.radians(args.noise_deg))
+    if args.errors is not None or args.tolerances is not None or sources is not None:
+        ex = _spatial_experiment(args, pv, sigma, noise, sources)
+    else:
+        ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma, noise=noise,
+                                          ppm=args.noise_ppm)
     if args.data_out:
         write_spatial_csv(pv, ex.data, args.data_out)
     z = ex.normalized_errors()
@@ -625,10 +668,77 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
              "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
              "max_error_before_mm": float(np.nanmax(ex.errors_before[:, 0])),
              "max_error_after_mm": float(np.nanmax(ex.errors_after[:, 0]))}
+    if sources is not None:
+        extra["floor_dp_max_mm"] = float(np.nanmax(_spatial_floor(ex.identification, ex.targets, sources)[0]))
     if args.format == "json":
         extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
     _print_spatial(ex.identification, args.format, extra)
     return 0
+
+
+def _spatial_experiment(args: argparse.Namespace, pv, sigma, noise, sources):
+    """The virtual calibration of :func:`~pmaccuracy.accuracy.calibration.spatial_simulate.simulate_spatial_calibration`
+    with the true robot of ``--errors`` / ``--tolerances`` (as a planar robot's: the nominal plus those, the
+    parameters not named nominal) and the readings moved by random ``--clearances`` states
+    (:func:`~pmaccuracy.accuracy.calibration.spatial_clearances.with_clearance_states`, identified with their
+    covariance)."""
+    import numpy as np
+
+    from ..accuracy.calibration.simulate import load_parameter_table, true_parameters
+    from ..accuracy.calibration.spatial_clearances import with_clearance_states
+    from ..accuracy.calibration.spatial_compensate import compensate_spatial, pose_errors
+    from ..accuracy.calibration.spatial_identify import identify_spatial, platform_poses, spatial_identifiability
+    from ..accuracy.calibration.spatial_simulate import (PRACTICAL_MAX_SIGMA, SpatialExperiment, candidate_poses,
+                                                         measure_spatial, spatial_true_parameters)
+    from ..errors import ConfigError
+    from ..kinematics.spatial import inverse_kinematics
+
+    n = args.poses
+    cand = candidate_poses(pv, max(20 * n, 2000), seed=args.seed)
+    if len(cand) < n:
+        raise ConfigError(f"only {len(cand)} candidate poses within the limits around home", key="--poses")
+    commands = inverse_kinematics(pv.robot, cand[:n]).q
+    if args.errors is not None or args.tolerances is not None:
+        errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+        tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+        true = true_parameters(pv, args.seed, None, errors=errors, tolerances=tolerances)
+    else:       # random errors, those the readings cannot separate left nominal (simulate_spatial_calibration)
+        probe = measure_spatial(pv, pv.nominal, commands, noise=noise)
+        fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
+        true = spatial_true_parameters(pv, args.seed, sigma, fixed)
+    data = measure_spatial(pv, true, commands, noise=noise, ppm=args.noise_ppm, seed=args.seed + 1)
+    if sources is not None:
+        import dataclasses
+
+        poses = platform_poses(pv, true, data.commands, platform_poses(pv, pv.nominal, data.commands))
+        moved = with_clearance_states(pv, true, poses, data.measured, data.target, sources,
+                                      np.random.default_rng(args.seed + 3))
+        data = dataclasses.replace(data, measured=moved)
+    ident = identify_spatial(data, pv, clearances=sources)
+    targets = cand[n:n + 30]
+    comp = compensate_spatial(ident, targets)
+    return SpatialExperiment(true=true, data=data, identification=ident, targets=targets,
+                             errors_before=pose_errors(pv, true, comp.nominal_commands, targets),
+                             errors_after=pose_errors(pv, true, comp.commands, targets))
+
+
+def _spatial_floor(ident, targets, sources):
+    """The clearance floor at device-frame ``targets (N, 6)`` of the identified robot: worst-case position
+    (mm) and rotation (rad) errors (:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`) and their
+    RMS (``sqrt(trace)`` of :func:`~pmaccuracy.accuracy.calibration.spatial_clearances.clearance_covariance`),
+    NaN where undefined: ``(dp_max, dp_rms, dtheta_max, dtheta_rms)`` each ``(N,)``."""
+    import numpy as np
+
+    from ..accuracy.calibration.spatial_clearances import clearance_covariance
+    from ..accuracy.calibration.spatial_compensate import frame_inverse_poses
+    from ..accuracy.spatial_bounds import spatial_pose_errors
+
+    robot = ident.robot
+    base = frame_inverse_poses(ident.values[ident.parameters.frame_index], targets)
+    pe = spatial_pose_errors(robot, sources, base, strict=False, details=False, allow_outside=True)
+    C = clearance_covariance(robot, sources, base)
+    return (pe.dp_upper, np.sqrt(np.trace(C[:, :3, :3], axis1=1, axis2=2)), pe.dtheta_upper,
+            np.sqrt(np.trace(C[:, 3:, 3:], axis1=1, axis2=2)))
 
 
 def _plan_spatial(args: argparse.Namespace, robot) -> int:
@@ -684,8 +794,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
     if args.pose or not args.poses_csv:
         raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
                           "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
-    if args.clearances is not None:
-        raise ConfigError("not for a spatial robot yet", key="--clearances")
+    sources = _spatial_clearances(args, ident.parameters.robot)
     names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
     lines = read_csv(args.poses_csv, MeasurementFileError)
     header = [h.strip() for h in lines[0][1]] if lines else []
@@ -718,7 +827,12 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         f = np.degrees if kinds[k] else (lambda v: v)
         out[name] = f(comp.commands[:, k])
         out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
+    if sources is not None:
+        dp, dp_rms, dth, dth_rms = _spatial_floor(ident, comp.targets, sources)
+        out.update(floor_dp_max=dp, floor_dp_rms=dp_rms, floor_dphi_max_deg=np.degrees(dth),
+                   floor_dphi_rms_deg=np.degrees(dth_rms))
     if args.out:
-        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal")}, args.out)
+        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal") and not k.startswith("floor_")},
+                          args.out)
     _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0

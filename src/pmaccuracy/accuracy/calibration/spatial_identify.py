@@ -34,6 +34,7 @@ anywhere is found.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +48,7 @@ from ...model.spatial_legs import UPSLeg
 from ...numerics.spatial import normalize, rotations, rotvecs, skew
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse
 from .identify import MAX_ROUNDS, OUTLIER_QUANTILE, ROBUST_F_SCALE, UNDERSTATED, UNREACHABLE, covariance
+from .spatial_clearances import clearance_covariance, reading_map
 from .spatial_parameters import (SpatialManipulator, SpatialParameterVector, _leg_fields, set_leg_values,
                                  spatial_error_parameters)
 
@@ -74,6 +76,9 @@ class SpatialCalibrationData:
         Target (0-based) of a position reading (zeros for full poses).
     source : str
         The file read (for messages).
+    whitening : ndarray ``(N, k, k)`` or None
+        ``L^-1`` of each reading's covariance ``L L^T`` when it is not ``diag(sigmas^2)`` (the readings' sigmas
+        plus the clearances' pose covariance, :func:`identify_spatial`); None: ``diag(1 / sigmas)``.
     """
 
     labels: tuple[str, ...]
@@ -82,6 +87,7 @@ class SpatialCalibrationData:
     sigmas: np.ndarray
     target: np.ndarray
     source: str = "<data>"
+    whitening: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -98,7 +104,16 @@ class SpatialCalibrationData:
         """The readings ``keep`` (bool or indices)."""
         keep = np.asarray(keep)
         return SpatialCalibrationData(tuple(np.asarray(self.labels, dtype=object)[keep]), self.commands[keep],
-                                      self.measured[keep], self.sigmas[keep], self.target[keep], self.source)
+                                      self.measured[keep], self.sigmas[keep], self.target[keep], self.source,
+                                      None if self.whitening is None else self.whitening[keep])
+
+    def whiten(self, x) -> np.ndarray:
+        """Residuals ``(N, k)`` or their Jacobian ``(N, k, P)`` in multiples of the readings' sigmas: ``L^-1 x``
+        (``x / sigmas`` without :attr:`whitening`)."""
+        x = np.asarray(x, dtype=float)
+        if self.whitening is None:
+            return x / (self.sigmas if x.ndim == 2 else self.sigmas[:, :, None])
+        return np.einsum("nij,nj...->ni...", self.whitening, x)
 
 
 # ---------------------------------------------------------------------------------------------- model
@@ -281,7 +296,7 @@ class _Model:
 
     def whitened(self, v, keep) -> np.ndarray:
         poses = self.poses(v)
-        e = residuals(self.pv, v, self.data, poses) / self.data.sigmas
+        e = self.data.whiten(residuals(self.pv, v, self.data, poses))
         return e[keep]
 
     def fun(self, keep):
@@ -295,8 +310,7 @@ class _Model:
             v = self.values(z)
             poses = self.poses(v)
             sub = self.data.subset(keep)
-            J = residual_jacobian(self.pv, v, sub, poses[keep])[:, :, self.free]
-            J = J / sub.sigmas[:, :, None]
+            J = sub.whiten(residual_jacobian(self.pv, v, sub, poses[keep])[:, :, self.free])
             return np.where(np.isfinite(J), J, 0.0).reshape(-1, len(self.free))
         return j
 
@@ -409,8 +423,18 @@ def spatial_identifiability(pv: SpatialParameterVector, data: SpatialCalibration
         poses = platform_poses(pv, v, data.commands)
         ok = np.all(np.isfinite(poses), axis=1)
         sub = data.subset(ok)
-        J = measurement_jacobian(pv, v, sub, poses[ok]) / sub.sigmas[:, :, None]
+        J = sub.whiten(measurement_jacobian(pv, v, sub, poses[ok]))
         return analyse(pv, J.reshape(-1, len(pv.names)), rtol=rtol, fixed=tuple(fixed), max_sigma=max_sigma)
+
+
+def _with_clearances(pv, data, x0, poses0, ok0, clearances) -> SpatialCalibrationData:
+    """``data`` whitened by ``diag(sigmas^2) + A C A^T`` (:func:`identify_spatial`)."""
+    safe = np.where(ok0[:, None], poses0, 0.0)       # rows without a pose: no covariance, left out of the fit
+    C = clearance_covariance(pv.robot, clearances, safe)
+    C = np.where(np.all(np.isfinite(C), axis=(1, 2))[:, None, None] & ok0[:, None, None], C, 0.0)
+    A = reading_map(pv, x0, safe, data.target)
+    S = A @ C @ np.swapaxes(A, -1, -2) + np.eye(A.shape[1]) * data.sigmas[:, :, None] ** 2
+    return dataclasses.replace(data, whitening=np.linalg.inv(np.linalg.cholesky(S)))
 
 
 def _threshold(chi2: np.ndarray, k: int) -> float:
@@ -421,21 +445,25 @@ def _threshold(chi2: np.ndarray, k: int) -> float:
 
 def identify_spatial(data: SpatialCalibrationData, pv: SpatialParameterVector, *, fixed: tuple[str, ...] = (),
                      robust: bool = True, rtol: float = RTOL, max_sigma: float | None = PRACTICAL_MAX_SIGMA,
-                     start=None) -> SpatialIdentification:
+                     start=None, clearances=None) -> SpatialIdentification:
     """Identify the parameters of ``pv`` from ``data`` (module docstring for the model and the fit).
 
     ``fixed``: names kept at nominal; ``start (P,)``: the starting values (default: the nominal with the frame
-    of the best rigid fit). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
+    of the best rigid fit); ``clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`):
+    each reading's covariance becomes ``diag(sigmas^2) + A C A^T``, the clearances' pose covariance ``C`` at the
+    nominal robot's pose (:func:`~.spatial_clearances.clearance_covariance`, states uniform in their sets) seen
+    by the device (:func:`~.spatial_clearances.reading_map` at the starting frame), and the fit is whitened by
+    its Cholesky factor (as the planar identification's ``clearances``). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
     match the parameter vector or too few readings are left for the parameters. Runs with one BLAS thread:
     its matrices (a few hundred rows, at most ~60 columns) gain nothing from more, and on a loaded machine
     the threads' hand-offs made each decomposition 100 times slower (``benchmarks/bench_spatial_calibration.py``).
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _identify_spatial(data, pv, fixed=fixed, robust=robust, rtol=rtol, max_sigma=max_sigma,
-                                 start=start)
+                                 start=start, clearances=clearances)
 
 
-def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> SpatialIdentification:
+def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start, clearances) -> SpatialIdentification:
     k = 6 if pv.kind == "pose" else 3
     if data.measured.shape[1] != k:
         raise MeasurementFileError(f"{data.kind} readings for a parameter vector of {pv.kind} data "
@@ -459,6 +487,8 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> Spa
     if start is None:
         x0 = _start_frame(pv, data, x0, poses0)
     ok0 = np.all(np.isfinite(poses0), axis=1)
+    if clearances is not None:
+        data = _with_clearances(pv, data, x0, poses0, ok0, clearances)
     if ok0.sum() * k <= 6:
         raise MeasurementFileError("the nominal robot reaches too few of the commanded poses", source=data.source)
     idf = spatial_identifiability(pv, data, x0, fixed=fixed, rtol=rtol, max_sigma=max_sigma)
@@ -502,7 +532,7 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start) -> Spa
     J = model.jac(keep)(z)
     cov, sigma, s2 = covariance(res, J, free, P)
     after = residuals(pv, values, data, model.poses(values))
-    wb = (before / data.sigmas)[keep]
+    wb = data.whiten(before)[keep]
     return SpatialIdentification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=idf,
                                  residuals_before=before, residuals_after=after,
                                  rms_before=float(np.sqrt(np.nanmean(wb ** 2))),
