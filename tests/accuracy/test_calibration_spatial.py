@@ -97,7 +97,7 @@ def test_jacobian_matches_finite_differences_of_the_forward_model():
 def test_axis_jacobian_columns_match_finite_differences_of_the_forward_model(name, targets):
     """The columns of the axis angles (and of every other leg parameter) against central differences of the
     exact model: forward kinematics of the robot with the parameter moved, then the readings."""
-    pv, poses, commands = _setup(name, targets, 5)
+    pv, poses, commands = _setup(name, targets, 3)
     true = spatial_true_parameters(pv, seed=2)
     data = _reference_data(pv, true, commands, poses)
     v = pv.nominal + 1e-3 * np.random.default_rng(0).standard_normal(len(pv.names))
@@ -288,7 +288,7 @@ def test_chain_robot_identification_agrees_with_the_designer_type():
     two are compared by their readings, not their parameters: each fixes its own gauge (frame or base)."""
     from chain_builders import chain_table
 
-    pvd, poses, commands = _setup("rps_3", None, 15)
+    pvd, poses, commands = _setup("rps_3", None, 12)
     fixed = spatial_identifiability(pvd, _probe(pvd, commands), max_sigma=PRACTICAL_MAX_SIGMA).fixed
     true = spatial_true_parameters(pvd, seed=4, fixed=fixed)
     data = _reference_data(pvd, true, commands, poses)

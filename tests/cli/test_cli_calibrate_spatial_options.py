@@ -1,0 +1,98 @@
+"""``calibrate`` options on spatial robots with the planar meaning: ``--errors`` / ``--tolerances`` (the true
+robot of ``simulate``), ``--clearances`` (states in the readings, the identification's covariance, the floor),
+``--frame`` (the device frame's starting pose)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from conftest import run_cli
+from pmaccuracy.accuracy.calibration.spatial_parameters import spatial_error_parameters
+from pmaccuracy.model.spatial import SpatialManipulator
+
+
+def test_simulate_true_robot_from_errors_and_tolerances(tmp_path, capsys):
+    (tmp_path / "e.toml").write_text('"legs[1].base.x" = 0.2\n"legs[2].axis.a" = 0.05\n'
+                                     '"legs[3].actuator.gain" = 5e-4\n')
+    (tmp_path / "t.toml").write_text('"legs[1].platform.y" = 0.1\n"legs[2].axis.b" = 0.1\n')
+    status, out, _ = run_cli(["calibrate", "simulate", "--robot", "rps_3", "--poses", "20", "--errors",
+                              tmp_path / "e.toml", "--tolerances", tmp_path / "t.toml", "--format", "json"], capsys)
+    assert status == 0
+    true = json.loads(out)["true"]
+    pv = spatial_error_parameters(SpatialManipulator.preset("rps_3"))
+    nominal = pv.table()
+    assert true["legs[1].base.x"] - nominal["legs[1].base.x"] == pytest.approx(0.2, abs=1e-12)
+    assert true["legs[2].axis.a"] == pytest.approx(np.radians(0.05), abs=1e-15)
+    assert true["legs[3].actuator.gain"] == pytest.approx(1.0005, abs=1e-15)
+    assert 0 < abs(true["legs[1].platform.y"] - nominal["legs[1].platform.y"]) <= 0.1
+    assert 0 < abs(true["legs[2].axis.b"]) <= np.radians(0.1)
+    named = {"legs[1].base.x", "legs[2].axis.a", "legs[3].actuator.gain", "legs[1].platform.y", "legs[2].axis.b"}
+    assert all(true[n] == nominal[n] for n in nominal if n not in named)
+    (tmp_path / "bad.toml").write_text('"legs[1].axis.c" = 0.1\n')
+    status, _, err = run_cli(["calibrate", "simulate", "--robot", "rps_3", "--errors", tmp_path / "bad.toml"],
+                             capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and "legs[1].axis.c" in err
+
+
+def test_clearances_in_the_readings_and_in_the_identification(tmp_path, capsys):
+    """Readings with clearance states well above the noise: identified with the clearances' covariance the
+    residual scale is about 1; the same file identified without it shows a scale far above 1."""
+    common = ["--robot", "stewart_6ups", "--clearances", "ups_typical"]
+    status, out, _ = run_cli(["calibrate", "simulate", *common, "--poses", "30", "--noise-mm", "0.002",
+                              "--noise-deg", "0.002", "--data-out", tmp_path / "m.csv", "--format", "json"], capsys)
+    assert status == 0
+    rec = json.loads(out)
+    assert 0.6 < rec["fit"]["scale"] < 1.5 and rec["floor_dp_max_mm"] > 0.01
+    status, out, _ = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
+                              "--no-robust", "--format", "json"], capsys)
+    assert status == 0 and json.loads(out)["fit"]["scale"] > 3
+    status, out, _ = run_cli(["calibrate", "identify", *common, "--data", tmp_path / "m.csv", "--out",
+                              tmp_path / "id.json", "--format", "json"], capsys)
+    assert status == 0 and json.loads(out)["fit"]["scale"] == pytest.approx(rec["fit"]["scale"], rel=1e-6)
+    (tmp_path / "goal.csv").write_text("x,y,z,roll_deg,pitch_deg,yaw_deg\n10,20,420,3,-2,5\n")
+    status, out, _ = run_cli(["calibrate", "compensate", "--identification", tmp_path / "id.json", "--poses-csv",
+                              tmp_path / "goal.csv", *common[2:], "--format", "json"], capsys)
+    assert status == 0
+    row = json.loads(out)[0]
+    assert 0 < row["floor_dp_rms"] < row["floor_dp_max"] < 1.0
+    assert 0 < row["floor_dphi_rms_deg"] < row["floor_dphi_max_deg"]
+
+
+def test_frame_starts_the_device_frame(tmp_path, capsys):
+    """Readings of a device turned 90 deg about z and moved: with ``--frame`` (the device's pose in the robot's
+    base frame) the identification finds the same legs as from the original readings, and the frame parameters
+    (the base frame in the device's) are the inverse of that pose."""
+    status, _, _ = run_cli(["calibrate", "simulate", "--robot", "stewart_6ups", "--poses", "25", "--seed", "5",
+                            "--data-out", tmp_path / "m.csv", "--format", "csv"], capsys)
+    assert status == 0
+    rows = list(csv.DictReader((tmp_path / "m.csv").open()))
+    D = Rotation.from_euler("xyz", [0.0, 0.0, 90.0], degrees=True)          # the device in the base frame
+    t = np.array([500.0, -200.0, 50.0])
+    for r in rows:                           # m' = D^-1 (m - t): the readings in the device's frame
+        m = np.array([float(r[k]) for k in ("x", "y", "z")])
+        R = Rotation.from_euler("xyz", [float(r[k]) for k in ("roll_deg", "pitch_deg", "yaw_deg")], degrees=True)
+        r.update(zip(("x", "y", "z"), (str(float(v)) for v in D.inv().apply(m - t))))
+        r.update(zip(("roll_deg", "pitch_deg", "yaw_deg"), (str(float(v)) for v in (D.inv() * R).as_euler("xyz", degrees=True))))
+    with (tmp_path / "moved.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    est = {}
+    for name, extra in (("m", []), ("moved", ["--frame", *map(str, t), "0", "0", "90"])):
+        status, out, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data",
+                                    tmp_path / f"{name}.csv", *extra, "--format", "json"], capsys)
+        assert status == 0, err
+        est[name] = {p["name"]: p["estimate"] for p in json.loads(out)["parameters"]}
+    for k, v in est["m"].items():
+        if k.startswith("legs["):
+            assert est["moved"][k] == pytest.approx(v, abs=1e-6), k
+    F = np.array([est["moved"][f"frame.{a}"] for a in ("x", "y", "z")])
+    assert np.allclose(F, D.inv().apply(-t), atol=1e-6)
+    status, _, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
+                              "--frame", "1", "2", "3"], capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and "--frame" in err
