@@ -10,6 +10,7 @@ from . import _common
 HELP = "kinematic calibration: plan poses, identify parameters from measurements, compensate, simulate"
 _DEFAULT_HELP = ("Default: the robot's default of every command (case1 for a 3-PPR, the architecture's *_typical "
                  "preset otherwise, printed on stderr); 'none' for the model without clearances")
+_SPATIAL_HELP = ". A spatial robot's (an error-source preset or file): used only when given"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -54,7 +55,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: add each point's clearance pose covariance (first order, the "
                         "clearance states uniform in their sets, independent from point to point) to its "
-                        "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP)
+                        "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP
+                        + _SPATIAL_HELP)
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
@@ -71,7 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: the clearance floor (worst case and RMS of the position and the "
                         "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position). "
-                        + _DEFAULT_HELP + " (of the identified robot)")
+                        + _DEFAULT_HELP + " (of the identified robot)" + _SPATIAL_HELP)
     s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
@@ -96,7 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: random states in the measurements, and the clearance floor. "
-                        + _DEFAULT_HELP)
+                        + _DEFAULT_HELP + _SPATIAL_HELP)
     s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
                    help="spatial robot: measure these target points on the platform (platform frame, mm; "
                         "repeatable) with a laser tracker instead of the full pose")

@@ -453,10 +453,11 @@ def identify_spatial(data: SpatialCalibrationData, pv: SpatialParameterVector, *
     each reading's covariance becomes ``diag(sigmas^2) + A C A^T``, the clearances' pose covariance ``C`` at the
     nominal robot's pose (:func:`~.spatial_clearances.clearance_covariance`, states uniform in their sets) seen
     by the device (:func:`~.spatial_clearances.reading_map` at the starting frame), and the fit is whitened by
-    its Cholesky factor (as the planar identification's ``clearances``). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
-    match the parameter vector or too few readings are left for the parameters. Runs with one BLAS thread:
-    its matrices (a few hundred rows, at most ~60 columns) gain nothing from more, and on a loaded machine
-    the threads' hand-offs made each decomposition 100 times slower (``benchmarks/bench_spatial_calibration.py``).
+    its Cholesky factor (as the planar identification's ``clearances``). Raises
+    :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not match the parameter vector or too few
+    readings are left for the parameters. Runs with one BLAS thread: its matrices (a few hundred rows, at most ~60
+    columns) gain nothing from more, and on a loaded machine the threads' hand-offs made each decomposition 100
+    times slower (``benchmarks/bench_spatial_calibration.py``).
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _identify_spatial(data, pv, fixed=fixed, robust=robust, rtol=rtol, max_sigma=max_sigma,
