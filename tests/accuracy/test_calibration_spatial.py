@@ -310,3 +310,26 @@ def test_chain_robot_identification_agrees_with_the_designer_type():
     for b, m in zip(back.legs, moved.legs):
         assert np.allclose([j.centre for j in b.joints], [j.centre for j in m.joints], atol=1e-12)
         assert np.allclose(b.joints[0].axes[0], m.joints[0].axes[0], atol=1e-15)
+
+
+def test_chain_jacobian_columns_match_finite_differences_of_the_forward_model():
+    """The columns of a chain leg's joint centres and axis angles (closure derivatives at the chain's own passive
+    solution) against central differences of the chain robot's forward kinematics."""
+    from chain_builders import chain_table
+
+    pvd, poses, commands = _setup("rps_3", None, 2)
+    pv = spatial_error_parameters(SpatialManipulator.from_dict(chain_table(pvd.robot), source="chain"))
+    data = _probe(pv, commands)
+    v = pv.nominal + 1e-3 * np.random.default_rng(0).standard_normal(len(pv.names))
+    at = platform_poses(pv, v, data.commands)
+    J = residual_jacobian(pv, v, data, at)
+    cols = [j for j, n in enumerate(pv.names) if n.startswith("legs[2].")]
+    scale = np.abs(J[:, :, cols]).max()
+    for j in cols:
+        h = 1e-6
+        up, dn = v.copy(), v.copy()
+        up[j] += h
+        dn[j] -= h
+        fd = (residuals(pv, up, data, platform_poses(pv, up, data.commands, at))
+              - residuals(pv, dn, data, platform_poses(pv, dn, data.commands, at))) / (2 * h)
+        assert np.allclose(J[:, :, j], fd, rtol=1e-5, atol=1e-7 * scale), pv.names[j]
