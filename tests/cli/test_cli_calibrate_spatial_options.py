@@ -96,3 +96,32 @@ def test_frame_starts_the_device_frame(tmp_path, capsys):
     status, _, err = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
                               "--frame", "1", "2", "3"], capsys)
     assert status == 2 and len(err.splitlines()) == 1 and "--frame" in err
+
+
+def test_compensate_floor_of_a_lower_mobility_robot(tmp_path, capsys):
+    """A 3-RPS's targets give z, roll, pitch; the floor is taken where the compensated commands put it (x, y, yaw
+    completed), a finite worst case and RMS; at home (the nominal robot identified from its own noise-free readings)
+    the worst case of the error model there."""
+    from pmaccuracy.accuracy.calibration.spatial_identify import identify_spatial, spatial_identification_to_dict
+    from pmaccuracy.accuracy.calibration.spatial_simulate import candidate_poses, measure_spatial
+    from pmaccuracy.kinematics.spatial import inverse_kinematics
+    from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
+    from pmaccuracy.kinematics.spatial import reference_pose
+    from pmaccuracy.model.spatial_sources import SpatialErrorSources
+
+    pv = spatial_error_parameters(SpatialManipulator.preset("rps_3"))
+    commands = inverse_kinematics(pv.robot, candidate_poses(pv, 100, seed=1)[:12]).q
+    ident = identify_spatial(measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0)), pv)
+    (tmp_path / "id.json").write_text(json.dumps(spatial_identification_to_dict(ident)))
+    home = reference_pose(ident.robot)
+    z = float(home[2])
+    (tmp_path / "goal.csv").write_text(f"x,y,z,roll_deg,pitch_deg,yaw_deg\n5,5,{z},1,2,0\n0,0,{z},0,0,0\n")
+    status, out, err = run_cli(["calibrate", "compensate", "--identification", tmp_path / "id.json", "--poses-csv",
+                                tmp_path / "goal.csv", "--clearances", "rps_typical", "--format", "json"], capsys)
+    assert status == 0, err
+    rows = json.loads(out)
+    assert all(0 < r["floor_dp_rms"] < r["floor_dp_max"] < 1.0 for r in rows)
+    robot = ident.robot
+    at_home = spatial_pose_errors(robot, SpatialErrorSources.load("rps_typical", robot), home[None])
+    assert np.allclose(ident.values[pv.frame_index], 0.0, atol=1e-9)   # noise-free readings of the nominal
+    assert rows[1]["floor_dp_max"] == pytest.approx(float(at_home.dp_upper[0]), rel=1e-6)

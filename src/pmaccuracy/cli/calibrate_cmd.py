@@ -725,7 +725,8 @@ def _spatial_experiment(args: argparse.Namespace, pv, sigma, noise, sources):
 
 
 def _spatial_floor(ident, targets, sources):
-    """The clearance floor at device-frame ``targets (N, 6)`` of the identified robot: worst-case position
+    """The clearance floor at device-frame ``targets (N, 6)`` of the identified robot (at the pose its
+    compensated commands give: a 3-RPS's x, y, yaw completed, a Delta's orientation its own): worst-case position
     (mm) and rotation (rad) errors (:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`) and their
     RMS (``sqrt(trace)`` of :func:`~pmaccuracy.accuracy.calibration.spatial_clearances.clearance_covariance`),
     NaN where undefined: ``(dp_max, dp_rms, dtheta_max, dtheta_rms)`` each ``(N,)``."""
@@ -734,9 +735,14 @@ def _spatial_floor(ident, targets, sources):
     from ..accuracy.calibration.spatial_clearances import clearance_covariance
     from ..accuracy.calibration.spatial_compensate import frame_inverse_poses
     from ..accuracy.spatial_bounds import spatial_pose_errors
+    from ..kinematics.spatial import complete_poses, controlled_coordinates
 
     robot = ident.robot
     base = frame_inverse_poses(ident.values[ident.parameters.frame_index], targets)
+    if robot.mobility == "3T":          # where the compensated commands put it (spatial_commands)
+        base[:, 3:] = 0.0
+    elif robot.mobility == "2R1T":
+        base = complete_poses(robot, controlled_coordinates(robot, base), strict=False)
     pe = spatial_pose_errors(robot, sources, base, strict=False, details=False, allow_outside=True)
     C = clearance_covariance(robot, sources, base)
     return (pe.dp_upper, np.sqrt(np.trace(C[:, :3, :3], axis1=1, axis2=2)), pe.dtheta_upper,
