@@ -288,7 +288,7 @@ def test_chain_robot_identification_agrees_with_the_designer_type():
     two are compared by their readings, not their parameters: each fixes its own gauge (frame or base)."""
     from chain_builders import chain_table
 
-    pvd, poses, commands = _setup("rps_3", None, 12)
+    pvd, poses, commands = _setup("rps_3", None, 10)
     fixed = spatial_identifiability(pvd, _probe(pvd, commands), max_sigma=PRACTICAL_MAX_SIGMA).fixed
     true = spatial_true_parameters(pvd, seed=4, fixed=fixed)
     data = _reference_data(pvd, true, commands, poses)
@@ -317,7 +317,7 @@ def test_chain_jacobian_columns_match_finite_differences_of_the_forward_model():
     solution) against central differences of the chain robot's forward kinematics."""
     from chain_builders import chain_table
 
-    pvd, poses, commands = _setup("rps_3", None, 2)
+    pvd, poses, commands = _setup("rps_3", None, 1)
     pv = spatial_error_parameters(SpatialManipulator.from_dict(chain_table(pvd.robot), source="chain"))
     data = _probe(pv, commands)
     v = pv.nominal + 1e-3 * np.random.default_rng(0).standard_normal(len(pv.names))
