@@ -112,7 +112,14 @@ def test_compensate_floor_of_a_lower_mobility_robot(tmp_path, capsys):
     pv = spatial_error_parameters(SpatialManipulator.preset("rps_3"))
     commands = inverse_kinematics(pv.robot, candidate_poses(pv, 100, seed=1)[:12]).q
     ident = identify_spatial(measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0)), pv)
-    (tmp_path / "id.json").write_text(json.dumps(spatial_identification_to_dict(ident)))
+    record = spatial_identification_to_dict(ident)
+    (tmp_path / "id.json").write_text(json.dumps(record))
+    # a record written before the axis angles were parameters still reads, with them at nominal
+    from pmaccuracy.accuracy.calibration.spatial_identify import spatial_identification_from_dict
+    old = dict(record, parameters=[p for p in record["parameters"] if not p["name"].endswith((".a", ".b"))])
+    back = spatial_identification_from_dict(old)
+    axes = pv.index([n for n in pv.names if n.endswith((".a", ".b"))])
+    assert len(axes) == 6 and np.all(back.values[axes] == 0.0) and np.all(back.sigma[axes] == 0.0)
     home = reference_pose(ident.robot)
     z = float(home[2])
     (tmp_path / "goal.csv").write_text(f"x,y,z,roll_deg,pitch_deg,yaw_deg\n5,5,{z},1,2,0\n0,0,{z},0,0,0\n")

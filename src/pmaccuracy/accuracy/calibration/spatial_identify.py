@@ -567,6 +567,10 @@ def spatial_identification_from_dict(record: dict, source: str = "<identificatio
         targets = record.get("targets_mm") or None
         pv = spatial_error_parameters(robot, targets=targets)
         by_name = {p["name"]: p for p in record["parameters"]}
+        # a record written before the axis angles were parameters: those at nominal (0), not identified
+        for n, nominal in zip(pv.names, pv.nominal):
+            if n not in by_name and n.endswith((".a", ".b")):
+                by_name[n] = {"estimate": float(nominal), "sigma": 0.0}
         values = np.array([float(by_name[n]["estimate"]) for n in pv.names])
         sigma = np.array([float(by_name[n]["sigma"]) for n in pv.names])
         idf = record["identifiability"]
