@@ -22,7 +22,7 @@ preset names (``pm.Manipulator.preset_names()``) or paths to your own TOML files
 * calibration: ``pm.plan_poses``, ``pm.identify`` (from ``pm.read_calibration_csv``), ``pm.compensate``,
   ``pm.simulate_calibration`` (a virtual experiment), ``pm.calibration_report`` (its HTML report); spatial
   robots: ``pm.spatial_error_parameters``, ``pm.identify_spatial`` (from ``pm.read_spatial_csv``),
-  ``pm.simulate_spatial_calibration``;
+  ``pm.simulate_spatial_calibration``, ``pm.spatial_calibration_report``;
 * kinematics: ``pm.inverse_kinematics``, ``pm.forward_kinematics``, ``pm.jacobians``, ``pm.singularity``;
 * spatial robots (6-UPS, Delta, 3-RPS, 3-PRS, 3-UPU): the same kinematics with poses ``(N, 6)`` [x, y, z mm,
   rotation vector rad] (``pm.poses_from`` takes scipy ``Rotation`` objects), ``pm.complete_poses`` (controlled
@@ -66,7 +66,8 @@ _EXPORTS = {
     **{name: "kinematics.spatial_workspace" for name in ("spatial_workspace", "orientation_workspace_at",
                                                          "SpatialWorkspace")},
     "SpatialErrorSources": "model.spatial_sources", "SpatialJointErrors": "model.spatial_sources",
-    "spatial_pose_errors": "accuracy.spatial_bounds", "SpatialPoseErrors": "accuracy.spatial_bounds",
+    "spatial_pose_errors": "accuracy.spatial_bounds", "spatial_error_components": "accuracy.spatial_bounds",
+    "SpatialPoseErrors": "accuracy.spatial_bounds",
     "spatial_error_map": "accuracy.spatial_maps",
     "spatial_certified_bounds": "accuracy.spatial_nonlinear", "SpatialCertifiedBounds": "accuracy.spatial_nonlinear",
     "spatial_pose_statistics": "accuracy.spatial_statistics",
@@ -116,6 +117,7 @@ _EXPORTS = {
     **{name: "accuracy.calibration.spatial_data" for name in ("read_spatial_csv", "write_spatial_csv")},
     **{name: "accuracy.calibration.spatial_simulate" for name in ("simulate_spatial_calibration",
                                                                   "SpatialExperiment")},
+    "spatial_calibration_report": "report.spatial_calibration_report",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

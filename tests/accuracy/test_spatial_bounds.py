@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import pmaccuracy as pm
 from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
 from pmaccuracy.errors import ConfigError, OutsideJointLimitsError, SingularPoseError
 from pmaccuracy.kinematics import spatial as k
 from pmaccuracy.model.spatial import SpatialManipulator
-from pmaccuracy.model.spatial_sources import JOINTS, SpatialErrorSources, SpatialJointErrors, allowed_keys
+from pmaccuracy.model.spatial_sources import JOINTS, SpatialErrorSources, SpatialJointErrors, allowed_keys, default_preset
 
 
 def _sources(robot, per_joint):
@@ -134,3 +135,29 @@ def test_hexapod_closed_form_blocks_equal_the_general_construction():
     b = spatial_pose_errors(robot, src, poses, details=True)
     np.testing.assert_allclose(a.components, b.components, rtol=1e-10)
     np.testing.assert_allclose(a.dp_upper, b.dp_upper, rtol=2e-3)
+
+
+@pytest.mark.parametrize("name", ["stewart_6ups", "delta_clavel"])
+def test_error_components_alone_equal_the_full_evaluation(name):
+    """The components without the norms (the hexapod's one-pass path, the general one for a Delta) equal the
+    components of the full evaluation with per-source data; a singular or out-of-limits pose raises, or is NaN
+    with ``strict=False``."""
+    robot = SpatialManipulator.preset(name)
+    src = SpatialErrorSources.load(default_preset(robot), robot)
+    rng = np.random.default_rng(11)
+    ref = k.reference_pose(robot)
+    if robot.mobility == "6":
+        poses = ref + np.concatenate([rng.uniform(-20, 20, (40, 3)), rng.uniform(-0.05, 0.05, (40, 3))], axis=1)
+    else:                                          # a Delta: positions around the reference, identity orientation
+        poses = k.complete_poses(robot, ref[:3] + rng.uniform(-20, 20, (40, 3)))
+    full = spatial_pose_errors(robot, src, poses, details=True)
+    np.testing.assert_allclose(pm.spatial_error_components(robot, src, poses), full.components, rtol=1e-12)
+    if name == "stewart_6ups":
+        far = np.array([0.0, 0.0, 400.0, 0.0, 0.0, np.pi / 2])    # Fichter's singularity (any length reaches)
+    else:
+        far = np.array(ref, dtype=float)
+        far[2] += 1e4                                              # no arm reaches
+    with pytest.raises((OutsideJointLimitsError, SingularPoseError)):
+        pm.spatial_error_components(robot, src, np.vstack([poses[:3], far]))
+    loose = pm.spatial_error_components(robot, src, np.vstack([poses[:3], far]), strict=False)
+    assert np.all(np.isnan(loose[3])) and np.allclose(loose[:3], full.components[:3], rtol=1e-12)

@@ -184,7 +184,7 @@ def test_refusals():
                                    hexapod.home_pose)
     assert not res.certified and res.reason and np.all(np.isinf(res.upper))
     with pytest.raises(UnsupportedArchitectureError, match="6-UPS only"):
-        spatial_certified_bounds(pm.load_robot("delta_clavel"), "delta_typical", [0, 0, -800.0, 0, 0, 0])
+        hexapod_error_twists(pm.load_robot("delta_clavel"), "delta_typical", [0, 0, -800.0, 0, 0, 0], [{}])
     with pytest.raises(pm.PoseError, match="one pose"):
         spatial_certified_bounds(hexapod, "ups_typical", [hexapod.home_pose] * 2)
     with pytest.raises(pm.SingularPoseError):

@@ -57,6 +57,6 @@ def test_cli_writes_a_file_that_bounds_reads(tmp_path, capsys):
     assert json.loads(text)[0]["dp_max"] <= 0.1 * (1 + 1e-9)
     for argv, words in ((["--target", "dq=1"], "--target: expected NAME=VALUE"),
                         (["--target", "dp=0.1", "--target", "dp=0.2"], "given twice"),
-                        (["--target", "dp=0.1", "--cost", "c.toml"], "--cost is not available")):
+                        (["--target", "dp=0.1", "--cost", "c.toml"], "c.toml: no cost preset or file")):
         status, text, err = run_cli(["synthesize", "--robot", "upu_3", *argv], capsys)
         assert status == 2 and len(err.strip().splitlines()) == 1 and words in err, err

@@ -46,7 +46,9 @@ def test_simulate_full_pose_delta_table(capsys):
     (["calibrate", "simulate", "--robot", "symmetric_3rpr", "--target", "0", "0", "1"], "--target"),
     (["calibrate", "simulate", "--robot", "stewart_6ups", "--noise-ppm", "3"], "--noise-ppm"),
     (["calibrate", "simulate", "--robot", "stewart_6ups", "--clearances", "rpr_typical"], "--clearances"),
-    (["calibrate", "report", "--robot", "stewart_6ups", "--out", "r.html"], "spatial robot"),
+    (["calibrate", "simulate", "--robot", "symmetric_3rpr", "--plan", "random"], "--plan"),
+    (["calibrate", "report", "--robot", "stewart_6ups", "--out", "r.html", "--clearances", "rpr_typical"],
+     "--clearances"),
     (["calibrate", "plan", "--robot", "symmetric_3rpr", "--target", "0", "0", "1"], "--target"),
     (["calibrate", "plan", "--robot", "stewart_6ups", "--grid", "5"], "--grid"),
 ])
@@ -107,3 +109,41 @@ def test_identify_record_then_compensate(tmp_path, capsys):
         length = np.linalg.norm(np.array([10.0, 20.0, 420.0]) + R @ b - A)
         q = (length - est[f"legs[{i}].actuator.offset"]) / est[f"legs[{i}].actuator.gain"]
         assert row[f"q{i}"] == pytest.approx(q, abs=1e-9)
+    # beside them the clearance floor of the default preset there and the compensated pose's predicted sigma
+    assert 0 < row["floor_dp_rms"] < row["floor_dp_max"] < 1.0 and 0 < row["predicted_sigma_p"] < 0.1
+
+
+def _simulate_with_report(tmp_path, capsys):
+    return run_cli(["calibrate", "simulate", "--robot", "delta_clavel", "--poses", "25", "--seed", "1",
+                    "--target", "0", "0", "-20", "--data-out", tmp_path / "m.csv",
+                    "--report", tmp_path / "sim.html", "--format", "json"], capsys)
+
+
+def test_simulate_with_clearances_writes_the_report(tmp_path, capsys):
+    """simulate on the D-optimal plan with the default clearances (said on stderr): every kept reading within
+    the floor plus 3 sigmas, the plan's O1 above random choices', the report written."""
+    status, out, err = _simulate_with_report(tmp_path, capsys)
+    assert status == 0 and "clearances: delta_typical (default)" in err
+    rec = json.loads(out)
+    assert rec["plan"] == "d-optimal"
+    assert rec["observability"]["planned"]["O1"] > rec["observability"]["random"]["O1"]
+    k, n = map(int, rec["readings_within_floor"].split(" of "))
+    assert k == n and n >= 20
+    html = (tmp_path / "sim.html").read_text()
+    assert "beside the clearance floor" in html and html.count("data:image/png;base64") == 4
+
+
+@pytest.mark.slow
+def test_report_of_identified_readings(tmp_path, capsys):
+    """The readings of a simulation identified and reported from the files: residuals beside the floor, no
+    experiment (three figures)."""
+    assert _simulate_with_report(tmp_path, capsys)[0] == 0
+    status, _, _ = run_cli(["calibrate", "identify", "--robot", "delta_clavel", "--data", tmp_path / "m.csv",
+                            "--target", "0", "0", "-20", "--out", tmp_path / "id.json"], capsys)
+    assert status == 0
+    status, out, _ = run_cli(["calibrate", "report", "--data", tmp_path / "m.csv", "--identification",
+                              tmp_path / "id.json", "--clearances", "delta_typical", "--out", tmp_path / "r.html"],
+                             capsys)
+    assert status == 0 and "25 readings" in out
+    html = (tmp_path / "r.html").read_text()
+    assert "readings are within the floor" in html and html.count("data:image/png;base64") == 3

@@ -41,7 +41,8 @@ def test_simulate_true_robot_from_errors_and_tolerances(tmp_path, capsys):
 
 def test_clearances_in_the_readings_and_in_the_identification(tmp_path, capsys):
     """Readings with clearance states well above the noise: identified with the clearances' covariance the
-    residual scale is about 1; the same file identified without it shows a scale far above 1."""
+    residual scale is about 1; the same file identified without it (``--clearances none``: the default is the
+    architecture's typical preset) shows a scale far above 1."""
     common = ["--robot", "stewart_6ups", "--clearances", "ups_typical"]
     status, out, _ = run_cli(["calibrate", "simulate", *common, "--poses", "30", "--noise-mm", "0.002",
                               "--noise-deg", "0.002", "--data-out", tmp_path / "m.csv", "--format", "json"], capsys)
@@ -49,7 +50,7 @@ def test_clearances_in_the_readings_and_in_the_identification(tmp_path, capsys):
     rec = json.loads(out)
     assert 0.6 < rec["fit"]["scale"] < 1.5 and rec["floor_dp_max_mm"] > 0.01
     status, out, _ = run_cli(["calibrate", "identify", "--robot", "stewart_6ups", "--data", tmp_path / "m.csv",
-                              "--no-robust", "--format", "json"], capsys)
+                              "--clearances", "none", "--no-robust", "--format", "json"], capsys)
     assert status == 0 and json.loads(out)["fit"]["scale"] > 3
     status, out, _ = run_cli(["calibrate", "identify", *common, "--data", tmp_path / "m.csv", "--out",
                               tmp_path / "id.json", "--format", "json"], capsys)
@@ -60,7 +61,7 @@ def test_clearances_in_the_readings_and_in_the_identification(tmp_path, capsys):
     assert status == 0
     row = json.loads(out)[0]
     assert 0 < row["floor_dp_rms"] < row["floor_dp_max"] < 1.0
-    assert 0 < row["floor_dphi_rms_deg"] < row["floor_dphi_max_deg"]
+    assert 0 < row["floor_dtheta_rms_deg"] < row["floor_dtheta_max_deg"]
 
 
 def test_frame_starts_the_device_frame(tmp_path, capsys):
@@ -132,3 +133,18 @@ def test_compensate_floor_of_a_lower_mobility_robot(tmp_path, capsys):
     at_home = spatial_pose_errors(robot, SpatialErrorSources.load("rps_typical", robot), home[None])
     assert np.allclose(ident.values[pv.frame_index], 0.0, atol=1e-9)   # noise-free readings of the nominal
     assert rows[1]["floor_dp_max"] == pytest.approx(float(at_home.dp_upper[0]), rel=1e-6)
+
+
+def test_chain_robot_without_clearances_runs_on_the_readings_alone(tmp_path, capsys):
+    """A chain robot has no typical error-source preset: without ``--clearances`` the calibration runs with none
+    (said on stderr; no floor in the output) instead of failing."""
+    import tomli_w
+    from chain_builders import chain_table
+
+    (tmp_path / "chain.toml").write_text(tomli_w.dumps(chain_table(SpatialManipulator.preset("rps_3"))))
+    status, out, err = run_cli(["calibrate", "simulate", "--robot", tmp_path / "chain.toml", "--poses", "15",
+                                "--format", "json"], capsys)
+    assert status == 0, err
+    assert "clearances: none, no preset for a spatial-chain robot (default)" in err
+    rec = json.loads(out)
+    assert "floor_dp_max_mm" not in rec and "readings_within_floor" not in rec and rec["fit"]["clearances"] is None

@@ -121,7 +121,6 @@ def test_map_of_a_spatial_robot_writes_netcdf_and_a_figure(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["bounds", "--robot", "delta_clavel", "--pose", 0, 0, -800, "--certified"], "for the 6-UPS only"),
     (["bounds", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--nonlinear"], "--nonlinear is not"),
     (["bounds", "--robot", "stewart_6ups", "--clearances", "nope.toml", "--pose", 0, 0, 400, 0, 0, 0],
      "--clearances: nope.toml"),
@@ -142,7 +141,6 @@ def test_bad_accuracy_input_one_line(argv, words, capsys, tmp_path, monkeypatch)
 @pytest.mark.parametrize("argv", [
     ["compare-designs", "--robot", "aalborg_3ppr", "stewart_6ups"],
     ["experiment", "simulate", "--robot", "prs_3", "--out", "x.csv"],
-    ["calibrate", "report", "--robot", "stewart_6ups", "--out", "r.html"],
 ])
 def test_commands_without_spatial_support_refuse_in_one_line(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -184,3 +182,14 @@ def test_certified_bounds_of_a_hexapod_match_the_api_and_refuse_in_one_line(caps
                                  "--clearances", big, "--format", "json"], capsys)
     assert status == 0 and "not certified" in err
     assert all(r["upper"] is None and r["certified"] is False for r in json.loads(text))   # inf: null in JSON
+
+
+@pytest.mark.parametrize("robot", ["stewart_6ups", "aalborg_3ppr"])
+def test_missing_poses_are_asked_for_in_one_line(tmp_path, capsys, robot):
+    status, out, err = run_cli(["bounds", "--robot", robot], capsys)
+    assert status == 2 and "--pose" in err and "not both" not in err and len(err.strip().splitlines()) == 1
+    path = tmp_path / "p.csv"
+    path.write_text("x\n")
+    pose = [0, 0, 400, 0, 0, 0] if robot == "stewart_6ups" else [0, 0, 0]
+    status, out, err = run_cli(["bounds", "--robot", robot, "--pose", *pose, "--poses-csv", path], capsys)
+    assert status == 2 and "not both" in err

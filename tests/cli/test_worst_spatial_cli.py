@@ -1,4 +1,5 @@
-"""``pmaccuracy worst`` on spatial robots: the certified worst case of a 6-UPS in the output, bad input in one line."""
+"""``pmaccuracy worst`` on spatial robots: the certified worst case of a 6-UPS and a Delta in the output, bad input in one
+line."""
 
 from __future__ import annotations
 
@@ -35,11 +36,15 @@ def test_hexapod_box_json_attained_at_its_pose(capsys):
         assert values[row["quantity"]] == pytest.approx(row["lower"], rel=2e-3)
 
 
-def test_delta_sphere_table_says_not_certified(capsys):
-    argv = ["worst", "--robot", "delta_clavel", "--sphere", 0, 0, -800, 10]
+def test_delta_sphere_json_certified(capsys):
+    argv = ["worst", "--robot", "delta_clavel", "--sphere", 0, 0, -800, 10, "--format", "json"]
     status, out, err = run_cli(argv, capsys)
     assert status == 0, err
-    assert "not certified" in err and "dp" in out
+    data = json.loads(out)
+    assert data["upper_certified"] and "not certified" not in err
+    for row in data["quantities"]:
+        assert row["certified"] and row["lower"] <= row["upper"] <= row["lower"] * 1.01 * (1 + 1e-9)
+        assert np.linalg.norm([row["x"], row["y"], row["z"] + 800]) <= 10 * (1 + 1e-12)
 
 
 @pytest.mark.parametrize("argv, words", [

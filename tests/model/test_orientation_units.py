@@ -128,6 +128,8 @@ def _spatial_calls():
         "spatial_singularity": lambda phi: pm.singularity(hexapod, pose(phi)),
         "spatial_pose_errors": lambda phi: pm.spatial_pose_errors(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                                   pose(phi)),
+        "spatial_error_components": lambda phi: pm.spatial_error_components(
+            hexapod, pm.load_clearances("ups_typical", hexapod), pose(phi)),
         "spatial_certified_bounds": lambda phi: pm.spatial_certified_bounds(hexapod, "ups_typical", pose(phi),
                                                                             ascent_steps=0),
         "spatial_pose_statistics": lambda phi: pm.spatial_pose_statistics(hexapod, "ups_typical", pose(phi),
@@ -172,6 +174,7 @@ NO_ORIENTATION = {
     "write_spatial_csv": "a SpatialCalibrationData and a path",
     "identify_spatial": "a SpatialCalibrationData (read from a file)",
     "simulate_spatial_calibration": "a parameter vector and counts (poses are drawn inside)",
+    "spatial_calibration_report": "a SpatialIdentification and SpatialCalibrationData (read from files)",
 }
 
 

@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError, OutsideJointLimitsError, SingularPoseError
-from ..kinematics.spatial import as_spatial_poses, closure, inverse_kinematics, reference_pose
+from ..kinematics.spatial import (LIMIT_TOLERANCE, as_spatial_poses, closure, inverse_kinematics, leg_interference,
+                                  reference_pose)
 from ..model.plausibility import check_angle_values, rotation_angles
 from ..model.spatial import SpatialManipulator
 from ..model.spatial_legs import DeltaLeg, PRSLeg, RPSLeg, UPSLeg, UPULeg
@@ -320,8 +321,8 @@ def _condition(robot: SpatialManipulator, W: np.ndarray) -> tuple[np.ndarray, np
     rows normalized, ``||H||_1 ||H^-1||_1`` (``inf`` where singular), and ``W^-1``: ``H = N W D`` so
     ``H^-1 = D^-1 W^-1 N^-1`` costs no second inversion."""
     D = np.array([1.0, 1.0, 1.0] + [1.0 / robot.characteristic_length] * 3)
-    WD = W * D
-    norms = np.linalg.norm(WD, axis=-1)                       # (..., 6) row norms: N = diag(1 / norms)
+    absWD = np.abs(W) * D
+    norms = np.sqrt(np.einsum("...ij,...ij->...i", absWD, absWD))   # (..., 6) row norms: N = diag(1 / norms)
     try:
         Winv = np.linalg.inv(W)
     except np.linalg.LinAlgError:
@@ -329,9 +330,10 @@ def _condition(robot: SpatialManipulator, W: np.ndarray) -> tuple[np.ndarray, np
         Winv = np.full(W.shape, np.nan)
         Winv[ok] = np.linalg.inv(W[ok])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        H = WD / norms[..., None]
-        Hinv = Winv / D[:, None] * norms[..., None, :]
-        cond = np.max(np.sum(np.abs(H), axis=-2), axis=-1) * np.max(np.sum(np.abs(Hinv), axis=-2), axis=-1)
+        # ||H||_1: column sums of |W_kj| D_j / norms_k; ||H^-1||_1: column sums of |Winv_ik| / D_i times norms_k
+        h = np.max(np.einsum("...kj,...k->...j", absWD, 1.0 / norms), axis=-1)
+        hinv = np.max(np.einsum("...ik,i->...k", np.abs(Winv), 1.0 / D) * norms, axis=-1)
+        cond = h * hinv
     return np.where(np.isfinite(cond), cond, np.inf), Winv
 
 
@@ -339,6 +341,62 @@ def _shown(pose: np.ndarray) -> str:
     """A pose in words: ``(x, y, z mm, roll, pitch, yaw deg)``."""
     c = np.concatenate([pose[:3], rotvec_to_euler_xyz(pose[3:], degrees=True)])
     return "(x, y, z, roll, pitch, yaw) = (" + ", ".join(f"{float(v):.6g}" for v in c) + ")"
+
+
+def _hexapod_fast(robot: SpatialManipulator, sources: SpatialErrorSources, poses: np.ndarray, strict: bool,
+                  allow_outside: bool):
+    """A 6-UPS's error set without per-source data in one pass over all legs (the same numbers as the general
+    construction, which :func:`error_sources_at` falls back to for its messages): leg lengths ``L_i = |B_i - A_i|``,
+    directions ``u_i``, the stroke and cone limits as ``lo <= L_i <= hi`` and ``u . n >= cos(cone)`` (a margin of
+    1e-12 sends boundary cases to the general check), the legs' capsules apart, ``W`` rows ``[u_i, (B_i - p) x
+    u_i]``, :func:`_condition` and the segments ``rho_i`` of :func:`_hexapod_blocks`. Returns ``(blocks, info)``
+    or ``None`` where the general path must decide (a strict call with a pose outside the limits or singular)."""
+    lead = poses.shape[:-1]
+    P = poses.reshape(-1, 6)
+    p, R = P[:, :3], rotations(P[:, 3:])
+    legs = robot.legs
+    A = np.array([leg.base for leg in legs])                               # (6, 3)
+    Bp = np.einsum("nij,kj->nki", R, np.array([leg.platform for leg in legs]))
+    B = p[:, None, :] + Bp                                                 # (N, 6, 3)
+    d = B - A
+    L = np.sqrt(np.einsum("nki,nki->nk", d, d))
+    u = d / L[..., None]
+    if strict and not allow_outside:
+        tol = LIMIT_TOLERANCE
+        lo = np.array([leg.stroke[0] - tol * max(1.0, leg.stroke[1] - leg.stroke[0]) for leg in legs])
+        hi = np.array([leg.stroke[1] + tol * max(1.0, leg.stroke[1] - leg.stroke[0]) for leg in legs])
+        ok = np.all((L >= lo) & (L <= hi), axis=-1)
+        margin = 1e-12
+        base = [k for k, leg in enumerate(legs) if leg.base_cone is not None]
+        if base:
+            nb = np.array([legs[k].base_normal for k in base])
+            cmin = np.array([np.cos(min(legs[k].base_cone + tol, np.pi)) for k in base]) + margin
+            ok &= np.all(np.einsum("nki,ki->nk", u[:, base], nb) >= cmin, axis=-1)
+        plat = [k for k, leg in enumerate(legs) if leg.platform_cone is not None]
+        if plat:
+            npf = np.einsum("nij,kj->nki", R, np.array([legs[k].platform_normal for k in plat]))
+            cmin = np.array([np.cos(min(legs[k].platform_cone + tol, np.pi)) for k in plat]) + margin
+            ok &= np.all(np.einsum("nki,nki->nk", -u[:, plat], npf) >= cmin, axis=-1)
+        segs = [np.stack([np.broadcast_to(A[k], B[:, k].shape), B[:, k]], axis=-2)[:, None] for k in range(len(legs))]
+        for apart in leg_interference(robot, P, L, segments=segs).values():
+            ok &= apart
+        if not np.all(ok):
+            return None
+    W = np.concatenate([u, np.cross(Bp, u)], axis=-1)                      # (N, 6, 6)
+    cond, Winv = _condition(robot, W)
+    valid = cond <= MAX_CONDITION
+    if not np.all(valid):
+        if strict:
+            return None
+        Winv = np.linalg.inv(np.where(valid[:, None, None], W, np.eye(6)))
+        Winv = np.where(valid[:, None, None], Winv, np.nan)
+    const, radial, axial, u1s = hexapod_leg_terms(robot, sources)
+    c = np.abs(np.einsum("nki,ki->nk", u, u1s))
+    rho = const + radial * (np.sqrt(np.maximum(1.0 - c * c, 0.0)) + 1.0) + axial * c   # (N, 6)
+    M = (Winv * rho[:, None, :]).reshape(lead + (6, 6))
+    blocks = [M[..., :, i:i + 1] for i in range(6)]
+    return blocks, {"Winv": Winv.reshape(lead + (6, 6)), "condition": cond.reshape(lead),
+                    "valid": valid.reshape(lead), "sources": []}
 
 
 def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *, strict: bool = True,
@@ -354,6 +412,10 @@ def error_sources_at(robot: SpatialManipulator, sources: SpatialErrorSources, po
     near-singular; else its blocks are NaN and ``valid`` False.
     """
     poses = as_spatial_poses(poses)
+    if robot.architecture == "6-UPS" and not keep and poses.ndim > 1 and poses.size:
+        fast = _hexapod_fast(robot, sources, poses, strict, allow_outside)
+        if fast is not None:
+            return fast
     ik = inverse_kinematics(robot, poses)
     reach = np.asarray(ik.reachable)
     if not strict and not np.all(reach):
@@ -469,6 +531,34 @@ def _hexapod_blocks(robot, sources, p, R, ref, Winv) -> list[np.ndarray]:
     return blocks
 
 
+def spatial_error_components(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *, strict: bool = True,
+                             allow_outside: bool = False) -> np.ndarray:
+    """The exact worst first-order error components ``(..., 6)`` at ``poses`` ``(..., 6)``: ``|dx|, |dy|, |dz|``
+    (mm) and ``|drx|, |dry|, |drz|`` (rad), each the sum of the sources' support functions (Eq. 1) without the
+    certified norms |dp|, |dtheta| (:func:`spatial_pose_errors` gives both). The same checks: poses outside the
+    joint limits or near a singularity raise (``strict=False``: NaN there).
+
+    >>> import pmaccuracy as pm
+    >>> robot = pm.load_robot("stewart_6ups")
+    >>> c = spatial_error_components(robot, pm.load_clearances("ups_typical", robot), robot.home_pose)
+    >>> c.shape, bool(np.all(c > 0))
+    ((6,), True)
+    """
+    check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+    if sources.architecture != robot.architecture:
+        raise ConfigError(f"the error sources are of a {sources.architecture}, the robot a {robot.architecture}",
+                          key="clearances")
+    poses = as_spatial_poses(poses)
+    if poses.ndim == 2 and poses.shape[0] > CHUNK:
+        return np.concatenate([spatial_error_components(robot, sources, poses[k:k + CHUNK], strict=strict,
+                                                        allow_outside=allow_outside)
+                               for k in range(0, poses.shape[0], CHUNK)])
+    blocks, _ = error_sources_at(robot, sources, poses, strict=strict, keep=False, allow_outside=allow_outside)
+    if not blocks:
+        return np.zeros(poses.shape[:-1] + (6,))
+    return sum(np.abs(b[..., 0]) if b.shape[-1] == 1 else np.linalg.norm(b, axis=-1) for b in blocks)
+
+
 def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources, poses, *,
                         gap: float = DEFAULT_GAP, strict: bool = True, details: bool = True,
                         allow_outside: bool = False) -> SpatialPoseErrors:
@@ -504,7 +594,7 @@ def spatial_pose_errors(robot: SpatialManipulator, sources: SpatialErrorSources,
                                  dtheta_upper=z, dtheta_lower=z, dp_certified=np.ones(shape, bool),
                                  dtheta_certified=np.ones(shape, bool), dp_direction=np.zeros(shape + (3,)),
                                  sources=info["sources"], gap=gap)
-    components = sum(np.linalg.norm(b, axis=-1) for b in blocks)
+    components = sum(np.abs(b[..., 0]) if b.shape[-1] == 1 else np.linalg.norm(b, axis=-1) for b in blocks)
     valid = info["valid"]
     blocks = [np.where(valid[..., None, None], b, 0.0) for b in blocks] if not np.all(valid) else blocks
     dp = max_norm([b[..., :3, :] for b in blocks], gap=gap)

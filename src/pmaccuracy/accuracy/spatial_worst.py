@@ -11,7 +11,7 @@ reach, a limit is violated) are not part of the region. The quantities are the s
 the centres of the branch-and-bound boxes), exact there (:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`;
 for ``dp`` and ``dtheta`` its attained value), so attained at the pose returned.
 
-**Upper bound** (6-UPS only, branch and bound on boxes of ``x, y, z`` and the orientation angles): a 6-UPS's error
+**Upper bound of a 6-UPS** (branch and bound on boxes of ``x, y, z`` and the orientation angles): a 6-UPS's error
 set is six segments ``rho_i(c_i) W^-1 e_i`` (leg ``i``'s sources act through its length; ``c_i = |u_i . u1_i|``),
 so over a box with centre pose ``c``, position half-widths ``r`` and angle half-widths ``a``:
 
@@ -51,10 +51,38 @@ of the region with a condition number above
 :data:`~pmaccuracy.accuracy.spatial_bounds.MAX_CONDITION`, means the region reaches a singularity:
 :class:`SpatialSingularRegionError` (the errors are unbounded there), never a finite number.
 
-The other architectures (Delta, 3-UPU, 3-RPS, 3-PRS) get the attained lower bounds (grid then local grid
-refinement around the best poses) and ``upper = inf`` with ``certified = False``: their error sets have no
-enclosure over a box yet (the Delta's arm angles and the 3-RPS/3-PRS parasitic motions are implicit functions
-of the controlled coordinates, whose interval extension is not written).
+**Upper bound of a 3-UPU, Delta, 3-RPS or 3-PRS** (boxes of the three region coordinates): over a box with
+centre ``c`` and half-widths ``h``, ``x = c + h t`` with ``t`` in ``[-1, 1]^3``, every quantity is held as a
+first-order affine form ``m + G t + e``, ``|e| <= r`` (entrywise): sums exactly; products keep the linear parts
+and put ``(|G_a|_1 + r_a)(|G_b|_1 + r_b)`` into ``r``; a smooth function (``1/sqrt``, ``sqrt``, ``cos``,
+``sin``) is linearized at ``m`` with the Taylor remainder ``max |f''| rad^2 / 2`` over the range. So the
+remainders shrink with the square of the box. Built this way from the closed forms:
+
+* the legs' closure rows (:mod:`pmaccuracy.model.spatial_legs`) and every source's generator twists, the same
+  sets as :func:`~pmaccuracy.accuracy.spatial_bounds.error_sources_at` (a disc of translations or rotations
+  normal to ``a`` as the image of the unit ball by ``I - a a^T``, which spans the same set);
+* a Delta's arm direction without its angle: ``theta = psi - mode alpha`` with ``cos alpha = K / rho``,
+  ``(cos psi, sin psi) = (e.x, e.y) / rho``, so ``cos theta = cos psi c + mode sin psi sqrt(1 - c^2)`` (and the
+  sine); a box on which ``c`` is surely outside ``[-1, 1]``, or the arm angle (within
+  ``asin(|rad| / |(cos, sin)|)`` of the centre's) surely outside its range, holds no pose of the workspace and
+  is dropped; where ``1 - c^2`` may reach 0 its square root is the constant form of its range over the
+  reachable poses;
+* a 3-PRS's slide value from its closed form ``q = s.e - mode sqrt(disc)`` (the same square root);
+* a 3-RPS's or 3-PRS's parasitic ``x, y, yaw``: the Krawczyk test on the three constraints around the solution
+  at the box centre proves that every pose of the box has exactly one solution near it (the branch of the
+  centre's), and the mean value theorem, ``dy/dt = -J^-1 dg/dt`` enclosed over that enclosure, gives the affine
+  forms (:func:`_parasitic_box`); ``R = Rz(yaw) Ry(pitch) Rx(roll)`` from them.
+
+Then ``W^-1`` over ``W``'s range by the Neumann enclosure above (``C = W_c^-1``, ``|W^-1 - C| <= Y``), and
+each source's block ``M_s = W^-1 E_s`` (``E_s`` its image in its leg's rows, padded to six) by the residual:
+``M_s(t) - M_c = W^-1 (E_s(t) - W(t) M_c)`` with ``M_c = C E_s(c)``, whose affine residual keeps the
+cancellation of ``E``'s and ``W``'s variations: ``|M_s(t) - M_c| <= |C R_0| + sum_l |C D_l| + |C| e + Y |R|``.
+So ``dx_max <= sum_s || |M_c| + Mr ||_2`` (and so on) and ``|dp|_max <= max_norm(M_c[:3]) + sum_s
+||Mr[:3]||_F`` (:func:`~pmaccuracy.numerics.support.max_norm`'s certified upper value; ``dtheta`` the same).
+A box on which a leg's length or slide value is surely outside its stroke is dropped. Over a 3-RPS's or
+3-PRS's whole workspace the box of ``z, roll, pitch`` is sampled, not proven, so the upper bound there is not
+certified (``inf``, with the reason); a robot of joint chains (``spatial-chain``) gets attained lower bounds
+only (grid then local grid refinement around the best poses), ``upper = inf`` and ``certified = False``.
 """
 
 from __future__ import annotations
@@ -71,8 +99,10 @@ from ..kinematics.spatial import LIMIT_TOLERANCE, complete_poses, inverse_kinema
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.plausibility import check_angle_values
 from ..model.spatial import CONTROLLED, POSE_NAMES, SpatialManipulator
-from ..model.spatial_sources import SpatialErrorSources, default_preset
+from ..model.spatial_legs import DeltaLeg, PRSLeg, UPULeg
+from ..model.spatial_sources import JOINTS, SpatialErrorSources, default_preset
 from ..numerics.spatial import euler_xyz_to_rotvec, rotations, rotvec_to_euler_xyz
+from ..numerics.support import max_norm
 from .spatial_bounds import COMPONENTS, MAX_CONDITION, hexapod_leg_terms, spatial_pose_errors
 
 #: The quantities maximized, in order: the six components, then ``dp`` (mm) and ``dtheta`` (rad).
@@ -91,9 +121,14 @@ BOX_CHUNK = 4096
 WEIGHT_ITERATIONS = 8
 #: Region kinds.
 KINDS = ("box", "cylinder", "sphere", "workspace")
+#: The architectures whose upper bounds are certified (a robot of joint chains is not).
+CERTIFIED = ("6-UPS", "3-UPU", "delta", "3-RPS", "3-PRS")
 #: Why the upper bound of an architecture is not certified.
-UNCERTIFIED = ("no interval enclosure of the {arch} error set over a box is implemented (its joint motions are "
-               "implicit functions of the controlled coordinates): the upper bound is not certified")
+UNCERTIFIED = ("no enclosure of the error set of a {arch} built of joint chains over a box is implemented: the upper "
+               "bound is not certified")
+#: Why the upper bound over a 3-RPS's or 3-PRS's whole workspace is not certified.
+UNBOUNDED = ("the box of z, roll, pitch holding a {arch}'s workspace is sampled, not proven: the upper bound over "
+             "the workspace is not certified (give a box)")
 
 
 class SpatialSingularRegionError(SingularPoseError):
@@ -180,8 +215,17 @@ def _finite(values, n: int, key: str, what: str) -> np.ndarray:
 
 def _workspace_bounds(robot: SpatialManipulator, orientation: np.ndarray | None) -> np.ndarray:
     """A box ``(3, 2)`` of the region coordinates holding the workspace: for legs with a length stroke (6-UPS,
-    3-UPU) every position within ``max stroke`` of ``A_i - R b_i`` for every ``R`` of the orientation box
-    (rigorous); otherwise a sampled workspace's bounding box widened by two cells (lower bounds only)."""
+    3-UPU) every position within ``max stroke`` of ``A_i - R b_i`` for every ``R`` of the orientation box, for a
+    Delta within ``arm + rod`` of ``A_i - b_i`` (the rods' midpoints are ``rod`` apart; rigorous); otherwise
+    (3-RPS, 3-PRS, chains) a sampled workspace's bounding box widened by two cells (lower bounds only)."""
+    if robot.architecture == "delta" and not robot.is_chain:
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        for leg in robot.legs:
+            c = np.asarray(leg.base, dtype=float) - np.asarray(leg.platform, dtype=float)
+            lo, hi = np.maximum(lo, c - (leg.arm + leg.rod)), np.minimum(hi, c + (leg.arm + leg.rod))
+        if np.any(lo > hi):
+            raise EmptyWorkspaceError(f"no position of {robot.name} is reachable")
+        return np.column_stack([lo, hi])
     if robot.architecture in ("6-UPS", "3-UPU"):
         o = np.zeros((3, 2)) if orientation is None else orientation
         Rc = rotations(euler_xyz_to_rotvec(o.mean(axis=1)))
@@ -317,7 +361,8 @@ class SpatialGlobalWorst:
     quantities : dict
         One :class:`SpatialQuantityWorst` per name of :data:`QUANTITIES`.
     certified : bool
-        Whether the upper bounds are certified (6-UPS); False: ``upper`` is ``inf``, see ``reason``.
+        Whether the upper bounds are certified (all but robots of joint chains and a 3-RPS's or 3-PRS's whole
+        workspace); False: ``upper`` is ``inf``, see ``reason``.
     reason : str
         Why the upper bounds are not certified ("" when they are).
     boxes, iterations : int
@@ -670,6 +715,555 @@ def _mean_value_bounds(robot, terms, boxes, geo):
     return np.where(np.isfinite(res), res, np.inf), np.where(np.isfinite(share), share, np.nan), proven
 
 
+# ---------------------------------------------------------------------------------------------- other architectures
+# Boxes of a 3-UPU, Delta, 3-RPS or 3-PRS in first-order affine arithmetic: over a box with centre c and
+# half-widths h, x = c + h t with t in [-1, 1]^3, every quantity is a triple (m, G, r) standing for
+# m + G t + e with |e| <= r (entrywise; G's last axis is t's). Sums are exact, products keep the linear parts and
+# put (|G_a|_1 + r_a)(|G_b|_1 + r_b) into r, a smooth f is linearized at m with the Taylor remainder
+# max |f''| rad^2 / 2 over the range. So the closure rows W(t) and each source's image E_s(t) in its leg's rows
+# are affine forms whose remainders shrink with the square of the box (module text).
+_EYE3 = np.eye(3)
+
+
+def _af(m):
+    """A constant affine form."""
+    m = np.asarray(m, dtype=float)
+    return m, np.zeros(m.shape + (3,)), np.zeros(m.shape)
+
+
+def _arad(a):
+    """Largest deviation of an affine form from its centre."""
+    return np.sum(np.abs(a[1]), axis=-1) + a[2]
+
+
+def _aadd(a, b):
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2]
+
+
+def _asub(a, b):
+    return a[0] - b[0], a[1] - b[1], a[2] + b[2]
+
+
+def _ascale(a, k: float):
+    return a[0] * k, a[1] * k, a[2] * abs(k)
+
+
+def _amul(a, b):
+    return (a[0] * b[0], a[0][..., None] * b[1] + b[0][..., None] * a[1],
+            np.abs(a[0]) * b[2] + np.abs(b[0]) * a[2] + _arad(a) * _arad(b))
+
+
+def _acomp(a, k: int):
+    """Component ``k`` of affine 3-vectors."""
+    return a[0][..., k], a[1][..., k, :], a[2][..., k]
+
+
+def _astack(parts):
+    return (np.stack([p[0] for p in parts], -1), np.stack([p[1] for p in parts], -2),
+            np.stack([p[2] for p in parts], -1))
+
+
+def _aexpand(a):
+    """A scalar form broadcast over a vector's last axis."""
+    return a[0][..., None], a[1][..., None, :], a[2][..., None]
+
+
+def _adot(a, b):
+    p = _amul(a, b)
+    return np.sum(p[0], -1), np.sum(p[1], -2), np.sum(p[2], -1)
+
+
+def _across(a, b):
+    return _astack([_asub(_amul(_acomp(a, i), _acomp(b, j)), _amul(_acomp(a, j), _acomp(b, i)))
+                    for i, j in ((1, 2), (2, 0), (0, 1))])
+
+
+def _amatmul(a, b):
+    """Batched products ``(n, i, k) @ (n, k, j)`` of affine matrices."""
+    return (a[0] @ b[0], np.einsum("nik,nkjl->nijl", a[0], b[1]) + np.einsum("nikl,nkj->nijl", a[1], b[0]),
+            np.abs(a[0]) @ b[2] + a[2] @ np.abs(b[0]) + _arad(a) @ _arad(b))
+
+
+def _aunivariate(a, f, df, d2max):
+    """``f`` of an affine form: ``f(m) + f'(m) (x - m)`` plus ``|f'(m)| r + max|f''| rad^2 / 2``."""
+    rad = _arad(a)
+    d1 = df(a[0])
+    return f(a[0]), d1[..., None] * a[1], np.abs(d1) * a[2] + 0.5 * d2max(a[0] - rad, a[0] + rad) * rad * rad
+
+
+def _ainv_sqrt(a):
+    """``1 / sqrt(x)`` (infinite remainder where ``x`` may reach 0)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = _aunivariate(a, lambda m: m ** -0.5, lambda m: -0.5 * m ** -1.5,
+                           lambda lo, hi: np.where(lo > 0, 0.75 * lo ** -2.5, np.inf))
+    ok = (a[0] - _arad(a) > 0) & np.isfinite(out[2])
+    return (np.where(ok, out[0], 0.0), np.where(ok[..., None], out[1], 0.0), np.where(ok, out[2], np.inf))
+
+
+def _asqrt_feasible(a):
+    """``sqrt(x)`` where ``x >= 0`` (the poses that exist): linearized where the whole range is positive, else
+    the constant form of ``[sqrt(max(lo, 0)), sqrt(max(hi, 0))]``."""
+    rad = _arad(a)
+    lo, hi = a[0] - rad, a[0] + rad
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = _aunivariate(a, lambda m: np.sqrt(np.maximum(m, 0.0)), lambda m: 0.5 / np.sqrt(m),
+                           lambda lo_, hi_: np.where(lo_ > 0, 0.25 * lo_ ** -1.5, np.inf))
+    ok = (lo > 0) & np.isfinite(out[2]) & np.all(np.isfinite(out[1]), axis=-1)
+    s_lo, s_hi = np.sqrt(np.maximum(lo, 0.0)), np.sqrt(np.maximum(hi, 0.0))
+    return (np.where(ok, out[0], 0.5 * (s_lo + s_hi)), np.where(ok[..., None], out[1], 0.0),
+            np.where(ok, out[2], 0.5 * (s_hi - s_lo)))
+
+
+def _acos_sin(a):
+    """``cos`` and ``sin`` of an affine angle (``|f''| <= 1``)."""
+    one = lambda lo, hi: np.ones_like(lo)      # noqa: E731
+    return (_aunivariate(a, np.cos, lambda m: -np.sin(m), one), _aunivariate(a, np.sin, np.cos, one))
+
+
+def _aunit(a):
+    """``d / |d|`` of affine 3-vectors."""
+    return _amul(a, _aexpand(_ainv_sqrt(_adot(a, a))))
+
+
+def _aconst_vec(v, n: int):
+    return _af(np.broadcast_to(np.asarray(v, dtype=float), (n, 3)))
+
+
+def _aproj_cols(a):
+    """The three columns of ``I - a a^T`` (a unit): they map the unit ball onto the unit disc normal to ``a``."""
+    n = a[0].shape[0]
+    return [_asub(_aconst_vec(_EYE3[k], n), _amul(a, _aexpand(_acomp(a, k)))) for k in range(3)]
+
+
+def _rot_gens(ws, centre, p):
+    """Rotation generators: twists ``[w x (P - c), w]``."""
+    arm = _asub(p, centre)
+    return [(_across(w, arm), w) for w in ws]
+
+
+def _tr_gens(vs):
+    return [(v, None) for v in vs]
+
+
+def _revolute_af(key, axis, centre, p):
+    if key == "radial":
+        return [_tr_gens(_aproj_cols(axis))]
+    if key == "axial":
+        return [_tr_gens([axis])]
+    if key in ("tilt", "direction"):
+        return [_rot_gens(_aproj_cols(axis), centre, p)]
+    raise ConfigError(f"no {key!r} source on a revolute")
+
+
+def _stroke_out(q, stroke):
+    """Boxes on which the affine value ``q`` is surely outside ``stroke`` (with twice the limits' tolerance)."""
+    lo, hi = stroke
+    tol = 2 * LIMIT_TOLERANCE * max(1.0, hi - lo, abs(hi), abs(lo))
+    rad = _arad(q)
+    return (q[0] - rad > hi + tol) | (q[0] + rad < lo - tol)
+
+
+def _leg_box(leg, p, R, n):
+    """Leg ``i``'s affine forms over the boxes: its closure rows ``[(f, m)]``, a context for its sources, and
+    whether no pose of the box is reachable by it within its stroke. ``R``: the affine rotation of a 3-RPS /
+    3-PRS, None for the identity."""
+    A = _aconst_vec(leg.base, n)
+    b = np.asarray(leg.platform, dtype=float)
+    if R is None:
+        Rb = _aconst_vec(b, n)
+    else:
+        Rb = _amatmul(R, _af(np.broadcast_to(b[:, None], (n, 3, 1))))
+        Rb = (Rb[0][..., 0], Rb[1][..., 0, :], Rb[2][..., 0])
+    B = _aadd(p, Rb)
+    raw = _asub(B, A)
+    ctx = {"A": A, "B": B, "p": p, "Rb": Rb, "R": R}
+    out = np.zeros(n, dtype=bool)
+    if isinstance(leg, DeltaLeg):
+        # theta = psi - mode alpha, cos alpha = K / rho, so d(theta) = cos(theta) x + sin(theta) y with
+        # cos(theta) = cos(psi) c + mode sin(psi) sqrt(1 - c^2), sin(theta) = sin(psi) c - mode cos(psi) sqrt(1 - c^2)
+        a, x, y = (np.asarray(v, dtype=float) for v in leg._frame())
+        ex, ey = _adot(raw, _aconst_vec(x, n)), _adot(raw, _aconst_vec(y, n))
+        inv_rho = _ainv_sqrt(_aadd(_amul(ex, ex), _amul(ey, ey)))
+        K = _ascale(_aadd(_adot(raw, raw), _af(np.full(n, leg.arm ** 2 - leg.rod ** 2))), 1.0 / (2 * leg.arm))
+        c = _amul(K, inv_rho)
+        rad_c = _arad(c)
+        out |= (c[0] - rad_c > 1.0 + 1e-12) | (c[0] + rad_c < -1.0 - 1e-12)     # the arm cannot reach
+        sa = _asqrt_feasible(_asub(_af(np.ones(n)), _amul(c, c)))
+        cpsi, spsi = _amul(ex, inv_rho), _amul(ey, inv_rho)
+        cos_t = _aadd(_amul(cpsi, c), _ascale(_amul(spsi, sa), leg.mode))
+        sin_t = _asub(_amul(spsi, c), _ascale(_amul(cpsi, sa), leg.mode))
+        arm_dir = _aadd(_amul(_aexpand(cos_t), _aconst_vec(x, n)), _amul(_aexpand(sin_t), _aconst_vec(y, n)))
+        # the arm angle within asin(|rad| / |(cos, sin)|) of the centre's: a box surely outside the angle range
+        # (mod 2 pi, with twice the limits' tolerance) holds no pose of the workspace
+        norm = np.hypot(cos_t[0], sin_t[0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dth = np.where(np.hypot(_arad(cos_t), _arad(sin_t)) < norm,
+                           np.arcsin(np.minimum(np.hypot(_arad(cos_t), _arad(sin_t)) / norm, 1.0)), np.inf)
+        lo_a, hi_a = leg.angle_range
+        tol = 2 * LIMIT_TOLERANCE
+        w = lo_a + np.mod(np.arctan2(sin_t[0], cos_t[0]) - lo_a, 2 * np.pi)
+        out |= np.isfinite(dth) & (w - dth > hi_a + tol) & (w + dth < lo_a + 2 * np.pi - tol)
+        Cm = _aadd(A, _ascale(arm_dir, leg.arm))
+        Cs, Bs, rows = [], [], []
+        for s in (0.5 * leg.spacing, -0.5 * leg.spacing):
+            Cj = _aadd(Cm, _aconst_vec(s * a, n))
+            Bj = _aadd(B, _aconst_vec(s * a, n))
+            nj = _aunit(_asub(Bj, Cj))
+            Cs.append(Cj)
+            Bs.append(Bj)
+            rows.append((nj, _across(_aadd(Rb, _aconst_vec(s * a, n)), nj)))
+        ctx.update(C=Cs, Bs=Bs, arm_dir=arm_dir)
+        return rows, ctx, out
+    if isinstance(leg, PRSLeg):
+        s_ = _aconst_vec(leg.slide, n)
+        se = _adot(raw, s_)
+        disc = _aadd(_asub(_amul(se, se), _adot(raw, raw)), _af(np.full(n, leg.rod ** 2)))
+        out |= disc[0] + _arad(disc) < 0
+        q = _asub(se, _ascale(_asqrt_feasible(disc), leg.mode))
+        out |= _stroke_out(q, leg.slide_range)
+        carriage = _aadd(A, _amul(_aexpand(q), s_))
+        nvec = _aunit(_asub(B, carriage))
+        ax = _aconst_vec(leg.axis, n)
+        ctx.update(carriage=carriage, rod_dir=nvec, d=_aunit(raw))
+        return [(nvec, _across(Rb, nvec)), (ax, _across(Rb, ax))], ctx, out
+    # 3-UPU, 3-RPS: a leg of actuated length
+    L = _asqrt_feasible(_adot(raw, raw))
+    out |= _stroke_out(L, leg.stroke)
+    d = _aunit(raw)
+    ctx["d"] = d
+    rows = [(d, _across(Rb, d))]
+    if isinstance(leg, UPULeg):
+        u1 = _aconst_vec(leg.base_axis, n)
+        rows.append((_aconst_vec(np.zeros(3), n), _aunit(_across(u1, _across(u1, raw)))))
+    else:
+        ax = _aconst_vec(leg.axis, n)
+        rows.append((ax, _across(Rb, ax)))
+    return rows, ctx, out
+
+
+def _source_gens_af(robot, leg, joint, key, ctx, n):
+    """A source's generator groups (each a list of twists ``(v, w)``, ``None`` for zero parts) over the boxes, and
+    the leg's rows it acts on (None: all); the same sets as ``spatial_bounds._joint_generators``."""
+    kind = JOINTS[robot.architecture][joint]
+    A, B, p = ctx["A"], ctx["B"], ctx["p"]
+    basis = [_tr_gens([_aconst_vec(e, n) for e in _EYE3])]
+    if isinstance(leg, DeltaLeg):
+        rows = None
+        axis = _aconst_vec(leg.axis, n)
+        if joint == 0:
+            centre = A
+        else:
+            rod = (joint - 1) // 2
+            rows = [rod]
+            centre = ctx["C"][rod] if joint in (1, 3) else ctx["Bs"][rod]
+        if key == "position" or (kind == "S" and key == "radial"):
+            return basis, rows
+        if key == "actuator":
+            return [_rot_gens([axis], centre, p)], rows
+        if key == "length":
+            if joint == 0:
+                return [_tr_gens([ctx["arm_dir"]])], rows
+            return [_tr_gens([_aunit(_asub(ctx["Bs"][rod], ctx["C"][rod]))])], rows
+        return _revolute_af(key, axis, centre, p), rows
+    d = ctx["d"]
+    if key == "length":
+        if isinstance(leg, PRSLeg):
+            return [_tr_gens([ctx["rod_dir"] if kind == "R" else _aconst_vec(leg.slide, n)])], None
+        return [_tr_gens([d])], None
+    if kind == "S" or key == "position":
+        return basis, None
+    if kind == "P":
+        if isinstance(leg, PRSLeg):
+            axis, centre, origin = _aconst_vec(leg.slide, n), ctx["carriage"], A
+        else:
+            axis, centre, origin = d, _ascale(_aadd(A, B), 0.5), A
+        if key in ("actuator", "backlash"):
+            return [_tr_gens([axis])], None
+        if key == "lateral":
+            return [_tr_gens(_aproj_cols(axis))], None
+        if key == "tilt":
+            return [_rot_gens(_aproj_cols(axis), centre, p)], None
+        if key == "direction":
+            return [_rot_gens(_aproj_cols(axis), origin, p)], None
+    if kind == "R":
+        centre = ctx["carriage"] if isinstance(leg, PRSLeg) else A
+        return _revolute_af(key, _aconst_vec(leg.axis, n), centre, p), None
+    if kind == "U":
+        if joint == 0:
+            centre = A
+            u1 = _aconst_vec(leg.base_axis, n)
+            u2 = _aunit(_across(u1, d))
+            m, fixed = _aunit(_across(u1, u2)), u1
+        else:
+            centre = B
+            u4 = _aconst_vec(leg.platform_axis, n)      # a 3-UPU's platform does not turn
+            u1 = _aunit(_across(u4, d))
+            u2, fixed = u4, u4
+            m = _aunit(_across(u1, u2))
+        if key == "radial":
+            return [_tr_gens(_aproj_cols(u1)), _tr_gens(_aproj_cols(u2))], None
+        if key == "axial":
+            return [_tr_gens([u1]), _tr_gens([u2])], None
+        if key == "tilt":
+            return [_rot_gens([m], centre, p)], None
+        if key == "direction":
+            return [_rot_gens(_aproj_cols(fixed), centre, p)], None
+    raise ConfigError(f"no {key!r} source on joint {joint + 1} of a {robot.architecture} leg")
+
+
+def _inverse_enclosure(robot, Wm, Wr):
+    """``W^-1`` over ``Wm +- Wr`` ``(n, 6, 6)``: ``C = Wm^-1`` and ``Y >= |W^-1 - C|`` (the Neumann enclosure of
+    the module text), and whether every ``W`` of the boxes is proven regular."""
+    n = Wm.shape[0]
+    ok = np.all(np.isfinite(Wm), axis=(1, 2)) & np.all(np.isfinite(Wr), axis=(1, 2))
+    Wm0 = np.where(ok[:, None, None], Wm, np.eye(6))
+    ok &= np.abs(np.linalg.det(Wm0)) > 1e-300
+    C = np.zeros_like(Wm)
+    C[ok] = np.linalg.inv(Wm0[ok])
+    absC = np.abs(C)
+    with np.errstate(invalid="ignore", over="ignore"):
+        D = np.abs(np.eye(6) - C @ Wm0) + absC @ np.where(ok[:, None, None], Wr, 0.0)
+    w0 = np.array([1.0, 1.0, 1.0] + [1.0 / robot.characteristic_length] * 3)
+    w = np.broadcast_to(w0, (n, 6)).copy()
+    for _ in range(WEIGHT_ITERATIONS):
+        w = np.einsum("nij,nj->ni", D, w) + 1e-6 * np.max(w, axis=1, keepdims=True) * w0
+        w = w / np.max(w, axis=1, keepdims=True)
+    Dw = np.einsum("nij,nj->ni", D, w)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        beta = np.max(Dw / w, axis=1)
+        regular = ok & (beta < 1.0) & np.all(np.isfinite(D), axis=(1, 2))
+        DC = D @ absC
+        e = np.max(DC / w[:, :, None], axis=1) / (1.0 - beta)[:, None]
+        Y = DC + Dw[:, :, None] * e[:, None, :]
+    Y = np.where(regular[:, None, None], Y, np.inf)
+    return C, Y, regular
+
+
+def _iv(m, r=None):
+    """A midpoint-radius pair (radius 0 by default)."""
+    m = np.asarray(m, dtype=float)
+    return m, (np.zeros_like(m) if r is None else np.asarray(r, dtype=float))
+
+
+def _sub(a, b):
+    return a[0] - b[0], a[1] + b[1]
+
+
+#: Krawczyk iterations (with inflation) enclosing a 3-RPS / 3-PRS's parasitic motions over a box.
+PARASITIC_ITERATIONS = 6
+
+
+def _cos_sin(mid, half):
+    """``cos``, ``sin`` of angles ``mid +- half`` (midpoint-radius, Taylor with remainder ``half^2 / 2``)."""
+    c, s = np.cos(mid), np.sin(mid)
+    rem = 0.5 * half * half
+    return (c, np.abs(s) * half + rem), (s, np.abs(c) * half + rem)
+
+
+def _elementary(k, c, s, n, zero, one):
+    """``Rx``, ``Ry`` or ``Rz`` (``k`` = 0, 1, 2) from forms of its cosine and sine (tuples of arrays)."""
+    i, j = [(1, 2), (0, 2), (0, 1)][k]
+    other = 3 - i - j
+    sign = -1.0 if k != 1 else 1.0        # Rx, Rz: [[c, -s], [s, c]] on (i, j); Ry: [[c, s], [-s, c]]
+    entries = [[zero] * 3 for _ in range(3)]
+    entries[other][other] = one
+    entries[i][i] = entries[j][j] = c
+    entries[i][j] = tuple(sign * x if t == 0 or (t == 1 and len(c) == 3) else x for t, x in enumerate(s))
+    entries[j][i] = tuple(-sign * x if t == 0 or (t == 1 and len(c) == 3) else x for t, x in enumerate(s))
+    return tuple(np.stack([np.stack([entries[r][q][t] for q in range(3)], 1) for r in range(3)], 1)
+                 for t in range(len(c)))
+
+
+def _rotation_iv(angles_m, angles_r):
+    """``R = Rz(yaw) Ry(pitch) Rx(roll)`` (extrinsic x-y-z) over midpoint-radius angles ``(n, 3)``."""
+    n = angles_m.shape[0]
+    mats = []
+    for k in range(3):
+        c, s = _cos_sin(angles_m[:, k], angles_r[:, k])
+        mats.append(_elementary(k, c, s, n, (np.zeros(n), np.zeros(n)), (np.ones(n), np.zeros(n))))
+    return _matmul(_matmul(mats[2], mats[1]), mats[0])
+
+
+def _parasitic_box(robot, mid, half):
+    """A 3-RPS / 3-PRS's parasitic ``x, y, yaw`` over boxes of ``z, roll, pitch`` ``(n, 3)``, as affine forms in
+    ``t`` (module text): the Krawczyk test on ``g_i = axis_i . (p + R b_i - base_i) = 0`` around the solution
+    ``s`` at the box centre (:func:`~pmaccuracy.kinematics.spatial.complete_poses`), ``Y`` the inverse of its
+    Jacobian there: where ``K = s - Y g(s, box) + (I - Y J(X, box)) (X - s)`` lies inside ``X = s +- rho``, every
+    pose of the box has exactly one solution in ``X`` (the branch of the centre's). Then by the mean value
+    theorem ``y(t) - y(0)`` is in ``[A] t`` with ``[A] = -J(X, box)^-1 dg/dt(X, box)``, ``J^-1`` within
+    ``Z`` of ``Y`` (``|I - Y J| <= mag``, ``||mag||_inf = beta < 1``), and ``|y(0) - s| <= (|Y| + Z) |g(s, c)|``.
+    Returns the affine position ``(n, 3)`` and ``R`` ``(n, 3, 3)``; where the test fails their remainders are
+    infinite (``W`` is then not proven regular, and the box is split)."""
+    n = mid.shape[0]
+    axes = np.array([leg.axis for leg in robot.legs], dtype=float)
+    bases = np.array([leg.base for leg in robot.legs], dtype=float)
+    b = np.array([leg.platform for leg in robot.legs], dtype=float)
+    full = complete_poses(robot, mid, strict=False)
+    bad = ~np.all(np.isfinite(full), axis=1)
+    s = np.zeros((n, 3))
+    s[~bad] = np.column_stack([full[~bad, :2], rotvec_to_euler_xyz(full[~bad, 3:])[:, 2]])
+    ez = np.array([0.0, 0.0, 1.0])
+    A3 = _iv(np.broadcast_to(axes, (n, 3, 3)))
+
+    def evaluate(xm, xr, hv):
+        """``g`` (n, 3), ``J`` (n, 3, 3) and ``dg/dt`` (n, 3, 3) (midpoint-radius) for parameters ``mid +- hv``
+        and ``x`` in ``xm +- xr``."""
+        R = _rotation_iv(np.column_stack([mid[:, 1], mid[:, 2], xm[:, 2]]),
+                         np.column_stack([hv[:, 1], hv[:, 2], xr[:, 2]]))
+        Rb = _matmul(R, _iv(np.broadcast_to(b.T, (n, 3, 3))))          # columns R b_i
+        Rb = (np.swapaxes(Rb[0], 1, 2), np.swapaxes(Rb[1], 1, 2))      # (n, 3 legs, 3)
+        p = (np.column_stack([xm[:, :2], mid[:, 0]]), np.column_stack([xr[:, :2], hv[:, 0]]))
+        e = _sub(_add((p[0][:, None], p[1][:, None]), Rb), _iv(np.broadcast_to(bases, (n, 3, 3))))
+        g = _dot(A3, e)
+        dyaw = _dot(A3, _cross(_iv(np.broadcast_to(ez, (n, 3, 3))), Rb))
+        J = (np.concatenate([np.broadcast_to(axes[:, :2], (n, 3, 2)), dyaw[0][..., None]], axis=2),
+             np.concatenate([np.zeros((n, 3, 2)), dyaw[1][..., None]], axis=2))
+        # dg/dt: z (axis_i[2] h_z), roll ((R e_x) x R b_i), pitch ((Rz e_y) x R b_i), times the half-widths
+        Rex = (np.repeat(R[0][:, None, :, 0], 3, axis=1), np.repeat(R[1][:, None, :, 0], 3, axis=1))
+        (cy, cyr), (sy, syr) = _cos_sin(xm[:, 2], xr[:, 2])
+        ey = (np.repeat(np.column_stack([-sy, cy, np.zeros(n)])[:, None], 3, axis=1),
+              np.repeat(np.column_stack([syr, cyr, np.zeros(n)])[:, None], 3, axis=1))
+        droll, dpitch = _dot(A3, _cross(Rex, Rb)), _dot(A3, _cross(ey, Rb))
+        Gt = (np.stack([axes[None, :, 2] * hv[:, 0:1], droll[0] * hv[:, 1:2], dpitch[0] * hv[:, 2:3]], axis=2),
+              np.stack([np.zeros((n, 3)), droll[1] * hv[:, 1:2], dpitch[1] * hv[:, 2:3]], axis=2))
+        return g, J, Gt
+
+    g0, (J0, _), _ = evaluate(s, np.zeros((n, 3)), np.zeros((n, 3)))
+    ok = ~bad & (np.abs(np.linalg.det(np.where(bad[:, None, None], np.eye(3), J0))) > 1e-12)
+    Y = np.zeros((n, 3, 3))
+    Y[ok] = np.linalg.inv(J0[ok])
+    absY = np.abs(Y)
+    gc, _, _ = evaluate(s, np.zeros((n, 3)), half)              # the parameters vary, x = s fixed
+    rho = 2.0 * (absY @ gc[1][..., None])[..., 0] + 2.0 * np.abs(np.einsum("nij,nj->ni", Y, gc[0])) \
+        + 1e-12 * (1.0 + np.abs(s))
+    proven = np.zeros(n, dtype=bool)
+    X = np.zeros((n, 3))
+    with np.errstate(invalid="ignore", over="ignore"):
+        for _ in range(PARASITIC_ITERATIONS):
+            _, (Jm, Jr), _ = evaluate(s, rho, half)
+            mag = np.abs(np.eye(3) - Y @ Jm) + absY @ Jr
+            km = s - np.einsum("nij,nj->ni", Y, gc[0])
+            kr = np.einsum("nij,nj->ni", absY, gc[1]) + np.einsum("nij,nj->ni", mag, rho)
+            inside = np.all(np.abs(km - s) + kr < rho, axis=1) & ok & ~proven
+            X[inside] = rho[inside]
+            proven |= inside
+            if np.all(proven | ~ok):
+                break
+            rho = np.where(proven[:, None], rho, 1.5 * (np.abs(km - s) + kr) + 1e-12)
+        X = np.where(proven[:, None], X, 0.0)
+        _, (Jm, Jr), (Gm, Gr) = evaluate(s, X, half)
+        mag = np.abs(np.eye(3) - Y @ Jm) + absY @ Jr
+        beta = np.max(np.sum(mag, axis=2), axis=1)
+        proven &= beta < 1.0
+        MY = mag @ absY
+        with np.errstate(divide="ignore"):
+            Z = MY + (beta / (1.0 - beta))[:, None, None] * np.max(MY, axis=1, keepdims=True)
+        Am = -(Y @ Gm)
+        Ar = absY @ Gr + Z @ (np.abs(Gm) + Gr)
+        g_c, _, _ = evaluate(s, np.zeros((n, 3)), np.zeros((n, 3)))
+        eps0 = ((absY + Z) @ (np.abs(g_c[0]) + g_c[1])[..., None])[..., 0]
+        rem = np.sum(Ar, axis=2) + eps0
+    rem = np.where(proven[:, None] & np.isfinite(rem), rem * (1 + ROUNDING), np.inf)
+    Am = np.where(proven[:, None, None] & np.isfinite(Am), Am, 0.0)
+    # affine forms in t: z = c_z + h_z t_0, roll = c + h t_1, pitch = c + h t_2; x, y, yaw = s + Am t +- rem
+    eye = np.eye(3)
+    z = (mid[:, 0], half[:, 0:1] * eye[0], np.zeros(n))
+    x_, y_, yaw = ((s[:, k], Am[:, k], rem[:, k]) for k in range(3))
+    p = _astack([x_, y_, z])
+    mats = []
+    for k, ang in enumerate(((mid[:, 1], half[:, 1:2] * eye[1], np.zeros(n)),
+                             (mid[:, 2], half[:, 2:3] * eye[2], np.zeros(n)), yaw)):
+        c, s_ = _acos_sin(ang)
+        mats.append(_elementary(k, c, s_, n, _af(np.zeros(n)), _af(np.ones(n))))
+    R = _amatmul(_amatmul(mats[2], mats[1]), mats[0])
+    return p, R
+
+
+def _legs_box_bounds(robot, sources, boxes, point_gap):
+    """Certified upper bounds ``(n, 8)`` over boxes ``(n, 3, 2)`` of a 3-UPU, Delta, 3-RPS or 3-PRS (the affine
+    forms above; ``inf`` where ``W`` is not proven regular), whether each box provably holds no pose of the
+    workspace, whether its ``W`` is not proven regular, and (NaN) split shares. An infinite remainder times 0
+    gives NaN, which every test reads as unproven (never as a finite bound)."""
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        return _legs_box_bounds_of(robot, sources, boxes, point_gap)
+
+
+def _legs_box_bounds_of(robot, sources, boxes, point_gap):
+    n = boxes.shape[0]
+    mid = 0.5 * (boxes[:, :, 0] + boxes[:, :, 1])
+    half = 0.5 * (boxes[:, :, 1] - boxes[:, :, 0])
+    R = None
+    if robot.mobility == "2R1T":
+        p, R = _parasitic_box(robot, mid, half)
+    else:
+        p = (mid, half[:, :, None] * np.eye(3), np.zeros((n, 3)))
+    out = np.zeros(n, dtype=bool)
+    rows, ctxs = [], []
+    with np.errstate(invalid="ignore", over="ignore"):
+        for leg in robot.legs:
+            r, c, o = _leg_box(leg, p, R, n)
+            rows.append(r)
+            ctxs.append(c)
+            out |= o
+        flat = [_astack([_acomp(f, 0), _acomp(f, 1), _acomp(f, 2), _acomp(m, 0), _acomp(m, 1), _acomp(m, 2)])
+                for r in rows for f, m in r]
+        W = (np.stack([f[0] for f in flat], 1), np.stack([f[1] for f in flat], 1),
+             np.stack([f[2] for f in flat], 1))                            # (n, 6, 6), G (n, 6, 6, 3)
+    C, Y, regular = _inverse_enclosure(robot, W[0], _arad(W))
+    absC = np.abs(C)
+    Mm, Mr = [], []
+    row0 = 0
+    for i, leg in enumerate(robot.legs):
+        k = len(rows[i])
+        for j, joint in enumerate(sources.legs[i]):
+            for key, h in joint.items():
+                if h == 0:
+                    continue
+                kind = "actuator" if key == "backlash" and robot.actuated_kinds[i] == "R" else key
+                groups, which = _source_gens_af(robot, leg, j, kind, ctxs[i], n)
+                for gens in groups:
+                    d = len(gens)
+                    Em, EG, Er = np.zeros((n, 6, d)), np.zeros((n, 6, d, 3)), np.zeros((n, 6, d))
+                    with np.errstate(invalid="ignore", over="ignore"):
+                        for r_, (f, m) in enumerate(rows[i]):
+                            if which is not None and r_ not in which:
+                                continue
+                            for c_, (v, w) in enumerate(gens):
+                                e = _adot(f, v)
+                                if w is not None:
+                                    e = _aadd(e, _adot(m, w))
+                                Em[:, row0 + r_, c_], EG[:, row0 + r_, c_], Er[:, row0 + r_, c_] = \
+                                    h * e[0], h * e[1], h * e[2]
+                        # M(t) = W(t)^-1 E(t) (E padded to the six rows), Mc = C E(0):
+                        # M(t) - Mc = W(t)^-1 Res(t), Res(t) = E(t) - W(t) Mc = Res0 + D t + e,
+                        # |e| <= Er + Wr |Mc|; |W^-1 Res| <= |C Res0| + sum_l |C D_l| + |C| |e| + Y |Res|
+                        Mc = C @ Em
+                        res0 = Em - W[0] @ Mc
+                        D = EG - np.einsum("nikl,nkj->nijl", W[1], Mc)
+                        e_r = Er + W[2] @ np.abs(Mc)
+                        res_mag = np.abs(res0) + np.sum(np.abs(D), axis=-1) + e_r
+                        lin = np.abs(C @ res0) + np.sum(np.abs(np.einsum("nik,nkjl->nijl", C, D)), axis=-1)
+                        Mm.append(Mc)
+                        Mr.append(lin + absC @ e_r + Y @ res_mag)
+        row0 += k
+    upper = np.full((n, len(QUANTITIES)), np.inf)
+    sel = regular & ~out
+    if Mm and np.any(sel):
+        with np.errstate(invalid="ignore", over="ignore"):
+            comp = sum(np.linalg.norm(np.abs(a) + b, axis=-1) for a, b in zip(Mm, Mr))
+            vals = [comp]
+            for rs in (slice(0, 3), slice(3, 6)):
+                extra = sum(np.linalg.norm(b[:, rs], axis=(1, 2)) for b in Mr)
+                mn = np.zeros(n)
+                mn[sel] = max_norm([a[sel][:, rs] for a in Mm], gap=point_gap).upper
+                vals.append((mn + extra)[:, None])
+        vals = np.concatenate(vals, axis=1) * (1 + ROUNDING)
+        upper[sel] = np.where(np.isfinite(vals[sel]), vals[sel], np.inf)
+    elif not Mm:
+        upper[regular] = 0.0
+    return upper, out, ~regular, np.full((n, 3), np.nan)
+
+
 #: The 32 sign vectors of six segments up to a global sign.
 _SIGNS = np.array([s for s in itertools.product((1.0, -1.0), repeat=6) if s[0] > 0])
 
@@ -678,7 +1272,8 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
                          gap: float = DEFAULT_GAP, max_boxes: int = DEFAULT_MAX_BOXES, grid: int = 7,
                          min_size: float | None = None, point_gap: float = 1e-3) -> SpatialGlobalWorst:
     """The worst first-order errors of a spatial robot over ``region`` (:func:`spatial_region`): attained lower
-    bounds and, for a 6-UPS, certified upper bounds within ``gap`` (module text).
+    bounds and certified upper bounds within ``gap`` (module text; not for a robot of joint chains, nor over a
+    3-RPS's or 3-PRS's whole workspace: ``inf`` there, with the reason).
 
     Returns :class:`SpatialGlobalWorst` (``dp`` in mm, rotations in rad). Raises
     :class:`~pmaccuracy.errors.EmptyWorkspaceError` when no sampled pose of the region is in the workspace.
@@ -747,13 +1342,19 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
         lower_pt = np.where(better[:, None], pts[j], lower_pt)
 
     take(values, poses, samples)
-    certified = robot.architecture == "6-UPS"
+    certified = robot.architecture in CERTIFIED and not robot.is_chain
     reason = "" if certified else UNCERTIFIED.format(arch=robot.architecture)
+    if certified and region.kind == "workspace" and robot.mobility == "2R1T":
+        certified, reason = False, UNBOUNDED.format(arch=robot.architecture)
     n_boxes = iterations = 0
     converged = np.zeros(len(QUANTITIES), dtype=bool)
     closed = np.zeros(len(QUANTITIES))
     if certified:
-        terms = hexapod_leg_terms(robot, sources)
+        if robot.architecture == "6-UPS":
+            terms = hexapod_leg_terms(robot, sources)
+            bound = lambda b: _hexapod_box_bounds(robot, terms, b)      # noqa: E731
+        else:
+            bound = lambda b: _legs_box_bounds(robot, sources, b, point_gap)      # noqa: E731
         boxes = root[None].copy()
         active = np.ones((1, len(QUANTITIES)), dtype=bool)
         converged[:] = True
@@ -764,7 +1365,7 @@ def spatial_global_worst(robot: SpatialManipulator, clearances, region: SpatialR
             if not boxes.shape[0]:
                 break
             n_boxes += boxes.shape[0]
-            parts = [_hexapod_box_bounds(robot, terms, boxes[k:k + BOX_CHUNK])
+            parts = [bound(boxes[k:k + BOX_CHUNK])
                      for k in range(0, boxes.shape[0], BOX_CHUNK)]   # bounded memory
             upper, outside, unproven, share = (np.concatenate([part[i] for part in parts]) for i in range(4))
             keep = ~outside

@@ -46,7 +46,11 @@ from ..model import _tomlio
 from ..errors import CertificationError, ConfigError
 from ..model.clearances import ClearanceSet
 from ..model.manipulator import Manipulator
+from ..model.spatial import is_spatial
+from ..model.spatial_sources import default_preset
 from .global_worst import DEFAULT_GAP, GlobalWorst, QuantityWorst, Region, as_sources, global_worst
+from .spatial_synthesis import TARGETS as SPATIAL_TARGETS, spatial_synthesize
+from .spatial_worst import SpatialRegion
 from ..model.plausibility import PlausibilityWarning
 from ..kinematics import inverse_3x3, inverse_kinematics
 from ..model.sources import KEYS, ErrorSources, JointErrors, half_widths
@@ -363,8 +367,8 @@ def targets_arg(targets) -> dict[str, float]:
 
 
 def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=None, template=None,
-               costs=None, mode: str = "uniform", gap: float = DEFAULT_GAP, grid: int = 15, max_cuts: int = 10,
-               name: str | None = None, max_boxes: int = 2_000_000) -> Synthesis:
+               costs=None, mode: str = "uniform", gap: float | None = None, grid: int = 15, max_cuts: int = 10,
+               name: str | None = None, max_boxes: int | None = None) -> Synthesis:
     """Largest clearances meeting ``targets`` over ``region`` (:func:`pmaccuracy.accuracy.global_worst.make_region`),
     certified by the global worst case.
 
@@ -381,11 +385,28 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
     certificate stops short of ``gap`` the result says so (``certified``, ``uncertified``) and a
     :class:`~pmaccuracy.model.plausibility.PlausibilityWarning` gives the gaps.
 
+    ``gap``: default :data:`~pmaccuracy.accuracy.global_worst.DEFAULT_GAP`; ``max_boxes``: default 2 000 000.
+
+    A spatial robot takes a :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion`
+    (:func:`~pmaccuracy.accuracy.spatial_worst.spatial_region`) and targets named as in
+    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS` (a mapping, or ``["dp=0.05", ...]``), both modes
+    (``costs``: :func:`~pmaccuracy.accuracy.spatial_synthesis.load_spatial_costs`), and gives the certified
+    :class:`~pmaccuracy.accuracy.spatial_synthesis.SpatialSynthesis` of
+    :func:`~pmaccuracy.accuracy.spatial_synthesis.spatial_synthesize` (``gap`` default 1 %).
+
     Raises :class:`ConfigError` naming the argument: ``region`` not a :class:`Region` (clearances passed
     in its place, as the other functions' second argument: they go in ``clearances=``), ``clearances`` and
     ``template`` both given, unknown targets.
     """
     robot = robot_arg(robot)
+    if clearances is not None and template is not None and clearances is not template:
+        raise ConfigError("give the clearances to scale once: clearances= (template= is its older name)",
+                          key="clearances")
+    if is_spatial(robot):
+        return _spatial(robot, region, targets, clearances if clearances is not None else template, costs, mode,
+                        gap, max_boxes)
+    gap = DEFAULT_GAP if gap is None else gap
+    max_boxes = 2_000_000 if max_boxes is None else max_boxes
     if not isinstance(region, Region):
         hint = " (the clearances to scale go in clearances=)" \
             if isinstance(region, (ErrorSources, ClearanceSet, str)) else ""
@@ -393,9 +414,6 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
     targets = targets_arg(targets)
     if mode not in ("uniform", "min-cost"):
         raise ConfigError(f"mode must be 'uniform' or 'min-cost', got {mode!r}", key="mode")
-    if clearances is not None and template is not None and clearances is not template:
-        raise ConfigError("give the clearances to scale once: clearances= (template= is its older name)",
-                          key="clearances")
     given = clearances if clearances is not None else template
     tpl = as_sources(robot, load_clearances(default_template(robot) if given is None else given, robot))
     sources = free_sources(tpl)
@@ -452,6 +470,33 @@ def synthesize(robot: Manipulator, region: Region, targets: dict, *, clearances=
                     dict(targets), worst, cuts, poses.shape[0])
     _warn_uncertified(out, gap)
     return out
+
+
+def _spatial(robot, region, targets, given, costs, mode: str, gap, max_boxes):
+    """:func:`synthesize` of a spatial robot: :func:`~pmaccuracy.accuracy.spatial_synthesis.spatial_synthesize`
+    certified over ``region``."""
+    if not isinstance(region, SpatialRegion):
+        raise ConfigError(f"the region of a spatial robot is a SpatialRegion (spatial_region), got "
+                          f"{type(region).__name__}", key="region")
+    if isinstance(targets, (list, tuple)) and all(isinstance(t, str) for t in targets):
+        pairs = {}
+        for item in targets:
+            name, sep, value = item.partition("=")
+            try:
+                v = float(value)
+            except ValueError:
+                v = None
+            if not sep or v is None or name.strip() in pairs:
+                raise ConfigError(f"expected NAME=VALUE once per name (NAME one of {', '.join(SPATIAL_TARGETS)}), "
+                                  f"got {item!r}", key="targets")
+            pairs[name.strip()] = v
+        targets = pairs
+    elif not isinstance(targets, Mapping):
+        raise ConfigError(f"expected a mapping {{target: value}} ({', '.join(SPATIAL_TARGETS)}; mm, deg) or "
+                          f"['dp=0.05', ...], got {type(targets).__name__}", key="targets")
+    kw = {k: v for k, v in (("gap", gap), ("max_boxes", max_boxes)) if v is not None}
+    return spatial_synthesize(robot, default_preset(robot) if given is None else given, dict(targets),
+                              region=region, mode=mode, costs=costs, **kw)
 
 
 def clearance_toml(result: Synthesis, robot: Manipulator, region: Region) -> str:

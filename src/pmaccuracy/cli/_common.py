@@ -372,7 +372,8 @@ def degrees_as_given(angles_rad: np.ndarray) -> np.ndarray:
 def poses_from_args(pose_args: list[list[float]] | None, csv_path: str | None) -> np.ndarray:
     """Poses ``(N, 3)`` [mm, mm, rad] from repeated ``--pose X Y PHI_DEG`` or a CSV ``x,y,phi_deg``."""
     if bool(pose_args) == bool(csv_path):
-        raise PmAccuracyError("give poses with --pose X Y PHI_DEG (repeatable) or --poses-csv FILE, not both")
+        raise PmAccuracyError("give poses with --pose X Y PHI_DEG (repeatable) or --poses-csv FILE"
+                              + (", not both" if pose_args else ""))
     if pose_args:
         arr = np.array(pose_args, dtype=float)
     else:

@@ -10,7 +10,7 @@ from . import _common
 HELP = "kinematic calibration: plan poses, identify parameters from measurements, compensate, simulate"
 _DEFAULT_HELP = ("Default: the robot's default of every command (case1 for a 3-PPR, the architecture's *_typical "
                  "preset otherwise, printed on stderr); 'none' for the model without clearances")
-_SPATIAL_HELP = ". A spatial robot's (an error-source preset or file): used only when given"
+_SPATIAL_HELP = ". A spatial robot's: an error-source preset or file (default as above)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -105,6 +105,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--noise-ppm", type=float, default=0.0,
                    help="spatial robot with --target: the tracker's distance-dependent 1-sigma, 1e-6 per mm of "
                         "distance, added to --noise-mm")
+    s.add_argument("--plan", choices=("d-optimal", "random"), default=None,
+                   help="spatial robot: the readings' poses, D-optimal out of the random candidates around home "
+                        "(default) or the first random ones (to compare)")
     s.add_argument("--data-out", metavar="FILE.csv",
                    help="write the simulated measurements as a calibration CSV (input of calibrate identify); missing parent folders are created")
     s.add_argument("--report", metavar="FILE.html",
@@ -213,6 +216,8 @@ def run_report(args: argparse.Namespace) -> int:
             raise ConfigError(f"must be a finite number >= 0, got {v!r}", key="--" + opt.replace("_", "-"))
     if measured:
         ident = read_identification(args.identification)
+        if getattr(ident.parameters.robot, "dimension", 3) == 6:
+            return _report_spatial(args, ident=ident)
         data = read_calibration_csv(args.data, ident.parameters)
         try:
             _write_report(args.out, ident, data, clearances=_clearances(args, ident.parameters.robot),
@@ -223,7 +228,10 @@ def run_report(args: argparse.Namespace) -> int:
             raise ConfigError(exc.message, source=args.data, key="--data") from None
         print(f"wrote {args.out}: calibration report of {len(data)} measured points ({args.data})")
         return 0
-    pv = error_parameters(_robot(args))
+    robot = _robot(args)
+    if getattr(robot, "dimension", 3) == 6:
+        return _report_spatial(args, robot)
+    pv = error_parameters(robot)
     clearances = _clearances(args, pv.robot)
     errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
     tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
@@ -255,7 +263,7 @@ def _simulated(args: argparse.Namespace, simulate, *posargs, **kwargs):
 
 
 #: Steps of ``calibrate`` that take spatial robots so far.
-SPATIAL_STEPS = ("plan", "identify", "simulate")
+SPATIAL_STEPS = ("plan", "identify", "simulate", "report")
 
 
 def _robot(args: argparse.Namespace):
@@ -481,7 +489,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     robot = _robot(args)
     if getattr(robot, "dimension", 3) == 6:
         return _simulate_spatial(args, robot)
-    for opt in ("target", "noise_ppm"):
+    for opt in ("target", "noise_ppm", "plan"):
         if getattr(args, opt):
             raise ConfigError("only for a spatial robot", key="--" + opt.replace("_", "-"))
     clearances = _clearances(args, robot)
@@ -586,12 +594,11 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_data import read_spatial_csv
     from ..accuracy.calibration.spatial_identify import identify_spatial
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
-    from ..errors import ConfigError
 
     pv = spatial_error_parameters(robot, targets=_targets(args))
     pv.index(args.fix)
     start = None if args.frame is None else _spatial_start(pv, args.frame)
-    sources = _spatial_clearances(args, robot)
+    sources = _spatial_sources(args, robot)
     data = read_spatial_csv(args.data, pv)
     ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust, start=start,
                              clearances=sources)
@@ -603,14 +610,20 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     return 0
 
 
-def _spatial_clearances(args: argparse.Namespace, robot):
-    """A spatial robot's ``--clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`), or
-    None: not given (unlike a planar robot's, no default: the spatial calibration's results stay those of
-    the readings alone unless asked) or ``none``."""
-    from ..errors import PmAccuracyError
-    from ..model.spatial_sources import SpatialErrorSources
+def _spatial_sources(args: argparse.Namespace, robot):
+    """The spatial error sources of ``--clearances`` (default: the architecture's typical preset, said on stderr;
+    a chain robot, which has none: no clearances, said too; ``none``: no clearances, None)."""
+    from ..errors import ClearanceError, PmAccuracyError
+    from ..model.spatial_sources import SpatialErrorSources, default_preset
 
-    if args.clearances is None or args.clearances == "none":
+    if args.clearances is None:
+        try:
+            args.clearances = default_preset(robot)
+            _common.announce_default_clearances(args.clearances, args)
+        except ClearanceError:      # a chain robot: the readings' sigmas alone unless a file is given
+            args.clearances = "none"
+            _common.announce_default_clearances(f"none, no preset for a {robot.architecture} robot", args)
+    if args.clearances == "none":
         return None
     try:
         return SpatialErrorSources.load(args.clearances, robot)
@@ -641,12 +654,14 @@ def _spatial_start(pv, frame):
 def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     import numpy as np
 
+    from ..accuracy.calibration.simulate import load_parameter_table, true_parameters
+    from ..accuracy.calibration.spatial_compensate import residuals_beside_floor
     from ..accuracy.calibration.spatial_data import write_spatial_csv
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
     from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
 
-    for opt in ("report", "photos", "mm_per_pixel"):
+    for opt in ("photos", "mm_per_pixel"):
         if getattr(args, opt) is not None:
             raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
     if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
@@ -654,99 +669,77 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     if args.noise_ppm and not args.target:
         raise ConfigError("only with --target (a laser tracker's readings)", key="--noise-ppm")
     pv = spatial_error_parameters(robot, targets=_targets(args))
+    sources = _spatial_sources(args, robot)
     sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
              "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
-    sources = _spatial_clearances(args, robot)
-    noise = (args.noise_mm, np.radians(args.noise_deg))
-    if args.errors is not None or args.tolerances is not None or sources is not None:
-        ex = _spatial_experiment(args, pv, sigma, noise, sources)
-    else:
-        ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma, noise=noise,
-                                          ppm=args.noise_ppm)
+    true = None
+    if args.errors is not None or args.tolerances is not None:      # as a planar robot's: the nominal plus those
+        errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+        tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+        true = true_parameters(pv, args.seed, None, errors=errors, tolerances=tolerances)
+    ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
+                                      noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm,
+                                      clearances=sources, plan=args.plan or "d-optimal", true=true)
     if args.data_out:
         write_spatial_csv(pv, ex.data, args.data_out)
+    if args.report:
+        from ..report.spatial_calibration_report import spatial_calibration_report
+
+        spatial_calibration_report(args.report, ex.identification, ex.data, experiment=ex,
+                                   command=_common.command_line(args))
     z = ex.normalized_errors()
     extra = {"max_abs_normalized_error": float(np.max(np.abs(z))) if z.size else None,
              "rms_normalized_error": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
+             "plan": args.plan or "d-optimal",
              "max_error_before_mm": float(np.nanmax(ex.errors_before[:, 0])),
              "max_error_after_mm": float(np.nanmax(ex.errors_after[:, 0]))}
+    comp = ex.compensation
+    extra["max_predicted_sigma_after_mm"] = float(np.nanmax(comp.predicted_sigma[:, 0]))
     if sources is not None:
-        extra["floor_dp_max_mm"] = float(np.nanmax(_spatial_floor(ex.identification, ex.targets, sources)[0]))
+        fit = residuals_beside_floor(ex.identification, ex.data, sources)
+        kept = ~fit["outlier"]
+        extra.update({"max_residual_mm": float(np.nanmax(fit["residual_mm"][kept])),
+                      "floor_readings_dp_max_mm": float(np.nanmax(fit["floor"]["dp_max"][kept])),
+                      "readings_within_floor": f"{int(np.sum(fit['within'] & kept))} of {int(kept.sum())}",
+                      "floor_dp_max_mm": float(np.nanmax(comp.floor["dp_max"])),
+                      "targets_within_floor": f"{int(np.sum(ex.errors_after[:, 0] <= comp.floor['dp_max'] + 3 * comp.predicted_sigma[:, 0]))} of {len(ex.targets)}"})
     if args.format == "json":
         extra["true"] = dict(zip(pv.names, (float(v) for v in ex.true)))
+        if ex.plan is not None:
+            extra["observability"] = {"planned": ex.plan.index, "random": ex.plan.random_index}
     _print_spatial(ex.identification, args.format, extra)
     return 0
 
 
-def _spatial_experiment(args: argparse.Namespace, pv, sigma, noise, sources):
-    """The virtual calibration of :func:`~pmaccuracy.accuracy.calibration.spatial_simulate.simulate_spatial_calibration`
-    with the true robot of ``--errors`` / ``--tolerances`` (as a planar robot's: the nominal plus those, the
-    parameters not named nominal) and the readings moved by random ``--clearances`` states
-    (:func:`~pmaccuracy.accuracy.calibration.spatial_clearances.with_clearance_states`, identified with their
-    covariance)."""
+def _report_spatial(args: argparse.Namespace, robot=None, ident=None) -> int:
+    """``calibrate report`` of a spatial robot: a virtual experiment of ``robot`` or the readings ``--data`` of
+    the identification ``ident``."""
     import numpy as np
 
-    from ..accuracy.calibration.simulate import load_parameter_table, true_parameters
-    from ..accuracy.calibration.spatial_clearances import with_clearance_states
-    from ..accuracy.calibration.spatial_compensate import compensate_spatial, pose_errors
-    from ..accuracy.calibration.spatial_identify import identify_spatial, platform_poses, spatial_identifiability
-    from ..accuracy.calibration.spatial_simulate import (PRACTICAL_MAX_SIGMA, SpatialExperiment, candidate_poses,
-                                                         measure_spatial, spatial_true_parameters)
+    from ..accuracy.calibration.spatial_data import read_spatial_csv
+    from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
+    from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
-    from ..kinematics.spatial import inverse_kinematics
+    from ..report.spatial_calibration_report import spatial_calibration_report
 
-    n = args.poses
-    cand = candidate_poses(pv, max(20 * n, 2000), seed=args.seed)
-    if len(cand) < n:
-        raise ConfigError(f"only {len(cand)} candidate poses within the limits around home", key="--poses")
-    commands = inverse_kinematics(pv.robot, cand[:n]).q
-    if args.errors is not None or args.tolerances is not None:
-        errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
-        tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
-        true = true_parameters(pv, args.seed, None, errors=errors, tolerances=tolerances)
-    else:       # random errors, those the readings cannot separate left nominal (simulate_spatial_calibration)
-        probe = measure_spatial(pv, pv.nominal, commands, noise=noise)
-        fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
-        true = spatial_true_parameters(pv, args.seed, sigma, fixed)
-    data = measure_spatial(pv, true, commands, noise=noise, ppm=args.noise_ppm, seed=args.seed + 1)
-    if sources is not None:
-        import dataclasses
-
-        poses = platform_poses(pv, true, data.commands, platform_poses(pv, pv.nominal, data.commands))
-        moved = with_clearance_states(pv, true, poses, data.measured, data.target, sources,
-                                      np.random.default_rng(args.seed + 3))
-        data = dataclasses.replace(data, measured=moved)
-    ident = identify_spatial(data, pv, clearances=sources)
-    targets = cand[n:n + 30]
-    comp = compensate_spatial(ident, targets)
-    return SpatialExperiment(true=true, data=data, identification=ident, targets=targets,
-                             errors_before=pose_errors(pv, true, comp.nominal_commands, targets),
-                             errors_after=pose_errors(pv, true, comp.commands, targets))
-
-
-def _spatial_floor(ident, targets, sources):
-    """The clearance floor at device-frame ``targets (N, 6)`` of the identified robot (at the pose its
-    compensated commands give: a 3-RPS's x, y, yaw completed, a Delta's orientation its own): worst-case position
-    (mm) and rotation (rad) errors (:func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors`) and their
-    RMS (``sqrt(trace)`` of :func:`~pmaccuracy.accuracy.calibration.spatial_clearances.clearance_covariance`),
-    NaN where undefined: ``(dp_max, dp_rms, dtheta_max, dtheta_rms)`` each ``(N,)``."""
-    import numpy as np
-
-    from ..accuracy.calibration.spatial_clearances import clearance_covariance
-    from ..accuracy.calibration.spatial_compensate import frame_inverse_poses
-    from ..accuracy.spatial_bounds import spatial_pose_errors
-    from ..kinematics.spatial import complete_poses, controlled_coordinates
-
-    robot = ident.robot
-    base = frame_inverse_poses(ident.values[ident.parameters.frame_index], targets)
-    if robot.mobility == "3T":          # where the compensated commands put it (spatial_commands)
-        base[:, 3:] = 0.0
-    elif robot.mobility == "2R1T":
-        base = complete_poses(robot, controlled_coordinates(robot, base), strict=False)
-    pe = spatial_pose_errors(robot, sources, base, strict=False, details=False, allow_outside=True)
-    C = clearance_covariance(robot, sources, base)
-    return (pe.dp_upper, np.sqrt(np.trace(C[:, :3, :3], axis1=1, axis2=2)), pe.dtheta_upper,
-            np.sqrt(np.trace(C[:, 3:, 3:], axis1=1, axis2=2)))
+    for opt in ("errors", "tolerances"):
+        if getattr(args, opt) is not None:
+            raise ConfigError("not for a spatial robot yet", key="--" + opt)
+    if ident is not None:
+        data = read_spatial_csv(args.data, ident.parameters)
+        sources = _spatial_sources(args, ident.parameters.robot)
+        spatial_calibration_report(args.out, ident, data, clearances=sources, command=_common.command_line(args))
+        print(f"wrote {args.out}: calibration report of {len(data)} readings ({args.data})")
+        return 0
+    pv = spatial_error_parameters(robot)
+    sources = _spatial_sources(args, robot)
+    values = {k: (v if getattr(args, k) is None else getattr(args, k)) for k, v in _SIMULATION_DEFAULTS.items()}
+    ex = simulate_spatial_calibration(pv, values["poses"], seed=values["seed"],
+                                      error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])},
+                                      noise=(values["noise_mm"], np.radians(values["noise_deg"])), clearances=sources)
+    spatial_calibration_report(args.out, ex.identification, ex.data, experiment=ex, command=_common.command_line(args))
+    print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} readings)")
+    return 0
 
 
 def _plan_spatial(args: argparse.Namespace, robot) -> int:
@@ -802,7 +795,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
     if args.pose or not args.poses_csv:
         raise ConfigError("a spatial robot's targets come from --poses-csv FILE with columns x,y,z,roll_deg,"
                           "pitch_deg,yaw_deg (device frame, mm and deg)", key="--pose" if args.pose else "--poses-csv")
-    sources = _spatial_clearances(args, ident.parameters.robot)
+    sources = _spatial_sources(args, ident.parameters.robot)
     names = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
     lines = read_csv(args.poses_csv, MeasurementFileError)
     header = [h.strip() for h in lines[0][1]] if lines else []
@@ -824,7 +817,7 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         rows.append(vals)
     if not rows:
         raise MeasurementFileError("no data rows", source=args.poses_csv)
-    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True))
+    comp = compensate_spatial(ident, poses_from_coordinates(np.array(rows), degrees=True), clearances=sources)
     pv = ident.parameters
     kinds = np.array([k == "R" for k in pv.robot.actuated_kinds])
     out = {}
@@ -835,12 +828,15 @@ def _compensate_spatial(args: argparse.Namespace, ident) -> int:
         f = np.degrees if kinds[k] else (lambda v: v)
         out[name] = f(comp.commands[:, k])
         out[f"{name}_nominal"] = f(comp.nominal_commands[:, k])
-    if sources is not None:
-        dp, dp_rms, dth, dth_rms = _spatial_floor(ident, comp.targets, sources)
-        out.update(floor_dp_max=dp, floor_dp_rms=dp_rms, floor_dphi_max_deg=np.degrees(dth),
-                   floor_dphi_rms_deg=np.degrees(dth_rms))
+    out["predicted_sigma_p"] = comp.predicted_sigma[:, 0]
+    out["predicted_sigma_angle_deg"] = np.degrees(comp.predicted_sigma[:, 1])
+    if comp.floor is not None:
+        out["floor_dp_max"] = comp.floor["dp_max"]
+        out["floor_dp_rms"] = comp.floor["dp_rms"]
+        out["floor_dtheta_max_deg"] = np.degrees(comp.floor["dtheta_max"])
+        out["floor_dtheta_rms_deg"] = np.degrees(comp.floor["dtheta_rms"])
     if args.out:
-        write_csv_columns({k: v for k, v in out.items() if not k.endswith("_nominal") and not k.startswith("floor_")},
-                          args.out)
+        write_csv_columns({k: v for k, v in out.items() if k.startswith("q") and not k.endswith("_nominal")
+                           or k in names}, args.out)
     _common.emit([{k: float(v[i]) for k, v in out.items()} for i in range(len(rows))], args.format)
     return 0

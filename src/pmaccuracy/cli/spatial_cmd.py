@@ -36,7 +36,7 @@ def poses(robot, pose_args, csv_path) -> np.ndarray:
     names = robot.controlled
     if bool(pose_args) == bool(csv_path):
         raise PmAccuracyError(f"give poses with --pose {' '.join(n.upper() for n in names)} (repeatable) or "
-                              "--poses-csv FILE, not both")
+                              "--poses-csv FILE" + (", not both" if pose_args else ""))
     if pose_args:
         bad = [k for k, v in enumerate(pose_args, start=1) if len(v) != len(names)]
         if bad:
@@ -211,14 +211,15 @@ def run_bounds(args: argparse.Namespace, robot) -> int:
 
 
 def _certified_bounds(args: argparse.Namespace, robot) -> int:
-    """``bounds --certified`` on a 6-UPS: per pose and quantity the first-order maximum, the exact nonlinear
+    """``bounds --certified`` (6-UPS, 3-RPS, 3-PRS, 3-UPU, Delta): per pose and quantity the first-order maximum, the exact nonlinear
     model's attained ``lower`` value and proven ``upper`` bound, and their gap in percent
     (:func:`pmaccuracy.accuracy.spatial_nonlinear.spatial_certified_bounds`)."""
-    from ..accuracy.spatial_nonlinear import spatial_certified_bounds
+    from ..accuracy.spatial_nonlinear import CERTIFIED_ARCHITECTURES, spatial_certified_bounds
 
-    if robot.architecture != "6-UPS":
-        raise PmAccuracyError(f"--certified: certified nonlinear bounds are available for the 6-UPS only ({robot.name} "
-                              f"is a {robot.architecture}; its first-order bounds are exact without --certified)")
+    if robot.architecture not in CERTIFIED_ARCHITECTURES:
+        raise PmAccuracyError(f"--certified: certified nonlinear bounds are available for the "
+                              f"{', '.join(CERTIFIED_ARCHITECTURES)} only ({robot.name} is a {robot.architecture}; "
+                              "its first-order bounds are exact without --certified)")
     if args.gap_pct is not None:
         raise PmAccuracyError("--gap-pct does not apply with --certified on a spatial robot (its bound is not refined)")
     sources = _sources(args, robot)
@@ -367,64 +368,5 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
         rows = [{k: r[k] for k in sorted((k for k in r if k in _STAT_TABLE or (k[:1] == "p" and k[1:2].isdigit()
                                                                                  and "_" not in k)), key=order)}
                 for r in rows]
-    _common.emit(rows, args.format)
-    return 0
-
-
-def run_synthesize(args: argparse.Namespace, robot) -> int:
-    """``synthesize`` on a spatial robot: the largest uniform scaling of the template's sources meeting every
-    ``--target`` at every point of the workspace grid (20 points per axis)."""
-    from pathlib import Path
-
-    import tomli_w
-
-    from ..accuracy.spatial_synthesis import TARGETS, spatial_synthesize
-
-    for option, value in (("--cost", args.cost), ("--mode", args.mode not in (None, "uniform")),
-                          ("--phi-deg", getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]))):
-        if value:
-            raise PmAccuracyError(f"{option} is not available for spatial robots yet: they get the uniform scaling "
-                                  "of their template over the workspace grid")
-    if any(getattr(args, k, None) for k in ("disc", "box", "polygon", "region")):
-        raise PmAccuracyError("a region (--disc, --box, --polygon, --region) applies to planar robots; a spatial "
-                              "synthesis covers the workspace grid")
-    targets = {}
-    for item in args.target:
-        name, sep, value = str(item).partition("=")
-        name = name.strip()
-        if not sep or name not in TARGETS:
-            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
-                                  f"got {item!r}")
-        if name in targets:
-            raise PmAccuracyError(f"--target: {name} given twice")
-        try:
-            v = float(value)
-        except ValueError:
-            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
-        if not (np.isfinite(v) and v > 0):
-            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
-        targets[name] = v
-    grid = 20
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        _common.prepare_output(out, "--out", (".toml",))
-    template = _sources(args, robot)
-    res = spatial_synthesize(robot, template, targets, n=grid)
-    if out is not None:
-        out.write_text(tomli_w.dumps(res.sources.to_dict()), encoding="utf-8")
-    rows = [{"target": name, "value": targets[name], "worst": res.worst[name],
-             "unit": "deg" if name.endswith("_deg") else "mm", "binding": name == res.binding}
-            for name in targets]
-    data = {"scale": res.scale, "binding": res.binding, "binding_point": res.binding_point.tolist(),
-            "points": res.points, "targets": rows,
-            "sources": [{"leg": i + 1, "joint": j + 1, "key": key, "value": value}
-                        for i, leg in enumerate(res.sources.legs) for j, joint in enumerate(leg)
-                        for key, value in joint.items()]}
-    if args.format == "json":
-        _common.emit(data, "json")
-        return 0
-    print(f"scale {res.scale:.6g} of the template's half-widths; binding target {res.binding} at the grid point "
-          f"{', '.join(f'{v:.4g}' for v in res.binding_point)} ({res.points} grid points of the workspace; exact "
-          "at the grid points, not certified between them)")
     _common.emit(rows, args.format)
     return 0

@@ -122,15 +122,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--clearances", default=None, help=_common.CLEARANCES_HELP)
     add_region(p, phi_required=False)
     p.set_defaults(phi_deg=None)
-    p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
-                   help="spatial robots: the cylinder of axis (X, Y), radius R and heights Z0..Z1 (mm)")
-    p.add_argument("--sphere", nargs=4, type=_common.finite_float, metavar=("X", "Y", "Z", "R"),
-                   help="spatial robots: the sphere of centre X, Y, Z and radius R (mm)")
-    p.add_argument("--orientation-deg", nargs="+", type=_common.angle_deg, metavar="DEG",
-                   help="a 6-UPS: roll pitch yaw (deg, extrinsic x-y-z) fixed, or six numbers R0 R1 P0 P1 Y0 Y1 "
-                        "for ranges (default: its home orientation)")
-    p.add_argument("--max-boxes", type=_common.positive_int, default=None, metavar="N",
-                   help="spatial robots: budget of boxes of the branch and bound (default: 400000)")
+    add_spatial_region(p)
     p.add_argument("--certified", action="store_true",
                    help="the worst case of the exact (nonlinear) loop closure instead of the first-order model: "
                         "lower = a configuration of the error set attains it, upper = a rigorous bound at every "
@@ -257,28 +249,30 @@ def run_largest_disc(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_spatial(args: argparse.Namespace, robot) -> int:
-    """``worst`` on a spatial robot: the worst first-order errors over a 3D region
-    (:func:`pmaccuracy.accuracy.spatial_worst.spatial_global_worst`): attained lower values, certified upper
-    values for a 6-UPS (``inf`` with certified false otherwise)."""
+def add_spatial_region(p: argparse.ArgumentParser) -> None:
+    """The spatial robots' region options besides ``--box`` and ``--workspace``: ``--cylinder``, ``--sphere``,
+    ``--orientation-deg`` and the branch and bound's ``--max-boxes`` (shared by ``worst`` and ``synthesize``)."""
+    p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
+                   help="spatial robots: the cylinder of axis (X, Y), radius R and heights Z0..Z1 (mm)")
+    p.add_argument("--sphere", nargs=4, type=_common.finite_float, metavar=("X", "Y", "Z", "R"),
+                   help="spatial robots: the sphere of centre X, Y, Z and radius R (mm)")
+    p.add_argument("--orientation-deg", nargs="+", type=_common.angle_deg, metavar="DEG",
+                   help="a 6-UPS: roll pitch yaw (deg, extrinsic x-y-z) fixed, or six numbers R0 R1 P0 P1 Y0 Y1 "
+                        "for ranges (default: its home orientation)")
+    p.add_argument("--max-boxes", type=_common.positive_int, default=None, metavar="N",
+                   help="spatial robots: budget of boxes of the branch and bound (default: 400000)")
+
+
+def parse_spatial_region(robot, args: argparse.Namespace):
+    """The :class:`~pmaccuracy.accuracy.spatial_worst.SpatialRegion` of ``--box`` (six numbers),
+    ``--cylinder``, ``--sphere`` or the workspace, at ``--orientation-deg``; errors name the option."""
     import numpy as np
 
-    from ..accuracy.spatial_worst import spatial_global_worst, spatial_region
-    from ..errors import ConfigError, EmptyWorkspaceError
-    from ..model.plausibility import warn
-    from .spatial_cmd import _sources
+    from ..accuracy.spatial_worst import spatial_region
+    from ..errors import ConfigError
 
-    planar_only = (("--phi-deg", args.phi_deg), ("--disc", args.disc), ("--polygon", args.polygon),
-                   ("--largest-disc", args.largest_disc), ("--target", args.target),
-                   ("--certified", args.certified))
-    for option, value in planar_only:
-        if value:
-            raise ConfigError(f"is not available for spatial robots' worst case yet ({robot.name} is a spatial "
-                              f"{robot.architecture})", key=option)
     if args.region is not None and args.region.strip() != "workspace":
         raise ConfigError("a spatial robot's box is --box (six numbers)", key="--region")
-    gap_pct = 1.0 if args.gap_pct is None else args.gap_pct
-    _common.check_gap_pct(gap_pct)
     kw = {}
     if args.box is not None:
         text = box_text(args.box)
@@ -309,6 +303,31 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
         key = {"box": "--box", "cylinder": "--cylinder", "sphere": "--sphere",
                "orientation": "--orientation-deg"}.get(exc.key, exc.key)
         raise ConfigError(exc.message, source=exc.source, key=key) from None
+    return region
+
+
+def run_spatial(args: argparse.Namespace, robot) -> int:
+    """``worst`` on a spatial robot: the worst first-order errors over a 3D region
+    (:func:`pmaccuracy.accuracy.spatial_worst.spatial_global_worst`): attained lower values and certified upper
+    values (``inf`` with certified false for a robot of joint chains and over a 3-RPS's or 3-PRS's whole
+    workspace)."""
+    import numpy as np
+
+    from ..accuracy.spatial_worst import spatial_global_worst
+    from ..errors import ConfigError, EmptyWorkspaceError
+    from ..model.plausibility import warn
+    from .spatial_cmd import _sources
+
+    planar_only = (("--phi-deg", args.phi_deg), ("--disc", args.disc), ("--polygon", args.polygon),
+                   ("--largest-disc", args.largest_disc), ("--target", args.target),
+                   ("--certified", args.certified))
+    for option, value in planar_only:
+        if value:
+            raise ConfigError(f"is not available for spatial robots' worst case yet ({robot.name} is a spatial "
+                              f"{robot.architecture})", key=option)
+    gap_pct = 1.0 if args.gap_pct is None else args.gap_pct
+    _common.check_gap_pct(gap_pct)
+    region = parse_spatial_region(robot, args)
     sources = _sources(args, robot)
     max_boxes = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
     try:

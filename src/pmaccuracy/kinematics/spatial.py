@@ -260,24 +260,39 @@ LIMIT_WORDS = {"reach": "cannot reach (no real inverse kinematics)", "stroke": "
                "revolute_range": "revolute outside its angle range"}
 
 
-def leg_interference(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray) -> dict:
+def leg_interference(robot: SpatialManipulator, poses: np.ndarray, q: np.ndarray, segments: list | None = None
+                     ) -> dict:
     """``{(i, j): bool (...)}`` for every pair of legs with radii: True where their capsules do not intersect
-    (the distance between their segments is at least the sum of their radii)."""
+    (the distance between their segments is at least the sum of their radii). ``segments``: the legs'
+    :meth:`segments` at the poses when the caller has them (each ``(..., k, 2, 3)``)."""
     if not any(max(leg.radii()) > 0 for leg in robot.legs):
         return {}
-    p, R, _ = _split(poses)
-    segs = [leg.segments(p, R, q[..., i]) for i, leg in enumerate(robot.legs)]
-    out = {}
-    for i, j in combinations(range(robot.n_legs), 2):
-        ok = np.ones(poses.shape[:-1], dtype=bool)
-        for a, ra in enumerate(robot.legs[i].radii()):
-            for b, rb in enumerate(robot.legs[j].radii()):
-                if ra + rb <= 0:
-                    continue
-                si, sj = segs[i][..., a, :, :], segs[j][..., b, :, :]
-                d = segment_distance(si[..., 0, :], si[..., 1, :], sj[..., 0, :], sj[..., 1, :])
-                ok &= ~(d < ra + rb)
-        out[(i, j)] = ok
+    if segments is None:
+        p, R, _ = _split(poses)
+        segments = [leg.segments(p, R, q[..., i]) for i, leg in enumerate(robot.legs)]
+    segs = segments
+    pairs = [(i, j, a, b, ra + rb) for i, j in combinations(range(robot.n_legs), 2)
+             for a, ra in enumerate(robot.legs[i].radii()) for b, rb in enumerate(robot.legs[j].radii()) if ra + rb > 0]
+    out = {(i, j): np.ones(poses.shape[:-1], dtype=bool) for i, j in combinations(range(robot.n_legs), 2)}
+    if pairs and poses.ndim > 1 and poses.size:
+        # screen: a segment's points move at most as far as its farther end, so the distance at a pose is at
+        # least the distance at the batch's first pose minus both segments' largest end displacements
+        # (1-Lipschitz); only the pairs this leaves undecided get the exact distance
+        first = (0,) * (poses.ndim - 1)
+        moved = [np.max(np.sqrt(np.sum((sg - sg[first]) ** 2, axis=-1)), axis=-1) for sg in segs]   # (..., nseg)
+        for i, j, a, b, reach in pairs:
+            si, sj = segs[i][..., a, :, :], segs[j][..., b, :, :]
+            d0 = float(segment_distance(si[first][0], si[first][1], sj[first][0], sj[first][1]))
+            near = ~(d0 - moved[i][..., a] - moved[j][..., b] >= reach)
+            if np.count_nonzero(near) > near.size // 2:      # mostly undecided: every pose, without gathering
+                out[(i, j)] &= ~(segment_distance(si[..., 0, :], si[..., 1, :], sj[..., 0, :], sj[..., 1, :]) < reach)
+            elif np.any(near):
+                d = segment_distance(si[near][..., 0, :], si[near][..., 1, :], sj[near][..., 0, :], sj[near][..., 1, :])
+                out[(i, j)][near] = ~(d < reach)
+    elif pairs:
+        for i, j, a, b, reach in pairs:
+            si, sj = segs[i][..., a, :, :], segs[j][..., b, :, :]
+            out[(i, j)] &= ~(segment_distance(si[..., 0, :], si[..., 1, :], sj[..., 0, :], sj[..., 1, :]) < reach)
     return out
 
 

@@ -130,38 +130,35 @@ def displace(poses: np.ndarray, twists: np.ndarray) -> np.ndarray:
 def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     """Shortest distance between the segments ``p0 p1`` and ``q0 q1``, ``(..., 3)`` each -> ``(...)``.
 
-    Minimizes ``|p0 + s d1 - q0 - t d2|`` over ``s, t`` in ``[0, 1]``: the unconstrained minimum clamped to the
-    square, then the best of the clamped edge solutions (the classic closest-point construction, e.g. Ericson,
-    *Real-Time Collision Detection*, Sec. 5.1.9, written here over arrays; degenerate segments are points).
+    Minimizes ``|r + s d1 - t d2|`` (``d1 = p1 - p0``, ``d2 = q1 - q0``, ``r = p0 - q0``) over ``s, t`` in
+    ``[0, 1]`` by the classic clamped construction (Ericson, *Real-Time Collision Detection*, Sec. 5.1.9): ``s``
+    the lines' closest parameter clamped to ``[0, 1]`` (0 for parallel lines), ``t = (b s + f) / e``; where
+    ``t`` leaves ``[0, 1]`` it is clamped and ``s`` recomputed for it and clamped (``a = d1.d1``, ``b = d1.d2``,
+    ``c = d1.r``, ``e = d2.d2``, ``f = d2.r``). The quadratic is convex, so this is the minimum; written over
+    arrays with one norm at the end (degenerate segments are points).
 
     >>> float(segment_distance([0, 0, 0], [1, 0, 0], [0.5, 1, -1], [0.5, 1, 1]))
     1.0
     """
-    p0, p1, q0, q1 = (np.asarray(x, dtype=float) for x in (p0, p1, q0, q1))
+    # components first (3, ...): every operation below runs along contiguous arrays
+    p0, p1, q0, q1 = (np.moveaxis(x, -1, 0) for x in np.broadcast_arrays(*(np.asarray(x, dtype=float)
+                                                                           for x in (p0, p1, q0, q1))))
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a = np.sum(d1 * d1, -1)
-    e = np.sum(d2 * d2, -1)
-    b = np.sum(d1 * d2, -1)
-    c = np.sum(d1 * r, -1)
-    f = np.sum(d2 * r, -1)
+
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+
+    a, e, b, c, f = dot(d1, d1), dot(d2, d2), dot(d1, d2), dot(d1, r), dot(d2, r)
     tiny = 1e-300
-
-    def dist(s, t):
-        return np.linalg.norm(r + s[..., None] * d1 - t[..., None] * d2, axis=-1)
-
     with np.errstate(invalid="ignore", divide="ignore"):
+        a_ok, e_ok = a > tiny, e > tiny
+        a1, e1 = np.where(a_ok, a, 1.0), np.where(e_ok, e, 1.0)
         denom = a * e - b * b
-        s_free = np.where(denom > 1e-12 * np.maximum(a * e, tiny), (b * f - c * e) / np.where(denom > 0, denom, 1),
-                          0.0)
-        s_free = np.clip(s_free, 0.0, 1.0)
-        t_free = np.clip(np.where(e > tiny, (b * s_free + f) / np.where(e > tiny, e, 1), 0.0), 0.0, 1.0)
-        s_back = np.clip(np.where(a > tiny, (b * t_free - c) / np.where(a > tiny, a, 1), 0.0), 0.0, 1.0)
-        best = dist(s_back, t_free)
-        # the four edges of the square (one parameter at 0 or 1, the other optimal and clamped)
-        for t_edge in (0.0, 1.0):
-            s = np.clip(np.where(a > tiny, (b * t_edge - c) / np.where(a > tiny, a, 1), 0.0), 0.0, 1.0)
-            best = np.minimum(best, dist(s, np.full_like(s, t_edge)))
-        for s_edge in (0.0, 1.0):
-            t = np.clip(np.where(e > tiny, (b * s_edge + f) / np.where(e > tiny, e, 1), 0.0), 0.0, 1.0)
-            best = np.minimum(best, dist(np.full_like(t, s_edge), t))
-    return best
+        s = np.where(denom > 1e-12 * np.maximum(a * e, tiny), np.clip((b * f - c * e) / np.where(denom > 0, denom, 1.0),
+                                                                      0.0, 1.0), 0.0)
+        t = np.where(e_ok, (b * s + f) / e1, 0.0)
+        t_c = np.clip(t, 0.0, 1.0)
+        s = np.where(t_c != t, np.clip(np.where(a_ok, (b * t_c - c) / a1, 0.0), 0.0, 1.0), s)
+        s = np.where(a_ok, s, 0.0)
+    gap = r + s * d1 - t_c * d2
+    return np.sqrt(dot(gap, gap))

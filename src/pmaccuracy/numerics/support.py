@@ -108,6 +108,10 @@ _TIE = 1e-10
 #: Poses processed at once (bounds the memory of the flat arrays of cells).
 _CHUNK = 1 << 11
 _ZCHUNK = 1 << 9
+#: Zonotopes of at most this many generators are solved by enumerating their sign vectors (F6), in chunks of
+#: ``_ECHUNK`` poses: ``2^(s-1)`` candidates in one matrix product beat the pair construction up to about 8.
+_ENUMERATE = 8
+_ECHUNK = 1 << 13
 #: Live cells of one chunk refined at once, at most (more are split between poses: bounded memory).
 _MAX_CELLS = 1 << 17
 
@@ -326,6 +330,28 @@ def _zonotope(G: np.ndarray) -> np.ndarray:
         S = np.where(tb, np.sign(np.einsum("nsc,nc->ns", G, w)), S)
     use = val > best
     return np.where(use[:, None], S, best_S)
+
+
+def _sign_vectors(s: int) -> np.ndarray:
+    """The ``2^(s-1)`` sign vectors ``(2^(s-1), s)`` with a first sign ``+1`` (``-x`` has the same norm)."""
+    k = np.arange(1 << (s - 1))[:, None]
+    rest = 1.0 - 2.0 * ((k >> np.arange(s - 1)[None]) & 1)
+    return np.concatenate([np.ones((k.size, 1)), rest], axis=1)
+
+
+def _enumerate_signs(G: np.ndarray) -> np.ndarray:
+    """Exact maximizing sign vector ``(N, s)`` of ``|sum_j s_j g_j|`` for few generators ``G (N, s, 3)``: every
+    vertex of the zonotope is ``sum_j s_j g_j`` for a sign vector (F6), so the largest of the ``2^(s-1)``
+    candidates (up to the symmetry ``x -> -x``), computed as one matrix product, is the maximum.
+
+    >>> G = np.array([[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [1.0, 1.0, 0.0]]])   # a hexagon in the xy-plane
+    >>> _enumerate_signs(G)                                                     # |(2, 3, 0)|^2 = 13
+    array([[1., 1., 1.]])
+    """
+    N, s, _ = G.shape
+    S = _sign_vectors(s)
+    V = (np.ascontiguousarray(G.transpose(0, 2, 1)).reshape(N * 3, s) @ S.T).reshape(N, 3, S.shape[0])
+    return S[np.argmax(np.einsum("nck,nck->nk", V, V), axis=1)]
 
 
 def _polish_signs(S: np.ndarray, G: np.ndarray) -> np.ndarray:
@@ -552,13 +578,14 @@ def max_norm(blocks, *, gap: float = 1e-3, max_levels: int = 14, ascent: int = 1
     if rest:
         lay = _Layout([flat[j] for j in rest])
         X = np.zeros((N, len(lay.cols)))
-        chunk = _ZCHUNK if exact else _CHUNK
+        few = exact and len(lay.cols) <= _ENUMERATE
+        chunk = _ECHUNK if few else _ZCHUNK if exact else _CHUNK
         for a in range(0, N, chunk):
             b = min(N, a + chunk)
             Cc = lay.columns(a, b)
             if exact:
                 G = Cc.transpose(0, 2, 1)
-                X[a:b] = _polish_signs(_zonotope(G), G)
+                X[a:b] = _enumerate_signs(G) if few else _polish_signs(_zonotope(G), G)
             else:
                 upper[a:b], ua = _branch_and_bound(lay, Cc, gap, max_levels, ascent)
                 X[a:b] = lay.unit_config(np.einsum("nc,ncm->nm", ua, Cc))

@@ -19,6 +19,12 @@ in closed form (``de/dA = -u``, ``de/db = R^T u``, ``u`` the unit vector along t
 frame's own derivatives ``dm/dt_F = I``, ``dm/dr_F = -[R_F x]x J_l(r_F)``, ``d log/dr_F = J_l(r_F)``
 (``J_l`` the left Jacobian of SO(3)).
 
+Clearances (``clearances``, as the planar identification's): each reading's covariance is ``Sigma_n =
+diag(sigma_n^2) + C_n`` with ``C_n`` the first-order covariance of the clearance states at the pose the model
+robot takes there (:func:`clearance_covariance`: the error sources uniform in their sets, independent from
+reading to reading), and the residual and its Jacobian are whitened by ``L_n^-1`` (``L_n L_n^T = Sigma_n``,
+Cholesky) instead of the stated sigmas; ``Sigma_n`` is taken at the start and again after the robust pass.
+
 Fit: as the planar identification (:mod:`.identify`): the parameters :func:`~.identifiability.analyse`
 keeps (the others fixed at nominal and reported with their combinations in words), a robust pass with
 the ``soft_l1`` loss at :data:`~.identify.ROBUST_F_SCALE` stated sigmas (started from a plain least-squares
@@ -34,7 +40,6 @@ anywhere is found.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,11 +49,12 @@ from threadpoolctl import threadpool_limits
 from ...errors import ConfigError, MeasurementFileError, PoseError
 from ...kinematics.spatial import closure, forward_kinematics
 from ...model.spatial_chain import ChainLeg
+from ...model.spatial_sources import SpatialErrorSources
 from ...model.spatial_legs import UPSLeg
 from ...numerics.spatial import normalize, rotations, rotvecs, skew
+from ..spatial_bounds import error_sources_at
 from .identifiability import PRACTICAL_MAX_SIGMA, RTOL, Identifiability, analyse
 from .identify import MAX_ROUNDS, OUTLIER_QUANTILE, ROBUST_F_SCALE, UNDERSTATED, UNREACHABLE, covariance
-from .spatial_clearances import clearance_covariance, reading_map
 from .spatial_parameters import (SpatialManipulator, SpatialParameterVector, _leg_fields, set_leg_values,
                                  spatial_error_parameters)
 
@@ -76,9 +82,6 @@ class SpatialCalibrationData:
         Target (0-based) of a position reading (zeros for full poses).
     source : str
         The file read (for messages).
-    whitening : ndarray ``(N, k, k)`` or None
-        ``L^-1`` of each reading's covariance ``L L^T`` when it is not ``diag(sigmas^2)`` (the readings' sigmas
-        plus the clearances' pose covariance, :func:`identify_spatial`); None: ``diag(1 / sigmas)``.
     """
 
     labels: tuple[str, ...]
@@ -87,7 +90,6 @@ class SpatialCalibrationData:
     sigmas: np.ndarray
     target: np.ndarray
     source: str = "<data>"
-    whitening: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -104,16 +106,7 @@ class SpatialCalibrationData:
         """The readings ``keep`` (bool or indices)."""
         keep = np.asarray(keep)
         return SpatialCalibrationData(tuple(np.asarray(self.labels, dtype=object)[keep]), self.commands[keep],
-                                      self.measured[keep], self.sigmas[keep], self.target[keep], self.source,
-                                      None if self.whitening is None else self.whitening[keep])
-
-    def whiten(self, x) -> np.ndarray:
-        """Residuals ``(N, k)`` or their Jacobian ``(N, k, P)`` in multiples of the readings' sigmas: ``L^-1 x``
-        (``x / sigmas`` without :attr:`whitening`)."""
-        x = np.asarray(x, dtype=float)
-        if self.whitening is None:
-            return x / (self.sigmas if x.ndim == 2 else self.sigmas[:, :, None])
-        return np.einsum("nij,nj...->ni...", self.whitening, x)
+                                      self.measured[keep], self.sigmas[keep], self.target[keep], self.source)
 
 
 # ---------------------------------------------------------------------------------------------- model
@@ -271,6 +264,7 @@ class _Model:
         self.pv, self.data, self.x0, self.free = pv, data, np.asarray(x0, dtype=float), np.asarray(free)
         self.guess = None
         self.cache: dict = {}
+        self.W: np.ndarray | None = None      # (N, k, k) whitening with clearances; None: the stated sigmas
 
     def values(self, z) -> np.ndarray:
         v = self.x0.copy()
@@ -296,7 +290,7 @@ class _Model:
 
     def whitened(self, v, keep) -> np.ndarray:
         poses = self.poses(v)
-        e = self.data.whiten(residuals(self.pv, v, self.data, poses))
+        e = whiten(residuals(self.pv, v, self.data, poses), self.data.sigmas, self.W)
         return e[keep]
 
     def fun(self, keep):
@@ -310,7 +304,8 @@ class _Model:
             v = self.values(z)
             poses = self.poses(v)
             sub = self.data.subset(keep)
-            J = sub.whiten(residual_jacobian(self.pv, v, sub, poses[keep])[:, :, self.free])
+            J = residual_jacobian(self.pv, v, sub, poses[keep])[:, :, self.free]
+            J = J / sub.sigmas[:, :, None] if self.W is None else np.einsum("nij,njl->nil", self.W[keep], J)
             return np.where(np.isfinite(J), J, 0.0).reshape(-1, len(self.free))
         return j
 
@@ -318,6 +313,52 @@ class _Model:
         e = self.whitened(v, slice(None))
         out = np.sum(e ** 2, axis=1)
         return np.where(np.isfinite(out), out, np.inf)
+
+
+def whiten(r, sigmas, W=None) -> np.ndarray:
+    """Whitened residuals ``(N, k)``: ``r / sigmas``, or ``W_n r_n`` with the whitening ``W (N, k, k)``."""
+    return r / sigmas if W is None else np.einsum("nij,nj->ni", W, r)
+
+
+def clearance_covariance(pv: SpatialParameterVector, values, data: SpatialCalibrationData, poses,
+                         clearances) -> np.ndarray:
+    """``C (N, k, k)``: first-order covariance (mm^2, mm rad, rad^2) of what the device reads, from one clearance
+    state per reading at the platform ``poses (N, 6)`` of the robot ``values``: the twist covariance
+    ``S = sum_s M_s M_s^T / (d_s + 2)`` (Eq. 1 of :mod:`pmaccuracy.accuracy.spatial_bounds`, every source
+    uniform in its unit set of dimension ``d_s``) carried to the reading, ``A S A^T`` with ``A = diag(R_F, R_F)``
+    (full pose) or ``R_F [I, -[R s_k]x]`` (target ``k``). Zero where the pose is NaN or near a singularity."""
+    robot, _, _, frame, tools = pv.split(values)
+    sources = SpatialErrorSources.load(clearances, robot)
+    poses = np.asarray(poses, dtype=float)
+    k = 6 if pv.kind == "pose" else 3
+    C = np.zeros((len(poses), k, k))
+    ok = np.all(np.isfinite(poses), axis=1)
+    if not ok.any():
+        return C
+    _, info = error_sources_at(robot, sources, poses[ok], strict=False, keep=True, allow_outside=True)
+    S = np.zeros((int(ok.sum()), 6, 6))
+    for src in info["sources"]:
+        M = src.matrix
+        S += np.einsum("nid,njd->nij", M, M) / (M.shape[-1] + 2)
+    S[~info["valid"]] = 0.0
+    RF = rotations(frame[3:])
+    if pv.kind == "pose":
+        A = np.zeros((6, 6))
+        A[:3, :3] = A[3:, 3:] = RF
+        C[ok] = A @ S @ A.T
+    else:
+        arm = np.einsum("nij,nj->ni", rotations(poses[ok, 3:]), tools[np.asarray(data.target, dtype=int)[ok]])
+        B = np.concatenate([np.broadcast_to(np.eye(3), arm.shape + (3,)), -skew(arm)], axis=2)
+        A = RF @ B
+        C[ok] = A @ S @ np.swapaxes(A, 1, 2)
+    return C
+
+
+def _whitening(pv, values, data, poses, clearances) -> np.ndarray:
+    """``L^-1 (N, k, k)`` with ``L L^T = diag(sigma^2) + C`` (:func:`clearance_covariance`)."""
+    Sig = np.einsum("ni,ij->nij", data.sigmas ** 2, np.eye(data.sigmas.shape[1]))
+    Sig = Sig + clearance_covariance(pv, values, data, poses, clearances)
+    return np.linalg.inv(np.linalg.cholesky(Sig))
 
 
 def kabsch_frame(model_points, measured_points) -> np.ndarray:
@@ -379,6 +420,8 @@ class SpatialIdentification:
         ``s``: residual scale (about 1 when the stated sigmas are right).
     nfev : int
         Model evaluations.
+    clearances : SpatialErrorSources or None
+        The clearances of the readings' covariance (None: the stated sigmas alone).
     """
 
     parameters: SpatialParameterVector
@@ -393,6 +436,7 @@ class SpatialIdentification:
     outliers: tuple[int, ...]
     scale: float
     nfev: int
+    clearances: object = None
 
     def __repr__(self) -> str:
         return (f"SpatialIdentification({len(self.identifiability.identified)} identified, "
@@ -423,18 +467,8 @@ def spatial_identifiability(pv: SpatialParameterVector, data: SpatialCalibration
         poses = platform_poses(pv, v, data.commands)
         ok = np.all(np.isfinite(poses), axis=1)
         sub = data.subset(ok)
-        J = sub.whiten(measurement_jacobian(pv, v, sub, poses[ok]))
+        J = measurement_jacobian(pv, v, sub, poses[ok]) / sub.sigmas[:, :, None]
         return analyse(pv, J.reshape(-1, len(pv.names)), rtol=rtol, fixed=tuple(fixed), max_sigma=max_sigma)
-
-
-def _with_clearances(pv, data, x0, poses0, ok0, clearances) -> SpatialCalibrationData:
-    """``data`` whitened by ``diag(sigmas^2) + A C A^T`` (:func:`identify_spatial`)."""
-    safe = np.where(ok0[:, None], poses0, 0.0)       # rows without a pose: no covariance, left out of the fit
-    C = clearance_covariance(pv.robot, clearances, safe)
-    C = np.where(np.all(np.isfinite(C), axis=(1, 2))[:, None, None] & ok0[:, None, None], C, 0.0)
-    A = reading_map(pv, x0, safe, data.target)
-    S = A @ C @ np.swapaxes(A, -1, -2) + np.eye(A.shape[1]) * data.sigmas[:, :, None] ** 2
-    return dataclasses.replace(data, whitening=np.linalg.inv(np.linalg.cholesky(S)))
 
 
 def _threshold(chi2: np.ndarray, k: int) -> float:
@@ -449,15 +483,11 @@ def identify_spatial(data: SpatialCalibrationData, pv: SpatialParameterVector, *
     """Identify the parameters of ``pv`` from ``data`` (module docstring for the model and the fit).
 
     ``fixed``: names kept at nominal; ``start (P,)``: the starting values (default: the nominal with the frame
-    of the best rigid fit); ``clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`):
-    each reading's covariance becomes ``diag(sigmas^2) + A C A^T``, the clearances' pose covariance ``C`` at the
-    nominal robot's pose (:func:`~.spatial_clearances.clearance_covariance`, states uniform in their sets) seen
-    by the device (:func:`~.spatial_clearances.reading_map` at the starting frame), and the fit is whitened by
-    its Cholesky factor (as the planar identification's ``clearances``). Raises
-    :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not match the parameter vector or too few
-    readings are left for the parameters. Runs with one BLAS thread: its matrices (a few hundred rows, at most ~60
-    columns) gain nothing from more, and on a loaded machine the threads' hand-offs made each decomposition 100
-    times slower (``benchmarks/bench_spatial_calibration.py``).
+    of the best rigid fit); ``clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset
+    or a file): the readings' clearance covariance in their weights (module docstring). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
+    match the parameter vector or too few readings are left for the parameters. Runs with one BLAS thread:
+    its matrices (a few hundred rows, at most ~60 columns) gain nothing from more, and on a loaded machine
+    the threads' hand-offs made each decomposition 100 times slower (``benchmarks/bench_spatial_calibration.py``).
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _identify_spatial(data, pv, fixed=fixed, robust=robust, rtol=rtol, max_sigma=max_sigma,
@@ -488,8 +518,6 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start, cleara
     if start is None:
         x0 = _start_frame(pv, data, x0, poses0)
     ok0 = np.all(np.isfinite(poses0), axis=1)
-    if clearances is not None:
-        data = _with_clearances(pv, data, x0, poses0, ok0, clearances)
     if ok0.sum() * k <= 6:
         raise MeasurementFileError("the nominal robot reaches too few of the commanded poses", source=data.source)
     idf = spatial_identifiability(pv, data, x0, fixed=fixed, rtol=rtol, max_sigma=max_sigma)
@@ -497,6 +525,9 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start, cleara
     L = len(free)
     model = _Model(pv, data, x0, free)
     model.guess = probe.guess
+    sources = None if clearances is None else SpatialErrorSources.load(clearances, pv.robot)
+    if sources is not None:
+        model.W = _whitening(pv, x0, data, model.poses(x0), sources)
     before = residuals(pv, x0, data, model.poses(x0))
     nfev = 0
     z = x0[free].copy()
@@ -515,6 +546,9 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start, cleara
                                      f_scale=ROBUST_F_SCALE, x_scale="jac")
         nfev += sol.nfev
         z = sol.x
+        if sources is not None:     # the covariance at the robust estimate
+            v = model.values(z)
+            model.W = _whitening(pv, v, data, model.poses(v), sources)
         chi2 = model.chi2(model.values(z))
         keep = chi2 <= _threshold(chi2, k)
     for _ in range(MAX_ROUNDS):
@@ -533,13 +567,13 @@ def _identify_spatial(data, pv, *, fixed, robust, rtol, max_sigma, start, cleara
     J = model.jac(keep)(z)
     cov, sigma, s2 = covariance(res, J, free, P)
     after = residuals(pv, values, data, model.poses(values))
-    wb = data.whiten(before)[keep]
+    wb = whiten(before, data.sigmas, model.W)[keep]
     return SpatialIdentification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=idf,
                                  residuals_before=before, residuals_after=after,
                                  rms_before=float(np.sqrt(np.nanmean(wb ** 2))),
                                  rms_after=float(np.sqrt(np.mean(res ** 2))),
                                  outliers=tuple(int(i) for i in np.flatnonzero(~keep)), scale=float(np.sqrt(s2)),
-                                 nfev=nfev)
+                                 nfev=nfev, clearances=sources)
 
 
 def spatial_identification_to_dict(ident: SpatialIdentification) -> dict:
@@ -555,7 +589,8 @@ def spatial_identification_to_dict(ident: SpatialIdentification) -> dict:
                                 "singular_values": idf.singular_values.tolist(), "condition": idf.condition},
             "fit": {"readings": len(ident.residuals_before), "kind": pv.kind, "rms_before_sigmas": ident.rms_before,
                     "rms_after_sigmas": ident.rms_after, "scale": ident.scale,
-                    "outlier_rows": [i + 1 for i in ident.outliers], "nfev": ident.nfev}}
+                    "outlier_rows": [i + 1 for i in ident.outliers], "nfev": ident.nfev,
+                    "clearances": None if ident.clearances is None else ident.clearances.name}}
 
 
 def spatial_identification_from_dict(record: dict, source: str = "<identification>") -> SpatialIdentification:

@@ -1,6 +1,6 @@
 """D-optimal calibration poses of a spatial robot out of many candidates.
 
-Candidates: poses around the home pose within every leg's limits (:func:`.spatial_simulate.candidate_poses`).
+Candidates: poses around the home pose within every leg's limits (:func:`candidate_poses`).
 Each candidate's block ``B_c (k, L)`` of the whitened Jacobian (:func:`.spatial_identify.measurement_jacobian`
 at the nominal robot, divided by the stated sigmas; ``k`` = 6 for full poses, 3 per target for position-only
 data) is taken for the parameters identifiable from a sample of the candidates, columns scaled by their RMS.
@@ -19,11 +19,41 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ...errors import ConfigError
-from ...kinematics.spatial import inverse_kinematics
+from ...kinematics.spatial import complete_poses, inverse_kinematics
+from ...model.spatial import CONTROLLED
+from ...numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
 from .identifiability import analyse, observability_indices
 from .spatial_identify import DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, measurement_jacobian
 from .spatial_parameters import SpatialParameterVector
-from .spatial_simulate import candidate_poses
+
+#: Half-widths of the box of candidate poses: a share of the base joints' mean distance from the origin (mm)
+#: and degrees.
+BOX_SHARE = 0.4
+BOX_DEG = 10.0
+
+
+def candidate_poses(pv: SpatialParameterVector, n: int = 2000, seed: int = 0) -> np.ndarray:
+    """Poses ``(<=n, 6)`` around the home pose, every leg within its limits: the controlled coordinates uniform in
+    ``home +- BOX_SHARE * mean |base joint|`` (mm) and ``+- BOX_DEG`` (angles); the uncontrolled ones
+    completed (:func:`~pmaccuracy.kinematics.spatial.complete_poses`)."""
+    robot = pv.robot
+    rng = np.random.default_rng(seed)
+    home = robot.home_pose if robot.home_pose is not None else np.zeros(6)
+    idx = CONTROLLED[robot.mobility]
+    reach = float(np.mean([np.linalg.norm(leg.base) for leg in robot.legs]))
+    half = np.array([BOX_SHARE * reach] * 3 + [np.radians(BOX_DEG)] * 3)[list(idx)]
+    centre = np.concatenate([home[:3], np.zeros(3)])[list(idx)]
+    c = centre + rng.uniform(-1.0, 1.0, (n, len(idx))) * half
+    if robot.mobility == "6":
+        poses = np.concatenate([c[:, :3], euler_xyz_to_rotvec(c[:, 3:])], axis=1)
+        poses[:, 3:] = rotvecs(rotations(poses[:, 3:]) @ rotations(home[3:]))
+    else:
+        poses = complete_poses(robot, c, strict=False)
+    ik = inverse_kinematics(robot, poses)
+    ok = np.all(np.isfinite(poses), axis=1) & ik.within_limits
+    return poses[ok]
+
+
 
 #: Candidates whose Jacobian blocks are computed at once (memory: CHUNK * k * P * 8 bytes a few times).
 CHUNK = 5000
@@ -144,7 +174,7 @@ def _indices(B: np.ndarray, sel) -> dict:
 def plan_spatial_poses(pv: SpatialParameterVector, n_poses: int, candidates=None, *, n_candidates: int = 20000,
                        seed: int = 0) -> SpatialPlan:
     """Choose ``n_poses`` of ``candidates (C, 6)`` (default: ``n_candidates`` drawn by
-    :func:`~.spatial_simulate.candidate_poses`) D-optimally (module docstring) for the readings of ``pv``'s kind."""
+    :func:`candidate_poses`) D-optimally (module docstring) for the readings of ``pv``'s kind."""
     cand = candidate_poses(pv, n_candidates, seed=seed) if candidates is None else np.asarray(candidates, float)
     with threadpool_limits(limits=1, user_api="blas"):   # see identify_spatial
         return _plan(pv, n_poses, cand, seed)

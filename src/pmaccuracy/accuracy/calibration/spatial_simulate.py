@@ -2,11 +2,18 @@
 
 The true robot is the nominal plus seeded normal errors (1-sigma per unit: :data:`DEFAULT_ERROR_SIGMA`), the
 parameters the data cannot separate left at nominal (so the truth is in the gauge the identification
-reports). Commands are those that put the *nominal* robot at poses drawn in a box around its home pose
-(:func:`candidate_poses`: the controlled coordinates uniform, the rest completed, kept where every leg is
-within its limits); the true robot goes where its forward kinematics says; the device reads it in the true
-frame with normal noise: position ``N(0, sigma_mm^2)`` per axis, orientation ``exp([eta]x) R`` with
-``eta ~ N(0, sigma_rad^2)`` per axis, or for a laser tracker ``sigma = sigma_mm + ppm 1e-6 |x|`` with
+reports). Commands are those that put the *nominal* robot at the D-optimal poses of
+:func:`~.spatial_plan.plan_spatial_poses` (``plan="d-optimal"``, the default) or at the first of the random
+candidates (``plan="random"``), both out of poses drawn in a box around its home pose (:func:`candidate_poses`:
+the controlled coordinates uniform, the rest completed, kept where every leg is within its limits); the true
+robot goes where its forward kinematics says; with ``clearances`` (:class:`~pmaccuracy.model.spatial_sources
+.SpatialErrorSources`) every reading gets its own clearance state (:func:`clearance_twists`: each source's
+variables uniform in its unit segment, disc or ball, independent from reading to reading and between sources,
+the law of :mod:`pmaccuracy.accuracy.spatial_statistics`) which moves the platform by the FIRST-ORDER twist
+``t = sum_s M_s x_s`` of :mod:`pmaccuracy.accuracy.spatial_bounds` (Eq. 1 there, on the true robot at the
+reached pose; as the planar experiment does, :mod:`.simulate`): ``p + v``, ``exp([w]x) R``; the device reads
+it in the true frame with normal noise: position ``N(0, sigma_mm^2)`` per axis, orientation ``exp([eta]x) R``
+with ``eta ~ N(0, sigma_rad^2)`` per axis, or for a laser tracker ``sigma = sigma_mm + ppm 1e-6 |x|`` with
 ``|x|`` the target's distance from the device.
 """
 
@@ -17,45 +24,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigError
-from ...kinematics.spatial import complete_poses, inverse_kinematics
-from ...model.spatial import CONTROLLED
-from ...numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
+from ...kinematics.spatial import inverse_kinematics
+from ...model.spatial_sources import SpatialErrorSources
+from ...numerics.spatial import rotations, rotvecs
 from .spatial_identify import (DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, SpatialIdentification, identify_spatial, platform_poses,
                                predict, spatial_identifiability)
 from .identifiability import PRACTICAL_MAX_SIGMA
-from .spatial_compensate import compensate_spatial, pose_errors
+from .spatial_compensate import (SpatialCompensation, clearance_floor, clearance_twists, compensate_spatial,  # noqa: F401
+                                 displaced, pose_errors)
 from .spatial_parameters import SpatialParameterVector
+from .spatial_plan import BOX_DEG, BOX_SHARE, SpatialPlan, candidate_poses, plan_spatial_poses  # noqa: F401
 
 #: 1-sigma errors of the true robot per unit (mm, rad, gain).
 DEFAULT_ERROR_SIGMA = {"mm": 0.1, "rad": np.radians(0.1), "1": 5e-4}
-#: Half-widths of the box of candidate poses: a share of the base joints' mean distance from the origin (mm)
-#: and degrees.
-BOX_SHARE = 0.4
-BOX_DEG = 10.0
-
-
-def candidate_poses(pv: SpatialParameterVector, n: int = 2000, seed: int = 0) -> np.ndarray:
-    """Poses ``(<=n, 6)`` around the home pose, every leg within its limits: the controlled coordinates uniform in
-    ``home +- BOX_SHARE * mean |base joint|`` (mm) and ``+- BOX_DEG`` (angles); the uncontrolled ones
-    completed (:func:`~pmaccuracy.kinematics.spatial.complete_poses`)."""
-    robot = pv.robot
-    rng = np.random.default_rng(seed)
-    home = robot.home_pose if robot.home_pose is not None else np.zeros(6)
-    idx = CONTROLLED[robot.mobility]
-    reach = float(np.mean([np.linalg.norm(leg.base) for leg in robot.legs]))
-    half = np.array([BOX_SHARE * reach] * 3 + [np.radians(BOX_DEG)] * 3)[list(idx)]
-    centre = np.concatenate([home[:3], np.zeros(3)])[list(idx)]
-    c = centre + rng.uniform(-1.0, 1.0, (n, len(idx))) * half
-    if robot.mobility == "6":
-        poses = np.concatenate([c[:, :3], euler_xyz_to_rotvec(c[:, 3:])], axis=1)
-        poses[:, 3:] = rotvecs(rotations(poses[:, 3:]) @ rotations(home[3:]))
-    else:
-        poses = complete_poses(robot, c, strict=False)
-    ik = inverse_kinematics(robot, poses)
-    ok = np.all(np.isfinite(poses), axis=1) & ik.within_limits
-    return poses[ok]
-
-
 def spatial_true_parameters(pv: SpatialParameterVector, seed: int = 0, error_sigma: dict | None = None,
                             fixed: tuple[str, ...] = ()) -> np.ndarray:
     """The nominal plus seeded normal errors (1-sigma per unit, :data:`DEFAULT_ERROR_SIGMA` overridden by
@@ -69,16 +50,22 @@ def spatial_true_parameters(pv: SpatialParameterVector, seed: int = 0, error_sig
 
 
 def measure_spatial(pv: SpatialParameterVector, true_values, commands, *, noise=(0.01, np.radians(0.01)),
-                    ppm: float = 0.0, seed: int = 0, labels=None) -> SpatialCalibrationData:
+                    ppm: float = 0.0, seed: int = 0, labels=None, clearances=None) -> SpatialCalibrationData:
     """Readings of the true robot ``true_values`` at ``commands (N, n)`` (module docstring): full poses
     ``(N, 6)``, or for position-only ``pv`` every target at every command (``N T`` rows). ``noise``:
-    ``(sigma_mm, sigma_rad)``; ``ppm``: the tracker's distance-dependent part (1e-6 per mm of distance).
+    ``(sigma_mm, sigma_rad)``; ``ppm``: the tracker's distance-dependent part (1e-6 per mm of distance);
+    ``clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset or a file): one
+    clearance state per command (:func:`~.spatial_compensate.clearance_twists`, first order, drawn from its own
+    stream ``default_rng([seed, 1])``: the same states with or without noise), shared by the targets read at it.
     The stated sigmas are those of ``noise`` (where 0: :data:`~.spatial_identify.DEFAULT_SIGMA_MM`, ``_RAD``, so
-    noise-free readings can be weighted). Commands the true robot cannot take (no forward kinematics) are
-    dropped."""
+    noise-free readings can be weighted). Commands the true robot cannot take (no forward kinematics, or near
+    a singularity with clearances) are dropped."""
     commands = np.asarray(commands, dtype=float)
     rng = np.random.default_rng(seed)
     poses = platform_poses(pv, true_values, commands, _nominal_guess(pv, commands))
+    if clearances is not None:
+        poses = displaced(poses, clearance_twists(pv.split(true_values)[0], clearances, poses,
+                                                  np.random.default_rng([seed, 1])))
     ok = np.all(np.isfinite(poses), axis=1)
     commands, poses = commands[ok], poses[ok]
     labels = np.arange(1, len(ok) + 1)[ok] if labels is None else np.asarray(labels)[ok]
@@ -125,7 +112,14 @@ class SpatialExperiment:
         Poses (device frame) where the compensation is checked, none of them a calibration pose.
     errors_before, errors_after : ndarray ``(T, 2)``
         Position (mm) and orientation (rad) errors of the true robot there with the nominal and the compensated
-        commands (:func:`~.spatial_compensate.pose_errors`; no noise).
+        commands (:func:`~.spatial_compensate.pose_errors`; no noise; with clearances, one clearance state per
+        target).
+    compensation : SpatialCompensation or None
+        The compensated commands at the targets, their predicted sigma and the clearance floor there.
+    plan : SpatialPlan or None
+        The D-optimal plan of the readings' poses (None: random poses).
+    clearances : SpatialErrorSources or None
+        The clearances of the readings and the checks.
     """
 
     true: np.ndarray
@@ -134,6 +128,9 @@ class SpatialExperiment:
     targets: np.ndarray | None = None
     errors_before: np.ndarray | None = None
     errors_after: np.ndarray | None = None
+    compensation: SpatialCompensation | None = None
+    plan: SpatialPlan | None = None
+    clearances: object = None
 
     def normalized_errors(self) -> np.ndarray:
         """``(estimate - true) / sigma`` of the identified parameters ``(L,)``."""
@@ -142,33 +139,61 @@ class SpatialExperiment:
         return (ident.values[idx] - self.true[idx]) / ident.sigma[idx]
 
 
+#: Ways of choosing the readings' poses in :func:`simulate_spatial_calibration`.
+PLANS = ("d-optimal", "random")
+
+
 def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, *, seed: int = 0,
                                  error_sigma: dict | None = None, noise=(0.01, np.radians(0.01)),
-                                 ppm: float = 0.0, gross: int = 0, n_targets: int = 30) -> SpatialExperiment:
-    """Virtual calibration (module docstring): ``n_poses`` random candidate poses, readings of the true robot,
-    :func:`~.spatial_identify.identify_spatial`; ``gross`` readings get a 100-sigma error; then the
-    compensation (:func:`~.spatial_compensate.compensate_spatial`) at ``n_targets`` other candidate poses."""
-    cand = candidate_poses(pv, max(20 * n_poses, 2000), seed=seed)
-    if len(cand) < n_poses:
-        raise ConfigError(f"only {len(cand)} candidate poses within the limits around home for {n_poses} readings",
-                          key="n_poses")
-    poses = cand[:n_poses]
+                                 ppm: float = 0.0, gross: int = 0, n_targets: int = 30, clearances=None,
+                                 plan: str = "d-optimal", n_candidates: int = 4000, true=None) -> SpatialExperiment:
+    """Virtual calibration (module docstring): ``n_poses`` poses out of ``n_candidates`` random candidates
+    (``plan``: ``"d-optimal"``, :func:`~.spatial_plan.plan_spatial_poses`, or ``"random"``: the first ones),
+    readings of the true robot (with ``clearances``: a clearance state per reading),
+    :func:`~.spatial_identify.identify_spatial` (given the same clearances, as the planar experiment does); ``gross`` readings get a 100-sigma error; then the
+    compensation (:func:`~.spatial_compensate.compensate_spatial`, with the clearance floor) at ``n_targets``
+    other candidate poses, checked on the true robot (with a clearance state per target). ``true (P,)``: the true
+    robot's parameters (e.g. :func:`~.simulate.true_parameters` of named errors and tolerances) instead of the
+    seeded errors of :func:`spatial_true_parameters` (``error_sigma`` is then not used)."""
+    if plan not in PLANS:
+        raise ConfigError(f"unknown plan {plan!r} (choose from {', '.join(PLANS)})", key="plan")
+    if true is not None:
+        true = np.asarray(true, dtype=float)
+        if true.shape != (len(pv.names),) or not np.all(np.isfinite(true)):
+            raise ConfigError(f"must be {len(pv.names)} finite parameter values", key="true")
+    sources = None if clearances is None else SpatialErrorSources.load(clearances, pv.robot)
+    cand = candidate_poses(pv, max(n_candidates, 20 * n_poses, 2000), seed=seed)
+    if len(cand) < n_poses + n_targets:
+        raise ConfigError(f"only {len(cand)} candidate poses within the limits around home for {n_poses} readings "
+                          f"and {n_targets} checks", key="n_poses")
+    chosen = None
+    if plan == "d-optimal":
+        chosen = plan_spatial_poses(pv, n_poses, cand, seed=seed)
+        poses, used = chosen.poses, chosen.indices
+    else:
+        used = np.arange(n_poses)
+        poses = cand[used]
     commands = inverse_kinematics(pv.robot, poses).q
-    probe = measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0))
-    probe = SpatialCalibrationData(probe.labels, probe.commands, probe.measured,
-                                   np.tile([noise[0] or DEFAULT_SIGMA_MM] * 3 + [noise[1] or DEFAULT_SIGMA_RAD] * 3,
-                                           (len(probe), 1))[:, :probe.measured.shape[1]], probe.target)
-    fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
-    true = spatial_true_parameters(pv, seed, error_sigma, fixed)
-    data = measure_spatial(pv, true, commands, noise=noise, ppm=ppm, seed=seed + 1)
+    if true is None:
+        probe = measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0))
+        probe = SpatialCalibrationData(probe.labels, probe.commands, probe.measured,
+                                       np.tile([noise[0] or DEFAULT_SIGMA_MM] * 3 + [noise[1] or DEFAULT_SIGMA_RAD] * 3,
+                                               (len(probe), 1))[:, :probe.measured.shape[1]], probe.target)
+        fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
+        true = spatial_true_parameters(pv, seed, error_sigma, fixed)
+    data = measure_spatial(pv, true, commands, noise=noise, ppm=ppm, seed=seed + 1, clearances=sources)
     if gross:
         rng = np.random.default_rng(seed + 2)
         rows = rng.choice(len(data), gross, replace=False)
         data.measured[rows, :3] += 100.0 * data.sigmas[rows, :3] * rng.choice([-1.0, 1.0], (gross, 3))
-    ident = identify_spatial(data, pv)
-    targets = cand[n_poses:n_poses + n_targets]
-    comp = compensate_spatial(ident, targets)
+    ident = identify_spatial(data, pv, clearances=sources)
+    rest = np.setdiff1d(np.arange(len(cand)), used)
+    targets = cand[rest[:n_targets]]
+    comp = compensate_spatial(ident, targets, clearances=sources)
     return SpatialExperiment(true=true, data=data, identification=ident, targets=targets,
-                             errors_before=pose_errors(pv, true, comp.nominal_commands, targets),
-                             errors_after=pose_errors(pv, true, comp.commands, targets))
+                             errors_before=pose_errors(pv, true, comp.nominal_commands, targets, clearances=sources,
+                                                       seed=seed + 3),
+                             errors_after=pose_errors(pv, true, comp.commands, targets, clearances=sources,
+                                                      seed=seed + 3),
+                             compensation=comp, plan=chosen, clearances=sources)
 
