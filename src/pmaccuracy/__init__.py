@@ -96,7 +96,11 @@ _EXPORTS = {
                                            "design_region_preload", "certify_preload")},
     **{name: "accuracy.spatial_loads" for name in ("SpatialLoad", "SpatialStatics", "spatial_statics",
                                                    "SpatialLoadedError", "spatial_loaded_error", "SpatialPreload",
-                                                   "spatial_design_preload")},
+                                                   "spatial_design_preload", "SpatialWrenchSetErrors",
+                                                   "spatial_wrench_set_errors", "spatial_loaded_error_map",
+                                                   "spatial_wrench_set_map", "SpatialRegionPreload",
+                                                   "spatial_design_region_preload", "SpatialSpringPreload",
+                                                   "spatial_spring_preload")},
     **{name: "accuracy.serial_loads" for name in ("serial_statics", "SerialStatics", "loaded_serial_error",
                                                   "SerialLoadedError")},
     # calibration and compensation (issue 23)

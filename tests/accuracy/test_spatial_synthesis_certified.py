@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import copy
 import json
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -20,7 +19,7 @@ import pmaccuracy as pm
 import pmaccuracy.accuracy.spatial_synthesis as synthesis
 from pmaccuracy.accuracy.spatial_synthesis import spatial_synthesize
 from pmaccuracy.accuracy.spatial_worst import spatial_region
-from pmaccuracy.errors import ConfigError, UnsupportedArchitectureError
+from pmaccuracy.errors import CertificationError, ConfigError, UnsupportedArchitectureError
 from pmaccuracy.kinematics.spatial import inverse_kinematics
 from pmaccuracy.model.plausibility import PlausibilityWarning
 from pmaccuracy.model.spatial import SpatialManipulator
@@ -141,6 +140,8 @@ def test_budget_spent_still_meets_the_targets_and_warns():
 
 
 def test_any_architecture_with_finite_upper_bounds_works_and_the_others_are_refused(monkeypatch):
+    """A Delta (certified by the global worst case's affine boxes) is synthesized from its template's certificate;
+    a 3-RPS over its whole workspace (sampled, not proven) is refused in one line."""
     delta = pm.load_robot("delta_clavel")
     region = spatial_region(delta, box=(-20.0, 20.0, -20.0, 20.0, -810.0, -790.0))
     base = []
@@ -151,20 +152,15 @@ def test_any_architecture_with_finite_upper_bounds_works_and_the_others_are_refu
         return base[-1]
 
     monkeypatch.setattr(synthesis, "spatial_global_worst", recorded)
-    with pytest.raises(UnsupportedArchitectureError) as exc:
-        spatial_synthesize(delta, "delta_typical", {"dp": 0.05}, region=region)
-    assert "\n" not in str(exc.value) and "delta" in str(exc.value) and exc.value.key == "region"
-    base = base[0]
-
-    def certified(robot, sources, region, **kw):   # as if the Delta's upper bounds were certified: 3 % above
-        q = {k: replace(w, upper=1.03 * w.lower, gap=0.03, converged=True) for k, w in base.quantities.items()}
-        return replace(base, quantities=q, certified=True, reason="")
-
-    monkeypatch.setattr(synthesis, "spatial_global_worst", certified)
     res = spatial_synthesize(delta, "delta_typical", {"dp": 0.05, "dz": 0.02}, region=region)
-    expected = min(0.05 / (1.03 * base["dp"].lower), 0.02 / (1.03 * base["dz"].lower))
-    assert res.scale == pytest.approx(expected, rel=1e-12) and max(res.worst["dp"] / 0.05, res.worst["dz"] / 0.02) \
-        == pytest.approx(1.0, rel=1e-12)
+    cert = base[0]
+    assert cert.certified and np.isfinite(cert["dp"].upper)
+    expected = min(0.05 / cert["dp"].upper, 0.02 / cert["dz"].upper)
+    assert res.scale == pytest.approx(expected, rel=1e-12)
+    rps = pm.load_robot("rps_3")
+    with pytest.raises((UnsupportedArchitectureError, CertificationError)) as exc:
+        spatial_synthesize(rps, "rps_typical", {"dp": 0.05}, region=spatial_region(rps), max_boxes=200)
+    assert "\n" not in str(exc.value)
 
 
 def test_bad_arguments():

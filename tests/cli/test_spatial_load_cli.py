@@ -69,7 +69,26 @@ def test_preload_holds_the_rows_signs_per_the_reference(capsys):
     (["load", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, 0, "--fx", 1], "three values"),
     (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", 1, -1], "--fz: needs LO <= HI"),
     (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0], "a single wrench"),
-    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1], "--pose"),
+    (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", -1, 1, "--box=-1,1,-1,1,399,401"],
+     "--pose"),
+    (["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--fz", -1, 1, "--grid", 4], "--grid"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--disc", 0, 0, 5], "--disc"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--box", "1,2,3"], "--box"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--direction", 0, 0, 1, 0, 0, 0], "--direction"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--map"], "--out"),
+    (["preload", "--robot", "rps_3", "--fz", -1, 1, "--map", "--out", "m.nc", "--orientation-deg", 0, 0, 0],
+     "--orientation-deg"),
+    (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.txt"], "--out"),
+    (["preload", "--robot", "delta_clavel", "--pose", 0, 0, -900, "--fx", -10, 10, "--springs"], "--springs"),
+    (["preload", "--robot", "rps_3", "--pose", 350, 2, -1, "--fx", -10, 10, "--springs"], "--springs: no springs"),
+    (["preload", "--robot", "stewart_6ups", "--fz", -1, 1, "--springs"], "--springs"),
+    (["preload", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fx", -1, 1, "--springs"], "--springs"),
+    (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--grid", 1], "--grid"),
+    (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--details"], "--details"),
+    (["load", "--robot", "stewart_6ups", "--fz", -1, "--map", "--out", "m.nc", "--box=0,1,0,1,400,401"],
+     "--pose"),
+    (["load", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fx", 1, "--orientation-deg", 0, 0, 0],
+     "--orientation-deg"),
     (["preload", "--robot", "upu_3", "--pose", 0, 0, 300, "--fz", -30, -10, "--direction", 0, 0, -1, 0, 0, 0],
      "--direction"),
     (["preload", "--robot", "symmetric_3rpr", "--pose", 0, 0, 0, "--fx", -1, 1, "--fz", -1, 1], "--fz"),
@@ -80,3 +99,59 @@ def test_bad_input_one_line(argv, words, capsys, tmp_path, monkeypatch):
     lines = err.strip().splitlines()
     assert status == 2 and len(lines) == 1 and words in lines[0], err
     assert "Traceback" not in err
+
+
+def test_load_map_matches_the_library(capsys, tmp_path):
+    """``load --map`` on a Delta writes the library's map; its CSV has the rotations in degrees."""
+    import pandas as pd
+
+    out = tmp_path / "l.csv"
+    status, _, err = run_cli(["load", "--robot", "delta_clavel", "--map", "--grid", 4, "--out", out, "--fz", -30,
+                              "--mx", 200, "--format", "json"], capsys)
+    assert status == 0, err
+    df = pd.read_csv(out)
+    lib = pm.spatial_loaded_error_map(pm.load_robot("delta_clavel"), "delta_typical",
+                                      pm.SpatialLoad(force=(0, 0, -30.0), moment=(200.0, 0, 0)), n=4)
+    flat = lib.to_dataframe().reset_index().dropna(subset=["dx"])
+    assert len(df) == len(flat) > 0
+    assert np.allclose(df["dz"], flat["dz"], rtol=1e-12, atol=1e-15)
+    assert np.allclose(df["dry_deg"], np.degrees(flat["dry"]), rtol=1e-12, atol=1e-15)
+
+
+def test_region_preload_holds_per_the_reference(capsys):
+    """``preload`` without poses on a 3-UPU box: the preload keeps every member's sign at the box's corners of
+    poses for every corner of the process box (reference member forces)."""
+    argv = ["preload", "--robot", "upu_3", "--box=-10,10,-10,10,290,310", "--grid", 2, "--fz", -40, -20,
+            "--mx", -300, 300, "--format", "json"]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    keys = ("fx_N", "fy_N", "fz_N", "mx_Nmm", "my_Nmm", "mz_Nmm")
+    P = np.array([rec[f"preload_{key}"] for key in keys])
+    pattern = np.array([1.0 if c == "+" else -1.0 for c in rec["pattern"]])
+    rdict = ref.load(Path(__file__).resolve().parents[2] / "src" / "pmaccuracy" / "data" / "robots" / "upu_3.toml")
+    corners = lref.box_corners([0, 0, -30, 0, 0, 0], [0, 0, 10, 300, 0, 0])
+    for p in np.array(np.meshgrid([-10, 10], [-10, 10], [290, 310])).reshape(3, -1).T:
+        lam = np.linalg.solve(lref.member_wrenches(rdict, p, np.eye(3)), -(P + corners).T).T
+        assert np.all(lam * pattern >= 1e-6 * (1 - 1e-6)), (p, lam)
+    assert rec["n_check"] >= 8 and rec["preload_size_N"] > 0
+
+
+def test_springs_hold_every_leg_per_the_reference(capsys):
+    """``preload --springs`` on a 6-UPS at two poses: with the springs' forces along the legs every member keeps
+    its sign at every corner of the process box at both poses (reference member forces)."""
+    argv = ["preload", "--robot", "stewart_6ups", "--pose", 0, 0, 400, 0, 0, 0, "--pose", 5, 5, 420, 1, 2, 3,
+            "--fx", -10, 10, "--fz", -30, 10, "--springs", "--format", "json"]
+    status, out, err = run_cli(argv, capsys)
+    assert status == 0, err
+    rec = json.loads(out)[0]
+    sigma = np.array([rec[f"spring{i}_N"] for i in range(1, 7)])
+    pattern = np.array([1.0 if c == "+" else -1.0 for c in rec["pattern"]])
+    rdict = ref.load(Path(__file__).resolve().parents[2] / "src" / "pmaccuracy" / "data" / "robots" /
+                     "stewart_6ups.toml")
+    corners = lref.box_corners([0, 0, -10, 0, 0, 0], [10, 0, 20, 0, 0, 0])
+    for coords in ([0, 0, 400, 0, 0, 0], [5, 5, 420, 1, 2, 3]):
+        p, R = np.array(coords[:3], float), ref.rotation(coords[3:])
+        lam = np.array([lref.member_forces(rdict, p, R, F) for F in corners]) - sigma   # a spring along each leg
+        assert np.all(lam * pattern >= 1e-6 * (1 - 1e-6)), lam
+    assert rec["springs_size_N"] == pytest.approx(np.abs(sigma).max())

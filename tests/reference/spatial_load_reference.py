@@ -144,3 +144,66 @@ def random_clearance_states(sources, n, seed=0):
                 s[src["columns"]] = 0.0
         out.append(s)
     return np.array(out)
+
+
+# ---------------------------------------------------------------------------------------- wrench boxes, preload
+def box_corners(center, half):
+    """(64, 6): the corners of the box ``center +- half`` (every sign combination, own enumeration)."""
+    signs = np.array(np.meshgrid(*[[-1.0, 1.0]] * 6, indexing="ij")).reshape(6, -1).T
+    return np.asarray(center, float) + signs * np.asarray(half, float)
+
+
+def loaded_errors(M, sources, Fs, threshold=0.0):
+    """``(k, 6)``: the first-order loaded error (clearances only) at each wrench of ``Fs`` ``(k, 6)`` from the
+    sensitivities ``M`` (6, m) of :func:`spatial_error_reference.sensitivity`: each clearance source's variables
+    ``h_s g / |g|``, ``g = M_s^T F`` (undetermined sources, ``|g| <= threshold``, at 0), and ``(k, 6)`` the spread
+    those undetermined sources leave (``h_s |M_s rows|``)."""
+    out, spread = [], []
+    for F in np.atleast_2d(Fs):
+        s = np.zeros(M.shape[1])
+        sp = np.zeros(6)
+        for src in clearance_sources(sources):
+            cols = src["columns"]
+            g = M[:, cols].T @ F
+            if np.linalg.norm(g) > threshold:
+                s[cols] = src["half_width"] * g / np.linalg.norm(g)
+            else:
+                sp += src["half_width"] * np.linalg.norm(M[:, cols], axis=1)
+        out.append(M @ s)
+        spread.append(sp)
+    return np.array(out), np.array(spread)
+
+
+def smallest_preload(robot, positions_and_rotations, center, half, margin, length, direction=None):
+    """``(size, P, pattern)``: the smallest constant wrench ``P`` (size ``max(|P_f|, |P_m| / length)``, or the
+    smallest multiple of ``direction``) such that every member's intensity (:func:`member_forces`) keeps one sign
+    with at least ``margin`` for every corner of the box, at every pose ``(p, R)`` given; own linear programs per
+    sign pattern over the member wrenches (the intensities are linear in the wrench, so the corners suffice)."""
+    from scipy.optimize import linprog
+
+    corners = np.unique(box_corners(center, half), axis=0)     # a flat box repeats corners
+    Ls = [-np.linalg.inv(member_wrenches(robot, p, R)) for p, R in positions_and_rotations]   # lambda = L F
+    scale = np.array([1.0, 1.0, 1.0, length, length, length])
+    best = None
+    for pattern in np.array(np.meshgrid(*[[1.0, -1.0]] * 6, indexing="ij")).reshape(6, -1).T:
+        A, b = [], []
+        for L in Ls:
+            for F in corners:          # pattern_k (L (P + F))_k >= margin
+                A.append(-(pattern[:, None] * L))
+                b.append(-(margin - pattern * (L @ F)))
+        A, b = np.vstack(A), np.concatenate(b)
+        if direction is None:
+            n = 7
+            A_ub = np.vstack([np.column_stack([A, np.zeros(len(A))]),
+                              np.column_stack([np.diag(1 / scale), -np.ones(6)]),
+                              np.column_stack([-np.diag(1 / scale), -np.ones(6)])])
+            b_ub = np.concatenate([b, np.zeros(12)])
+        else:
+            n = 1
+            A_ub, b_ub = A @ np.asarray(direction, float)[:, None], b
+        res = linprog(np.eye(n)[-1], A_ub=A_ub, b_ub=b_ub,
+                      bounds=[(None, None)] * 6 + [(0, None)] if n == 7 else [(0, None)], method="highs")
+        if res.status == 0 and (best is None or res.fun < best[0] - 1e-12):
+            P = res.x[:6] if n == 7 else res.x[0] * np.asarray(direction, float)
+            best = (float(res.fun), P, pattern)
+    return best

@@ -337,9 +337,17 @@ def loaded_pose_error(robot: Manipulator | str, clearances, poses, load: Load, *
     """The pose error that ``load`` produces at ``poses`` ``(..., 3)`` with the clearances taken up along the
     joints' reactions (module docstring), first order and (with ``exact``) on the exact loop closure.
 
+    Every source of ``clearances`` follows the load here, tolerances included (``position``, ``direction``,
+    ``length`` and the polar keys go to the extreme the reactions select, like the clearances): right for a
+    clearance file; with tolerances in the file the result is their worst state aligned with the load, a bound
+    rather than a prediction (a load does not move a manufacturing error). Give the clearances alone and take
+    the tolerances' worst case from :func:`~pmaccuracy.accuracy.bounds.max_pose_errors`.
+
     A spatial robot takes poses ``(..., 6)``, its error sources and a
     :class:`~pmaccuracy.accuracy.spatial_loads.SpatialLoad`
     (:func:`pmaccuracy.accuracy.spatial_loads.spatial_loaded_error`; ``exact`` does not apply: first order).
+    It keeps the tolerances apart: only the clearances follow the load, the tolerances' worst case is given
+    beside it (:attr:`~pmaccuracy.accuracy.spatial_loads.SpatialLoadedError.tolerance`).
 
     Parameters
     ----------
@@ -503,9 +511,16 @@ def wrench_set_errors(robot: Manipulator | str, clearances, poses, center, half,
     ``A^{-1} diag(c) (-s)`` (module docstring) and the range is taken over the possible patterns: the exact
     range of the loaded error over the box (the error set at one wrench is the convex hull of its possible
     patterns). A leg flips when both its sides are possible (its intensity's range over the box reaches zero).
+
+    A spatial robot takes poses ``(..., 6)`` and a box of six-component wrenches
+    (:func:`pmaccuracy.accuracy.spatial_loads.spatial_wrench_set_errors`: a guaranteed enclosure and the range
+    attained at the box's centre and corners, since its discs and balls turn continuously with the wrench).
     """
-    plausibility.check_orientations(poses, "poses", poses=True)
     robot = robot_arg(robot)
+    if is_spatial(robot):
+        check_angle_values(rotation_angles(poses), "poses[..., 3:] (rotation vectors)")
+        return _spatial.spatial_wrench_set_errors(robot, clearances, poses, center, half, threshold=threshold)
+    plausibility.check_orientations(poses, "poses", poses=True)
     c, h = _box(center, half)
     if not (math.isfinite(threshold) and threshold >= 0):
         raise ConfigError(f"must be finite and >= 0 (N), got {threshold}", key="threshold")

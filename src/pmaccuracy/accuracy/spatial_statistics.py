@@ -229,6 +229,8 @@ class SpatialPoseStatistics:
         ``threshold``, ``exceed = P(|q| > threshold)`` and ``se_exceed``
     covariance : ``(6, 6)`` the exact covariance of the twist [mm, rad] (module docstring)
     within_worst : True when no sample exceeds the worst case (it must: a check of both computations)
+    twists : ``(samples, 6)`` or None
+        The Monte Carlo twists [mm, rad] when asked for (``keep_samples=True``), else None
     """
 
     robot: str
@@ -240,6 +242,7 @@ class SpatialPoseStatistics:
     quantities: dict[str, dict[str, float]]
     covariance: np.ndarray = field(repr=False)
     within_worst: bool = True
+    twists: np.ndarray | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``robot, clearances, distribution, pose`` (x, y, z mm, rotvec rad), ``samples, seed,
@@ -267,8 +270,8 @@ class SpatialPoseStatistics:
 
 def spatial_pose_statistics(robot, sources, pose, *, samples: int = 100_000, seed: int | None = 0,
                             distribution: str = "uniform", percentiles=(95.0, 99.0),
-                            thresholds: dict[str, float] | None = None, sigma: float = DEFAULT_SIGMA
-                            ) -> SpatialPoseStatistics:
+                            thresholds: dict[str, float] | None = None, sigma: float = DEFAULT_SIGMA,
+                            keep_samples: bool = False) -> SpatialPoseStatistics:
     """Distribution of a spatial robot's first-order pose error at one pose ``(6,)`` [x, y, z mm, rotation
     vector rad]: Monte Carlo of ``t = sum_s M_s x_s`` ``(samples, 6)``, the exact covariance and RSS, and the
     worst case of :func:`~pmaccuracy.accuracy.spatial_bounds.spatial_pose_errors` (module docstring).
@@ -278,7 +281,8 @@ def spatial_pose_statistics(robot, sources, pose, *, samples: int = 100_000, see
     ``"none"`` or None (the architecture's typical preset). ``distribution``: ``"uniform"`` or ``"normal"``
     (truncated isotropic Gaussian of standard deviation ``sigma`` times the half-width per coordinate).
     ``thresholds``: ``{"dx" | "dy" | "dz" | "dp": mm, "drx_deg" | "dry_deg" | "drz_deg" | "dtheta_deg": deg}``
-    for ``P(|q| > threshold)``.
+    for ``P(|q| > threshold)``. ``keep_samples``: keep the drawn twists ``(samples, 6)`` [mm, rad] in the
+    result's ``twists`` (e.g. for a histogram).
 
     Raises :class:`~pmaccuracy.errors.PoseError` for a pose that is not one ``(6,)`` pose (or is unreachable,
     near-singular) and :class:`~pmaccuracy.errors.ConfigError` naming ``samples`` (< 1000), ``distribution``,
@@ -339,4 +343,5 @@ def spatial_pose_statistics(robot, sources, pose, *, samples: int = 100_000, see
     label = distribution if distribution == "uniform" else f"normal(sigma={sigma:g})"
     return SpatialPoseStatistics(robot=robot.name, clearances=sources.name, distribution=label, pose=pose.copy(),
                                  samples=n, seed=seed if not isinstance(seed, np.random.Generator) else None,
-                                 quantities=quantities, covariance=cov, within_worst=bool(within))
+                                 quantities=quantities, covariance=cov, within_worst=bool(within),
+                                 twists=t if keep_samples else None)

@@ -194,7 +194,7 @@ def _region_point(robot: SpatialManipulator, region: SpatialRegion, pose: np.nda
 def spatial_synthesize(robot: SpatialManipulator, template, targets: dict[str, float], *, n: int = 20,
                        orientation=None, region: SpatialRegion | None = None, gap: float = DEFAULT_GAP,
                        max_boxes: int = DEFAULT_MAX_BOXES, mode: str = "uniform", costs=None,
-                       max_cuts: int = 10) -> SpatialSynthesis:
+                       max_cuts: int = 10, error_map=None) -> SpatialSynthesis:
     """The largest uniform scaling of ``template`` meeting ``targets`` (``{"dp": mm, "dtheta_deg": deg, ...}``,
     names in :data:`TARGETS`): at every point of the workspace's ``n``-per-axis grid (Eq. 1, ``region=None``;
     ``orientation`` a 6-UPS's rotation vector, rad), or certified at every pose of ``region``
@@ -202,6 +202,9 @@ def spatial_synthesize(robot: SpatialManipulator, template, targets: dict[str, f
     ``max_boxes``).
 
     ``template``: :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset name or a file.
+    ``error_map``: the template's grid map already computed
+    (:func:`~pmaccuracy.accuracy.spatial_maps.spatial_error_map` of ``robot`` and ``template`` at ``orientation``,
+    e.g. by a report), used by the grid mode instead of computing it again; its grid replaces ``n``.
     Certified mode raises :class:`~pmaccuracy.errors.UnsupportedArchitectureError` when the architecture's
     global worst case has no certified upper bound, :class:`~pmaccuracy.errors.CertificationError` when a
     targeted quantity's bound stays infinite (budget spent near a singularity), and warns
@@ -250,7 +253,13 @@ def spatial_synthesize(robot: SpatialManipulator, template, targets: dict[str, f
         return _min_cost(robot, template, dict(targets), costs, region, n, orientation, gap, max_boxes, max_cuts)
     if region is not None:
         return _certified(robot, template, dict(targets), region, gap, max_boxes)
-    ds = spatial_error_map(robot, template, n=n, orientation=orientation)
+    if error_map is None:
+        ds = spatial_error_map(robot, template, n=n, orientation=orientation)
+    else:
+        ds = error_map
+        if ds.attrs.get("robot") != robot.name or ds.attrs.get("clearances") != template.name:
+            raise ConfigError(f"the error map is of {ds.attrs.get('robot')!r} with {ds.attrs.get('clearances')!r}, "
+                              f"not of {robot.name!r} with {template.name!r}", key="error_map")
     best, binding, point = np.inf, None, None
     for name, target in targets.items():
         var, unit = TARGETS[name]

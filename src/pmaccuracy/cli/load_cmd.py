@@ -72,10 +72,15 @@ def add_map_options(p: argparse.ArgumentParser, what: str) -> None:
 
     p.add_argument("--map", action="store_true", help=what)
     p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
-                   help="with --map: N x N grid over the workspace's bounding box (default: 41)")
+                   help="with --map: N x N grid over the workspace's bounding box (default: 41; spatial robots: N x N x N, "
+                        "default 10 for load, 6 for preload, and 5 per axis for the preload over a region)")
     p.add_argument("--phi-deg", type=_common.angle_deg, nargs="+", default=None, metavar="PHI",
                    help="platform orientation(s) in degrees of the map (default: 0)")
     p.add_argument("--out", metavar="FILE", help="with --map: the map file, .nc or .csv (missing folders are created)")
+    p.add_argument("--orientation-deg", nargs="+", type=_common.angle_deg, default=None, metavar="DEG",
+                   help="spatial 6-UPS: roll pitch yaw (deg, extrinsic x-y-z) of the map's constant orientation "
+                        "(default 0 0 0) or, for the preload over a region, three fixed angles or six R0 R1 P0 P1 "
+                        "Y0 Y1 ranges (default: the home orientation)")
     add_shape(p)
 
 

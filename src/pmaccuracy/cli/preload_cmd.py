@@ -30,6 +30,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_map_options(p, "instead of poses: over the workspace grid at --phi-deg, the range of the loaded error over the "
                        "box (dx_lo, dx_hi, ... mm and deg), which legs' contacts flip (flip1..3) and how many "
                        "(flipping_legs), written to --out (.nc or .csv)")
+    p.add_argument("--springs", action="store_true",
+                   help="spatial 6-UPS, 3-RPS, 3-UPU at poses: the preload as constant-force springs alongside the "
+                        "legs (one per leg, base to platform joint centre) holding at every --pose at once, instead "
+                        "of a platform wrench (spring1_N, ...: positive pushes the platform away from the base)")
+    p.add_argument("--cylinder", nargs=5, type=_common.finite_float, metavar=("X", "Y", "R", "Z0", "Z1"),
+                   help="spatial robots, without poses: the region is the cylinder of axis (X, Y), radius R and "
+                        "heights Z0..Z1 (mm)")
+    p.add_argument("--sphere", nargs=4, type=_common.finite_float, metavar=("X", "Y", "Z", "R"),
+                   help="spatial robots, without poses: the region is the sphere of centre X, Y, Z, radius R (mm)")
     _common.add_plot(p, "draw the (first) pose: the legs whose contact flips over the box, the preload, and the "
                         "error's range without preload beside the constant offset with it and the worst case; with "
                         "--map: the ranges over the box and the flipping legs, one figure per --phi-deg")
@@ -42,7 +51,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.epilog = ((p.epilog or "") + " Without poses and without --map: the smallest constant preload for every "
                 "process wrench of the box at every pose of the region (--workspace, default, --box, --disc, "
                 "--polygon; --phi-deg PHI or LO HI): a linear program over a --grid N x N (default 21) by "
-                "--phi-steps sample, checked on a twice denser sample and refined at its worst poses.").strip()
+                "--phi-steps sample, checked on a twice denser sample and refined at its worst poses. Spatial robots "
+                "(--fz, --mx, --my, --mz too): at poses the loaded error's range over the box (an enclosure and the "
+                "range attained at its corners) and the preload; --map over the 3D workspace grid (--grid, "
+                "--orientation-deg); without poses one preload for a region (--workspace, --box with six numbers, "
+                "--cylinder, --sphere; checked on a sample, not proved); --springs: springs alongside the legs "
+                "instead of a platform wrench.").strip()
     p.set_defaults(func=run)
 
 

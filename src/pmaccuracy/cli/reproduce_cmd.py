@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Writes DIR/report.html (self-contained), DIR/report.md, DIR/results.json, PNG figures and "
                     "NetCDF maps for the robot (default: the paper's prototype, aalborg_3ppr); for a spatial robot "
                     "(stewart_6ups, delta_clavel, rps_3, prs_3, upu_3 or a spatial robot file) its accuracy report: "
-                    "its legs, workspace with an interactive 3D view, error maps and error sources.")
+                    "its legs, workspace with an interactive 3D view, error maps, error sources, design (tolerance "
+                    "synthesis, global worst case) and statistics.")
     p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out); created with its missing parents")
     _common.add_robot(p)
     p.add_argument("--grid", type=_common.positive_int, default=None, metavar="N",
@@ -33,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", action="append", metavar="NAME=VALUE",
                    help="design target of the design section's synthesis, repeatable: dx, dy, dp in mm, dphi_deg in "
                         "deg (e.g. --target dp=0.1 --target dphi_deg=0.1); default for the paper's robot dp=0.3 and "
-                        "dphi_deg=0.3, for the accuracy report none (no synthesis)")
+                        "dphi_deg=0.3, for the accuracy report none (no synthesis); a spatial robot: dx, dy, dz, dp "
+                        "in mm, drx_deg, dry_deg, drz_deg, dtheta_deg in deg, default dp=0.1 and dtheta_deg=0.05")
     p.add_argument("--phi-range-deg", type=_common.angle_deg, nargs=2, metavar=("LO", "HI"),
                    help="orientation interval (deg) of the design section's global worst case and synthesis "
                         "(default: -30 30 for the paper's robot, the range of --phi-deg otherwise)")
@@ -73,7 +75,7 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     from ..errors import ConfigError
     from ..report.spatial_report import DEFAULT_GRID, MAX_GRID, spatial_accuracy_report
 
-    planar_only = (("--phi-deg", args.phi_deg), ("--target", args.target), ("--phi-range-deg", args.phi_range_deg),
+    planar_only = (("--phi-deg", args.phi_deg), ("--phi-range-deg", args.phi_range_deg),
                    ("--box", args.box), ("--disc", args.disc), ("--polygon", args.polygon),
                    ("--region", args.region), ("--workspace", args.workspace))
     for option, value in planar_only:
@@ -84,9 +86,13 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     if not 4 <= grid <= MAX_GRID:
         raise ConfigError(f"{grid} points per axis of a 3D grid: give 4 to {MAX_GRID} for a spatial robot",
                           key="--grid")
+    targets = spatial_cmd.parse_targets(args.target) if args.target else None
+    if targets and args.no_design:
+        raise ConfigError("has no effect with --no-design (the targets are the design section's)", key="--target")
     sources = spatial_cmd._sources(args, robot)   # default: the architecture's preset, said on stderr
     _common.prepare_output(args.out, "--out", folder=True)
-    results = spatial_accuracy_report(Path(args.out), robot, sources, grid=grid, strict=args.strict,
+    results = spatial_accuracy_report(Path(args.out), robot, sources, grid=grid, targets=targets,
+                                      design=not args.no_design, strict=args.strict,
                                       command=_common.command_line(args), stream=sys.stderr)
     print(f"wrote {Path(args.out) / 'report.html'} ({results['elapsed_s']} s): {robot.name} with "
           f"{results['clearances']}")

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 from ..errors import NoSolutionError, OutsideJointLimitsError, PmAccuracyError, PoseError
-from ..model.spatial import CONTROLLED, POSE_NAMES
+from ..model.spatial import POSE_NAMES
 from . import _common
 
 #: What ``--pose`` takes, in every help text.
@@ -370,3 +370,27 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
                 for r in rows]
     _common.emit(rows, args.format)
     return 0
+
+
+def parse_targets(items) -> dict[str, float]:
+    """``--target NAME=VALUE`` items of a spatial robot as ``{name: value}`` (names of
+    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS`: mm, deg); a bad item raises naming ``--target``."""
+    from ..accuracy.spatial_synthesis import TARGETS
+
+    targets = {}
+    for item in items:
+        name, sep, value = str(item).partition("=")
+        name = name.strip()
+        if not sep or name not in TARGETS:
+            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
+                                  f"got {item!r}")
+        if name in targets:
+            raise PmAccuracyError(f"--target: {name} given twice")
+        try:
+            v = float(value)
+        except ValueError:
+            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
+        if not (np.isfinite(v) and v > 0):
+            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
+        targets[name] = v
+    return targets

@@ -14,28 +14,37 @@ from ..errors import ConfigError
 from . import _common
 
 #: Options of the planar commands that a spatial robot does not take (their spatial counterparts).
-PLANAR_ONLY = {"m": "--mz (and --mx, --my)", "gravity_deg": "--gravity GX GY GZ", "map": "poses (--pose)",
-               "plot": "the table or --format json", "magnify": "nothing (no drawing yet)", "exact": "nothing (first "
-               "order)", "out": "poses (--pose)", "grid": "poses (--pose)", "phi_deg": "poses (--pose)",
-               "joints": "--pose"}
+PLANAR_ONLY = {"m": "--mz (and --mx, --my)", "gravity_deg": "--gravity GX GY GZ", "phi_deg": "--orientation-deg "
+               "(a 6-UPS's map or region orientation)", "plot": "the table or --format json",
+               "magnify": "nothing (no drawing yet)", "exact": "nothing (first order)", "joints": "--pose"}
 #: Their values when not given.
-_UNSET = {"m": (0.0, (0.0, 0.0)), "gravity_deg": (-90.0,), "map": (False,), "plot": (None,), "magnify": (None,),
-          "exact": (False,), "out": (None,), "grid": (None,), "phi_deg": (None,), "joints": (None,)}
+_UNSET = {"m": (0.0, (0.0, 0.0)), "gravity_deg": (-90.0,), "phi_deg": (None,), "plot": (None,), "magnify": (None,),
+          "exact": (False,), "joints": (None,)}
 #: The spatial-only options and their values when not given.
 SPATIAL_ONLY = {"fz": (0.0, (0.0, 0.0)), "mx": (0.0, (0.0, 0.0)), "my": (0.0, (0.0, 0.0)), "mz": (0.0, (0.0, 0.0)),
-                "gravity": (None,), "direction": (None,)}
+                "gravity": (None,), "direction": (None,), "orientation_deg": (None,), "cylinder": (None,),
+                "sphere": (None,), "springs": (False,)}
+#: Default grids (points per axis) of the spatial maps and the region preload.
+LOAD_MAP_GRID, PRELOAD_MAP_GRID, REGION_GRID = 10, 6, 5
 
 
-def refuse_planar_options(args: argparse.Namespace, robot) -> None:
-    """One line for an option of the planar commands that has no meaning for the spatial robot."""
+def refuse_planar_options(args: argparse.Namespace, robot, *, region: bool = False) -> None:
+    """One line for an option of the planar commands that has no meaning for the spatial robot (``region``: the
+    command takes a region, ``--workspace``, ``--box``, ``--cylinder``, ``--sphere``)."""
     for key, instead in PLANAR_ONLY.items():
         value = getattr(args, key, None)
         if hasattr(args, key) and _given(value, _UNSET[key]):
             raise ConfigError(f"{robot.name} is a spatial robot ({robot.architecture}): this option is for planar "
                               f"robots; use {instead}", key="--" + key.replace("_", "-"))
-    if any(getattr(args, key, None) for key in ("workspace", "box", "disc", "polygon", "region")):
-        raise ConfigError(f"{robot.name} is a spatial robot: `{args.command}` takes poses (--pose), not a region",
-                          key="--pose")
+    for key in ("disc", "polygon"):
+        if getattr(args, key, None) is not None:
+            raise ConfigError(f"{robot.name} is a spatial robot: its region is --box (six numbers), --cylinder, "
+                              "--sphere or --workspace", key="--" + key)
+    if getattr(args, "region", None) is not None and args.region.strip() != "workspace":
+        raise ConfigError("a spatial robot's box is --box (six numbers)", key="--region")
+    if not region and any(getattr(args, key, None) for key in ("workspace", "box", "cylinder", "sphere")):
+        raise ConfigError(f"{robot.name} is a spatial robot: `{args.command}` takes poses (--pose) or --map over "
+                          "the whole workspace, not a region", key="--pose")
 
 
 def refuse_spatial_options(args: argparse.Namespace) -> None:
@@ -85,6 +94,7 @@ def run_load(args: argparse.Namespace, robot) -> int:
     from .spatial_cmd import poses
 
     refuse_planar_options(args, robot)
+    _map_only(args)
     if args.mass < 0:
         raise ConfigError(f"a mass cannot be negative, got {args.mass:g} kg", key="--mass")
     if args.unloaded_below < 0:
@@ -96,7 +106,12 @@ def run_load(args: argparse.Namespace, robot) -> int:
     if not any(gravity):
         raise ConfigError("the direction of gravity must not be zero", key="--gravity")
     sources = _sources(args, robot)
-    full = poses(robot, args.pose, args.poses_csv)
+    if args.map:
+        if args.details:
+            raise ConfigError("goes with poses (--pose), not --map", key="--details")
+        grid, orientation = _map_checks(args, robot, LOAD_MAP_GRID)
+    else:
+        full = poses(robot, args.pose, args.poses_csv)
     warn(force_messages({"--fx/--fy/--fz": math.hypot(args.fx, args.fy, args.fz), "--mass (weight)": G0 * args.mass},
                         {"--mx/--my/--mz": math.hypot(args.mx, args.my, args.mz)}, robot.characteristic_length))
     load = SpatialLoad(force=(args.fx, args.fy, args.fz), moment=(args.mx, args.my, args.mz), mass=args.mass,
@@ -104,6 +119,13 @@ def run_load(args: argparse.Namespace, robot) -> int:
     if load.is_zero:
         raise ConfigError("the load is zero: give --fx, --fy, --fz, --mx, --my, --mz or --mass (every clearance "
                           "state is then possible: see `pmaccuracy bounds`)", key="--fx")
+    if args.map:
+        from ..accuracy.spatial_loads import spatial_loaded_error_map
+
+        ds = spatial_loaded_error_map(robot, sources, load, n=grid, orientation=orientation,
+                                      threshold=args.unloaded_below)
+        _common.emit(write_map(ds, args.out), args.format)
+        return 0
     with _pose_errors():
         res = spatial_loaded_error(robot, sources, full, load, threshold=args.unloaded_below)
     records = res.records()
@@ -124,12 +146,20 @@ def run_load(args: argparse.Namespace, robot) -> int:
 
 
 def run_preload(args: argparse.Namespace, robot) -> int:
-    """``preload --robot SPATIAL --pose ...``: the smallest preload holding every closure row's sign over the box."""
-    from ..accuracy.spatial_loads import spatial_design_preload
+    """``preload --robot SPATIAL``: at poses, the loaded error's range over the box and the smallest preload
+    holding every closure row's sign; with ``--map`` both over the workspace grid; without poses, one preload for
+    a region (``--workspace``, ``--box``, ``--cylinder``, ``--sphere``)."""
+    from ..accuracy.spatial_loads import spatial_design_preload, spatial_wrench_set_errors
     from ..model.plausibility import force_messages, warn
     from .spatial_cmd import poses
 
-    refuse_planar_options(args, robot)
+    at_poses = bool(args.pose or args.poses_csv)
+    refuse_planar_options(args, robot, region=not at_poses and not args.map)
+    if getattr(args, "phi_steps", 5) != 5:
+        raise ConfigError(f"{robot.name} is a spatial robot: the region's orientations are --orientation-deg "
+                          "(a 6-UPS's ranges) and --grid", key="--phi-steps")
+    if at_poses:
+        _map_only(args)
     keys = ("fx", "fy", "fz", "mx", "my", "mz")
     lo = np.array([getattr(args, k)[0] for k in keys])
     hi = np.array([getattr(args, k)[1] for k in keys])
@@ -141,16 +171,24 @@ def run_preload(args: argparse.Namespace, robot) -> int:
     ends = np.maximum(np.abs(lo), np.abs(hi))
     warn(force_messages({"|--fx/--fy/--fz|": float(np.linalg.norm(ends[:3]))},
                         {"|--mx/--my/--mz|": float(np.linalg.norm(ends[3:]))}, robot.characteristic_length))
-    if not (args.pose or args.poses_csv):
-        raise ConfigError("a spatial robot's preload is designed at poses: give --pose (or --poses-csv)", key="--pose")
-    sources = _sources(args, robot)
-    full = poses(robot, args.pose, args.poses_csv)
     center, half = (lo + hi) / 2, (hi - lo) / 2
     direction = None if args.direction is None else np.array(args.direction, dtype=float)
+    if args.springs and not at_poses:
+        raise ConfigError("springs are designed at poses: give --pose (or --poses-csv)", key="--springs")
+    if args.map:
+        return _preload_map(args, robot, center, half, direction)
+    if not at_poses:
+        return _region_preload(args, robot, center, half, direction)
+    sources = _sources(args, robot)
+    full = poses(robot, args.pose, args.poses_csv)
+    if args.springs:
+        return _springs(args, robot, sources, full, center, half, direction)
     rows = []
     from ..kinematics.spatial import coordinates
 
-    for pose in full:
+    with _pose_errors():
+        ranges = spatial_wrench_set_errors(robot, sources, full, center, half)
+    for k, pose in enumerate(full):
         with _pose_errors():
             try:
                 pre = spatial_design_preload(robot, sources, pose, center, half, direction=direction)
@@ -160,6 +198,9 @@ def run_preload(args: argparse.Namespace, robot) -> int:
                 raise ConfigError(exc.message, key="--direction") from None
         c = coordinates(pose, degrees=True)
         rec = {n: float(v) for n, v in zip(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"), c)}
+        rec["not_held_without"] = ",".join(n for n, v in ranges.held.items() if not v[k]) or "-"
+        _error_columns(rec, ranges.upper[k] - ranges.lower[k], suffix="_range")
+        _error_columns(rec, ranges.attained_upper[k] - ranges.attained_lower[k], suffix="_attained_range")
         rec.update({f"preload_{k}_{'N' if i < 3 else 'Nmm'}": float(pre.wrench[i]) + 0.0 for i, k in enumerate(keys)})
         rec["preload_size_N"] = pre.size
         rec["pattern"] = "".join("+" if s > 0 else "-" for s in pre.pattern)
@@ -169,4 +210,132 @@ def run_preload(args: argparse.Namespace, robot) -> int:
         rec["max_turn_deg"] = max(pre.max_angle_deg.values(), default=0.0)
         rows.append(rec)
     _common.emit(rows, args.format)
+    return 0
+
+
+def _map_only(args: argparse.Namespace) -> None:
+    """Refuse ``--out``, ``--grid`` and ``--orientation-deg`` with poses (they go with ``--map`` or a region)."""
+    if getattr(args, "map", False):
+        return
+    for key in ("out", "grid", "orientation_deg"):
+        if getattr(args, key, None) is not None:
+            raise ConfigError("goes with --map (or, for preload without poses, the preload over a region)",
+                              key="--" + key.replace("_", "-"))
+
+
+def _map_checks(args: argparse.Namespace, robot, default: int):
+    """``(grid, orientation)`` of a spatial ``--map`` (the orientation a rotation vector, rad, or None)."""
+    from ..numerics.spatial import euler_xyz_to_rotvec
+
+    if args.pose or args.poses_csv:
+        raise ConfigError("a map covers the workspace grid: give --map or poses (--pose, --poses-csv), not both",
+                          key="--map")
+    if not args.out:
+        raise ConfigError("--map needs --out FILE.nc or FILE.csv", key="--out")
+    grid = default if args.grid is None else args.grid
+    if not 2 <= grid <= 200:
+        raise ConfigError(f"{grid} points per axis of a 3D grid; give 2 to 200", key="--grid")
+    orientation = None
+    if args.orientation_deg is not None:
+        if robot.mobility != "6":
+            raise ConfigError(f"is for a 6-UPS; a {robot.architecture}'s map covers its whole workspace",
+                              key="--orientation-deg")
+        if len(args.orientation_deg) != 3:
+            raise ConfigError(f"a map's orientation is roll pitch yaw (3 numbers, deg), got "
+                              f"{len(args.orientation_deg)}", key="--orientation-deg")
+        orientation = euler_xyz_to_rotvec(np.radians(np.array(args.orientation_deg, dtype=float)))
+    _common.prepare_output(args.out, "--out", (".nc", ".csv"))
+    return grid, orientation
+
+
+def write_map(ds, out: str) -> list[dict]:
+    """Write a spatial load map (.nc: NetCDF through scipy, rotations in rad as the spatial error maps; .csv: one
+    row per grid point inside the workspace, rotations as ``*_deg``) and return each variable's range (deg)."""
+    from pathlib import Path
+
+    path = Path(out)
+    if path.suffix.lower() == ".nc":
+        ds.to_netcdf(path, engine="scipy")
+    else:                       # degrees in a table: rad variables become *_deg
+        df = ds.to_dataframe().reset_index()
+        df = df[np.isfinite(df[next(iter(ds.data_vars))])]
+        for name, var in ds.data_vars.items():
+            if var.attrs.get("units") == "rad":
+                df.insert(df.columns.get_loc(name), f"{name}_deg", np.degrees(df.pop(name)))
+        df = df.rename(columns={n: f"{n}_deg" for n, c in ds.coords.items() if c.attrs.get("units") == "deg"})
+        df.to_csv(path, index=False, float_format="%.17g")
+    rows = []
+    for name, var in ds.data_vars.items():
+        unit = var.attrs.get("units", "")
+        k = math.degrees(1.0) if unit == "rad" else 1.0
+        lo, hi = float(var.min(skipna=True)) * k, float(var.max(skipna=True)) * k
+        rows.append({"variable": f"{name}_deg" if unit == "rad" else name, "units": "deg" if unit == "rad" else unit,
+                     "min": lo if math.isfinite(lo) else None, "max": hi if math.isfinite(hi) else None})
+    return rows
+
+
+def _preload_map(args: argparse.Namespace, robot, center, half, direction) -> int:
+    """``preload --map``: the loaded error's ranges over the box and the preload each grid point needs."""
+    from ..accuracy.spatial_loads import spatial_wrench_set_map
+
+    grid, orientation = _map_checks(args, robot, PRELOAD_MAP_GRID)
+    sources = _sources(args, robot)
+    try:
+        ds = spatial_wrench_set_map(robot, sources, center, half, n=grid, orientation=orientation,
+                                    direction=direction)
+    except ConfigError as exc:
+        if exc.key != "direction":
+            raise
+        raise ConfigError(exc.message, key="--direction") from None
+    _common.emit(write_map(ds, args.out), args.format)
+    return 0
+
+
+def _region_preload(args: argparse.Namespace, robot, center, half, direction) -> int:
+    """``preload`` without poses: one preload for every sampled pose of a region."""
+    from ..accuracy.spatial_loads import spatial_design_region_preload
+    from ..errors import EmptyWorkspaceError
+    from .worst_cmd import parse_spatial_region, shape_key
+
+    if direction is not None:
+        raise ConfigError("goes with poses (--pose) or --map; the preload over a region is a free wrench",
+                          key="--direction")
+    if args.out is not None:
+        raise ConfigError("goes with --map", key="--out")
+    grid = REGION_GRID if args.grid is None else args.grid
+    if not 2 <= grid <= 50:
+        raise ConfigError(f"{grid} points per axis of the region's grid; give 2 to 50", key="--grid")
+    region = parse_spatial_region(robot, args)
+    sources = _sources(args, robot)
+    try:
+        res = spatial_design_region_preload(robot, sources, region, center, half, grid=grid)
+    except EmptyWorkspaceError as exc:
+        raise ConfigError(str(exc), key=shape_key(args)) from None
+    _common.emit([res.record()], args.format)
+    return 0
+
+
+def _springs(args: argparse.Namespace, robot, sources, full, center, half, direction) -> int:
+    """``preload --springs``: constant-force springs alongside the legs holding every row at every pose."""
+    from ..accuracy.spatial_loads import spatial_spring_preload
+    from ..errors import UnsupportedArchitectureError
+
+    if direction is not None:
+        raise ConfigError("a spring acts along its leg: --direction is for a platform preload", key="--direction")
+    with _pose_errors():
+        try:
+            sp = spatial_spring_preload(robot, sources, full, center, half)
+        except UnsupportedArchitectureError as exc:
+            raise ConfigError(exc.message, key="--springs") from None
+        except ConfigError as exc:
+            if exc.key != "half":
+                raise
+            raise ConfigError(exc.message, key="--springs") from None
+    rec = {f"spring{i + 1}_N": float(v) + 0.0 for i, v in enumerate(sp.forces)}
+    rec.update(springs_size_N=sp.size, pattern="".join("+" if s > 0 else "-" for s in sp.pattern),
+               min_intensity=sp.min_intensity, poses=len(full),
+               not_held=",".join(k for k, v in sp.held.items() if not v) or "-")
+    for k in range(len(full)):
+        _error_columns(rec, sp.offset[k], prefix=f"pose{k + 1}.offset_")
+    _common.emit([rec], args.format)
     return 0

@@ -85,9 +85,6 @@ def shape_key(args: argparse.Namespace) -> str:
 def parse_region(robot, args: argparse.Namespace):
     """The :class:`~pmaccuracy.accuracy.global_worst.Region` of ``--phi-deg`` and the shape options; checks
     ``--gap-pct``."""
-    import numpy as np
-
-    from ..errors import ConfigError
     from ..accuracy.global_worst import make_region
 
     _common.check_gap_pct(args.gap_pct)

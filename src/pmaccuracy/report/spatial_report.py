@@ -12,7 +12,6 @@ The spatial counterpart of :mod:`pmaccuracy.report.accuracy_report`: the robot a
 from __future__ import annotations
 
 import json
-import re
 import time
 from pathlib import Path
 
@@ -26,10 +25,12 @@ from ..io.resolve import robot_arg
 from ..kinematics.spatial import coordinates, inverse_kinematics, reference_pose, singularity
 from ..kinematics.spatial_workspace import spatial_workspace
 from ..model.spatial import SpatialManipulator, is_spatial
-from ..model.spatial_sources import ACTUATED, JOINT_WORDS, JOINTS, SpatialErrorSources, default_preset
+from ..model.spatial_sources import JOINT_WORDS, JOINTS, SpatialErrorSources, default_preset
 from ..errors import ConfigError
 from .document import Document, provenance
 from .sections import ReportDependencyError, Section, SectionRunner, estimate
+from .spatial_design import check_targets, design_section, statistics_section
+from .spatial_words import KEY_WORDS, ROLES, kind_of, source_description  # noqa: F401 - re-exported
 from .spatial_figures import (robot_segments, save_map_slices_figure, save_spatial_workspace_figure,
                               write_spatial_workspace_page)
 from .view3d_html import view3d_html
@@ -41,33 +42,31 @@ DEFAULT_GRID = 30
 MAX_GRID = 80
 #: Section titles (a failed section keeps its heading above the box that replaces it).
 TITLES = {"summary": "Summary", "robot": "The robot", "workspace": "Workspace", "maps": "Error maps",
-          "sources": "Error sources", "method": "Method"}
+          "sources": "Error sources", "design": "Design: how loose may the joints be",
+          "statistics": "Statistics", "method": "Method"}
 #: Seconds per grid point (workspace, map) and fixed seconds of each section, measured on the project's 2-core
 #: machine: the estimates printed before the report runs (never used for a decision).
 MAP_SECONDS_PER_POINT = {"6": 3e-5, "3T": 4e-5, "2R1T": 7.5e-5}      # by mobility (2R1T: parasitic motions solved)
 WORKSPACE_SECONDS_PER_POINT = 1e-5
-FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "method": 0.1}
-#: Joint roles of each architecture, base to platform (the sources' table says which joint a label is).
-ROLES = {"6-UPS": ("base", "actuated", "platform"), "3-RPS": ("base", "actuated", "platform"),
-         "3-PRS": ("actuated slide", "carriage", "platform"), "3-UPU": ("base", "actuated", "platform"),
-         "delta": ("arm", "elbow, rod 1", "platform, rod 1", "elbow, rod 2", "platform, rod 2")}
-#: Words of the source keys.
-KEY_WORDS = {"radial": "radial play", "axial": "axial play", "tilt": "tilt", "actuator": "actuator error",
-             "backlash": "backlash", "lateral": "lateral play", "position": "position tolerance",
-             "direction": "direction tolerance", "length": "length tolerance"}
+FIXED_SECONDS = {"summary": 0.3, "robot": 0.4, "workspace": 1.2, "maps": 1.4, "sources": 0.3, "design": 2.0,
+                 "statistics": 1.2, "method": 0.1}
 _UNITS = ("mm", "mm", "mm", "deg", "deg", "deg")
 #: Rows of the table of single sources (the rest summed in one row; all of them in results.json).
 MAX_SOURCE_ROWS = 18
 
 
 def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator, sources=None, *,
-                            grid: int = DEFAULT_GRID, strict: bool = False, command: str | None = None,
-                            stream=None, progress: bool | None = None) -> dict:
+                            grid: int = DEFAULT_GRID, targets: dict | None = None, design: bool = True,
+                            strict: bool = False, command: str | None = None, stream=None,
+                            progress: bool | None = None) -> dict:
     """Write the accuracy report of the spatial ``robot`` with its error ``sources`` (a preset name, a file, a
     :class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`; default the architecture's
     :data:`~pmaccuracy.model.spatial_sources.DEFAULT_PRESET`) in ``out_dir``; returns ``results.json``'s content.
 
-    ``grid``: points per axis of the workspace and of the error map (4 to :data:`MAX_GRID`). ``strict``: a
+    ``grid``: points per axis of the workspace and of the error map (4 to :data:`MAX_GRID`). ``targets``: the
+    design section's targets (``{"dp": mm, "dtheta_deg": deg, ...}``, names of
+    :data:`pmaccuracy.accuracy.spatial_synthesis.TARGETS`; default
+    :data:`pmaccuracy.report.spatial_design.TARGETS`); ``design=False`` leaves the design section out. ``strict``: a
     section that cannot be computed raises instead of becoming a box. ``stream`` (e.g. ``sys.stderr``) receives
     the sections' estimates before they run and, on a terminal or with ``progress=True``, a progress bar;
     ``command`` (the command line) goes to the footer.
@@ -79,6 +78,8 @@ def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator
                           "pmaccuracy.report.accuracy_report.accuracy_report", key="robot")
     if not isinstance(grid, (int, np.integer)) or not 4 <= grid <= MAX_GRID:
         raise ConfigError(f"{grid!r} points per axis of a 3D grid: give 4 to {MAX_GRID}", key="grid")
+    if targets is not None:
+        check_targets(targets)
     if sources is None:
         sources = default_preset(robot)
     if not isinstance(sources, SpatialErrorSources):
@@ -120,6 +121,14 @@ def spatial_accuracy_report(out_dir: str | Path, robot: str | SpatialManipulator
         Section(TITLES["sources"], lambda: _sources_section(doc, robot, sources, need("bref", TITLES["summary"]),
                                                             results),
                 FIXED_SECONDS["sources"], short="sources"),
+    ]
+    if design:
+        sections.append(Section(TITLES["design"], lambda: _design(doc, robot, sources, need("ds", TITLES["summary"]),
+                                                                  state, results, figure, out, targets),
+                                FIXED_SECONDS["design"], short="design"))
+    sections += [
+        Section(TITLES["statistics"], lambda: _statistics(doc, robot, sources, state, results, figure, out, targets),
+                FIXED_SECONDS["statistics"], short="statistics"),
         Section(TITLES["method"], lambda: _method_section(doc, robot, grid), FIXED_SECONDS["method"],
                 short="method"),
     ]
@@ -205,11 +214,11 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
     doc.paragraph(f"Worst-case first-order pose errors of `{robot.name}`, a {robot.label} with {robot.n_legs} legs "
                   f"(joints from base to platform: {legs}), with the error sources `{sources.name}` ({n_src} "
                   f"non-zero half-widths). It controls {', '.join(robot.controlled)}. Lengths in mm, angles in "
-                  "degrees; every value is a worst case over all the sources acting at once.")
+                  "degrees; the values are worst cases over all the sources acting at once unless said otherwise.")
     worst_axis = int(np.argmax(comp[:3]))
     on_edge = _on_edge(finite, np.unravel_index(int(np.nanargmax(ds["dp_max"].values)), finite.shape))
     results["headline"]["dp_max_on_edge"] = on_edge
-    doc.bullets([
+    state["summary"] = items = [
         f"Over the workspace ({n_in} of the {finite.size} points of a {grid} x {grid} x {grid} grid): worst "
         f"position error **|dp| = {_g(dp_max)} mm** (at {_where_text(ds, dp_where)}), worst rotation "
         f"**|dtheta| = {_g(np.degrees(dth_max))} deg** (at {_where_text(ds, dth_where)}).",
@@ -219,7 +228,8 @@ def _summary(doc, robot, sources, grid, out, state, results) -> None:
         f"The map's worst |dp| is {_g(dp_max / ref_json['dp_max'], 3)} times the reference pose's; it is reached "
         + ("on the edge of the workspace (a neighbouring grid point is outside it)." if on_edge else
            "inside the workspace (every neighbouring grid point is inside it)."),
-    ])
+    ]
+    doc.bullets(items)      # the design and statistics sections add their conclusions to this list
 
 
 def _on_edge(inside: np.ndarray, index: tuple) -> bool:
@@ -395,19 +405,6 @@ def _maps_section(doc, robot, sources, ds, out, results, figure) -> None:
                      f"{_g(lo)} - {_g(hi)} {unit}.{note}")
 
 
-def source_description(architecture: str, label: str) -> str:
-    """``legs[2].joints[1].radial[pin 1]`` in words: ``leg 2, universal joint (base), radial play, pin 1``."""
-    m = re.fullmatch(r"legs\[(\d+)\]\.joints\[(\d+)\]\.(\w+)(?:\[pin (\d)\])?", label)
-    if not m:
-        return label
-    leg, joint, key, pin = int(m[1]), int(m[2]) - 1, m[3], m[4]
-    kind = JOINTS[architecture][joint]
-    word = "actuated " + JOINT_WORDS[kind] if joint == ACTUATED[architecture] and kind != "P" else JOINT_WORDS[kind]
-    role = ROLES[architecture][joint]
-    text = f"leg {leg}, {word} ({role}), {KEY_WORDS.get(key, key)}"
-    return text + (f", pin {pin}" if pin else "")
-
-
 def _sources_section(doc, robot, sources, bref, results) -> None:
     doc.heading(TITLES["sources"])
     shares = bref.shares()
@@ -434,9 +431,7 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
                      *[_share(v) for v in rest_sum], _percent(100 * rest_sum[k] / total if total else 0.0)])
     kinds: dict[str, np.ndarray] = {}
     for label, s in items:
-        m = re.fullmatch(r"legs\[\d+\]\.joints\[(\d+)\]\.(\w+)", label.split("[pin")[0])
-        key = source_description(robot.architecture, f"legs[1].joints[{m[1]}].{m[2]}").split(", ", 1)[1] \
-            if m else label
+        key = kind_of(robot.architecture, label)
         kinds[key] = kinds.get(key, 0) + s
     kind_items = sorted(kinds.items(), key=lambda t: -t[1][k])
     results["sources"] = {"pose": bref.poses[0].tolist(), "sorted_by": COMPONENTS[k], "each": js,
@@ -467,6 +462,38 @@ def _sources_section(doc, robot, sources, bref, results) -> None:
     doc.table(["source", "label", *head, f"share of {COMPONENTS[k]}"], rows)
 
 
+def _design(doc, robot, sources, ds, state, results, figure, out, targets) -> None:
+    number = doc.heading(TITLES["design"])
+    design_section(doc, robot, sources, ds, state, results, figure, out, targets)
+    d = results["design"]
+    tgt = " and ".join(f"{'|dtheta|' if n == 'dtheta_deg' else '|dp|' if n == 'dp' else n.removesuffix('_deg')} "
+                       f"<= {_g(v)} {'deg' if n.endswith('_deg') else 'mm'}" for n, v in d["targets"].items())
+    glob = d.get("global") or {}
+    cert = glob.get("scale_certified")
+    if cert is not None:
+        lam, how = cert, "certified over the whole workspace"
+    elif glob:
+        lam = min(d["scale_grid"], glob["scale_attained_limit"])
+        how = (f"from the worst poses found over the workspace, not certified; {_g(d['scale_grid'])} at the map's "
+               "grid points")
+    else:
+        lam, how = d["scale_grid"], "at the map's grid points only"
+    verb = (f"may grow up to {_g(lam, 3)} times its value" if lam > 1 else
+            f"must shrink to at most {_g(lam, 3)} of its value")
+    state.get("summary", []).append(f"Design (section {number}): for {tgt} everywhere, every half-width {verb} "
+                                    f"({how}).")
+
+
+def _statistics(doc, robot, sources, state, results, figure, out, targets) -> None:
+    number = doc.heading(TITLES["statistics"])
+    statistics_section(doc, robot, sources, state, results, figure, out, targets)
+    q = results["statistics"]["poses"][0]["quantities"]["dp"]
+    state.get("summary", []).append(
+        f"Statistics (section {number}): with every source independent and uniform in its set, |dp| at the "
+        f"reference pose is {_g(q['rms'], 3)} mm RMS and below {_g(q['p99'], 3)} mm in 99 % of the robots "
+        f"({_percent(100 * q['p99'] / q['worst'])} of its worst case).")
+
+
 def _percent(value: float) -> str:
     """A share in percent: 3 significant digits, ``0 %`` for a rounding residue."""
     return "0 %" if abs(value) < 1e-9 else f"{value:.3g} %"
@@ -493,10 +520,15 @@ def _method_section(doc, robot, grid) -> None:
         "**Checked** against an independent brute force (every source applied as a finite displacement in the legs' "
         "nonlinear chains, the pose solved again): components to 1e-6 relative on random robots of every "
         "architecture.",
+        "**Design.** The synthesis scales every half-width by one factor (the largest meeting the targets at "
+        "every grid point of the map); the global worst case searches the whole workspace (a grid, then local "
+        "refinement, and for a 6-UPS a branch and bound that certifies an upper bound); a kind's share is the sum "
+        "of its sources' support functions along the component, so the shares add up to the component.",
+        "**Statistics.** First-order, every source independent and uniform in its set; the analytic RMS is exact "
+        "for that model (the covariance `sum v_s M_s M_s^T`, `v_s` = 1/3, 1/4, 1/5 for a segment, disc, ball), the "
+        "percentiles are Monte Carlo estimates with their 95 % intervals (order statistics).",
         "**Not included yet for spatial robots:** certified bounds of the nonlinear model (here the errors are "
-        "first order), the certified global worst case over a region, certified tolerance synthesis over a "
-        "region, errors under loads and calibration. They exist for planar robots and will come for spatial "
-        "ones; this report does not claim them. The error's distribution at a pose (`pmaccuracy statistics`) "
-        "and the scaling of the sources that meets targets on the workspace grid (`pmaccuracy synthesize`) are "
-        "available from their commands (not in this report yet).",
+        "first order), a certified global worst case for the architectures other than the 6-UPS, a synthesis "
+        "giving each joint its own factor (minimum cost), errors under loads and calibration. They exist for "
+        "planar robots and will come for spatial ones; this report does not claim them.",
     ])
