@@ -11,7 +11,9 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +22,9 @@ import pmaccuracy as pm
 from pmaccuracy.errors import PmAccuracyError
 from pmaccuracy.model import plausibility
 from pmaccuracy.model.plausibility import PlausibilityWarning
+
+#: Where the calls that write a file write it (removed at exit).
+_SCRATCH = tempfile.TemporaryDirectory(prefix="pmaccuracy-units-")
 
 PPR = "aalborg_3ppr"
 RRR = "symmetric_3rrr"
@@ -161,6 +166,11 @@ def _spatial_calls():
                                                         orientation=[0.0, 0.0, phi]),
         "spatial_error_map": lambda phi: pm.spatial_error_map(hexapod, pm.load_clearances("ups_typical", hexapod),
                                                               n=5, orientation=[0.0, 0.0, phi]),
+        "spatial_percentile_map": lambda phi: pm.spatial_percentile_map(
+            hexapod, pm.load_clearances("ups_typical", hexapod), n=4, samples=1000, orientation=[0.0, 0.0, phi]),
+        "write_spatial_map": lambda phi: pm.write_spatial_map(
+            Path(_SCRATCH.name) / "m.nc", hexapod, pm.load_clearances("ups_typical", hexapod), n=4,
+            orientation=[0.0, 0.0, phi]),
     }
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from ..errors import ConfigError, EmptyWorkspaceError
 from . import _common
 from .bounds_cmd import add_clearances
+from .statistics_cmd import _percentile, _threshold
 from .worst_cmd import add_shape, parse_shape, shape_key
 from .._optional import require
 
@@ -52,7 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="grid points per computed block (default: 65536)")
     p.add_argument("--tile", type=_common.positive_int, default=None, metavar="T",
                    help="Zarr chunk side along y and x, one orientation per chunk (default: 1024)")
-    p.add_argument("--dask", action="store_true", help="compute an in-memory map's blocks with Dask")
+    p.add_argument("--dask", action="store_true", help="compute an in-memory map's blocks with Dask (a spatial "
+                                                       "map: also a .zarr store's slabs)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="dask.distributed scheduler to compute on, e.g. tcp://10.0.0.1:8786 (implies --dask; with "
                         ".zarr every worker must see --out)")
@@ -66,6 +68,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--gap-pct", type=_common.finite_float, default=None, metavar="PCT",
                    help="with --certified: the gap to the best feasible configuration at which a point's bound is "
                         "refined no further (default 0.5; e.g. 5 for a fast map at large clearances)")
+    p.add_argument("--percentile", type=_percentile, action="append", metavar="P",
+                   help="spatial robots: a percentile map instead, the P-th percentile of |dq| over random error "
+                        "states at every grid point, in (0, 100), repeatable (as statistics; planar robots' "
+                        "percentile maps: statistics --phi-deg ... --out)")
+    p.add_argument("--samples", type=_common.positive_int, default=None, metavar="N",
+                   help="with --percentile: Monte Carlo samples, the same at every point (default: 10000)")
+    p.add_argument("--seed", type=_common.nonnegative_int, default=None,
+                   help="with --percentile: seed of numpy.random.default_rng (default: 0)")
+    p.add_argument("--distribution", metavar="LAW",
+                   help="with --percentile: law of every source inside its set, uniform or normal (default: "
+                        "uniform)")
+    p.add_argument("--threshold", type=_threshold, action="append", metavar="Q=V",
+                   help="with --percentile: also the map of P(|Q| > V), Q one of dx, dy, dz, dp (mm), drx_deg, "
+                        "dry_deg, drz_deg, dtheta_deg (deg) (repeatable)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="estimate and progress bar on stderr (default: when stderr is a terminal)")
     _common.add_format(p)
@@ -90,6 +106,10 @@ def run(args: argparse.Namespace) -> int:
         from . import spatial_cmd
 
         return spatial_cmd.run_map(args, robot)
+    for option in ("percentile", "samples", "seed", "distribution", "threshold"):
+        if getattr(args, option) is not None:
+            raise ConfigError(f"is for spatial robots' percentile maps; {robot.name}'s: pmaccuracy statistics "
+                              f"--phi-deg PHI --out FILE --{option} ...", key=f"--{option}")
     if args.phi_deg is None:
         raise ConfigError("the following arguments are required: --phi-deg")
     if args.orientation_deg is not None:

@@ -260,13 +260,19 @@ MAP_TYPES = (".nc", ".zarr")
 
 
 def run_map(args: argparse.Namespace, robot) -> int:
-    """``map`` on a spatial robot: the worst first-order errors over its workspace's grid (NetCDF or Zarr)."""
+    """``map`` on a spatial robot: the worst first-order errors over its workspace's grid, or with
+    ``--percentile`` its percentile map (:mod:`pmaccuracy.accuracy.spatial_maps`), written as NetCDF (in memory)
+    or streamed into a Zarr store; Dask with ``--dask``, ``--scheduler``, ``--workers`` (.zarr)."""
+    import re
     from pathlib import Path
 
-    from ..accuracy.spatial_maps import spatial_error_map
+    import xarray as xr
 
-    for option, value in (("--phi-deg", args.phi_deg), ("--certified", args.certified), ("--dask", args.dask),
-                          ("--scheduler", args.scheduler), ("--workers", args.workers), ("--tile", args.tile),
+    from ..accuracy import spatial_maps
+    from ..accuracy.spatial_statistics import LAWS, MIN_SAMPLES, QUANTITIES
+    from ..errors import ConfigError
+
+    for option, value in (("--phi-deg", args.phi_deg), ("--certified", args.certified), ("--tile", args.tile),
                           ("--gap-pct", args.gap_pct)):
         if value:
             raise PmAccuracyError(f"{option} is not available for spatial robots' maps yet ({robot.name} is a "
@@ -275,33 +281,79 @@ def run_map(args: argparse.Namespace, robot) -> int:
         raise PmAccuracyError("a region (--disc, --box, --polygon) applies to planar maps; a spatial map covers "
                               "the whole workspace")
     out = Path(args.out)
-    if out.suffix.lower() not in MAP_TYPES:
+    suffix = out.suffix.lower()
+    if suffix not in MAP_TYPES:
         raise PmAccuracyError(f"--out: {out}: a spatial map is written as .nc or .zarr")
     if not 4 <= args.grid <= 200:
         raise PmAccuracyError(f"--grid: {args.grid} points per axis of a 3D grid; give 4 to 200")
-    _common.prepare_output(out, "--out", MAP_TYPES)
-    _common.check_plot_options(args)
-    _common.check_plot(args)
+    if args.workers and suffix != ".zarr":
+        raise PmAccuracyError("--workers: applies to .zarr maps (use --dask for a .nc map)")
+    if args.scheduler is not None and not re.fullmatch(r"[a-z]+://\S+", args.scheduler):
+        raise PmAccuracyError(f"--scheduler: expected a dask.distributed scheduler address like "
+                              f"tcp://10.0.0.1:8786, got {args.scheduler!r}")
+    percentile = args.percentile is not None
+    for option in ("samples", "seed", "distribution", "threshold"):
+        if getattr(args, option) is not None and not percentile:
+            raise PmAccuracyError(f"--{option}: goes with --percentile P (a percentile map)")
+    samples = 10_000 if args.samples is None else args.samples
+    if percentile and samples < MIN_SAMPLES:
+        raise PmAccuracyError(f"--samples: {samples} is too few for a percentile map; give at least {MIN_SAMPLES}")
+    law = args.distribution or "uniform"
+    if law not in LAWS:
+        raise PmAccuracyError(f"--distribution: spatial robots take one law for every source, uniform or normal "
+                              f"(truncated Gaussian, sigma = half-width / 3), got {law!r}")
+    thresholds = dict(args.threshold or [])
+    for key in thresholds:
+        if key not in QUANTITIES:
+            raise PmAccuracyError(f"--threshold: {key} is a planar quantity; a spatial robot's: "
+                                  f"{', '.join(QUANTITIES)}")
     if args.orientation_deg is not None and robot.mobility != "6":
         raise PmAccuracyError(f"--orientation-deg is for a 6-UPS; a {robot.architecture}'s map covers its whole "
                               "workspace")
+    pct = tuple(args.percentile) if percentile else None
+    # the worst case; with --percentile per quantity std, rss, the percentiles (and exceedances)
+    n_variables = len(spatial_maps.WORST_VARIABLES) + (8 * (2 + len(pct)) + len(thresholds) if percentile else 0)
+    if suffix == ".nc":
+        try:
+            spatial_maps.check_spatial_fits_in_memory(args.grid, n_variables)
+        except ConfigError as exc:
+            raise PmAccuracyError(f"--grid: {exc.message}") from None
+    _common.prepare_output(out, "--out", MAP_TYPES)
+    _common.check_plot_options(args)
+    _common.check_plot(args)
+    if percentile:   # rough rate: 2e6 point-samples per second (a 6-UPS on 2 cores, outside points included)
+        _common.warn_long_run(args.grid ** 3 * samples / 2e6, f"--grid {args.grid} with --samples {samples}")
     sources = _sources(args, robot)
     orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
-    ds = spatial_error_map(robot, sources, n=args.grid, orientation=orientation)
-    if out.suffix.lower() == ".zarr":
-        ds.to_zarr(out, mode="w")
-    else:
-        ds.to_netcdf(out)
-    if args.plot:
-        from ..report.spatial_figures import save_map_slices_figure
+    options = dict(n=args.grid, orientation=orientation, block=args.chunk_size, workers=args.workers)
+    if percentile:
+        options.update(percentiles=pct, samples=samples, seed=0 if args.seed is None else args.seed,
+                       distribution=law, thresholds=thresholds)
+    if args.scheduler:
+        from .._optional import require
 
-        save_map_slices_figure(robot, ds, args.plot, dpi=args.dpi, vmin=args.vmin, vmax=args.vmax)
+        Client = require("distributed").Client
+        try:
+            with Client(args.scheduler) as client:
+                ranges = spatial_maps.write_spatial_map(out, robot, sources, use_dask=client, **options)
+        except OSError as exc:  # e.g. the scheduler cannot be reached
+            if exc.filename:
+                raise
+            raise PmAccuracyError(f"--scheduler: {args.scheduler}: {exc}") from None
+    else:
+        ranges = spatial_maps.write_spatial_map(out, robot, sources, use_dask=bool(args.dask), **options)
+    with (xr.open_zarr(out) if suffix == ".zarr" else xr.open_dataset(out)) as ds:
+        units = {name: var.attrs.get("units", "") for name, var in ds.data_vars.items()}
+        if args.plot:
+            from ..report.spatial_figures import save_map_slices_figure
+
+            save_map_slices_figure(robot, ds.load(), args.plot, dpi=args.dpi, vmin=args.vmin, vmax=args.vmax)
     rows = []
-    for name, var in ds.data_vars.items():
-        unit = var.attrs.get("units", "")
+    for name, (lo, hi) in ranges.items():
+        unit = units[name]
         scale = np.degrees(1.0) if unit == "rad" else 1.0
-        rows.append({"quantity": name if unit != "rad" else f"{name}_deg", "min": float(var.min()) * scale,
-                     "max": float(var.max()) * scale, "unit": "deg" if unit == "rad" else unit})
+        rows.append({"quantity": name if unit != "rad" else f"{name}_deg", "min": lo * scale, "max": hi * scale,
+                     "unit": "deg" if unit == "rad" else unit})
     _common.emit(rows, args.format)
     return 0
 
@@ -323,8 +375,10 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
                                                            for k in ("box", "disc", "polygon", "region"))))
     for option, value in unavailable:
         if value:
+            maps = (f"; percentile maps of a spatial robot: pmaccuracy map --robot {robot.name} --percentile P "
+                    f"--out FILE.nc|.zarr" if option in ("--phi-deg", "--out", "--plot") else "")
             raise PmAccuracyError(f"{option} is not available for spatial robots' statistics yet ({robot.name} is "
-                                  f"a {robot.architecture}): give one --pose")
+                                  f"a {robot.architecture}): give one --pose{maps}")
     names = robot.controlled
     if args.pose is None:
         raise PmAccuracyError(f"--pose: give one pose {' '.join(n.upper() for n in names)} (mm, deg) of the "

@@ -111,19 +111,45 @@ def _size(robot: SpatialManipulator) -> float:
     return max(size, span)
 
 
-def spatial_workspace(robot: SpatialManipulator, orientation=None, n: int = 40, *, tilt: bool = True
-                      ) -> SpatialWorkspace:
-    """The workspace of ``robot`` (see the module text): a box around the region is found from the reference
-    pose (:func:`pmaccuracy.kinematics.spatial.reference_pose`, with the given orientation for a 6-UPS), then
-    sampled with ``n`` points per axis. Raises :class:`~pmaccuracy.errors.EmptyWorkspaceError` when the
-    reference point itself is outside.
+@dataclass(frozen=True, eq=False)
+class WorkspaceBox:
+    """What :func:`spatial_workspace` samples: the membership function and the box holding the region.
 
-    >>> ws = spatial_workspace(SpatialManipulator.preset("upu_3"), n=12, tilt=False)
-    >>> ws.kind, ws.region.names
-    ('reachable', ('x', 'y', 'z'))
+    Attributes
+    ----------
+    inside : callable
+        Points ``(..., 3)`` in the region's coordinates -> bool ``(...)`` (:func:`membership`).
+    box : ``(3, 2)``
+        ``[[lo, hi], ...]`` per coordinate, found from the reference point
+        (:func:`pmaccuracy.kinematics.workspace3d.find_box`).
+    names, units : tuple of 3 str
+        The coordinates (``x, y, z`` mm, or ``roll, pitch`` deg and ``z`` mm).
+    kind : str
+        As :attr:`SpatialWorkspace.kind`.
+    orientation : ``(3,)`` or None
+        A 6-UPS's fixed orientation (rotation vector, rad).
+    reference : ``(3,)``
+        The reference point (inside).
     """
-    if orientation is not None:
-        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
+
+    inside: object
+    box: np.ndarray
+    names: tuple
+    units: tuple
+    kind: str
+    orientation: np.ndarray | None
+    reference: np.ndarray
+
+
+def workspace_box(robot: SpatialManipulator, orientation=None) -> WorkspaceBox:
+    """The membership function and the box of :func:`spatial_workspace`'s region (no grid sampled): a map can
+    then sample the grid ``pmaccuracy.kinematics.workspace3d.cell_centres(box, n)`` piece by piece. Raises
+    :class:`~pmaccuracy.errors.EmptyWorkspaceError` when the reference point is outside.
+
+    >>> wb = workspace_box(SpatialManipulator.preset("upu_3"))
+    >>> wb.kind, wb.box.shape, bool(wb.inside(wb.reference[None])[0])
+    ('reachable', (3, 2), True)
+    """
     ref = reference_pose(robot)
     size = _size(robot)
     inside = membership(robot, orientation)
@@ -145,7 +171,26 @@ def spatial_workspace(robot: SpatialManipulator, orientation=None, n: int = 40, 
         raise EmptyWorkspaceError(f"the reference pose{what} of {robot.name} violates a joint limit: no workspace to "
                                   "grow from it (check the orientation, or the robot's [home] pose)")
     box = find_box(inside, seed, start, most)
-    region = grid_workspace(inside, box, n, names=names, units=units)
+    return WorkspaceBox(inside=inside, box=np.asarray(box, dtype=float), names=names, units=units, kind=kind,
+                        orientation=orientation, reference=seed)
+
+
+def spatial_workspace(robot: SpatialManipulator, orientation=None, n: int = 40, *, tilt: bool = True
+                      ) -> SpatialWorkspace:
+    """The workspace of ``robot`` (see the module text): a box around the region is found from the reference
+    pose (:func:`pmaccuracy.kinematics.spatial.reference_pose`, with the given orientation for a 6-UPS), then
+    sampled with ``n`` points per axis. Raises :class:`~pmaccuracy.errors.EmptyWorkspaceError` when the
+    reference point itself is outside.
+
+    >>> ws = spatial_workspace(SpatialManipulator.preset("upu_3"), n=12, tilt=False)
+    >>> ws.kind, ws.region.names
+    ('reachable', ('x', 'y', 'z'))
+    """
+    if orientation is not None:
+        check_angle_values(np.linalg.norm(np.asarray(orientation, dtype=float)), "orientation (rotation vector)")
+    wb = workspace_box(robot, orientation)
+    region = grid_workspace(wb.inside, wb.box, n, names=wb.names, units=wb.units)
+    kind, orientation, seed = wb.kind, wb.orientation, wb.reference
     orients = None
     if tilt and robot.mobility == "6":
         orients = orientation_workspace_at(robot, seed)

@@ -112,6 +112,16 @@ def _centres(box: np.ndarray, counts: Sequence[int]) -> tuple[np.ndarray, np.nda
                  for d in range(3))
 
 
+def cell_centres(box, counts: Sequence[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grid of :func:`grid_workspace`: ``counts[d]`` cell centres along each axis ``d`` of ``box``
+    ``[[lo, hi], ...]`` ``(3, 2)``, ``lo + (i + 1/2) (hi - lo) / counts[d]`` (the box's units).
+
+    >>> [a.tolist() for a in cell_centres([[0, 1], [0, 2], [-1, 1]], (2, 2, 1))]
+    [[0.25, 0.75], [0.5, 1.5], [0.0]]
+    """
+    return _centres(np.asarray(box, dtype=float), counts)
+
+
 def _grid_membership(inside: Inside, axes) -> np.ndarray:
     """Membership of every grid centre, ``(nx, ny, nz)``, built chunk by chunk (the points of a big grid are
     never all in memory at once)."""

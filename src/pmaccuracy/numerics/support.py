@@ -534,6 +534,7 @@ def _branch_and_bound(lay: _Layout, C: np.ndarray, gap: float, max_levels: int, 
         np.maximum(upruned, _segmax(ulive, pose, N), out=upruned)
 
     run(pose, face, x0, y0, w, hc, np.full(pose.size, np.inf), 0)
+    del run   # the recursive closure refers to itself: without this its temporaries wait for the cycle collector
     return upruned, dirn.T
 
 
