@@ -9,7 +9,7 @@ import pytest
 import spatial_calibration_reference as scr
 import spatial_reference as sr
 from pmaccuracy.accuracy.calibration.spatial_identify import (SpatialCalibrationData, identify_spatial,
-                                                              platform_poses, residual_jacobian, residuals,
+                                                              platform_poses, predict, residual_jacobian, residuals,
                                                               spatial_identifiability)
 from pmaccuracy.accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
 from pmaccuracy.accuracy.calibration.spatial_simulate import (PRACTICAL_MAX_SIGMA, candidate_poses,
@@ -92,6 +92,76 @@ def test_jacobian_matches_finite_differences_of_the_forward_model():
         assert np.allclose(J[:, :, j], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max()), pv.names[j]
 
 
+@pytest.mark.parametrize("name, targets", [("rps_3", None), ("prs_3", [[10.0, 0.0, 20.0]]), ("delta_clavel", None),
+                                           ("upu_3", None)])
+def test_axis_jacobian_columns_match_finite_differences_of_the_forward_model(name, targets):
+    """The columns of the axis angles (and of every other leg parameter) against central differences of the
+    exact model: forward kinematics of the robot with the parameter moved, then the readings."""
+    pv, poses, commands = _setup(name, targets, 3)
+    true = spatial_true_parameters(pv, seed=2)
+    data = _reference_data(pv, true, commands, poses)
+    v = pv.nominal + 1e-3 * np.random.default_rng(0).standard_normal(len(pv.names))
+    at = platform_poses(pv, v, data.commands)
+    J = residual_jacobian(pv, v, data, at)
+    cols = [j for j, n in enumerate(pv.names) if n.startswith("legs[")]
+    assert any(pv.names[j].endswith((".a", ".b")) for j in cols)
+    scale = np.abs(J[:, :, cols]).max()
+    for j in cols:
+        h = 1e-6
+        up, dn = v.copy(), v.copy()
+        up[j] += h
+        dn[j] -= h
+        fd = (residuals(pv, up, data, platform_poses(pv, up, data.commands, at))
+              - residuals(pv, dn, data, platform_poses(pv, dn, data.commands, at))) / (2 * h)
+        assert np.allclose(J[:, :, j], fd, rtol=1e-5, atol=1e-7 * scale), pv.names[j]
+
+
+def test_axis_parameters_turn_the_directions_and_the_robot_file_keeps_them():
+    """``tilt(d, a, b)`` turns a direction by ``sqrt(a^2 + b^2)`` about a normal of it; a 3-PRS's axis stays
+    perpendicular to its slide; the identified robot written back reads back with the same directions."""
+    pv = spatial_error_parameters(SpatialManipulator.preset("prs_3"))
+    v = pv.nominal.copy()
+    a, b, c = pv.index(["legs[2].slide.a", "legs[2].slide.b", "legs[2].axis.a"])
+    v[[a, b, c]] = [0.003, -0.004, 0.002]
+    nominal, moved = pv.robot.legs[1], pv.split(v)[0].legs[1]
+    assert np.isclose(np.arccos(np.clip(np.dot(nominal.slide, moved.slide), -1, 1)), 0.005, rtol=1e-9)
+    assert abs(np.dot(moved.slide, moved.axis)) < 1e-15
+    assert np.isclose(np.linalg.norm(moved.axis), 1.0)
+    back = SpatialManipulator.from_dict(spatial_robot_file(pv, v), source="identified")
+    assert np.allclose(back.legs[1].slide, moved.slide, atol=1e-15)
+    assert np.allclose(back.legs[1].axis, moved.axis, atol=1e-15)
+    assert "legs[1].axis.a" not in spatial_error_parameters(SpatialManipulator.preset("stewart_6ups")).names
+
+
+@pytest.mark.parametrize("name", ["rps_3", "prs_3", "upu_3"])
+def test_axis_identifiability_matches_reference_null_space(name):
+    """Full-pose data of the lower-mobility robots with their axis angles, against the reference's null space:
+    its exact part (singular values below 1e-9) lies in the span of the reported combinations, and along each
+    of them the reference's residuals change by less than 1e-5 of its largest singular value (a 3-PRS has three
+    directions at 1e-7..1e-6 of which the analysis' own threshold fixes some); a 3-UPU's axes (Tsai's condition kept) move nothing, the reference says so too."""
+    pv, poses, commands = _setup(name, None, 15)
+    data = _reference_data(pv, pv.nominal, commands, poses)
+    idf = spatial_identifiability(pv, data)
+    J = scr.ik_residual_jacobian(pv.robot.to_dict(), pv.table(), pv.names, commands, data.measured)
+    scale = np.array([TYPICAL[u] for u in pv.units])
+    exact, near = scr.null_space(J, scale, rtol=1e-9), scr.null_space(J, scale, rtol=1e-5)
+    assert exact.shape[1] <= len(idf.fixed) <= near.shape[1]
+    ours, _ = np.linalg.qr(idf.null_directions.T)
+    for d in exact.T:      # 1e-4: the reference's differences (1e-11) against the gap to the weak ones (4e-7)
+        assert np.linalg.norm(d - ours @ (ours.T @ d)) < 1e-4
+    Js = J * scale
+    smax = np.linalg.norm(Js, 2)
+    for row in idf.null_directions:       # the reference's readings barely move along each combination
+        d = row / scale
+        assert np.linalg.norm(Js @ d) < 1e-5 * smax * np.linalg.norm(d)
+    axes = [n for n in pv.names if n.endswith((".a", ".b"))]
+    if name == "upu_3":
+        assert set(axes) <= set(idf.fixed)
+        assert np.allclose(J[:, pv.index(axes)], 0.0, atol=1e-9)
+    else:
+        assert set(axes) & set(idf.identified)
+
+
 @pytest.mark.parametrize("name, count", [("stewart_6ups", 6), ("delta_clavel", 12)])
 def test_unidentifiable_combinations_match_reference_null_space(name, count):
     """Full-pose data: the reference's null space (inverse-kinematic residuals at exact readings, central
@@ -148,7 +218,6 @@ def test_gross_reading_flagged():
 
 
 def _clean(pv, ex):
-    from pmaccuracy.accuracy.calibration.spatial_identify import predict
     poses = platform_poses(pv, ex.true, ex.data.commands)
     return predict(pv, ex.true, poses, ex.data.target)
 
@@ -208,3 +277,76 @@ def test_virtual_calibration_of_every_preset(name):
     assert np.all(np.abs(ex.normalized_errors()) < 4.5)
     # down to the noise: a quarter of the error before, or two reading sigmas where that was small already
     assert np.nanmax(ex.errors_after[:, 0]) < max(0.25 * np.nanmax(ex.errors_before[:, 0]), 2 * SIG_MM)
+
+
+def test_chain_robot_identification_agrees_with_the_designer_type():
+    """A 3-RPS written joint by joint (R-P-S chains, tests/reference/chain_builders.py): its parameters (joint
+    centres, axis angles, actuators) identified through the chain's numeric closure from noise-free readings
+    of the reference's true 3-RPS fit them, as the designer type's identification does, and both identified
+    robots predict the same readings at other commands: to 1e-4 mm against the nominal's error of ~1 mm (the
+    chain's R joint heights are practically unidentifiable there, fixed at nominal: they leave ~3e-5 mm). The
+    two are compared by their readings, not their parameters: each fixes its own gauge (frame or base)."""
+    from chain_builders import chain_table
+
+    pvd, poses, commands = _setup("rps_3", None, 10)
+    fixed = spatial_identifiability(pvd, _probe(pvd, commands), max_sigma=PRACTICAL_MAX_SIGMA).fixed
+    true = spatial_true_parameters(pvd, seed=4, fixed=fixed)
+    data = _reference_data(pvd, true, commands, poses)
+    chain = SpatialManipulator.from_dict(chain_table(pvd.robot), source="chain")
+    pvc = spatial_error_parameters(chain)
+    assert {"legs[1].joints[1].centre.x", "legs[1].joints[1].axis.a", "legs[1].joints[2].axis.b",
+            "legs[1].joints[3].centre.z", "legs[3].actuator.gain"} <= set(pvc.names)
+    designer, chained = identify_spatial(data, pvd), identify_spatial(data, pvc)
+    assert designer.rms_after < 1e-6 and chained.rms_after < 1e-2 < 10 < chained.rms_before
+    assert {"legs[1].joints[1].axis.a", "legs[1].joints[1].axis.b"} <= set(chained.identifiability.identified)
+    other = inverse_kinematics(pvd.robot, candidate_poses(pvd, 200, seed=9)[:5]).q
+    pd = predict(pvd, designer.values, platform_poses(pvd, designer.values, other))
+    pc = predict(pvc, chained.values, platform_poses(pvc, chained.values, other))
+    pn = predict(pvc, pvc.nominal, platform_poses(pvc, pvc.nominal, other))
+    assert np.max(np.abs(pd - pn)[:, :3]) > 0.1
+    assert np.max(np.abs(pd - pc)[:, :3]) < 1e-4 and np.max(np.abs(pd - pc)[:, 3:]) < 1e-6
+    back = SpatialManipulator.from_dict(spatial_robot_file(pvc, chained.values), source="identified")
+    moved = pvc.split(chained.values)[0]
+    for b, m in zip(back.legs, moved.legs):
+        assert np.allclose([j.centre for j in b.joints], [j.centre for j in m.joints], atol=1e-12)
+        assert np.allclose(b.joints[0].axes[0], m.joints[0].axes[0], atol=1e-15)
+
+
+def test_chain_jacobian_columns_match_finite_differences_of_the_forward_model():
+    """The columns of a chain leg's joint centres and axis angles (closure derivatives at the chain's own passive
+    solution) against central differences of the chain robot's forward kinematics."""
+    from chain_builders import chain_table
+
+    pvd, poses, commands = _setup("rps_3", None, 1)
+    pv = spatial_error_parameters(SpatialManipulator.from_dict(chain_table(pvd.robot), source="chain"))
+    data = _probe(pv, commands)
+    v = pv.nominal + 1e-3 * np.random.default_rng(0).standard_normal(len(pv.names))
+    at = platform_poses(pv, v, data.commands)
+    J = residual_jacobian(pv, v, data, at)
+    cols = [j for j, n in enumerate(pv.names) if n.startswith("legs[2].")]
+    scale = np.abs(J[:, :, cols]).max()
+    for j in cols:
+        h = 1e-6
+        up, dn = v.copy(), v.copy()
+        up[j] += h
+        dn[j] -= h
+        fd = (residuals(pv, up, data, platform_poses(pv, up, data.commands, at))
+              - residuals(pv, dn, data, platform_poses(pv, dn, data.commands, at))) / (2 * h)
+        assert np.allclose(J[:, :, j], fd, rtol=1e-5, atol=1e-7 * scale), pv.names[j]
+
+
+def test_simulation_takes_a_given_true_robot():
+    """``true=``: the experiment's true robot is the one given (not seeded errors), its readings those of that
+    robot (noise-free here: the identified base x within 1e-6 mm of the 0.3 mm error given); a wrong length is
+    refused."""
+    from pmaccuracy.errors import ConfigError
+
+    pv = spatial_error_parameters(SpatialManipulator.preset("stewart_6ups"))
+    true = pv.nominal.copy()
+    k = pv.index(["legs[1].base.x"])[0]
+    true[k] += 0.3
+    ex = simulate_spatial_calibration(pv, 30, seed=0, true=true, noise=(0.0, 0.0), n_targets=3, n_candidates=2000)
+    assert np.array_equal(ex.true, true)
+    assert ex.identification.values[k] == pytest.approx(true[k], abs=1e-6)
+    with pytest.raises(ConfigError):
+        simulate_spatial_calibration(pv, 30, true=true[:-1], n_targets=3, n_candidates=2000)

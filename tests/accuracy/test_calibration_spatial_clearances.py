@@ -189,3 +189,71 @@ def test_sigmas_honest_with_clearances_in_the_weights():
     z = np.concatenate([ex.normalized_errors() for ex in runs])
     assert np.all(np.abs(z) < 4.5) and 0.8 < np.sqrt(np.mean(z ** 2)) < 1.2
     assert 0.8 < np.mean([ex.identification.scale for ex in runs]) < 1.2
+
+
+# ------------------------------------------------- the covariance and the states against a Monte Carlo drawn here
+
+
+def _setup(name, preset):
+    robot = SpatialManipulator.preset(name)
+    sources = SpatialErrorSources.load(preset, robot)
+    poses = candidate_poses(spatial_error_parameters(robot), 200, seed=1)[:3]
+    return robot, sources, poses
+
+
+def _rejection(rng, n, d):
+    """``n`` points uniform in the unit ``d``-ball, by rejection from the cube ``[-1, 1]^d``."""
+    out = np.empty((0, d))
+    while len(out) < n:
+        x = rng.uniform(-1.0, 1.0, (4 * n, d))
+        out = np.concatenate([out, x[np.sum(x * x, axis=1) <= 1.0]])
+    return out[:n]
+
+
+def _base_covariance(robot, sources, poses):
+    """The identification's clearance covariance of full-pose readings in a device frame at the base frame."""
+    from pmaccuracy.accuracy.calibration.spatial_identify import SpatialCalibrationData, clearance_covariance
+
+    pv = spatial_error_parameters(robot)
+    n = len(poses)
+    data = SpatialCalibrationData(tuple(map(str, range(n))), np.zeros((n, 6)), np.zeros((n, 6)), np.ones((n, 6)),
+                                  np.zeros(n, int))
+    return clearance_covariance(pv, pv.nominal, data, poses, sources)
+
+
+def test_covariance_matches_monte_carlo_of_uniform_states():
+    """A 3-RPS (segments and discs among its sources): the covariance against 20000 states drawn here, uniform
+    in the segment, disc and ball by rejection from the cube (not by the library's sampler)."""
+    from pmaccuracy.accuracy.spatial_bounds import error_sources_at
+
+    robot, sources, poses = _setup("rps_3", "rps_typical")
+    C = _base_covariance(robot, sources, poses)
+    rng = np.random.default_rng(0)
+    n = 20000
+    _, info = error_sources_at(robot, sources, poses, strict=False, keep=True, allow_outside=True)
+    M = [s.matrix for s in info["sources"]]
+    assert {m.shape[-1] for m in M} >= {1, 2}
+    samples = np.zeros((n, len(poses), 6))
+    for m in M:
+        u = _rejection(rng, n, m.shape[-1])
+        samples += np.einsum("pij,nj->npi", m, u)
+    emp = np.einsum("npi,npj->pij", samples, samples) / n
+    scale = np.sqrt(np.einsum("pii->pi", C))
+    # 20000 draws: the second moments within 5 % of the largest (their sampling error is ~1 %)
+    assert np.max(np.abs(emp - C) / (scale[:, :, None] * scale[:, None, :])) < 0.05
+
+
+def test_random_displacements_stay_inside_the_worst_case_bound():
+    from pmaccuracy.accuracy.spatial_bounds import spatial_pose_errors
+
+    robot, sources, poses = _setup("stewart_6ups", "ups_typical")
+    rng = np.random.default_rng(1)
+    tw = clearance_twists(robot, sources, np.tile(poses, (400, 1)), rng).reshape(400, len(poses), 6)
+    bound = spatial_pose_errors(robot, sources, poses)
+    assert np.all(np.linalg.norm(tw[:, :, :3], axis=-1) <= bound.dp_upper * (1 + 1e-9))
+    assert np.all(np.linalg.norm(tw[:, :, 3:], axis=-1) <= bound.dtheta_upper * (1 + 1e-9))
+    # and their second moments are the covariance's (the library's sampler against its own formula)
+    C = _base_covariance(robot, sources, poses)
+    emp = np.einsum("spi,spj->pij", tw, tw) / len(tw)
+    assert np.allclose(np.trace(emp[:, :3, :3], axis1=1, axis2=2), np.trace(C[:, :3, :3], axis1=1, axis2=2),
+                       rtol=0.25)

@@ -6,6 +6,13 @@ does not import ``pmaccuracy``. The kinematics are those of :mod:`spatial_refere
 names (``legs[2].base.x``, ``legs[1].arm``, ``legs[3].actuator.gain``, ``frame.rx``, ``tool.z`` or
 ``tool[2].z``), parsed here from the names alone.
 
+Axis parameters (angles, 0 at nominal; ``docs/guide/calibration.md``): ``legs[i].axis.a|b`` (3-RPS revolute axis;
+Delta arm axis, its ``zero`` turned with it), ``legs[i].base_axis.a|b`` (3-UPU, ``platform_axis`` turned with
+it), ``legs[i].slide.a|b`` and ``legs[i].axis.a`` (3-PRS: the slide and the revolute axis turned together by
+the tilt, the axis first turned about the slide by ``axis.a``). A tilt ``(a, b)`` of a nominal direction
+``d`` is the rotation ``expm(a n1 + b n2)``, ``n1`` the unit ``d x e`` with ``e`` the coordinate axis of the
+smallest ``|d_k|`` (first one on ties), ``n2 = d x n1``.
+
 Model: actuated ``q_i = offset_i + gain_i c_i``; the platform pose ``(p, R)`` solves the robot's closure
 with those ``q``; the device (frame ``t``, ``R_F = exp([r]x)``) reads ``(t + R_F p, R_F R)`` or the target
 ``t + R_F (p + R s_k)``.
@@ -23,6 +30,33 @@ import spatial_reference as sr
 _NAME = re.compile(r"^legs\[(\d+)\]\.(base|platform)\.([xyz])$")
 
 
+def _normals(d):
+    d = np.asarray(d, float) / np.linalg.norm(d)
+    k = min(range(3), key=lambda j: (abs(d[j]), j))
+    e = np.eye(3)[k]
+    n1 = np.cross(d, e)
+    n1 /= np.linalg.norm(n1)
+    return n1, np.cross(d, n1)
+
+
+#: Per architecture: the direction the angles tilt and the directions turned with it.
+_TILTED = {"3-RPS": ("axis", ("axis",)), "delta": ("axis", ("axis", "zero")),
+           "3-UPU": ("base_axis", ("base_axis", "platform_axis")), "3-PRS": ("slide", ("slide", "axis"))}
+
+
+def _turn_axes(robot: dict, angles: dict) -> None:
+    """Apply ``{(leg index, which): angle}`` (which: "a", "b", "spin") to the robot dict's directions."""
+    first, turned = _TILTED[robot["architecture"]]
+    for i in {i for i, _ in angles}:
+        leg = robot["legs"][i]
+        d = np.asarray(leg[first], float) / np.linalg.norm(leg[first])
+        n1, n2 = _normals(d)
+        tilt = sr.expm_so3(angles.get((i, "a"), 0.0) * n1 + angles.get((i, "b"), 0.0) * n2)
+        spin = sr.expm_so3(angles.get((i, "spin"), 0.0) * d)
+        for key in turned:
+            leg[key] = list(tilt @ spin @ np.asarray(leg[key], float))
+
+
 def apply(robot: dict, table: dict):
     """``(robot dict with the geometry of table, offsets, gains, t, R_F, targets {k: s})``."""
     robot = copy.deepcopy(robot)
@@ -30,7 +64,14 @@ def apply(robot: dict, table: dict):
     off, gain = np.zeros(n), np.ones(n)
     t, r = np.zeros(3), np.zeros(3)
     targets: dict[int, np.ndarray] = {}
+    angles: dict = {}
+    prs = robot["architecture"] == "3-PRS"
     for name, value in table.items():
+        m = re.match(r"^legs\[(\d+)\]\.(axis|base_axis|slide)\.(a|b)$", name)
+        if m:
+            which = "spin" if prs and m.group(2) == "axis" else m.group(3)
+            angles[(int(m.group(1)) - 1, which)] = float(value)
+            continue
         m = _NAME.match(name)
         if m:
             leg = robot["legs"][int(m.group(1)) - 1]
@@ -59,6 +100,8 @@ def apply(robot: dict, table: dict):
             targets.setdefault(k, np.zeros(3))["xyz".index(m.group(2))] = value
             continue
         raise ValueError(f"unknown parameter {name}")
+    if angles:
+        _turn_axes(robot, angles)
     return robot, off, gain, t, sr.expm_so3(r), targets
 
 
@@ -75,9 +118,10 @@ def readings(robot: dict, table: dict, commands, guesses):
 
 
 def ik_residual_jacobian(robot: dict, table: dict, names, commands, poses, h=1e-4) -> np.ndarray:
-    """Full-pose data: the Jacobian ``(N n, P)`` (central differences) of the inverse-kinematic residuals
-    ``q_i(theta; F^-1 m) - offset_i - gain_i c_i`` at the device readings ``poses (N, 6)``; it has the
-    null space of the forward-residual Jacobian wherever the robot is not singular (``dm = -(dF/dm)^-1 dF/dtheta``
+    """Full-pose data: the Jacobian ``(N (n + c), P)`` (central differences) of the inverse-kinematic residuals
+    ``q_i(theta; F^-1 m) - offset_i - gain_i c_i`` and of a lower-mobility robot's ``c`` constraint residuals
+    (:func:`spatial_reference.constraint_residuals`: a pose its legs forbid) at the device readings
+    ``poses (N, 6)``; it has the null space of the forward-residual Jacobian wherever the robot is not singular (``dm = -(dF/dm)^-1 dF/dtheta``
     with ``dF/dm`` invertible)."""
     def res(tab):
         rob, off, gain, t, RF, _ = apply(robot, tab)
@@ -86,6 +130,7 @@ def ik_residual_jacobian(robot: dict, table: dict, names, commands, poses, h=1e-
             p = RF.T @ (m[:3] - t)
             R = RF.T @ sr.from_rotvec(m[3:])
             out.append(sr.actuators(rob, p, R) - off - gain * c)
+            out.append(sr.constraint_residuals(rob, p, R))
         return np.concatenate(out)
     cols = []
     for name in names:

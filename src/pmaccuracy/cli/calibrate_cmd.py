@@ -10,6 +10,7 @@ from . import _common
 HELP = "kinematic calibration: plan poses, identify parameters from measurements, compensate, simulate"
 _DEFAULT_HELP = ("Default: the robot's default of every command (case1 for a 3-PPR, the architecture's *_typical "
                  "preset otherwise, printed on stderr); 'none' for the model without clearances")
+_SPATIAL_HELP = ". A spatial robot's: an error-source preset or file (default as above)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,13 +48,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "sigma_phi_deg), or an experiment / vision batch measurement file")
     s.add_argument("--fix", action="append", default=[], metavar="NAME",
                    help="keep a parameter at nominal (repeatable), e.g. leg1.actuator.gain")
-    s.add_argument("--frame", type=_common.finite_float, nargs=3, metavar=("X", "Y", "PHI_DEG"),
-                   help="starting pose of the measurement frame in the robot frame (mm, mm, deg)")
+    s.add_argument("--frame", type=_common.finite_float, nargs="+", metavar="V",
+                   help="starting pose of the measurement frame in the robot frame: X Y PHI_DEG (mm, mm, deg); a "
+                        "spatial robot's X Y Z ROLL PITCH YAW (mm, deg; extrinsic x-y-z)")
     s.add_argument("--no-robust", action="store_true", help="plain least squares (no robust first pass)")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: add each point's clearance pose covariance (first order, the "
                         "clearance states uniform in their sets, independent from point to point) to its "
-                        "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP)
+                        "measurement covariance, so that the sigmas account for the clearances. " + _DEFAULT_HELP
+                        + _SPATIAL_HELP)
     s.add_argument("--out", metavar="FILE.json", help="write the identification (read by calibrate compensate); missing parent folders are created")
     s.add_argument("--robot-out", metavar="FILE.toml", help="write the identified geometry as a robot file; missing parent folders are created")
     s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
@@ -70,7 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: the clearance floor (worst case and RMS of the position and the "
                         "orientation) beside the prediction and the fit's RMS position residual (fit_rms_position). "
-                        + _DEFAULT_HELP + " (of the identified robot)")
+                        + _DEFAULT_HELP + " (of the identified robot)" + _SPATIAL_HELP)
     s.add_argument("--out", metavar="FILE.csv", help="write the compensated commands as a calibration CSV; missing parent folders are created")
     _common.add_format(s)
     s.set_defaults(func=run_compensate)
@@ -95,7 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--noise-deg", type=float, default=0.01, help="1-sigma of the camera in phi, deg")
     s.add_argument("--clearances", metavar="FILE",
                    help="clearance preset or file: random states in the measurements, and the clearance floor. "
-                        + _DEFAULT_HELP)
+                        + _DEFAULT_HELP + _SPATIAL_HELP)
     s.add_argument("--target", type=_common.finite_float, nargs=3, action="append", metavar=("X", "Y", "Z"),
                    help="spatial robot: measure these target points on the platform (platform frame, mm; "
                         "repeatable) with a laser tracker instead of the full pose")
@@ -397,10 +400,12 @@ def run_identify(args: argparse.Namespace) -> int:
     robot = _robot(args)
     if getattr(robot, "dimension", 3) == 6:
         return _identify_spatial(args, robot)
-    if args.target:
-        from ..errors import ConfigError
+    from ..errors import ConfigError
 
+    if args.target:
         raise ConfigError("only for a spatial robot's position-only data", key="--target")
+    if args.frame is not None and len(args.frame) != 3:
+        raise ConfigError(f"a planar robot's frame is X Y PHI_DEG (3 numbers), got {len(args.frame)}", key="--frame")
     pv = error_parameters(robot)
     pv.index(args.fix)
     data = read_calibration_csv(args.data, pv)
@@ -589,16 +594,14 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
     from ..accuracy.calibration.spatial_data import read_spatial_csv
     from ..accuracy.calibration.spatial_identify import identify_spatial
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters, spatial_robot_file
-    from ..errors import ConfigError
 
-    for opt, given in (("--frame", args.frame is not None),):
-        if given:
-            raise ConfigError("not for a spatial robot yet", key=opt)
     pv = spatial_error_parameters(robot, targets=_targets(args))
     pv.index(args.fix)
+    start = None if args.frame is None else _spatial_start(pv, args.frame)
+    sources = _spatial_sources(args, robot)
     data = read_spatial_csv(args.data, pv)
-    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust,
-                             clearances=_spatial_sources(args, robot))
+    ident = identify_spatial(data, pv, fixed=tuple(args.fix), robust=not args.no_robust, start=start,
+                             clearances=sources)
     if args.out:
         Path(args.out).write_text(json.dumps(_common._plain(_spatial_record(ident)), indent=2), encoding="utf-8")
     if args.robot_out:
@@ -609,13 +612,17 @@ def _identify_spatial(args: argparse.Namespace, robot) -> int:
 
 def _spatial_sources(args: argparse.Namespace, robot):
     """The spatial error sources of ``--clearances`` (default: the architecture's typical preset, said on stderr;
-    ``none``: no clearances, None)."""
-    from ..errors import PmAccuracyError
+    a chain robot, which has none: no clearances, said too; ``none``: no clearances, None)."""
+    from ..errors import ClearanceError, PmAccuracyError
     from ..model.spatial_sources import SpatialErrorSources, default_preset
 
     if args.clearances is None:
-        args.clearances = default_preset(robot)
-        _common.announce_default_clearances(args.clearances, args)
+        try:
+            args.clearances = default_preset(robot)
+            _common.announce_default_clearances(args.clearances, args)
+        except ClearanceError:      # a chain robot: the readings' sigmas alone unless a file is given
+            args.clearances = "none"
+            _common.announce_default_clearances(f"none, no preset for a {robot.architecture} robot", args)
     if args.clearances == "none":
         return None
     try:
@@ -626,16 +633,35 @@ def _spatial_sources(args: argparse.Namespace, robot):
         raise type(exc)(f"--clearances: {exc}") from None
 
 
+def _spatial_start(pv, frame):
+    """The identification's start: the nominal with ``--frame X Y Z ROLL PITCH YAW`` (the device frame's pose in
+    the robot's base frame, mm and deg, as a planar robot's) turned into the frame parameters (the base frame in
+    the device's: ``R_F = R_d^T``, ``t_F = -R_d^T t_d``)."""
+    import numpy as np
+
+    from ..errors import ConfigError
+    from ..numerics.spatial import euler_xyz_to_rotvec, rotations, rotvecs
+
+    if len(frame) != 6:
+        raise ConfigError(f"a spatial robot's frame is X Y Z ROLL PITCH YAW (6 numbers: mm, deg), got {len(frame)}",
+                          key="--frame")
+    Rd = rotations(euler_xyz_to_rotvec(np.array(frame[3:]), degrees=True))
+    start = pv.nominal.copy()
+    start[pv.frame_index] = np.concatenate([-Rd.T @ np.array(frame[:3]), rotvecs(Rd.T[None])[0]])
+    return start
+
+
 def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     import numpy as np
 
+    from ..accuracy.calibration.simulate import load_parameter_table, true_parameters
     from ..accuracy.calibration.spatial_compensate import residuals_beside_floor
     from ..accuracy.calibration.spatial_data import write_spatial_csv
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
     from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
 
-    for opt in ("errors", "tolerances", "photos", "mm_per_pixel"):
+    for opt in ("photos", "mm_per_pixel"):
         if getattr(args, opt) is not None:
             raise ConfigError("not for a spatial robot yet", key="--" + opt.replace("_", "-"))
     if not (np.isfinite(args.noise_ppm) and args.noise_ppm >= 0):
@@ -646,9 +672,14 @@ def _simulate_spatial(args: argparse.Namespace, robot) -> int:
     sources = _spatial_sources(args, robot)
     sigma = {"mm": 0.1 if args.error_mm is None else args.error_mm,
              "rad": np.radians(0.1 if args.error_deg is None else args.error_deg)}
+    true = None
+    if args.errors is not None or args.tolerances is not None:      # as a planar robot's: the nominal plus those
+        errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+        tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+        true = true_parameters(pv, args.seed, None, errors=errors, tolerances=tolerances)
     ex = simulate_spatial_calibration(pv, args.poses, seed=args.seed, error_sigma=sigma,
                                       noise=(args.noise_mm, np.radians(args.noise_deg)), ppm=args.noise_ppm,
-                                      clearances=sources, plan=args.plan or "d-optimal")
+                                      clearances=sources, plan=args.plan or "d-optimal", true=true)
     if args.data_out:
         write_spatial_csv(pv, ex.data, args.data_out)
     if args.report:

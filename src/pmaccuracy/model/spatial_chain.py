@@ -547,6 +547,22 @@ class ChainLeg(SpatialLeg):
         theta, _, xi, J, _ = self.solve(p, R, continuation=continuation)
         return (self._actuated_value(theta, xi), *self._rows(p, xi, J))
 
+    def variant_closures(self, p, R, q, variants) -> list[np.ndarray]:
+        """The closure rows of legs ``variants`` (this leg's joints with other centres and axes, same kinds and
+        home values) at this leg's passive solution: ``W_o xi_v`` ``(..., k)`` per variant, ``W_o`` this leg's
+        rows (moments about the base origin) and ``xi_v`` the residual twist of the variant's chain at this leg's
+        freedoms ``theta`` (actuated value ``q``). Where this leg is closed (``xi = 0``) their central differences
+        are the derivatives of its closure rows with respect to its geometry: ``e = W_o xi``, ``W_o`` reciprocal
+        to the passive freedoms, so their change (``J_p dtheta``) and that of ``W_o`` (times ``xi = 0``) drop out.
+        One solve of this leg, one chain product per variant."""
+        p = np.asarray(p, dtype=float)
+        theta, Q, xi, J, _ = self.solve(p, R, q)
+        _, W, _ = self._rows(p, xi, J)
+        f = W[..., :3]
+        Wo = np.concatenate([f, W[..., 3:] + np.cross(p[..., None, :], f)], axis=-1)
+        target = self._target(p, np.asarray(R, dtype=float))
+        return [np.einsum("...ji,...i->...j", Wo, v._residual(target, v._chain(theta, Q)[0])) for v in variants]
+
     def _rows(self, p, xi, J):
         """The closure rows ``(e, W, g)`` from the residual and the Jacobian at the solution (module text)."""
         k = self.ROWS

@@ -48,6 +48,7 @@ from threadpoolctl import threadpool_limits
 
 from ...errors import ConfigError, MeasurementFileError, PoseError
 from ...kinematics.spatial import closure, forward_kinematics
+from ...model.spatial_chain import ChainLeg
 from ...model.spatial_sources import SpatialErrorSources
 from ...model.spatial_legs import UPSLeg
 from ...numerics.spatial import normalize, rotations, rotvecs, skew
@@ -169,13 +170,15 @@ def residuals(pv: SpatialParameterVector, values, data: SpatialCalibrationData, 
 def _closure_partials(robot: SpatialManipulator, pv: SpatialParameterVector, poses, q, values, leg_rows):
     """``de/dtheta`` ``(N, 6, P)`` of the closure for the legs' geometric parameters: a 6-UPS leg's in closed
     form (``e = |p + R b - A| - q``: ``de/dA = -u``, ``de/db = R^T u``), the other legs' by central differences
-    of that leg's closure alone."""
+    of that leg's closure alone, a chain leg's (:meth:`~pmaccuracy.model.spatial_chain.ChainLeg.variant_closures`)
+    at its own passive solution (the closure rows ``e = W xi`` change by ``W dxi`` at fixed freedoms: ``W`` is
+    reciprocal to the passive ones)."""
     N = len(poses)
     E = np.zeros((N, 6, len(pv.names)))
     p, r = poses[:, :3], poses[:, 3:]
     R = rotations(r)
-    for i, (leg, sl) in enumerate(zip(robot.legs, pv.leg_slices)):
-        fields = _leg_fields(leg)
+    for i, (leg, nominal, sl) in enumerate(zip(robot.legs, pv.robot.legs, pv.leg_slices)):
+        fields = _leg_fields(nominal)
         base = values[sl]
         rows = leg_rows[i]
         if type(leg) is UPSLeg:      # e = |p + R b - A| - q: de/dA = -u, de/db = R^T u (u along the leg)
@@ -183,14 +186,19 @@ def _closure_partials(robot: SpatialManipulator, pv: SpatialParameterVector, pos
             E[:, rows[0], sl.start:sl.start + 3] = -u
             E[:, rows[0], sl.start + 3:sl.start + 6] = np.einsum("nji,nj->ni", R, u)
             continue
-        for j, col in enumerate(range(sl.start, sl.stop)):
-            h = 1e-5 * max(1.0, abs(base[j]))
-            vals = []
+        steps = [1e-5 * max(1.0, abs(b)) for b in base]
+        variants = []
+        for j, h in enumerate(steps):
             for sign in (1.0, -1.0):
                 v = base.copy()
                 v[j] += sign * h
-                vals.append(set_leg_values(leg, fields, v).closure(p, R, r, q[:, i])[0])
-            E[:, rows, col] = (vals[0] - vals[1]) / (2 * h)
+                variants.append(set_leg_values(nominal, fields, v))
+        if isinstance(leg, ChainLeg):
+            vals = leg.variant_closures(p, R, q[:, i], variants)
+        else:
+            vals = [v.closure(p, R, r, q[:, i])[0] for v in variants]
+        for j, h in enumerate(steps):
+            E[:, rows, sl.start + j] = (vals[2 * j] - vals[2 * j + 1]) / (2 * h)
     return E
 
 
@@ -594,6 +602,10 @@ def spatial_identification_from_dict(record: dict, source: str = "<identificatio
         targets = record.get("targets_mm") or None
         pv = spatial_error_parameters(robot, targets=targets)
         by_name = {p["name"]: p for p in record["parameters"]}
+        # a record written before the axis angles were parameters: those at nominal (0), not identified
+        for n, nominal in zip(pv.names, pv.nominal):
+            if n not in by_name and n.endswith((".a", ".b")):
+                by_name[n] = {"estimate": float(nominal), "sigma": 0.0}
         values = np.array([float(by_name[n]["estimate"]) for n in pv.names])
         sigma = np.array([float(by_name[n]["sigma"]) for n in pv.names])
         idf = record["identifiability"]

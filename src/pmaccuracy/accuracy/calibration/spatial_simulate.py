@@ -146,15 +146,21 @@ PLANS = ("d-optimal", "random")
 def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, *, seed: int = 0,
                                  error_sigma: dict | None = None, noise=(0.01, np.radians(0.01)),
                                  ppm: float = 0.0, gross: int = 0, n_targets: int = 30, clearances=None,
-                                 plan: str = "d-optimal", n_candidates: int = 4000) -> SpatialExperiment:
+                                 plan: str = "d-optimal", n_candidates: int = 4000, true=None) -> SpatialExperiment:
     """Virtual calibration (module docstring): ``n_poses`` poses out of ``n_candidates`` random candidates
     (``plan``: ``"d-optimal"``, :func:`~.spatial_plan.plan_spatial_poses`, or ``"random"``: the first ones),
     readings of the true robot (with ``clearances``: a clearance state per reading),
     :func:`~.spatial_identify.identify_spatial` (given the same clearances, as the planar experiment does); ``gross`` readings get a 100-sigma error; then the
     compensation (:func:`~.spatial_compensate.compensate_spatial`, with the clearance floor) at ``n_targets``
-    other candidate poses, checked on the true robot (with a clearance state per target)."""
+    other candidate poses, checked on the true robot (with a clearance state per target). ``true (P,)``: the true
+    robot's parameters (e.g. :func:`~.simulate.true_parameters` of named errors and tolerances) instead of the
+    seeded errors of :func:`spatial_true_parameters` (``error_sigma`` is then not used)."""
     if plan not in PLANS:
         raise ConfigError(f"unknown plan {plan!r} (choose from {', '.join(PLANS)})", key="plan")
+    if true is not None:
+        true = np.asarray(true, dtype=float)
+        if true.shape != (len(pv.names),) or not np.all(np.isfinite(true)):
+            raise ConfigError(f"must be {len(pv.names)} finite parameter values", key="true")
     sources = None if clearances is None else SpatialErrorSources.load(clearances, pv.robot)
     cand = candidate_poses(pv, max(n_candidates, 20 * n_poses, 2000), seed=seed)
     if len(cand) < n_poses + n_targets:
@@ -168,12 +174,13 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
         used = np.arange(n_poses)
         poses = cand[used]
     commands = inverse_kinematics(pv.robot, poses).q
-    probe = measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0))
-    probe = SpatialCalibrationData(probe.labels, probe.commands, probe.measured,
-                                   np.tile([noise[0] or DEFAULT_SIGMA_MM] * 3 + [noise[1] or DEFAULT_SIGMA_RAD] * 3,
-                                           (len(probe), 1))[:, :probe.measured.shape[1]], probe.target)
-    fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
-    true = spatial_true_parameters(pv, seed, error_sigma, fixed)
+    if true is None:
+        probe = measure_spatial(pv, pv.nominal, commands, noise=(0.0, 0.0))
+        probe = SpatialCalibrationData(probe.labels, probe.commands, probe.measured,
+                                       np.tile([noise[0] or DEFAULT_SIGMA_MM] * 3 + [noise[1] or DEFAULT_SIGMA_RAD] * 3,
+                                               (len(probe), 1))[:, :probe.measured.shape[1]], probe.target)
+        fixed = spatial_identifiability(pv, probe, max_sigma=PRACTICAL_MAX_SIGMA).fixed
+        true = spatial_true_parameters(pv, seed, error_sigma, fixed)
     data = measure_spatial(pv, true, commands, noise=noise, ppm=ppm, seed=seed + 1, clearances=sources)
     if gross:
         rng = np.random.default_rng(seed + 2)
