@@ -195,8 +195,8 @@ def test_cli_certifies_over_a_box_and_refuses_in_one_line(tmp_path, capsys):
     assert len(rows) == len(poses) and max(r["dp_max"] for r in rows) <= 0.05 * (1 + 1e-9)
     status, text, err = run_cli(argv[:-2], capsys)   # the table names the region and the certificate
     assert status == 0 and "certified over x in [-5, 5] mm" in text, err
-    for extra, words in ((["--robot", "delta_clavel", "--target", "dp=0.05", "--box=-20,20,-20,20,-810,-790"],
-                          "--box: no certified synthesis for a delta"),
+    for extra, words in ((["--robot", "rps_3", "--target", "dp=0.05", "--workspace", "--max-boxes", "200"],
+                          "--workspace: no certified synthesis for a 3-RPS"),
                          (["--robot", "stewart_6ups", "--target", "dp=0.05", "--gap-pct", "1"],
                           "--gap-pct: needs a region"),
                          (["--robot", "stewart_6ups", "--target", "dp=0.05", "--disc", "0", "0", "5"],
