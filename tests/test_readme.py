@@ -20,8 +20,11 @@ The documents: ``README.md``, then the guide's pages (``docs/guide/*.md``) in th
 * Every ```` ```python ```` block runs with ``exec`` in a fresh namespace, in its document's folder
   after that document's console blocks (so ``map.nc`` etc. may be overwritten freely).
 
-The whole module costs about 95 s of CPU on this machine (90 commands, each a fresh interpreter; the
-commands page about 33 s, the vision examples about 22 s), about 60 s of wall time on two workers.
+The commands run through ``tests/cli_forkserver.py``: one process per test worker imports the package once
+and forks a child per command, which runs the console script's ``main`` with the command's descriptors,
+folder and environment (the same output; :func:`test_fork_server_prints_what_the_console_script_prints`).
+The whole module then costs about 42 s of CPU (was about 120 s with a fresh interpreter per command), under
+30 s of wall time on two workers.
 """
 
 from __future__ import annotations
@@ -151,8 +154,43 @@ def _env() -> dict[str, str]:
     return env
 
 
-def _run(example: Example, cwd: Path) -> list[str]:
-    proc = subprocess.run(["bash", "-c", example.command], cwd=cwd, env=_env(), stdout=subprocess.PIPE,
+@pytest.fixture(scope="module")
+def shim(tmp_path_factory):
+    """A folder holding a ``pmaccuracy`` that runs each command in a fork of one pre-imported process
+    (``tests/cli_forkserver.py``: the same output, half a second less per command); None (the installed console
+    script) where the server does not start."""
+    import shutil
+    import tempfile
+    import time
+
+    folder = Path(tempfile.mkdtemp(prefix="pmf"))          # short: a Unix socket path has at most 107 bytes
+    sock = str(folder / "s")
+    env = _env()
+    env.pop("PYTHONUNBUFFERED", None)      # buffered as a console script writing to a pipe (the children inherit it)
+    server = subprocess.Popen([sys.executable, str(Path(__file__).with_name("cli_forkserver.py")), sock],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    deadline = time.monotonic() + 60
+    while not Path(sock + ".ready").exists() and server.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if Path(sock + ".ready").exists():
+        from cli_forkserver import client_script
+
+        client = folder / "pmaccuracy"
+        client.write_text(client_script(sys.executable, sock))
+        client.chmod(0o755)
+        yield folder
+    else:
+        yield None
+    server.kill()
+    server.wait()
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def _run(example: Example, cwd: Path, shim: Path | None = None) -> list[str]:
+    env = _env()
+    if shim is not None:
+        env["PATH"] = str(shim) + os.pathsep + env["PATH"]
+    proc = subprocess.run(["bash", "-c", example.command], cwd=cwd, env=env, stdout=subprocess.PIPE,
                           stderr=subprocess.STDOUT, text=True, timeout=300)
     lines = [ln.rstrip() for ln in proc.stdout.splitlines()]
     while lines and not lines[-1]:
@@ -203,7 +241,7 @@ def test_documented_examples_are_collected():
 @pytest.mark.parametrize("path", [p for p in documents()
                                   if "```console" in p.read_text(encoding="utf-8")
                                   or "```python" in p.read_text(encoding="utf-8")], ids=_label)
-def test_documented_examples_run_verbatim(path, tmp_path):
+def test_documented_examples_run_verbatim(path, tmp_path, shim):
     """Each document's examples in order, in a folder of their own (a page's examples may use the files its
     earlier examples wrote, never another page's): the pages run in parallel."""
     text = path.read_text(encoding="utf-8")
@@ -211,7 +249,7 @@ def test_documented_examples_run_verbatim(path, tmp_path):
     for ex in console_examples(text, _label(path)):
         if ex.skipped:
             continue
-        got = _run(ex, tmp_path)
+        got = _run(ex, tmp_path, shim)
         if not same_output(got, ex.expected):
             failures.append(f"{_label(path)} line {ex.line}: $ {ex.command}\n--- document\n"
                             + "\n".join(ex.expected) + "\n--- printed\n" + "\n".join(got))
@@ -223,6 +261,17 @@ def test_documented_examples_run_verbatim(path, tmp_path):
             exec(compile(code, f"{_label(path)} (python block at line {first})", "exec"), {"__name__": "docs"})
         finally:
             os.chdir(cwd)
+
+
+def test_fork_server_prints_what_the_console_script_prints(shim, tmp_path):
+    """The documentation's ``pmaccuracy`` (a fork of a pre-imported process) and the installed console script
+    print the same text and exit with the same status: a result, an error with status 2, a pipe."""
+    assert shim is not None, "the fork server did not start"
+    for command in ("pmaccuracy bounds --pose 0 0 0 --pose 5 5 5", "pmaccuracy bounds --pose 0 0",
+                    "pmaccuracy map --grid 5 --phi-deg 0 --out m.csv && head -n 3 m.csv; echo status $?",
+                    "pmaccuracy bounds --robot stewart_6ups --pose 0 0 400 0 0 0 2>&1 | head -n 2; echo $?"):
+        ex = Example(line=0, command=command + "; echo exit $?", expected=())
+        assert _run(ex, tmp_path, shim) == _run(ex, tmp_path), command
 
 
 def _leaf_parsers() -> dict[str, argparse.ArgumentParser]:
