@@ -246,7 +246,9 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
             w = glob[q]
             g[name] = {"attained": w.lower * f, "upper": w.upper * f if math.isfinite(w.upper) else None,
                        "certified": bool(w.converged), "pose": w.pose.tolist(), "grid_max": grid_max[name]}
-        att = min(targets[n] / g[n]["attained"] for n in targets if g[n]["attained"] > 0)
+        # attained: the search's value, or a grid point's where the grid found more (both are reached)
+        att = min(targets[n] / max(g[n]["attained"], g[n]["grid_max"]) for n in targets
+                  if max(g[n]["attained"], g[n]["grid_max"]) > 0)
         cert = min(targets[n] / g[n]["upper"] for n in targets) if all(
             g[n]["upper"] for n in targets) and glob.certified else None
         data["global"] = {"region": _region_words(robot, region), "certified": cert is not None,
@@ -330,7 +332,8 @@ def design_section(doc, robot, sources, ds, state, results, figure, out: Path, t
                       f"values are lower bounds of the true worst case. So no scale above "
                       f"**{_g(g['scale_attained_limit'])}** can meet the targets (the attained pose would exceed "
                       f"its target); the grid's {_g(lam)} is "
-                      + ("that limit." if math.isclose(lam, g["scale_attained_limit"], rel_tol=1e-9) else
+                      + ("that limit (the grid's own worst point binds): keep a margin, the worst case between "
+                         "points may be larger." if lam <= g["scale_attained_limit"] * (1 + 1e-9) else
                          f"{_percent(100 * (lam / g['scale_attained_limit'] - 1))} above it: keep a margin.")
                       )
 
@@ -428,8 +431,9 @@ def statistics_section(doc, robot, sources, state, results, figure, out: Path, t
             f"{_g(dth['rms'], 3)} deg RMS, 99th percentile {_g(dth['p99'], 3)} deg "
             f"({_percent(100 * dth['p99'] / dth['worst'])} of {_g(dth['worst'], 3)} deg).",
             f"Analytic and Monte Carlo RMS agree within {dev:.2g} standard errors of the Monte Carlo (largest over "
-            f"the eight quantities; a standard error is {min(rel):.2g} to {max(rel):.2g} % of the RMS); no sample "
-            f"exceeds the worst case: {'yes' if st.within_worst else 'NO'}.",
+            f"the eight quantities; a standard error is {min(rel):.2g} to {max(rel):.2g} % of the RMS); "
+            + ("no sample exceeds the worst case." if st.within_worst else
+               "**some samples exceed the worst case: the first-order model is inconsistent here.**"),
             *([f"The design targets with these sources: {exceed}."] if exceed else []),
             *([f"If 1 % of the robots may miss the targets at this pose (a statistical tolerance instead of the "
                f"worst case), the half-widths may be scaled by up to **{_g(stat_scale, 3)}** (target / 99th "

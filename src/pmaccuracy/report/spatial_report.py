@@ -521,8 +521,9 @@ def _method_section(doc, robot, grid) -> None:
         "nonlinear chains, the pose solved again): components to 1e-6 relative on random robots of every "
         "architecture.",
         "**Design.** The synthesis scales every half-width by one factor (the largest meeting the targets at "
-        "every grid point of the map); the global worst case searches the whole workspace (a grid, then local "
-        "refinement, and for a 6-UPS a branch and bound that certifies an upper bound); a kind's share is the sum "
+        "every grid point of the map); the global worst case searches the whole workspace by a branch and bound "
+        "over boxes, which certifies an upper bound where every box can be proven regular within its budget; a "
+        "kind's share is the sum "
         "of its sources' support functions along the component, so the shares add up to the component.",
         "**Statistics.** First-order, every source independent and uniform in its set; the analytic RMS is exact "
         "for that model (the covariance `sum v_s M_s M_s^T`, `v_s` = 1/3, 1/4, 1/5 for a segment, disc, ball), the "
