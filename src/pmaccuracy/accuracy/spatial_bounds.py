@@ -535,7 +535,7 @@ def spatial_error_components(robot: SpatialManipulator, sources: SpatialErrorSou
                              allow_outside: bool = False) -> np.ndarray:
     """The exact worst first-order error components ``(..., 6)`` at ``poses`` ``(..., 6)``: ``|dx|, |dy|, |dz|``
     (mm) and ``|drx|, |dry|, |drz|`` (rad), each the sum of the sources' support functions (Eq. 1) without the
-    certified norms |dp|, |dtheta| (:func:`spatial_pose_errors` gives both). The same checks: poses outside the
+    certified norms ``|dp|``, ``|dtheta|`` (:func:`spatial_pose_errors` gives both). The same checks: poses outside the
     joint limits or near a singularity raise (``strict=False``: NaN there).
 
     >>> import pmaccuracy as pm
