@@ -269,7 +269,7 @@ def run_map(args: argparse.Namespace, robot) -> int:
     import xarray as xr
 
     from ..accuracy import spatial_maps
-    from ..accuracy.spatial_statistics import LAWS, MIN_SAMPLES, QUANTITIES
+    from ..accuracy.spatial_statistics import MIN_SAMPLES
     from ..errors import ConfigError
 
     for option, value in (("--phi-deg", args.phi_deg), ("--certified", args.certified), ("--tile", args.tile),
@@ -298,15 +298,7 @@ def run_map(args: argparse.Namespace, robot) -> int:
     samples = 10_000 if args.samples is None else args.samples
     if percentile and samples < MIN_SAMPLES:
         raise PmAccuracyError(f"--samples: {samples} is too few for a percentile map; give at least {MIN_SAMPLES}")
-    law = args.distribution or "uniform"
-    if law not in LAWS:
-        raise PmAccuracyError(f"--distribution: spatial robots take one law for every source, uniform or normal "
-                              f"(truncated Gaussian, sigma = half-width / 3), got {law!r}")
-    thresholds = dict(args.threshold or [])
-    for key in thresholds:
-        if key not in QUANTITIES:
-            raise PmAccuracyError(f"--threshold: {key} is a planar quantity; a spatial robot's: "
-                                  f"{', '.join(QUANTITIES)}")
+    law, thresholds = _law_and_thresholds(args)
     if args.orientation_deg is not None and robot.mobility != "6":
         raise PmAccuracyError(f"--orientation-deg is for a 6-UPS; a {robot.architecture}'s map covers its whole "
                               "workspace")
@@ -362,12 +354,29 @@ def run_map(args: argparse.Namespace, robot) -> int:
 _STAT_TABLE = ("quantity", "unit", "mean_abs", "rms", "rss", "max_abs", "worst", "exceed", "se_exceed", "threshold")
 
 
+def _law_and_thresholds(args: argparse.Namespace) -> tuple[str, dict]:
+    """``--distribution`` (one law for every source: uniform or normal) and ``--threshold`` of a spatial robot's
+    statistics or percentile map, checked."""
+    from ..accuracy.spatial_statistics import LAWS, QUANTITIES
+
+    law = args.distribution or "uniform"
+    if law not in LAWS:
+        raise PmAccuracyError(f"--distribution: spatial robots take one law for every source, uniform or normal "
+                              f"(truncated Gaussian, sigma = half-width / 3), got {law!r}")
+    thresholds = dict(args.threshold or [])
+    for key in thresholds:
+        if key not in QUANTITIES:
+            raise PmAccuracyError(f"--threshold: {key} is a planar quantity; a spatial robot's: "
+                                  f"{', '.join(QUANTITIES)}")
+    return law, thresholds
+
+
 def run_statistics(args: argparse.Namespace, robot) -> int:
     """``statistics`` on a spatial robot at one pose (its own coordinates): Monte Carlo statistics of the
     first-order error twist beside the exact RSS and the worst case
     (:func:`pmaccuracy.accuracy.spatial_statistics.spatial_pose_statistics`); one row per quantity, with its
     ``unit`` (mm or deg)."""
-    from ..accuracy.spatial_statistics import LAWS, MIN_SAMPLES, QUANTITIES, spatial_pose_statistics
+    from ..accuracy.spatial_statistics import MIN_SAMPLES, spatial_pose_statistics
 
     unavailable = (("--phi-deg", args.phi_deg), ("--out", args.out), ("--plot", args.plot),
                    ("--exact-samples", args.exact_samples),
@@ -387,15 +396,7 @@ def run_statistics(args: argparse.Namespace, robot) -> int:
     if samples < MIN_SAMPLES:
         raise PmAccuracyError(f"--samples: {samples} is too few for a spatial robot's statistics; give at least "
                               f"{MIN_SAMPLES}")
-    law = args.distribution or "uniform"
-    if law not in LAWS:
-        raise PmAccuracyError(f"--distribution: spatial robots take one law for every source, uniform or normal "
-                              f"(truncated Gaussian, sigma = half-width / 3), got {law!r}")
-    thresholds = dict(args.threshold or [])
-    for key in thresholds:
-        if key not in QUANTITIES:
-            raise PmAccuracyError(f"--threshold: {key} is a planar quantity; a spatial robot's: "
-                                  f"{', '.join(QUANTITIES)}")
+    law, thresholds = _law_and_thresholds(args)
     full = poses(robot, [args.pose], None)[0]
     sources = _sources(args, robot)
     try:

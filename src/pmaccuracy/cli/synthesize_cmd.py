@@ -119,12 +119,11 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
     ``--sphere``), at every pose of the region, certified by the global worst case."""
     from pathlib import Path
 
-    import numpy as np
     import tomli_w
 
-    from ..accuracy.spatial_synthesis import TARGETS, spatial_synthesize
+    from ..accuracy.spatial_synthesis import spatial_synthesize
     from ..errors import ConfigError, EmptyWorkspaceError, PmAccuracyError, UnsupportedArchitectureError
-    from .spatial_cmd import _sources
+    from .spatial_cmd import _sources, parse_targets
     from .worst_cmd import parse_spatial_region
 
     if getattr(args, "phi_deg", None) not in (None, [0.0, 0.0]):
@@ -144,22 +143,7 @@ def run_spatial(args: argparse.Namespace, robot) -> int:
                 raise ConfigError("needs a region to certify over (--workspace, --box, --cylinder or --sphere); "
                                   "without one the synthesis covers the workspace grid",
                                   key="--" + option.replace("_", "-"))
-    targets = {}
-    for item in args.target:
-        name, sep, value = str(item).partition("=")
-        name = name.strip()
-        if not sep or name not in TARGETS:
-            raise PmAccuracyError(f"--target: expected NAME=VALUE with NAME one of {', '.join(TARGETS)} (mm, deg), "
-                                  f"got {item!r}")
-        if name in targets:
-            raise PmAccuracyError(f"--target: {name} given twice")
-        try:
-            v = float(value)
-        except ValueError:
-            raise PmAccuracyError(f"--target: {name}: not a number: {value!r}") from None
-        if not (np.isfinite(v) and v > 0):
-            raise PmAccuracyError(f"--target: {name} must be finite and > 0, got {value}")
-        targets[name] = v
+    targets = parse_targets(args.target)
     grid = 20
     out = Path(args.out) if args.out else None
     if out is not None:
