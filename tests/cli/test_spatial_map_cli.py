@@ -88,3 +88,21 @@ def test_spatial_statistics_with_out_points_to_the_percentile_map(capsys, tmp_pa
     status, out, err = run_cli(["statistics", "--robot", "upu_3", "--out", "p.nc"], capsys)
     lines = err.strip().splitlines()
     assert status == 2 and len(lines) == 1 and "pmaccuracy map --robot upu_3 --percentile P" in lines[0], err
+
+
+def test_orientation_deg_is_roll_pitch_yaw_not_a_rotation_vector(tmp_path, capsys):
+    """``map --orientation-deg R P Y`` maps at R = Rz(yaw) Ry(pitch) Rx(roll) (built here with scipy), the
+    angles the option names, not at the rotation vector (R, P, Y)."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    out = tmp_path / "m.nc"
+    status, _, err = run_cli(["map", "--robot", "stewart_6ups", "--grid", 6, "--orientation-deg", 4, 3, 10,
+                              "--out", out], capsys)
+    assert status == 0, err
+    robot = pm.load_robot("stewart_6ups")
+    rotvec = Rotation.from_euler("xyz", [4, 3, 10], degrees=True).as_rotvec()
+    assert not np.allclose(rotvec, np.radians([4, 3, 10]), atol=1e-4)       # the two readings differ here
+    expected = sm.spatial_error_map(robot, pm.load_clearances("ups_typical", robot), n=6, orientation=rotvec)
+    with xr.open_dataset(out) as got:
+        np.testing.assert_allclose(got.dp_max.values, expected.dp_max.values, rtol=1e-12, equal_nan=True)

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import NoSolutionError, OutsideJointLimitsError, PmAccuracyError, PoseError
 from ..model.spatial import POSE_NAMES
+from ..numerics.spatial import euler_xyz_to_rotvec
 from . import _common
 
 #: What ``--pose`` takes, in every help text.
@@ -155,7 +156,8 @@ def run_workspace(args: argparse.Namespace, robot) -> int:
     html = Path(args.html) if getattr(args, "html", None) else None
     if html is not None and html.suffix.lower() not in (".html", ".htm"):
         raise PmAccuracyError(f"--html: {html} must end in .html")
-    orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
+    # roll, pitch, yaw (deg, extrinsic x-y-z) -> the rotation vector the library takes
+    orientation = euler_xyz_to_rotvec(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float), degrees=True)
     ws = spatial_workspace(robot, orientation=orientation, n=args.n)
     data = {"robot": robot.name, "architecture": robot.architecture, **ws.summary()}
     if plot is not None:
@@ -316,7 +318,8 @@ def run_map(args: argparse.Namespace, robot) -> int:
     if percentile:   # rough rate: 2e6 point-samples per second (a 6-UPS on 2 cores, outside points included)
         _common.warn_long_run(args.grid ** 3 * samples / 2e6, f"--grid {args.grid} with --samples {samples}")
     sources = _sources(args, robot)
-    orientation = np.radians(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float))
+    # roll, pitch, yaw (deg, extrinsic x-y-z) -> the rotation vector the library takes
+    orientation = euler_xyz_to_rotvec(np.array(args.orientation_deg or [0.0, 0.0, 0.0], dtype=float), degrees=True)
     options = dict(n=args.grid, orientation=orientation, block=args.chunk_size, workers=args.workers)
     if percentile:
         options.update(percentiles=pct, samples=samples, seed=0 if args.seed is None else args.seed,

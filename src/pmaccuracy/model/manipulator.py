@@ -173,6 +173,9 @@ class Manipulator(_tomlio.TomlPresets):
         every public entry point that reads a robot file).
         """
         arch = data.get("architecture", "3-PPR")
+        if not isinstance(arch, str):
+            raise ConfigError(f"must be a name such as \"3-PPR\" or \"6-UPS\", got {arch!r}",
+                              source=source, key="architecture")
         if arch == "serial":
             raise UnsupportedArchitectureError(
                 "this is a planar serial arm: it works with 'pmaccuracy bounds --joints Q1 Q2 ...' "
