@@ -148,3 +148,20 @@ def test_chain_robot_without_clearances_runs_on_the_readings_alone(tmp_path, cap
     assert "clearances: none, no preset for a spatial-chain robot (default)" in err
     rec = json.loads(out)
     assert "floor_dp_max_mm" not in rec and "readings_within_floor" not in rec and rec["fit"]["clearances"] is None
+
+
+def test_report_of_a_virtual_experiment_takes_the_true_robot(tmp_path, capsys):
+    """``calibrate report --errors`` builds the experiment's true robot as ``simulate`` does: a bad name is one
+    line naming it; a large base error shows in the report's 'before' residuals (none without it)."""
+    (tmp_path / "e.toml").write_text('"legs[1].base.x" = 3.0\n')
+    (tmp_path / "bad.toml").write_text('"legs[1].nope" = 3.0\n')
+    status, _, err = run_cli(["calibrate", "report", "--robot", "rps_3", "--errors", tmp_path / "bad.toml",
+                              "--out", tmp_path / "x.html"], capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and "legs[1].nope" in err
+    pages = {}
+    for name, extra in (("with", ["--errors", tmp_path / "e.toml"]), ("without", [])):
+        status, _, err = run_cli(["calibrate", "report", "--robot", "rps_3", *extra, "--out",
+                                  tmp_path / f"{name}.html"], capsys)
+        assert status == 0, err
+        pages[name] = (tmp_path / f"{name}.html").read_text()
+    assert pages["with"] != pages["without"]

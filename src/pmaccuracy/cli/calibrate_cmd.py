@@ -716,16 +716,18 @@ def _report_spatial(args: argparse.Namespace, robot=None, ident=None) -> int:
     the identification ``ident``."""
     import numpy as np
 
+    from ..accuracy.calibration.simulate import load_parameter_table, true_parameters
     from ..accuracy.calibration.spatial_data import read_spatial_csv
     from ..accuracy.calibration.spatial_parameters import spatial_error_parameters
     from ..accuracy.calibration.spatial_simulate import simulate_spatial_calibration
     from ..errors import ConfigError
     from ..report.spatial_calibration_report import spatial_calibration_report
 
-    for opt in ("errors", "tolerances"):
-        if getattr(args, opt) is not None:
-            raise ConfigError("not for a spatial robot yet", key="--" + opt)
     if ident is not None:
+        for opt in ("errors", "tolerances"):
+            if getattr(args, opt) is not None:
+                raise ConfigError("describes a virtual experiment's true robot; a report of --data has none",
+                                  key="--" + opt)
         data = read_spatial_csv(args.data, ident.parameters)
         sources = _spatial_sources(args, ident.parameters.robot)
         spatial_calibration_report(args.out, ident, data, clearances=sources, command=_common.command_line(args))
@@ -734,9 +736,15 @@ def _report_spatial(args: argparse.Namespace, robot=None, ident=None) -> int:
     pv = spatial_error_parameters(robot)
     sources = _spatial_sources(args, robot)
     values = {k: (v if getattr(args, k) is None else getattr(args, k)) for k, v in _SIMULATION_DEFAULTS.items()}
+    true = None
+    if args.errors is not None or args.tolerances is not None:      # as calibrate simulate: the nominal plus those
+        errors = None if args.errors is None else load_parameter_table(args.errors, pv, "errors")
+        tolerances = None if args.tolerances is None else load_parameter_table(args.tolerances, pv, "tolerances")
+        true = true_parameters(pv, values["seed"], None, errors=errors, tolerances=tolerances)
     ex = simulate_spatial_calibration(pv, values["poses"], seed=values["seed"],
                                       error_sigma={"mm": values["error_mm"], "rad": np.radians(values["error_deg"])},
-                                      noise=(values["noise_mm"], np.radians(values["noise_deg"])), clearances=sources)
+                                      noise=(values["noise_mm"], np.radians(values["noise_deg"])), clearances=sources,
+                                      true=true)
     spatial_calibration_report(args.out, ex.identification, ex.data, experiment=ex, command=_common.command_line(args))
     print(f"wrote {args.out}: calibration report of a virtual experiment ({pv.robot.name}, {len(ex.data)} readings)")
     return 0
