@@ -4,7 +4,8 @@ A target is a platform pose ``(6,)`` ``[x, y, z mm, rotation vector rad]`` read 
 frame (where the calibration's readings were). The identified robot reaches it with the actuated values of
 its inverse kinematics at the base-frame pose ``F^-1 * target`` (closed form, leg by leg), so the commands
 are ``c = (q - offset) / gain``. A Delta or a 3-UPU reaches the target's position (its orientation is the
-robot's own); a 3-RPS or 3-PRS the target's z, roll and pitch in the base frame (x, y and yaw follow). The nominal commands are the nominal robot's inverse kinematics of the
+robot's own); a 3-RPS or 3-PRS the target's z, roll and pitch in the base frame (x, y and yaw follow). The nominal
+commands are the nominal robot's inverse kinematics of the
 target read as a base-frame pose (the nominal frame is the identity).
 
 Clearance floor (:func:`clearance_floor`): what calibration cannot remove, the first-order worst case of the
@@ -245,7 +246,8 @@ FLOOR_SIGMAS = 3.0
 
 
 def residuals_beside_floor(ident: SpatialIdentification, data: SpatialCalibrationData, clearances) -> dict:
-    """The fit's residual at each reading (:func:`~.spatial_identify.residuals` of the identified robot) beside the clearance floor there (:func:`clearance_floor` on the
+    """The fit's residual at each reading (:func:`~.spatial_identify.residuals` of the identified robot) beside the
+    clearance floor there (:func:`clearance_floor` on the
     identified robot at the pose it takes at the reading's commands; a position-only reading: at its target).
 
     Returns ``{"residual_mm" (N,), "residual_rad" (N,) (NaN for position-only data), "floor": {...} (N,) each,

@@ -484,7 +484,8 @@ def identify_spatial(data: SpatialCalibrationData, pv: SpatialParameterVector, *
 
     ``fixed``: names kept at nominal; ``start (P,)``: the starting values (default: the nominal with the frame
     of the best rigid fit); ``clearances`` (:class:`~pmaccuracy.model.spatial_sources.SpatialErrorSources`, a preset
-    or a file): the readings' clearance covariance in their weights (module docstring). Raises :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
+    or a file): the readings' clearance covariance in their weights (module docstring). Raises
+    :class:`~pmaccuracy.errors.MeasurementFileError` when the data do not
     match the parameter vector or too few readings are left for the parameters. Runs with one BLAS thread:
     its matrices (a few hundred rows, at most ~60 columns) gain nothing from more, and on a loaded machine
     the threads' hand-offs made each decomposition 100 times slower (``benchmarks/bench_spatial_calibration.py``).
@@ -622,7 +623,8 @@ def spatial_identification_from_dict(record: dict, source: str = "<identificatio
         empty = np.zeros((0, 6 if pv.kind == "pose" else 3))
         return SpatialIdentification(parameters=pv, values=values, sigma=sigma, covariance=cov, identifiability=ident,
                                      residuals_before=empty, residuals_after=empty,
-                                     rms_before=float(fit["rms_before_sigmas"]), rms_after=float(fit["rms_after_sigmas"]),
+                                     rms_before=float(fit["rms_before_sigmas"]),
+                                     rms_after=float(fit["rms_after_sigmas"]),
                                      outliers=tuple(int(r) - 1 for r in fit["outlier_rows"]), scale=float(fit["scale"]),
                                      nfev=int(fit["nfev"]))
     except ConfigError as exc:

@@ -27,11 +27,11 @@ from ...errors import ConfigError
 from ...kinematics.spatial import inverse_kinematics
 from ...model.spatial_sources import SpatialErrorSources
 from ...numerics.spatial import rotations, rotvecs
-from .spatial_identify import (DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, SpatialIdentification, identify_spatial, platform_poses,
-                               predict, spatial_identifiability)
+from .spatial_identify import (DEFAULT_SIGMA_MM, DEFAULT_SIGMA_RAD, SpatialCalibrationData, SpatialIdentification,
+                               identify_spatial, platform_poses, predict, spatial_identifiability)
 from .identifiability import PRACTICAL_MAX_SIGMA
-from .spatial_compensate import (SpatialCompensation, clearance_floor, clearance_twists, compensate_spatial,  # noqa: F401
-                                 displaced, pose_errors)
+from .spatial_compensate import (SpatialCompensation, clearance_floor, clearance_twists,  # noqa: F401
+                                 compensate_spatial, displaced, pose_errors)
 from .spatial_parameters import SpatialParameterVector
 from .spatial_plan import BOX_DEG, BOX_SHARE, SpatialPlan, candidate_poses, plan_spatial_poses  # noqa: F401
 
@@ -150,7 +150,8 @@ def simulate_spatial_calibration(pv: SpatialParameterVector, n_poses: int = 60, 
     """Virtual calibration (module docstring): ``n_poses`` poses out of ``n_candidates`` random candidates
     (``plan``: ``"d-optimal"``, :func:`~.spatial_plan.plan_spatial_poses`, or ``"random"``: the first ones),
     readings of the true robot (with ``clearances``: a clearance state per reading),
-    :func:`~.spatial_identify.identify_spatial` (given the same clearances, as the planar experiment does); ``gross`` readings get a 100-sigma error; then the
+    :func:`~.spatial_identify.identify_spatial` (given the same clearances, as the planar experiment does);
+    ``gross`` readings get a 100-sigma error; then the
     compensation (:func:`~.spatial_compensate.compensate_spatial`, with the clearance floor) at ``n_targets``
     other candidate poses, checked on the true robot (with a clearance state per target). ``true (P,)``: the true
     robot's parameters (e.g. :func:`~.simulate.true_parameters` of named errors and tolerances) instead of the
