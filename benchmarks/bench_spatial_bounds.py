@@ -55,8 +55,8 @@ def main() -> None:
     print(f"  + |dp|, |dtheta| certified at 0.1 %          {t_all:7.3f} s   ratio {t_all / t_floor:5.1f} x floor "
           "(target <= 10)")
     from pmaccuracy.kinematics.spatial import closure, inverse_kinematics
-    W = np.concatenate([closure(robot, poses[k:k + (1 << 15)], inverse_kinematics(robot, poses[k:k + (1 << 15)]).q).wrenches
-                        for k in range(0, n, 1 << 15)])
+    parts = [poses[k:k + (1 << 15)] for k in range(0, n, 1 << 15)]
+    W = np.concatenate([closure(robot, part, inverse_kinematics(robot, part).q).wrenches for part in parts])
     t_inv = _best(lambda: np.linalg.inv(W), args.repeats)
     print(f"  of which the batched LAPACK inverse of W    {t_inv:7.3f} s   ratio {t_inv / t_floor:5.1f} x floor "
           "(one 6x6 inverse per pose; the joint-limit checks, strokes, cones and leg capsules, are most of the rest)")
