@@ -590,20 +590,14 @@ def _parameter_section(doc, tmp, r, simulated: bool) -> None:
     doc.table(head, rows)
 
 
-def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationData, r: dict) -> None:
-    doc.heading("Identifiability: the singular value spectrum")
-    idf = ident.identifiability
-    s = np.asarray(idf.singular_values, dtype=float)
-    pv = ident.parameters
-    if isinstance(pv, SerialParameterVector):
-        J = serial_jacobian(pv, ident.values, data, W=serial_whitening(pv, ident.values, data, ident.clearances))
-    else:
-        J = jacobian(pv, ident.values, data, whitening(pv, ident.values, data, ident.clearances))
+def _spectrum_axes(J: np.ndarray, s: np.ndarray):
+    """The singular value spectrum figure of a calibration: ``s`` (the identified parameters' scaled singular
+    values at the start) as bars, and every parameter's at the estimate from the whitened Jacobian ``J (rows, P)``
+    with its columns scaled to unit norm (zero columns as zeros, drawn at the axis floor) as circles, with the
+    threshold ``RTOL s_1``. Returns ``(fig, ax, full)``; the caller adds the title, legend and layout."""
     norms = np.linalg.norm(J, axis=0)
-    Js = J[:, norms > 0] / norms[norms > 0]
-    full = np.linalg.svd(Js, compute_uv=False)
+    full = np.linalg.svd(J[:, norms > 0] / norms[norms > 0], compute_uv=False)
     full = np.concatenate([full, np.zeros(int(np.sum(norms == 0)))])
-    r["full_spectrum"] = full.tolist()
     fig = _new_figure()
     ax = fig.add_axes((0.15, 0.3, 0.8, 0.6))
     floor = s[0] * 1e-12 if s.size else 1e-12
@@ -619,6 +613,20 @@ def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationD
     ax.set_xlabel("index of the singular value", fontsize=LABEL_PT)
     ax.set_ylabel("scaled singular value", fontsize=LABEL_PT)
     ax.tick_params(labelsize=FONT_PT)
+    return fig, ax, full
+
+
+def _identifiability_section(doc, tmp, ident: Identification, data: CalibrationData, r: dict) -> None:
+    doc.heading("Identifiability: the singular value spectrum")
+    idf = ident.identifiability
+    s = np.asarray(idf.singular_values, dtype=float)
+    pv = ident.parameters
+    if isinstance(pv, SerialParameterVector):
+        J = serial_jacobian(pv, ident.values, data, W=serial_whitening(pv, ident.values, data, ident.clearances))
+    else:
+        J = jacobian(pv, ident.values, data, whitening(pv, ident.values, data, ident.clearances))
+    fig, ax, full = _spectrum_axes(J, s)
+    r["full_spectrum"] = full.tolist()
     ax.set_title(f"condition number {idf.condition:.4g}, O1 = {idf.O1:.3g}", fontsize=TITLE_PT)
     handles, labels = ax.get_legend_handles_labels()
     leg, legend_h = _legend(fig, handles, labels)

@@ -31,14 +31,13 @@ from matplotlib.ticker import FormatStrFormatter, LogLocator, MaxNLocator, NullF
 
 from .. import __version__
 from .._savefig import save_figure
-from ..accuracy.calibration.identifiability import RTOL
 from ..accuracy.calibration.spatial_compensate import FLOOR_SIGMAS, residuals_beside_floor
 from ..accuracy.calibration.spatial_identify import (SpatialCalibrationData, SpatialIdentification,
                                                      measurement_jacobian, platform_poses, residuals)
 from ..accuracy.calibration.spatial_simulate import SpatialExperiment
 from ..errors import ConfigError
 from ..model.spatial_sources import SpatialErrorSources
-from .calibration_report import GAP_IN, _arrange, _fmt, _legend, _new_figure, _parameter_section
+from .calibration_report import GAP_IN, _arrange, _fmt, _legend, _new_figure, _parameter_section, _spectrum_axes
 from .document import Document, provenance
 from .figures import FONT_PT, LABEL_PT, REPORT_WIDTH_IN, TITLE_PT, wrap_text
 
@@ -334,25 +333,8 @@ def _identifiability_section(doc, tmp, ident: SpatialIdentification, data: Spati
     ok = np.all(np.isfinite(poses), axis=1) & ~np.isin(np.arange(len(data)), ident.outliers)
     sub = data.subset(ok)
     J = (measurement_jacobian(pv, ident.values, sub, poses[ok]) / sub.sigmas[:, :, None]).reshape(-1, len(pv.names))
-    norms = np.linalg.norm(J, axis=0)
-    full = np.linalg.svd(J[:, norms > 0] / norms[norms > 0], compute_uv=False)
-    full = np.concatenate([full, np.zeros(int(np.sum(norms == 0)))])
+    fig, ax, full = _spectrum_axes(J, s)
     r["full_spectrum"] = full.tolist()
-    fig = _new_figure()
-    ax = fig.add_axes((0.15, 0.3, 0.8, 0.6))
-    floor = s[0] * 1e-12 if s.size else 1e-12
-    ax.bar(np.arange(1, s.size + 1), s, color="C0", label=f"identified parameters ({s.size}), at the start")
-    ax.plot(np.arange(1, full.size + 1), np.maximum(full, floor), "o", color="0.3", ms=4, mfc="none",
-            label=f"all {full.size} parameters, at the estimate (zeros drawn at the axis floor)")
-    if s.size:
-        ax.axhline(RTOL * s[0], color="C3", ls="--", lw=1, label=f"threshold {RTOL:g} s_1: below it, not separable")
-    ax.set_yscale("log")
-    ax.set_ylim(floor / 3, None)
-    ax.yaxis.set_major_locator(LogLocator(numticks=6))
-    ax.xaxis.set_major_locator(MaxNLocator(8, integer=True))
-    ax.set_xlabel("index of the singular value", fontsize=LABEL_PT)
-    ax.set_ylabel("scaled singular value", fontsize=LABEL_PT)
-    ax.tick_params(labelsize=FONT_PT)
     ax.set_title(f"condition number {idf.condition:.4g}", fontsize=TITLE_PT)
     handles, labels = ax.get_legend_handles_labels()
     _, legend_h = _legend(fig, handles, labels)
