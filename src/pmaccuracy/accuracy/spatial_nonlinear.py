@@ -593,7 +593,6 @@ def _q_bounds(geo: _Geometry, sums: dict, box: np.ndarray) -> tuple[np.ndarray, 
 def _certify(geo: _Geometry, sums: dict):
     """The invariant box and the contraction (module text): ``(q_lo, q_hi, box, radius, reason)``."""
     C, c = _inverse_enclosure(geo.W)
-    n = len(geo.L)
     if not np.all(np.isfinite(c)):
         return None, None, None, np.inf, "W^-1 could not be enclosed (near-singular)"
     maps = _functionals(geo)
@@ -685,6 +684,23 @@ def _first_order_configs(geo: _Geometry, sums: dict) -> np.ndarray:
     return _support_point(geo, g)
 
 
+def _line_search(x, t, f, target, solve, which, sign):
+    """One step of the lower bound's ascent: from the configurations ``x`` (exact twists ``t``, objective ``f``)
+    toward ``target``, the first of the steps 1, 1/2, 1/4, 1/10, 1/30 whose exact objective (``solve`` of the
+    candidate configuration) is larger is kept, per configuration. Returns ``(x, t, f, improved)``."""
+    improved = np.zeros(len(x), bool)
+    for tau in (1.0, 0.5, 0.25, 0.1, 0.03):
+        cand = x + tau * (target - x)
+        tc = solve(cand)
+        fc = _objective(tc, which, sign)
+        better = (fc > f) & ~improved & np.isfinite(fc)
+        x = np.where(better[:, None], cand, x)
+        t = np.where(better[:, None], tc, t)
+        f = np.where(better, fc, f)
+        improved |= better
+    return x, t, f, improved
+
+
 def _objective(t: np.ndarray, which: np.ndarray, sign: np.ndarray) -> np.ndarray:
     q = _quantities(t)
     return sign * q[np.arange(len(which)), which]
@@ -727,16 +743,7 @@ def _ascent(geo: _Geometry, x: np.ndarray, which: np.ndarray, sign: np.ndarray, 
     for _ in range(steps):
         grad = _gradient(geo, x, t, which, sign)
         target = _support_point(geo, grad)
-        improved = np.zeros(len(x), bool)
-        for tau in (1.0, 0.5, 0.25, 0.1, 0.03):
-            cand = x + tau * (target - x)
-            tc, _ = _solve(geo, cand)
-            fc = _objective(tc, which, sign)
-            better = (fc > f) & ~improved & np.isfinite(fc)
-            x = np.where(better[:, None], cand, x)
-            t = np.where(better[:, None], tc, t)
-            f = np.where(better, fc, f)
-            improved |= better
+        x, t, f, improved = _line_search(x, t, f, target, lambda cand: _solve(geo, cand)[0], which, sign)
         if not np.any(improved):
             break
     return x, t, f
@@ -1295,16 +1302,8 @@ def _chain_ascent(geo: _ChainGeometry, C: np.ndarray, x: np.ndarray, which: np.n
                 rs = slice(0, 3) if k == 6 else slice(3, 6)
                 grad[n] = (t[n, rs] / max(q[n, k], 1e-300)) @ dt[n, rs]
         target = _chain_support(geo, np.where(np.isfinite(grad), grad, 0.0))
-        improved = np.zeros(N, bool)
-        for tau in (1.0, 0.5, 0.25, 0.1, 0.03):
-            cand = x + tau * (target - x)
-            tc, _ = _chain_solve(geo, C, cand)
-            fc = _objective(tc, which, sign)
-            better = (fc > f) & ~improved & np.isfinite(fc)
-            x = np.where(better[:, None], cand, x)
-            t = np.where(better[:, None], tc, t)
-            f = np.where(better, fc, f)
-            improved |= better
+        x, t, f, improved = _line_search(x, t, f, target, lambda cand: _chain_solve(geo, C, cand)[0], which,
+                                         sign)
         if not np.any(improved):
             break
     return x, t, f

@@ -284,6 +284,7 @@ def _robot(args: argparse.Namespace):
 
 
 def _estimates(ident) -> list[dict]:
+    """One row per parameter of a planar or spatial identification (angles in degrees)."""
     import numpy as np
 
     rows = []
@@ -538,20 +539,6 @@ def run_simulate(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------------------------------- spatial robots
-def _spatial_rows(ident) -> list[dict]:
-    import numpy as np
-
-    rows = []
-    for e in ident.estimates():
-        deg = e["unit"] == "rad"
-        f = np.degrees if deg else float
-        rows.append({"parameter": e["name"], "unit": "deg" if deg else e["unit"], "nominal": f(e["nominal"]),
-                     "estimate": f(e["estimate"]), "change": f(e["estimate"] - e["nominal"]),
-                     "sigma": f(e["sigma"]) if e["identified"] else None,
-                     "status": "identified" if e["identified"] else "fixed"})
-    return rows
-
-
 def _spatial_record(ident) -> dict:
     from ..accuracy.calibration.spatial_identify import spatial_identification_to_dict
 
@@ -559,7 +546,7 @@ def _spatial_record(ident) -> dict:
 
 
 def _print_spatial(ident, fmt: str, extra: dict | None = None) -> None:
-    rows = _spatial_rows(ident)
+    rows = _estimates(ident)
     record = _spatial_record(ident)
     if fmt == "json":
         _common.emit({"estimates": rows, **record, **(extra or {})}, "json")
